@@ -1,0 +1,31 @@
+# Two entry points for users: `make demo` and `make test`. Each sets itself up from scratch:
+# a private virtual environment in .venv with every Python package pinned in requirements/lock.txt.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+EXTRAS := train,sim,record,report,hardware,dev
+
+.PHONY: venv test lint regen clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml requirements/lock.txt
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip setuptools wheel
+	# Pinned: every package (torch included, ==2.13.0 CPU) comes from the lock file.
+	$(BIN)/pip install --quiet -c requirements/lock.txt -e '.[$(EXTRAS)]'
+	touch $@
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check host tools tests
+
+# Regenerate committed code from protocol/messages.toml (a test fails if this would change anything).
+regen: $(STAMP)
+	$(BIN)/python tools/codegen/generate.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache build

@@ -1,0 +1,5 @@
+import sys
+
+from spectratac.cli import main
+
+sys.exit(main())
