@@ -1,0 +1,47 @@
+"""The SpectraTac wire protocol on the host: generated messages plus framing and decoders.
+
+See protocol/SPEC.md for the contract; messages.py is generated from protocol/messages.toml.
+"""
+
+from spectratac.protocol import messages
+from spectratac.protocol.bulk import SAMPLE_DTYPE, BulkResult, decode_samples, payload_dtype
+from spectratac.protocol.framing import (
+    CobsError,
+    CrcError,
+    Frame,
+    FrameError,
+    OversizeError,
+    TooShortError,
+    UnknownTypeError,
+    VersionMismatchError,
+    crc32c,
+    decode_frame,
+    encode_frame,
+    encode_raw,
+)
+from spectratac.protocol.schema import FieldValueError, Message
+from spectratac.protocol.stream import DecoderStats, StreamDecoder
+
+__all__ = [
+    "SAMPLE_DTYPE",
+    "BulkResult",
+    "CobsError",
+    "CrcError",
+    "DecoderStats",
+    "FieldValueError",
+    "Frame",
+    "FrameError",
+    "Message",
+    "OversizeError",
+    "StreamDecoder",
+    "TooShortError",
+    "UnknownTypeError",
+    "VersionMismatchError",
+    "crc32c",
+    "decode_frame",
+    "decode_samples",
+    "encode_frame",
+    "encode_raw",
+    "messages",
+    "payload_dtype",
+]

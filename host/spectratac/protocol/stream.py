@@ -1,0 +1,146 @@
+"""Incremental stream decoder: arbitrary byte chunks in, decoded frames out.
+
+It never raises on bad input. Every frame is delimited by 0x00, so a damaged frame costs only
+itself: the decoder resynchronises at the next delimiter and counts what it dropped.
+
+    >>> from spectratac.protocol import messages as m
+    >>> from spectratac.protocol.framing import encode_frame
+    >>> wire = b"\\x13garbage\\x00" + encode_frame(m.Start(), seq=1) + encode_frame(m.Stop(), seq=2)
+    >>> decoder = StreamDecoder()
+    >>> [f.message.NAME for f in decoder.feed(wire[:9])] + [
+    ...     f.message.NAME for f in decoder.feed(wire[9:])]
+    ['START', 'STOP']
+    >>> decoder.stats.bad_cobs + decoder.stats.bad_crc + decoder.stats.too_short
+    1
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import asdict, dataclass
+
+from cobs import cobs
+
+from spectratac.protocol import messages as m
+from spectratac.protocol.framing import (
+    CRC_RESIDUE,
+    HEADER,
+    MAX_ENCODED,
+    MIN_FRAME,
+    Frame,
+    crc32c,
+)
+
+_SEQ_RESTART = 0x8000  # a backwards jump this large is a sender restart, not 32k lost frames
+
+
+@dataclass
+class DecoderStats:
+    """What a decoder saw. Drops are counted per reason; nothing is dropped silently."""
+
+    bytes_in: int = 0
+    frames_ok: int = 0
+    bad_cobs: int = 0
+    bad_crc: int = 0
+    too_short: int = 0
+    oversize: int = 0
+    unknown_type: int = 0
+    version_mismatch: int = 0
+    seq_gaps: int = 0  # frames missing according to the sender's sequence numbers
+    seq_restarts: int = 0  # the sender's sequence jumped back (it restarted)
+    #: protocol version of the last frame refused for its major version, for error messages
+    remote_version: tuple[int, int] | None = None
+
+    @property
+    def dropped(self) -> int:
+        return (
+            self.bad_cobs
+            + self.bad_crc
+            + self.too_short
+            + self.oversize
+            + self.unknown_type
+            + self.version_mismatch
+        )
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self) | {"dropped": self.dropped}
+
+
+class StreamDecoder:
+    """Feed bytes as they arrive; get back the frames completed by them, in order."""
+
+    def __init__(self) -> None:
+        self.stats = DecoderStats()
+        self._pending = b""
+        self._discarding = False  # inside an oversize run, waiting for the next delimiter
+        self._last_seq: int | None = None
+
+    def feed(self, chunk: bytes) -> list[Frame]:
+        stats = self.stats
+        stats.bytes_in += len(chunk)
+        parts = (self._pending + chunk).split(b"\x00") if self._pending else chunk.split(b"\x00")
+        tail = parts.pop()
+        out: list[Frame] = []
+        if parts and self._discarding:
+            parts[0] = b""  # the end of an oversize run: already counted
+            self._discarding = False
+        decode = cobs.decode
+        by_id = m.MESSAGES_BY_ID
+        major = m.PROTOCOL_MAJOR
+        for part in parts:
+            if not part:
+                continue  # back-to-back delimiters are legal idle filler
+            if len(part) > MAX_ENCODED:
+                stats.oversize += 1
+                continue
+            try:
+                raw = decode(part)
+            except cobs.DecodeError:
+                stats.bad_cobs += 1
+                continue
+            if len(raw) < MIN_FRAME:
+                stats.too_short += 1
+                continue
+            if crc32c(raw) != CRC_RESIDUE:
+                stats.bad_crc += 1
+                continue
+            v_major, v_minor, type_id, seq = HEADER.unpack_from(raw)
+            self._track_seq(seq)
+            if v_major != major:
+                stats.version_mismatch += 1
+                stats.remote_version = (v_major, v_minor)
+                continue
+            cls = by_id.get(type_id)
+            if cls is None:
+                stats.unknown_type += 1
+                continue
+            out.append(Frame((v_major, v_minor), seq, cls.unpack(raw[5:-4])))
+        stats.frames_ok += len(out)
+        if len(tail) > MAX_ENCODED:
+            stats.oversize += 1
+            self._discarding = True
+            tail = b""
+        self._pending = tail
+        return out
+
+    def _track_seq(self, seq: int) -> None:
+        last = self._last_seq
+        self._last_seq = seq
+        if last is None:
+            return
+        missing = (seq - last - 1) & 0xFFFF
+        if missing >= _SEQ_RESTART:
+            self.stats.seq_restarts += 1
+        else:
+            self.stats.seq_gaps += missing
+
+    def reset(self) -> None:
+        """Forget partial input and the sequence baseline (e.g. after reopening a port)."""
+        self._pending = b""
+        self._discarding = False
+        self._last_seq = None
+
+    def iter_frames(self, chunks: Iterable[bytes]) -> Iterator[Frame]:
+        """Generator form of feed() over an iterable of chunks."""
+        for chunk in chunks:
+            yield from self.feed(chunk)
