@@ -19,7 +19,14 @@ import numpy as np
 from cobs import cobs
 
 from spectratac.protocol import messages as m
-from spectratac.protocol.framing import CRC_RESIDUE, HEADER, MAX_ENCODED, MIN_FRAME, crc32c
+from spectratac.protocol.framing import (
+    CRC_RESIDUE,
+    HEADER,
+    MAX_DECODED,
+    MAX_ENCODED,
+    MIN_FRAME,
+    crc32c,
+)
 from spectratac.protocol.schema import FieldSpec, Message
 from spectratac.protocol.stream import DecoderStats
 
@@ -108,7 +115,7 @@ def decode_samples(data: bytes) -> BulkResult:
 
 def _classify(raw: bytes, encoded_len: int) -> str:
     """Slow path for anything that is not a current-size sample frame."""
-    if encoded_len > MAX_ENCODED:
+    if encoded_len > MAX_ENCODED or len(raw) > MAX_DECODED:
         return "oversize"
     if len(raw) < MIN_FRAME:
         return "too_short"

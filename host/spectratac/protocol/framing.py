@@ -130,6 +130,8 @@ def unframe(encoded: bytes) -> bytes:
         raise CobsError(f"bad COBS encoding: {exc}") from None
     if len(raw) < MIN_FRAME:
         raise TooShortError(f"frame of {len(raw)} B is shorter than the {MIN_FRAME} B minimum")
+    if len(raw) > MAX_DECODED:
+        raise OversizeError(f"payload exceeds the {m.MAX_PAYLOAD} B maximum; dropped")
     if crc32c(raw) != CRC_RESIDUE:
         raise CrcError("CRC-32C mismatch; frame corrupted in transit")
     return raw[:-4]

@@ -25,6 +25,7 @@ from spectratac.protocol import messages as m
 from spectratac.protocol.framing import (
     CRC_RESIDUE,
     HEADER,
+    MAX_DECODED,
     MAX_ENCODED,
     MIN_FRAME,
     Frame,
@@ -100,6 +101,9 @@ class StreamDecoder:
                 continue
             if len(raw) < MIN_FRAME:
                 stats.too_short += 1
+                continue
+            if len(raw) > MAX_DECODED:
+                stats.oversize += 1
                 continue
             if crc32c(raw) != CRC_RESIDUE:
                 stats.bad_crc += 1

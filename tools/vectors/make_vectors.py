@@ -1,0 +1,338 @@
+"""Write the golden vectors in protocol/vectors/ (run once per protocol version, then frozen).
+
+The vectors are the contract's test data: the Python tests and the firmware's C tests both
+decode every one and compare with the meaning written beside the bytes. Re-running this after a
+codec change would hide the change, so the vector test also checks CRC and COBS against an
+independent reference implementation, and review the diff of protocol/vectors/ like code.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from cobs import cobs
+from spectratac.protocol import messages as m
+from spectratac.protocol.framing import HEADER, crc32c, encode_frame, encode_raw
+from spectratac.protocol.schema import Message
+
+OUT = Path(__file__).resolve().parents[2] / "protocol" / "vectors"
+WHITE = ((500, 500, 500),) * 3
+OFF = ((0, 0, 0),) * 3
+
+
+def steps(*lit: tuple[tuple[int, int, int], ...]) -> tuple:
+    return tuple(lit) + (OFF,) * (m.MAX_LED_STEPS - len(lit))
+
+
+def mono(colour: int, duty: int) -> tuple[tuple[int, int, int], ...]:
+    return tuple(tuple(duty if c == colour else 0 for c in range(3)) for _ in range(3))
+
+
+def meaning(msg: Message, seq: int, version: tuple[int, int]) -> dict[str, Any]:
+    return msg.to_dict() | {"seq": seq, "version": list(version)}
+
+
+def valid(name: str, msg: Message, seq: int, doc: str) -> dict[str, Any]:
+    wire = encode_frame(msg, seq)
+    return {
+        "name": name,
+        "doc": doc,
+        "hex": wire.hex(),
+        "valid": True,
+        "message": meaning(msg, seq, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)),
+    }
+
+
+def invalid(name: str, wire: bytes, error: str, doc: str) -> dict[str, Any]:
+    return {
+        "name": name,
+        "doc": doc,
+        "hex": wire.hex(),
+        "valid": False,
+        "message": None,
+        "error": error,
+    }
+
+
+def build() -> list[dict[str, Any]]:
+    sample = m.Sample(
+        sample_seq=1234,
+        t_start_us=5_000_000,
+        t_end_us=5_050_000,
+        led_step=0,
+        config_id=2,
+        sensor_status=(0, m.SensorStatus.SENSOR_SATURATED, 0),
+        counts=(
+            (812, 1430, 977, 3321, 140),
+            (65535, 65535, 40000, 65535, 2000),
+            (0x0100, 0x0001, 0x00FF, 0xFF00, 0),
+        ),
+    )
+    info = m.Info(
+        protocol_major=1,
+        protocol_minor=0,
+        definition_hash=m.DEFINITION_HASH,
+        firmware_version=(0, 1, 0),
+        build_id="v0.1.0-3-gabc123",
+        device_uid=bytes(range(1, 13)),
+        board="blackpill-f411",
+        sensor_count=3,
+        sensor_present=0b111,
+        channels_per_sensor=5,
+        capabilities=m.Capabilities.CAP_LED_SEQUENCE
+        | m.Capabilities.CAP_TIME_SYNC
+        | m.Capabilities.CAP_STATUS
+        | m.Capabilities.CAP_LOG
+        | m.Capabilities.CAP_IR_CHANNEL,
+        max_led_steps=8,
+        duty_full_scale=1000,
+        integration_times_mask=0x0F,
+        max_frame=256,
+        baud=921600,
+    )
+    configure = m.Configure(
+        integration_ms=50,
+        gain=0,
+        digital_gain=0,
+        sensitivity=0,
+        flags=m.ConfigureFlags.CONFIG_STREAM,
+        led_settle_us=1000,
+        led_step_count=1,
+        led_duty=steps(WHITE),
+    )
+    rgb = m.Configure(
+        integration_ms=100,
+        gain=m.Gain.GAIN_X2,
+        digital_gain=m.DigitalGain.DG_X1,
+        sensitivity=m.Sensitivity.SENS_LOW,
+        flags=0,
+        led_settle_us=500,
+        led_step_count=3,
+        led_duty=steps(mono(0, 1000), mono(1, 1000), mono(2, 1000)),
+    )
+    status = m.Status(
+        uptime_ms=3_600_000,
+        device_time_us=0xFFFF_FFF0,
+        streaming=1,
+        config_id=2,
+        sensor_present=0b101,
+        samples_taken=72000,
+        frames_sent=72010,
+        frames_dropped=3,
+        bus_errors=(0, 17, 0),
+        saturations=(5, 0, 0),
+        rx_frames=40,
+        rx_errors=2,
+        command_errors=1,
+    )
+    vectors = [
+        valid("get_info", m.GetInfo(), 0, "Empty payload: the host's first message."),
+        valid("configure_default", configure, 1, "One white step at 50 ms, stream at once."),
+        valid(
+            "configure_rgb_steps",
+            rgb,
+            2,
+            "Three single-colour steps, 100 ms, gain x2, low sensitivity.",
+        ),
+        valid("start", m.Start(), 3, "Start streaming."),
+        valid("stop", m.Stop(), 4, "Stop streaming."),
+        valid(
+            "time_sync_request",
+            m.TimeSyncRequest(exchange_id=7, host_time_ns=1_732_000_000_123_456_789),
+            5,
+            "Clock probe carrying a 64-bit host time.",
+        ),
+        valid("get_status", m.GetStatus(), 6, "Ask for statistics."),
+        valid("get_config", m.GetConfig(), 7, "Ask for the configuration in force."),
+        valid(
+            "reset_stats", m.ResetStats(), 0xFFFF, "Sequence number at its maximum before wrapping."
+        ),
+        valid("info", info, 0, "Device identity with all capabilities but simulation."),
+        valid(
+            "ack",
+            m.Ack(acked_type=m.Configure.TYPE_ID, acked_seq=1, config_id=1),
+            1,
+            "CONFIGURE accepted.",
+        ),
+        valid(
+            "nack_bad_integration",
+            m.Nack(
+                rejected_type=m.Configure.TYPE_ID,
+                rejected_seq=9,
+                error=m.Error.BAD_INTEGRATION_TIME,
+                field_index=0,
+            ),
+            2,
+            "CONFIGURE refused: 75 ms.",
+        ),
+        valid(
+            "sample_typical", sample, 3, "A sample with one saturated sensor and byte-order probes."
+        ),
+        valid(
+            "sample_all_zero", m.Sample(), 0, "All-zero payload: COBS must encode long zero runs."
+        ),
+        valid(
+            "sample_saturated",
+            m.Sample(
+                sample_seq=0xFFFF_FFFF,
+                t_start_us=0xFFFF_FF00,
+                t_end_us=0x0000_C250,
+                led_step=7,
+                config_id=0xFFFF,
+                sensor_status=(1, 1, 1),
+                counts=((65535,) * 5,) * 3,
+            ),
+            4,
+            "Counts of 65535 everywhere; t_end_us wrapped past 2^32.",
+        ),
+        valid("status", status, 5, "Statistics with a missing sensor 1."),
+        valid(
+            "time_sync_reply",
+            m.TimeSyncReply(
+                exchange_id=7,
+                host_time_ns=1_732_000_000_123_456_789,
+                device_rx_us=123_456,
+                device_tx_us=123_470,
+            ),
+            6,
+            "Answer to time_sync_request.",
+        ),
+        valid(
+            "log",
+            m.Log(level=m.LogLevel.LOG_WARN, device_time_us=42, text="sensor 1 lost: I2C timeout"),
+            7,
+            "Text padded with NUL bytes.",
+        ),
+        valid("log_empty", m.Log(), 8, "A payload that is nothing but 0x00 bytes."),
+        valid(
+            "config",
+            m.Config(
+                config_id=3,
+                integration_ms=400,
+                gain=3,
+                digital_gain=2,
+                sensitivity=1,
+                flags=0,
+                led_settle_us=10000,
+                led_step_count=8,
+                led_duty=tuple(((1000, 1000, 1000),) * 3 for _ in range(8)),
+            ),
+            9,
+            "The longest message of 1.0 with every duty at full scale.",
+        ),
+    ]
+    # A frame from a future minor version: known fields then bytes this version does not know.
+    future = sample.pack() + bytes(range(1, 9))
+    wire = encode_raw(m.Sample.TYPE_ID, future, seq=10, version=(1, 3))
+    vectors.append(
+        {
+            "name": "sample_future_minor",
+            "hex": wire.hex(),
+            "valid": True,
+            "future_minor": True,
+            "doc": "v1.3 sample with 8 unknown trailing bytes: ignored.",
+            "message": meaning(sample, 10, (1, 3)),
+        }
+    )
+    # The longest legal frame: max_payload bytes, no zeros (so COBS adds one byte).
+    longest = sample.pack() + bytes([0x5A]) * (m.MAX_PAYLOAD - m.Sample.PAYLOAD_SIZE)
+    wire = encode_raw(m.Sample.TYPE_ID, longest, seq=11, version=(1, 9))
+    vectors.append(
+        {
+            "name": "max_length_frame",
+            "hex": wire.hex(),
+            "valid": True,
+            "future_minor": True,
+            "doc": f"A {m.MAX_PAYLOAD}-byte payload from a later minor ({len(wire)} B on wire).",
+            "message": meaning(sample, 11, (1, 9)),
+        }
+    )
+    # An older/shorter sender: trailing fields missing are read as zero.
+    short = m.Status(uptime_ms=1000, device_time_us=2000, streaming=1, config_id=4)
+    wire = encode_raw(m.Status.TYPE_ID, short.pack()[:11], seq=12)
+    vectors.append(
+        {
+            "name": "status_short",
+            "hex": wire.hex(),
+            "valid": True,
+            "short": True,
+            "doc": "Only the first 11 payload bytes: the rest is zero-filled.",
+            "message": meaning(short, 12, (1, 0)),
+        }
+    )
+    good = bytes.fromhex(vectors[12]["hex"])
+    flipped = bytearray(good)
+    flipped[10] ^= 0x04
+    vectors += [
+        invalid(
+            "bad_crc_bit_flip", bytes(flipped), "bad_crc", "sample_typical with one bit flipped."
+        ),
+        invalid(
+            "truncated",
+            good[: len(good) // 2] + b"\x00",
+            _kind(good[: len(good) // 2]),
+            "sample_typical cut in half.",
+        ),
+        invalid(
+            "bad_cobs",
+            bytes([0x20, 0x01, 0x02, 0x00]),
+            "bad_cobs",
+            "A COBS code byte pointing past the end.",
+        ),
+        invalid(
+            "too_short",
+            cobs.encode(b"\x01\x00\x84") + b"\x00",
+            "too_short",
+            "Three bytes: no room for a CRC.",
+        ),
+        invalid(
+            "oversize", bytes([0x41]) * 300 + b"\x00", "oversize", "300 bytes without a delimiter."
+        ),
+        invalid(
+            "unknown_type",
+            encode_raw(0x7E, b"\x01\x02", seq=13),
+            "unknown_type",
+            "Good CRC, type 0x7E not defined in 1.x.",
+        ),
+        invalid(
+            "version_mismatch",
+            encode_raw(m.Sample.TYPE_ID, sample.pack(), seq=14, version=(2, 0)),
+            "version_mismatch",
+            "A protocol 2.0 frame.",
+        ),
+        invalid(
+            "oversize_payload",
+            encode_raw(m.Sample.TYPE_ID, bytes([0x33]) * (m.MAX_PAYLOAD + 1), seq=15),
+            "oversize",
+            "One byte more than max_payload, good CRC.",
+        ),
+    ]
+    return vectors
+
+
+def _kind(encoded: bytes) -> str:
+    try:
+        raw = cobs.decode(encoded)
+    except cobs.DecodeError:
+        return "bad_cobs"
+    if len(raw) < HEADER.size + 4:
+        return "too_short"
+    return "bad_crc" if crc32c(raw[:-4]) != int.from_bytes(raw[-4:], "little") else "ok"
+
+
+def main() -> int:
+    OUT.mkdir(parents=True, exist_ok=True)
+    for old in OUT.glob("*.json"):
+        old.unlink()
+    for i, vector in enumerate(build()):
+        path = OUT / f"{i:02d}_{vector['name']}.json"
+        path.write_text(json.dumps(vector, indent=2) + "\n", encoding="utf-8")
+    print(f"wrote {i + 1} vectors to {OUT}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
