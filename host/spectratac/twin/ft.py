@@ -1,0 +1,69 @@
+"""Reference six-axis F/T sensor: the wrench the contact applies, plus the sensor's own noise.
+
+The calibration rig mounts the tactile sensor on the F/T sensor, whose sensing origin lies
+`ft_origin_z_mm` below the PCB top on the board axis. The contact pushes on the skin at the
+indented, sheared surface point r = (x + ux, y + uy, z_surface - delta); the F/T reads the force
+the contact applies to the sensor, F = (Fx, Fy, -normal) (z out of the skin, so a press reads
+Fz < 0), and the moment M = r x F about its origin, in N and N·m.
+
+>>> import numpy as np
+>>> u = UnitParams.nominal()
+>>> w = wrench(*(np.array([v]) for v in (0.0, 0.0, 10.0, 5.0, 0.0, 0.0, 0.0, 0.0)), unit=u)
+>>> [round(float(v), 3) + 0.0 for v in w[0]]
+[0.0, 0.0, -10.0, 0.0, 0.05, 0.0]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.twin.geometry import SURFACE_Z_MM
+from spectratac.twin.unit import UnitParams
+
+F64 = NDArray[np.float64]
+
+AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+
+
+def wrench(
+    fx: F64,
+    fy: F64,
+    normal: F64,
+    x: F64,
+    y: F64,
+    delta: F64,
+    ux: F64,
+    uy: F64,
+    *,
+    unit: UnitParams,
+) -> F64:
+    """Noise-free F/T reading (N, 6) for contact loads and deformation at N instants."""
+    fz = -normal
+    rx = (x + ux) * 1e-3
+    ry = (y + uy) * 1e-3
+    rz = (SURFACE_Z_MM - delta - unit.ft_origin_z_mm) * 1e-3
+    out = np.empty((np.shape(fx)[0], 6))
+    out[:, 0] = fx
+    out[:, 1] = fy
+    out[:, 2] = fz
+    out[:, 3] = ry * fz - rz * fy
+    out[:, 4] = rz * fx - rx * fz
+    out[:, 5] = rx * fy - ry * fx
+    return out
+
+
+def ft_noise(
+    n: int, rate_hz: float, unit: UnitParams, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Sensor noise (n, 6): white noise at the stream rate plus a slow Ornstein-Uhlenbeck bias
+    (thermal drift of the gauges), zero at the start because the rig tares before recording."""
+    white = rng.standard_normal((n, 6), dtype=np.float32) * unit.ft_noise.astype(np.float32)
+    seconds = int(np.ceil(n / rate_hz)) + 2
+    a = np.exp(-1.0 / unit.ft_bias_tau_s)
+    steps = rng.standard_normal((seconds, 6)) * unit.ft_bias_std * np.sqrt(1.0 - a * a)
+    bias = np.zeros((seconds, 6))
+    for i in range(1, seconds):
+        bias[i] = a * bias[i - 1] + steps[i]
+    idx = (np.arange(n) // max(int(rate_hz), 1)).astype(np.int64)
+    return white + bias[idx]

@@ -1,0 +1,93 @@
+"""Board geometry and the nine contact regions (the fixed interface other parts build on).
+
+Board centre is the origin, x to the right, y up, z out of the skin, lengths in mm.
+Sensor k sits at angle 120°·k and LED j at 60° + 120°·j, both on a 5.5 mm radius.
+
+Regions are numbered like a phone keypad so that the Snake game's directions read naturally:
+
+    1 2 3        region 5: the central disc r < CENTER_RADIUS_MM
+    4 5 6        regions 1-4, 6-9: eight 45° sectors of the ring
+    7 8 9        CENTER_RADIUS_MM <= r <= ACTIVE_RADIUS_MM, centred on 135°, 90°, 45°, 180°, 0°, ...
+
+Contacts beyond ACTIVE_RADIUS_MM (the rim, where the skin is clamped) carry no region (-1).
+
+>>> int(region_of(0.0, 0.0)), int(region_of(6.0, 0.0)), int(region_of(0.0, -6.0))
+(5, 6, 8)
+>>> int(region_of(9.0, 0.0))
+-1
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+DISC_RADIUS_MM = 9.6
+STACK_HEIGHT_MM = 4.0
+RING_RADIUS_MM = 5.5
+# Layer stack (z = 0 at the PCB top): 0.8 mm PCB below, 2.4 mm PDMS, 0.8 mm black skin.
+PCB_MM = 0.8
+PDMS_MM = 2.4
+SKIN_MM = 0.8
+SURFACE_Z_MM = PDMS_MM + SKIN_MM  # skin surface above the PCB top
+
+CENTER_RADIUS_MM = 2.6
+ACTIVE_RADIUS_MM = 8.0
+
+SENSOR_ANGLES_DEG = np.array([0.0, 120.0, 240.0])
+LED_ANGLES_DEG = np.array([60.0, 180.0, 300.0])
+
+CHANNELS = ("R", "G", "B", "C", "IR")
+LED_COLOURS = ("R", "G", "B")
+
+# Region number -> sector centre angle in degrees (ring regions only).
+SECTOR_CENTRE_DEG = {6: 0.0, 3: 45.0, 2: 90.0, 1: 135.0, 4: 180.0, 7: 225.0, 8: 270.0, 9: 315.0}
+_SECTOR_TO_REGION = np.array([6, 3, 2, 1, 4, 7, 8, 9], dtype=np.int8)
+
+
+def polar_xy(radius: float, angles_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Points on a circle, shape (len(angles), 2)."""
+    a = np.deg2rad(angles_deg)
+    return np.stack([radius * np.cos(a), radius * np.sin(a)], axis=-1)
+
+
+SENSOR_XY = polar_xy(RING_RADIUS_MM, SENSOR_ANGLES_DEG)
+LED_XY = polar_xy(RING_RADIUS_MM, LED_ANGLES_DEG)
+
+
+def region_of(x: ArrayLike, y: ArrayLike) -> NDArray[np.int8]:
+    """Region 1-9 of points on the skin, -1 beyond the active area (vectorised)."""
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    r = np.hypot(xa, ya)
+    ang = np.mod(np.degrees(np.arctan2(ya, xa)) + 22.5, 360.0)
+    sector = np.minimum((ang // 45.0).astype(np.int64), 7)
+    out = _SECTOR_TO_REGION[sector]
+    out = np.where(r < CENTER_RADIUS_MM, np.int8(5), out)
+    out = np.where(r > ACTIVE_RADIUS_MM, np.int8(-1), out)
+    return np.asarray(out, dtype=np.int8)
+
+
+def region_centre(region: int) -> tuple[float, float]:
+    """Representative centre (x, y) in mm of a region 1-9.
+
+    >>> region_centre(5)
+    (0.0, 0.0)
+    """
+    if region == 5:
+        return (0.0, 0.0)
+    if region not in SECTOR_CENTRE_DEG:
+        from spectratac.twin.errors import TwinError
+
+        raise TwinError(f"region must be 1..9, got {region!r}")
+    r = 0.5 * (CENTER_RADIUS_MM + ACTIVE_RADIUS_MM)
+    a = np.deg2rad(SECTOR_CENTRE_DEG[region])
+    return (float(r * np.cos(a)), float(r * np.sin(a)))
+
+
+def rotate_xy(x: ArrayLike, y: ArrayLike, degrees: float) -> tuple[NDArray[np.float64], ...]:
+    """Rotate points about the board centre (used by the 120° symmetry tests)."""
+    a = np.deg2rad(degrees)
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    return (xa * np.cos(a) - ya * np.sin(a), xa * np.sin(a) + ya * np.cos(a))

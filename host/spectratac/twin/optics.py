@@ -1,0 +1,122 @@
+"""Light transport surrogate for every LED -> sensor path and colour, LEDs and ambient light.
+
+T[j, k, c] is the reference count rate at sensor k from LED j's colour c at duty 1 (before the
+sensor's spectral response). Without contact it is the unit's direct (guided + scattered)
+transport. A contact changes it in three ways (MODEL.md gives each constant's reasoning):
+
+1. shadow: the indented black skin dips into the light guide and absorbs light whose path
+   runs beneath the contact; loss ~ depth x Gaussian of the distance from the contact to the
+   LED->sensor segment, strongest for blue (scattered most, so travels highest in the slab);
+2. reflection: the displaced skin patch (volume ~ a^2 delta) reflects light from LED j to
+   sensor k with softened inverse-square kernels about the patch; red-heavy (pigment
+   reflectance), growing as the skin thins; shear moves the patch and tilts it toward the shear
+   direction, brightening the sensors downstream of the shear and dimming the others;
+3. bulk: compression brings the skin closer everywhere, a small gain on every path.
+
+>>> u = UnitParams.nominal()
+>>> z = np.zeros(1)
+>>> T0 = transport(u, z, z, z, z, z, z)
+>>> bool(np.allclose(T0[0], u.direct))
+True
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.twin.scene import AMBIENT_SPECTRA
+from spectratac.twin.unit import AMBIENT_COUNTS_PER_LUX, UnitParams
+
+F64 = NDArray[np.float64]
+
+REFERENCE_TEMP_C = 25.0
+
+
+def transport(
+    unit: UnitParams,
+    x: F64,
+    y: F64,
+    delta: F64,
+    a: F64,
+    ux: F64,
+    uy: F64,
+    temperature_c: F64 | None = None,
+) -> F64:
+    """Path transport T (M, 3 LEDs, 3 sensors, 3 colours) for M contact states."""
+    delta = np.maximum(delta, 0.0)
+    qx = x + unit.patch_shift * ux
+    qy = y + unit.patch_shift * uy
+    w2 = unit.optical_height_mm**2
+    lx = qx[:, None] - unit.led_xy[None, :, 0]
+    ly = qy[:, None] - unit.led_xy[None, :, 1]
+    kl = (w2 / (lx * lx + ly * ly + w2)) ** 1.5  # (M, j)
+    sx = unit.sensor_xy[None, :, 0] - qx[:, None]
+    sy = unit.sensor_xy[None, :, 1] - qy[:, None]
+    ds = np.sqrt(sx * sx + sy * sy)
+    ks = (w2 / (ds * ds + w2)) ** 1.5  # (M, k)
+    along = (ux[:, None] * sx + uy[:, None] * sy) / np.maximum(ds, 1e-6)
+    tilt = np.maximum(1.0 + unit.tilt_gain * along, 0.0)
+    vol = a * a * delta
+    rho = unit.reflect_colour[None, :] * (1.0 + unit.reflect_strain[None, :] * delta[:, None])
+    refl = (
+        (unit.reflect_gain * vol[:, None] * kl)[:, :, None, None]
+        * (ks * tilt)[:, None, :, None]
+        * rho[:, None, None, :]
+    )
+    # Shadow: distance from the (sheared) surface contact to each LED->sensor segment.
+    px = (x + ux)[:, None, None]
+    py = (y + uy)[:, None, None]
+    ax = unit.led_xy[:, 0][None, :, None]
+    ay = unit.led_xy[:, 1][None, :, None]
+    abx = unit.sensor_xy[:, 0][None, None, :] - ax
+    aby = unit.sensor_xy[:, 1][None, None, :] - ay
+    s = np.clip(((px - ax) * abx + (py - ay) * aby) / (abx * abx + aby * aby), 0.0, 1.0)
+    dx = px - ax - s * abx
+    dy = py - ay - s * aby
+    width = (a + unit.shadow_width_mm)[:, None, None]
+    near = np.exp(-(dx * dx + dy * dy) / (2.0 * width * width))  # (M, j, k)
+    loss = (unit.shadow_strength[None, None, None, :] * delta[:, None, None, None]) * near[
+        ..., None
+    ]
+    shadow = np.maximum(1.0 - loss, 0.02)
+    bulk = 1.0 + unit.bulk_gain[None, :] * delta[:, None]  # (M, c)
+    t = unit.direct[None] * shadow * bulk[:, None, None, :] + refl
+    if temperature_c is not None:
+        t *= (1.0 + unit.transport_temp_coeff * (temperature_c - REFERENCE_TEMP_C))[
+            :, None, None, None
+        ]
+    return t
+
+
+def led_intensity(unit: UnitParams, duty: F64, junction_c: F64, flicker: F64 | None = None) -> F64:
+    """LED output (..., 3 LEDs, 3 colours): duty (PWM is far faster than a window, so the
+    window sees the mean) x binning gain x thermal droop x optional per-window flicker."""
+    droop = 1.0 + unit.led_droop_per_c * (np.asarray(junction_c)[..., None, None] - 25.0)
+    out = duty * unit.led_gain * np.maximum(droop, 0.0)
+    if flicker is not None:
+        out = out * flicker
+    return out
+
+
+def led_junction_rise(unit: UnitParams, mean_duty: float, t: F64, prewarmed: bool) -> F64:
+    """Self-heating of the LEDs above ambient for a constant mean duty switched on at t=0."""
+    steady = unit.led_self_heating_c * mean_duty
+    if prewarmed:
+        return np.full(np.shape(t), steady)
+    return steady * (1.0 - np.exp(-np.maximum(t, 0.0) / unit.led_thermal_tau_s))
+
+
+def ambient_rates(unit: UnitParams, lux: F64, spectrum: str) -> F64:
+    """Ambient leakage through the skin, reference counts (M, 3 sensors, 5 channels)."""
+    if spectrum not in AMBIENT_SPECTRA:
+        raise ValueError(spectrum)
+    per = AMBIENT_COUNTS_PER_LUX[spectrum] * unit.skin_transmission
+    return np.asarray(lux, dtype=np.float64)[:, None, None] * np.broadcast_to(per, (3, 5))[None]
+
+
+def sensor_rates(unit: UnitParams, t_paths: F64, led: F64, ambient: F64) -> F64:
+    """Reference count rates (N, 3 sensors, 5 channels) from transport (N, j, k, c) and LED
+    output (N, j, c): each channel weights the LED colours by its spectral response."""
+    tl = np.einsum("njkc,njc->nkc", t_paths, led, optimize=True)
+    return np.einsum("nkc,kdc->nkd", tl, unit.spectral, optimize=True) + ambient

@@ -1,0 +1,242 @@
+"""A scene: contact over time (presses on the skin) plus the environment around the sensor.
+
+A scene is a table of non-overlapping presses evaluated analytically at any time, so the same
+scene feeds the optical model, the F/T model and the register-level rig with one ground truth.
+Forces are the load the indenter applies: ``normal`` >= 0 pushes into the skin, ``fx``/``fy``
+is the tangential (shear) load in board axes. Friction caps the shear at ``friction`` x normal
+(no slip), as a finger or probe pressing without sliding.
+
+>>> s = Scene.single_press(x=3.0, y=0.0, normal_n=5.0)
+>>> c = s.contact(np.array([0.0, 1.5]))
+>>> c.in_contact.tolist(), round(float(c.normal[1]), 2)
+([False, True], 5.0)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.twin.errors import TwinError
+from spectratac.twin.geometry import ACTIVE_RADIUS_MM, DISC_RADIUS_MM, region_of
+
+F64 = NDArray[np.float64]
+
+# A sample carries a region label only on a firm contact; lighter touches are -1 (as the
+# paper's "no valid annotation"), they still train the F/T head.
+LABEL_MIN_NORMAL_N = 0.5
+
+AMBIENT_SPECTRA = ("led", "fluorescent", "incandescent", "sunlight")
+
+
+@dataclass(frozen=True)
+class Presses:
+    """Struct-of-arrays press table, sorted by start time, non-overlapping. Times in s, mm, N."""
+
+    start: F64
+    rise: F64
+    hold: F64
+    fall: F64
+    x: F64
+    y: F64
+    normal_peak: F64
+    normal_mod_depth: F64  # slow hand-like modulation of the normal load during the press
+    normal_mod_hz: F64
+    normal_mod_phase: F64
+    shear_amp: F64  # (P, 2): peak Fx, Fy amplitude in N
+    shear_hz: F64
+    shear_phase: F64  # (P, 2)
+    indenter_radius_mm: F64
+
+    @property
+    def end(self) -> F64:
+        return self.start + self.rise + self.hold + self.fall
+
+    def __len__(self) -> int:
+        return int(self.start.shape[0])
+
+    @staticmethod
+    def empty() -> Presses:
+        z = np.zeros(0)
+        return Presses(z, z, z, z, z, z, z, z, z, z, np.zeros((0, 2)), z, np.zeros((0, 2)), z)
+
+    def validate(self) -> None:
+        n = len(self)
+        for name, arr in self.__dict__.items():
+            want = (n, 2) if name in ("shear_amp", "shear_phase") else (n,)
+            if np.shape(arr) != want:
+                raise TwinError(f"presses.{name} has shape {np.shape(arr)}, expected {want}")
+            if not np.all(np.isfinite(arr)):
+                raise TwinError(f"presses.{name} contains NaN or inf; give finite values")
+        if n and (np.any(self.rise <= 0) or np.any(self.fall <= 0) or np.any(self.hold < 0)):
+            raise TwinError("press rise and fall must be > 0 s and hold >= 0 s")
+        if n > 1 and np.any(self.start[1:] < self.end[:-1]):
+            raise TwinError("presses overlap or are unsorted; sort by start, one press at a time")
+        if np.any(self.normal_peak < 0):
+            raise TwinError("press normal_peak must be >= 0 N (it pushes into the skin)")
+        if np.any(np.hypot(self.x, self.y) > DISC_RADIUS_MM):
+            raise TwinError(f"press positions must lie on the {DISC_RADIUS_MM} mm disc")
+        if np.any(self.indenter_radius_mm <= 0):
+            raise TwinError("indenter_radius_mm must be > 0")
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Ambient light (lux, piecewise linear), ambient temperature (°C) and LED thermal state."""
+
+    times: F64 = field(default_factory=lambda: np.array([0.0]))
+    ambient_lux: F64 = field(default_factory=lambda: np.array([300.0]))
+    temperature_c: F64 = field(default_factory=lambda: np.array([25.0]))
+    spectrum: str = "led"
+    leds_prewarmed: bool = True  # False: LEDs switch on at t=0 and warm up (drift session)
+
+    def validate(self) -> None:
+        n = self.times.shape[0]
+        if n == 0 or self.ambient_lux.shape != (n,) or self.temperature_c.shape != (n,):
+            raise TwinError("environment times, ambient_lux, temperature_c need equal length >= 1")
+        if np.any(np.diff(self.times) < 0):
+            raise TwinError("environment times must be sorted")
+        if np.any(self.ambient_lux < 0) or not np.all(np.isfinite(self.ambient_lux)):
+            raise TwinError("ambient_lux must be finite and >= 0")
+        if not np.all(np.isfinite(self.temperature_c)):
+            raise TwinError("temperature_c must be finite")
+        if self.spectrum not in AMBIENT_SPECTRA:
+            raise TwinError(f"spectrum must be one of {AMBIENT_SPECTRA}, got {self.spectrum!r}")
+
+    def lux(self, t: F64) -> F64:
+        return np.interp(t, self.times, self.ambient_lux)
+
+    def temperature(self, t: F64) -> F64:
+        return np.interp(t, self.times, self.temperature_c)
+
+
+@dataclass(frozen=True)
+class ContactState:
+    """Contact truth at a set of times (all arrays share the leading shape)."""
+
+    x: F64
+    y: F64
+    fx: F64
+    fy: F64
+    normal: F64
+    indenter_radius_mm: F64
+    in_contact: NDArray[np.bool_]
+
+    @property
+    def region(self) -> NDArray[np.int8]:
+        """Region label 1-9 on firm contacts inside the active area, -1 elsewhere."""
+        valid = self.in_contact & (self.normal >= LABEL_MIN_NORMAL_N)
+        reg = region_of(self.x, self.y)
+        return np.where(valid, reg, np.int8(-1)).astype(np.int8)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Contact over time plus environment; see module docstring."""
+
+    name: str
+    duration_s: float
+    presses: Presses
+    env: Environment = field(default_factory=Environment)
+    friction: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.duration_s) and self.duration_s > 0):
+            raise TwinError(f"scene duration_s must be > 0, got {self.duration_s!r}")
+        if not self.friction > 0:
+            raise TwinError("scene friction coefficient must be > 0")
+        self.presses.validate()
+        self.env.validate()
+
+    def contact(self, t: F64) -> ContactState:
+        """Evaluate the contact at times ``t`` (s, any shape), vectorised."""
+        t = np.asarray(t, dtype=np.float64)
+        p = self.presses
+        shape = t.shape
+        if len(p) == 0:
+            z = np.zeros(shape)
+            return ContactState(z, z, z, z, z, np.ones(shape), np.zeros(shape, dtype=bool))
+        idx = np.clip(np.searchsorted(p.start, t, side="right") - 1, 0, len(p) - 1)
+        tau = t - p.start[idx]
+        rise, hold, fall = p.rise[idx], p.hold[idx], p.fall[idx]
+        total = rise + hold + fall
+        inside = (tau > 0) & (tau < total)
+        env = np.where(
+            tau < rise,
+            0.5 - 0.5 * np.cos(np.pi * np.clip(tau / rise, 0, 1)),
+            np.where(
+                tau < rise + hold,
+                1.0,
+                0.5 + 0.5 * np.cos(np.pi * np.clip((tau - rise - hold) / fall, 0, 1)),
+            ),
+        )
+        env = np.where(inside, env, 0.0)
+        mod = 1.0 + p.normal_mod_depth[idx] * np.sin(
+            2 * np.pi * p.normal_mod_hz[idx] * tau + p.normal_mod_phase[idx]
+        )
+        normal = p.normal_peak[idx] * env * mod
+        w = 2 * np.pi * p.shear_hz[idx] * tau
+        fx = env * p.shear_amp[idx, 0] * np.cos(w + p.shear_phase[idx, 0])
+        fy = env * p.shear_amp[idx, 1] * np.cos(w + p.shear_phase[idx, 1])
+        # No slip: the tangential load never exceeds friction x normal.
+        mag = np.hypot(fx, fy)
+        cap = self.friction * normal
+        scale = np.where(mag > cap, cap / np.maximum(mag, 1e-12), 1.0)
+        return ContactState(
+            x=np.where(inside, p.x[idx], 0.0),
+            y=np.where(inside, p.y[idx], 0.0),
+            fx=fx * scale,
+            fy=fy * scale,
+            normal=normal,
+            indenter_radius_mm=p.indenter_radius_mm[idx],
+            in_contact=inside & (normal > 0),
+        )
+
+    @staticmethod
+    def single_press(
+        x: float = 0.0,
+        y: float = 0.0,
+        normal_n: float = 5.0,
+        shear_n: tuple[float, float] = (0.0, 0.0),
+        *,
+        start_s: float = 0.5,
+        rise_s: float = 0.5,
+        hold_s: float = 2.0,
+        fall_s: float = 0.5,
+        indenter_radius_mm: float = 4.0,
+        duration_s: float | None = None,
+        env: Environment | None = None,
+        name: str = "single_press",
+    ) -> Scene:
+        """One press with a constant shear ``shear_n`` (Fx, Fy) scaled by the same envelope."""
+        a = np.array
+        presses = Presses(
+            start=a([start_s]),
+            rise=a([rise_s]),
+            hold=a([hold_s]),
+            fall=a([fall_s]),
+            x=a([x]),
+            y=a([y]),
+            normal_peak=a([normal_n]),
+            normal_mod_depth=a([0.0]),
+            normal_mod_hz=a([0.0]),
+            normal_mod_phase=a([0.0]),
+            shear_amp=a([list(shear_n)], dtype=np.float64),
+            shear_hz=a([0.0]),
+            shear_phase=a([[0.0, 0.0]]),
+            indenter_radius_mm=a([indenter_radius_mm]),
+        )
+        end = start_s + rise_s + hold_s + fall_s
+        return Scene(
+            name=name,
+            duration_s=float(duration_s if duration_s is not None else end + 0.5),
+            presses=presses,
+            env=env or Environment(),
+            friction=10.0,  # single presses are set up explicitly; do not cap their shear
+        )
+
+
+def in_active_area(x: F64, y: F64) -> NDArray[np.bool_]:
+    return np.hypot(x, y) <= ACTIVE_RADIUS_MM
