@@ -79,12 +79,15 @@ class StreamDecoder:
     def feed(self, chunk: bytes) -> list[Frame]:
         stats = self.stats
         stats.bytes_in += len(chunk)
+        if self._discarding:  # inside an oversize run (already counted): skip to its delimiter
+            end = chunk.find(b"\x00")
+            if end < 0:
+                return []
+            chunk = chunk[end + 1 :]
+            self._discarding = False
         parts = (self._pending + chunk).split(b"\x00") if self._pending else chunk.split(b"\x00")
         tail = parts.pop()
         out: list[Frame] = []
-        if parts and self._discarding:
-            parts[0] = b""  # the end of an oversize run: already counted
-            self._discarding = False
         decode = cobs.decode
         by_id = m.MESSAGES_BY_ID
         major = m.PROTOCOL_MAJOR
