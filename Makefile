@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 EXTRAS := train,sim,record,report,hardware,dev
 
-.PHONY: venv test lint regen clean
+.PHONY: venv test lint regen hardware clean
 
 venv: $(STAMP)
 
@@ -26,6 +26,11 @@ lint: $(STAMP)
 # Regenerate committed code from protocol/messages.toml (a test fails if this would change anything).
 regen: $(STAMP)
 	$(BIN)/python tools/codegen/generate.py
+
+# KiCad board + schematic, Gerbers/drill/BOM/CPL, mould STLs and renders from hardware/params.toml.
+# Needs apt's kicad, openscad, gerbv and xvfb (.ci/run installs them).
+hardware: $(STAMP)
+	$(BIN)/python tools/hardware/build.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache build
