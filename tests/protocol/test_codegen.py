@@ -13,6 +13,7 @@ GENERATED = [
     "firmware/core/generated/stac_messages.h",
     "firmware/core/generated/stac_messages.c",
     "host/spectratac/protocol/messages.py",
+    "protocol/MESSAGES.md",
 ]
 
 

@@ -28,7 +28,7 @@ def render_header(d: Definition) -> str:
     p = d.protocol
     out = [BANNER, "#ifndef STAC_MESSAGES_H", "#define STAC_MESSAGES_H", ""]
     out += ["#include <stddef.h>", "#include <stdint.h>", ""]
-    out += ['#ifdef __cplusplus', 'extern "C" {', "#endif", ""]
+    out += ["#ifdef __cplusplus", 'extern "C" {', "#endif", ""]
     out.append(f"#define STAC_PROTOCOL_MAJOR {p['major']}u")
     out.append(f"#define STAC_PROTOCOL_MINOR {p['minor']}u")
     out.append(f"#define STAC_DEFINITION_HASH 0x{d.hash:08X}u")
@@ -70,7 +70,7 @@ def render_header(d: Definition) -> str:
         "",
         "/* Payload size of a known message type, or -1 for an unknown type. */",
         "int stac_payload_size(uint8_t type);",
-        "/* Symbolic name of an error code (\"?\" when unknown). */",
+        '/* Symbolic name of an error code ("?" when unknown). */',
         "const char *stac_error_name(uint16_t code);",
         "",
         "#ifdef __cplusplus",

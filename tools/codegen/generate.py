@@ -1,7 +1,7 @@
 """Generate the C and Python protocol code from protocol/messages.toml.
 
-    python tools/codegen/generate.py            # rewrite the committed files
-    python tools/codegen/generate.py --root DIR # write the same tree under DIR (drift check)
+python tools/codegen/generate.py            # rewrite the committed files
+python tools/codegen/generate.py --root DIR # write the same tree under DIR (drift check)
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import c_backend
+import markdown_backend
 import python_backend
 from definition import load
 
@@ -24,6 +25,7 @@ OUTPUTS = {
     "firmware/core/generated/stac_messages.h": c_backend.render_header,
     "firmware/core/generated/stac_messages.c": c_backend.render_source,
     "host/spectratac/protocol/messages.py": python_backend.render,
+    "protocol/MESSAGES.md": markdown_backend.render,
 }
 
 
