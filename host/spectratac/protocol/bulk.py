@@ -67,7 +67,7 @@ _SAMPLE_FRAME = _FRAME_DTYPE.itemsize
 
 @dataclass
 class BulkResult:
-    samples: np.ndarray  # SAMPLE_DTYPE plus a leading "seq" (frame sequence number)
+    samples: np.ndarray  # read-only; SAMPLE_DTYPE fields plus "seq" (frame sequence number)
     other: int  # good frames of other message types, skipped
     stats: DecoderStats
     tail: bytes  # bytes after the last delimiter (an incomplete frame)
@@ -106,11 +106,8 @@ def decode_samples(data: bytes) -> BulkResult:
                 stats.remote_version = (raw[0], raw[1])
     frames = np.frombuffer(b"".join(kept), dtype=_FRAME_DTYPE)
     stats.frames_ok = len(frames) + other
-    names = ["seq", *SAMPLE_DTYPE.names]
-    samples = np.empty(len(frames), dtype=[(n, _FRAME_DTYPE.fields[n][0]) for n in names])
-    for name in names:
-        samples[name] = frames[name]
-    return BulkResult(samples, other, stats, tail)
+    # a view (no copy) that hides the header bytes and the CRC
+    return BulkResult(frames[["seq", *SAMPLE_DTYPE.names]], other, stats, tail)
 
 
 def _classify(raw: bytes, encoded_len: int) -> str:

@@ -91,6 +91,7 @@ class StreamDecoder:
         decode = cobs.decode
         by_id = m.MESSAGES_BY_ID
         major = m.PROTOCOL_MAJOR
+        last_seq = self._last_seq
         for part in parts:
             if not part:
                 continue  # back-to-back delimiters are legal idle filler
@@ -112,7 +113,13 @@ class StreamDecoder:
                 stats.bad_crc += 1
                 continue
             v_major, v_minor, type_id, seq = HEADER.unpack_from(raw)
-            self._track_seq(seq)
+            if last_seq is not None:  # inlined sequence tracking: this loop is the hot path
+                missing = (seq - last_seq - 1) & 0xFFFF
+                if missing >= _SEQ_RESTART:
+                    stats.seq_restarts += 1
+                else:
+                    stats.seq_gaps += missing
+            last_seq = seq
             if v_major != major:
                 stats.version_mismatch += 1
                 stats.remote_version = (v_major, v_minor)
@@ -122,6 +129,7 @@ class StreamDecoder:
                 stats.unknown_type += 1
                 continue
             out.append(Frame((v_major, v_minor), seq, cls.unpack(raw[5:-4])))
+        self._last_seq = last_seq
         stats.frames_ok += len(out)
         if len(tail) > MAX_ENCODED:
             stats.oversize += 1
@@ -129,17 +137,6 @@ class StreamDecoder:
             tail = b""
         self._pending = tail
         return out
-
-    def _track_seq(self, seq: int) -> None:
-        last = self._last_seq
-        self._last_seq = seq
-        if last is None:
-            return
-        missing = (seq - last - 1) & 0xFFFF
-        if missing >= _SEQ_RESTART:
-            self.stats.seq_restarts += 1
-        else:
-            self.stats.seq_gaps += missing
 
     def reset(self) -> None:
         """Forget partial input and the sequence baseline (e.g. after reopening a port)."""
