@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pytest
-
 from spectratac.cli import EXIT_ERROR, EXIT_FAILURE, EXIT_OK, main
 from spectratac.protocol import encode_frame, messages
 
