@@ -12,9 +12,10 @@ venv: $(STAMP)
 
 $(STAMP): pyproject.toml requirements/lock.txt
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip setuptools wheel
 	# Pinned: every package (torch included, ==2.13.0 CPU) comes from the lock file.
 	$(BIN)/pip install --quiet -c requirements/lock.txt -e '.[$(EXTRAS)]'
+	# Fail set-up, not experiments, if cobs/crcmod fell back to pure Python (35x slower framing).
+	$(BIN)/python -m spectratac.protocol.accel
 	touch $@
 
 test: $(STAMP)
