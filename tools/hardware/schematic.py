@@ -15,14 +15,16 @@ from circuit import Part, parts
 from kiutils.items.common import Effects, Fill, Font, Justify, Position, Property, Stroke
 from kiutils.items.schitems import LocalLabel, SchematicSymbol, SymbolInstance
 from kiutils.items.syitems import SyRect
+from kiutils.libraries import Library, LibTable
 from kiutils.schematic import Schematic
-from kiutils.symbol import Symbol, SymbolPin
+from kiutils.symbol import Symbol, SymbolLib, SymbolPin
 from params import Geometry
 
 LIB = "SpectraTac"
 NS = uuid.UUID("5e3c7a2a-8f1d-4c55-9b9e-3d1f0a6c2b10")
 GRID = 2.54
 KICAD6_SCH_VERSION = 20211123
+KICAD6_SYM_VERSION = 20211014
 
 
 def _uuid(*names: str) -> str:
@@ -89,10 +91,10 @@ def lib_symbol(name: str) -> Symbol:
     sym.pinNamesOffset = 0.508
     sym.properties = [
         Property("Reference", REF_PREFIX[name], 0,
-                 Position(0, half_h + 1.27), _effects()),
-        Property("Value", name, 1, Position(0, -half_h - 1.27), _effects()),
-        Property("Footprint", "", 2, Position(0, 0), _effects(hide=True)),
-        Property("Datasheet", "", 3, Position(0, 0), _effects(hide=True)),
+                 Position(0, half_h + 1.27, 0), _effects()),
+        Property("Value", name, 1, Position(0, -half_h - 1.27, 0), _effects()),
+        Property("Footprint", "", 2, Position(0, 0, 0), _effects(hide=True)),
+        Property("Datasheet", "", 3, Position(0, 0, 0), _effects(hide=True)),
     ]
     body = Symbol(entryName=name, unitId=0, styleId=1)
     body.graphicItems = [SyRect(start=Position(-BODY_HALF_WIDTH, half_h),
@@ -167,5 +169,20 @@ def build(geo: Geometry) -> Schematic:
     return sch
 
 
+def write_library(geo: Geometry, folder: Path) -> None:
+    """The symbols as a project library, so KiCad finds them when the schematic is edited."""
+    lib = SymbolLib(version=KICAD6_SYM_VERSION, generator="kicad_symbol_editor")
+    for name in sorted({symbol_of(p) for p in parts(geo)}):
+        sym = lib_symbol(name)
+        sym.libraryNickname = None
+        lib.symbols.append(sym)
+    lib.to_file(str(folder / f"{LIB.lower()}.kicad_sym"))
+    table = LibTable.create_new("sym_lib_table")
+    table.libs.append(Library(name=LIB, type="KiCad", uri=f"${{KIPRJMOD}}/{LIB.lower()}.kicad_sym",
+                              description="SpectraTac sensor board symbols (generated)"))
+    table.to_file(str(folder / "sym-lib-table"))
+
+
 def write(geo: Geometry, path: Path) -> None:
     build(geo).to_file(str(path))
+    write_library(geo, path.parent)
