@@ -1,0 +1,560 @@
+"""`Sensor`: open a SpectraTac device, configure it, stream samples.
+
+    >>> from spectratac.device import Sensor
+    >>> with Sensor.open("sim://?scene=idle&speed=max") as sensor:   # doctest: +SKIP
+    ...     sensor.configure(integration_ms=50, leds=[[[500] * 3] * 3])
+    ...     sensor.start()
+    ...     batch = sensor.read(20, timeout=5.0)
+    >>> batch["counts"].shape                                         # doctest: +SKIP
+    (20, 3, 5)
+
+A background thread reads the link, decodes frames and puts samples into a bounded buffer;
+replies to commands are matched by the command's sequence number. Every public method is
+thread-safe. The tested, runnable version of this example lives in the device tests.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from spectratac.device.errors import (
+    BufferOverflowError,
+    CommandRejectedError,
+    DeviceTimeoutError,
+    DisconnectedError,
+    ProtocolMismatchError,
+)
+from spectratac.device.records import Sample, Unwrapper, to_array
+from spectratac.device.transport import Transport, open_transport
+from spectratac.protocol import StreamDecoder, encode_frame
+from spectratac.protocol import messages as m
+from spectratac.protocol.schema import Message
+
+log = logging.getLogger("spectratac.device")
+
+OverflowPolicy = Literal["drop_oldest", "drop_newest", "error"]
+INTEGRATION_TIMES = (50, 100, 200, 400)
+_GAINS = {1.0: m.Gain.GAIN_X1, 2.0: m.Gain.GAIN_X2, 4.0: m.Gain.GAIN_X4, 0.5: m.Gain.GAIN_X0_5}
+_DG = {1: m.DigitalGain.DG_X1, 2: m.DigitalGain.DG_X2, 4: m.DigitalGain.DG_X4}
+
+
+@dataclass
+class SensorStats:
+    """Link health as seen by the host."""
+
+    frames_received: int = 0
+    samples_received: int = 0
+    crc_errors: int = 0
+    cobs_errors: int = 0
+    other_frame_errors: int = 0  # too short, oversize, unknown type
+    frame_gaps: int = 0  # frames missing by the device's frame sequence numbers
+    sample_gaps: int = 0  # samples missing by SAMPLE.sample_seq
+    buffer_overflows: int = 0  # samples discarded by the overflow policy
+    reconnects: int = 0
+    logs: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class TimeSyncExchange:
+    """One TIME_SYNC round trip: host clock (s, monotonic) and device clock (µs, unwrapped)."""
+
+    host_sent: float
+    device_rx_us: int
+    device_tx_us: int
+    host_received: float
+
+    @property
+    def round_trip(self) -> float:
+        return self.host_received - self.host_sent
+
+    @property
+    def offset(self) -> float:
+        """device time − host time in seconds, assuming a symmetric link (NTP)."""
+        device_mid = (self.device_rx_us + self.device_tx_us) / 2e6
+        return device_mid - (self.host_sent + self.host_received) / 2
+
+
+@dataclass(frozen=True)
+class ClockSync:
+    offset: float  # device − host seconds, from the exchange with the shortest round trip
+    round_trip: float
+    exchanges: tuple[TimeSyncExchange, ...] = field(repr=False)
+
+
+@dataclass
+class _Waiter:
+    accepts: tuple[int, ...]  # reply type ids this waiter takes
+    seq: int | None  # command seq an ACK/NACK must name
+    event: threading.Event = field(default_factory=threading.Event)
+    reply: Message | None = None
+    host_time: float = 0.0
+
+
+class Sensor:
+    """A connection to one SpectraTac device. Use Sensor.open(url)."""
+
+    def __init__(
+        self,
+        transport: Transport,
+        *,
+        buffer_size: int = 65536,
+        overflow: OverflowPolicy = "drop_oldest",
+        timeout: float = 2.0,
+        reconnect: bool = False,
+        strict_hash: bool = True,
+    ) -> None:
+        if overflow not in ("drop_oldest", "drop_newest", "error"):
+            raise ValueError(
+                f"overflow={overflow!r}: choose 'drop_oldest', 'drop_newest' or 'error'"
+            )
+        if buffer_size < 1:
+            raise ValueError(f"buffer_size={buffer_size}: must be at least 1")
+        self.url = transport.url
+        self.timeout = timeout
+        self.stats = SensorStats()
+        self.logs: collections.deque[m.Log] = collections.deque(maxlen=256)
+        self.time_sync: list[TimeSyncExchange] = []
+        self._transport = transport
+        self._reconnect = reconnect
+        self._strict_hash = strict_hash
+        self._overflow = overflow
+        self._buffer: collections.deque[Sample] = collections.deque()
+        self._buffer_size = buffer_size
+        self._overflowed = False
+        self._cond = threading.Condition()
+        self._write_lock = threading.Lock()
+        self._decoder = StreamDecoder()
+        self._seq = 0
+        self._waiters: list[_Waiter] = []
+        self._unwrap = Unwrapper()
+        self._last_sample_seq: int | None = None
+        self._closed = False
+        self._lost: DisconnectedError | None = None
+        self._streaming = False
+        self._configure_msg: m.Configure | None = None
+        self.info: m.Info = m.Info()
+        self.config_id = 0
+        self._thread = threading.Thread(target=self._reader, name="spectratac-reader", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ opening and closing
+    @classmethod
+    def open(cls, url: str, **options: Any) -> Sensor:
+        """Connect to `url` (serial path, socket://host:port, rfc2217://…, sim://…), read its
+        INFO and check protocol version and definition hash. Options: buffer_size, overflow
+        ('drop_oldest' | 'drop_newest' | 'error'), timeout (s), reconnect, strict_hash,
+        baudrate."""
+        baudrate = options.pop("baudrate", 921_600)
+        sensor = cls(open_transport(url, baudrate), **options)
+        try:
+            sensor._handshake()
+        except BaseException:
+            sensor.close()
+            raise
+        return sensor
+
+    def _handshake(self) -> None:
+        self._write(b"\x00")  # ends any partial frame the device holds from earlier garbage
+        info = self._request(m.GetInfo(), (m.Info.TYPE_ID,))
+        assert isinstance(info, m.Info)
+        host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
+        device = (info.protocol_major, info.protocol_minor)
+        if info.protocol_major != m.PROTOCOL_MAJOR:
+            raise ProtocolMismatchError(
+                f"{self.url} speaks protocol {device[0]}.{device[1]}, this host library "
+                f"{host[0]}.{host[1]}: update the library or reflash the firmware",
+                device,
+                host,
+            )
+        if info.definition_hash != m.DEFINITION_HASH:
+            text = (
+                f"{self.url} was built from other protocol definitions (hash "
+                f"0x{info.definition_hash:08X}, host 0x{m.DEFINITION_HASH:08X}) although both "
+                f"say {device[0]}.{device[1]}: rebuild firmware and host from one checkout"
+            )
+            if self._strict_hash:
+                raise ProtocolMismatchError(text, device, host)
+            log.warning(text)
+        self.info = info
+
+    def close(self) -> None:
+        """Stop the reader and close the link. Safe to call more than once."""
+        with self._cond:
+            if self._closed:
+                return
+            self._closed = True
+            self._cond.notify_all()
+        self._transport.close()
+        if threading.current_thread() is not self._thread:
+            self._thread.join(timeout=2.0)
+        for waiter in self._take_waiters():
+            waiter.event.set()
+
+    def __enter__(self) -> Sensor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ commands
+    def configure(
+        self,
+        integration_ms: int = 50,
+        gain: float = 1.0,
+        digital_gain: int = 1,
+        sensitivity: Literal["high", "low"] = "high",
+        leds: Sequence[Sequence[Sequence[int]]] | np.ndarray | None = None,
+        settle_us: int = 1000,
+        stream: bool = False,
+    ) -> int:
+        """Validate locally, send CONFIGURE, wait for ACK; return the new configuration id.
+
+        `leds` is a list of 1..8 steps, each 3 LEDs x (R, G, B) duties in permille (0..1000);
+        default: one white step at 500 ‰. Raises ValueError naming the bad argument, or
+        CommandRejectedError with the device's reason.
+        """
+        if integration_ms not in INTEGRATION_TIMES:
+            raise ValueError(f"integration_ms={integration_ms}: allowed {INTEGRATION_TIMES}")
+        if gain not in _GAINS:
+            raise ValueError(f"gain={gain}: allowed {sorted(_GAINS)}")
+        if digital_gain not in _DG:
+            raise ValueError(f"digital_gain={digital_gain}: allowed {sorted(_DG)}")
+        if sensitivity not in ("high", "low"):
+            raise ValueError(f"sensitivity={sensitivity!r}: allowed 'high' or 'low'")
+        duties = np.full((1, 3, 3), 500) if leds is None else np.asarray(leds)
+        if duties.ndim != 3 or duties.shape[1:] != (3, 3) or not 1 <= len(duties) <= 8:
+            raise ValueError(
+                f"leds has shape {duties.shape}: give 1..8 steps of 3 LEDs x (R, G, B) duties"
+            )
+        if not np.issubdtype(duties.dtype, np.integer) or duties.min() < 0 or duties.max() > 1000:
+            raise ValueError("leds: duties must be integers in permille, 0..1000")
+        table = np.zeros((m.MAX_LED_STEPS, 3, 3), dtype=int)
+        table[: len(duties)] = duties
+        msg = m.Configure(
+            integration_ms=integration_ms,
+            gain=int(_GAINS[gain]),
+            digital_gain=int(_DG[digital_gain]),
+            sensitivity=0 if sensitivity == "high" else 1,
+            flags=m.ConfigureFlags.CONFIG_STREAM if stream else 0,
+            led_settle_us=settle_us,
+            led_step_count=len(duties),
+            led_duty=tuple(tuple(tuple(int(v) for v in led) for led in step) for step in table),
+        )
+        ack = self._command(msg)
+        self._configure_msg = msg
+        self.config_id = ack.config_id
+        if stream:
+            self._streaming = True
+        return ack.config_id
+
+    def start(self) -> None:
+        """Start streaming; samples then arrive in the buffer."""
+        self._command(m.Start())
+        self._streaming = True
+
+    def stop(self) -> None:
+        """Stop streaming; no sample is produced after the device's acknowledgement."""
+        self._command(m.Stop())
+        self._streaming = False
+
+    def status(self) -> m.Status:
+        reply = self._request(m.GetStatus(), (m.Status.TYPE_ID,))
+        assert isinstance(reply, m.Status)
+        return reply
+
+    def get_config(self) -> m.Config:
+        reply = self._request(m.GetConfig(), (m.Config.TYPE_ID,))
+        assert isinstance(reply, m.Config)
+        return reply
+
+    def reset_stats(self) -> None:
+        self._command(m.ResetStats())
+
+    def sync_clock(self, exchanges: int = 8) -> ClockSync:
+        """Run TIME_SYNC exchanges; keep the one with the shortest round trip (least queuing)."""
+        done: list[TimeSyncExchange] = []
+        for i in range(exchanges):
+            sent = time.monotonic()
+            reply = self._request(
+                m.TimeSyncRequest(exchange_id=i, host_time_ns=int(sent * 1e9)),
+                (m.TimeSyncReply.TYPE_ID,),
+            )
+            assert isinstance(reply, m.TimeSyncReply)
+            received = self._last_reply_time
+            rx = self._unwrap_like(reply.device_rx_us)
+            done.append(
+                TimeSyncExchange(
+                    sent,
+                    rx,
+                    rx + ((reply.device_tx_us - reply.device_rx_us) & 0xFFFF_FFFF),
+                    received,
+                )
+            )
+        self.time_sync.extend(done)
+        best = min(done, key=lambda e: e.round_trip)
+        return ClockSync(best.offset, best.round_trip, tuple(done))
+
+    # ------------------------------------------------------------------ samples
+    def read(self, n: int, timeout: float | None = None) -> np.ndarray:
+        """Up to `n` samples as a SAMPLE_RECORD array, waiting up to `timeout` s (default:
+        the sensor's timeout) for all n. Returns fewer on timeout. Raises DisconnectedError
+        only once every sample received before the loss has been read."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        out: list[Sample] = []
+        with self._cond:
+            while True:
+                while self._buffer and len(out) < n:
+                    out.append(self._buffer.popleft())
+                if len(out) >= n:
+                    break
+                if self._overflowed and self._overflow == "error":
+                    self._overflowed = False
+                    if not out:
+                        raise BufferOverflowError(
+                            f"{self.stats.buffer_overflows} samples were discarded: read more "
+                            f"often or open with a larger buffer_size"
+                        )
+                    break
+                if self._lost is not None and not self._reconnect:
+                    if out:
+                        break
+                    raise self._lost
+                if self._closed:
+                    break
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._cond.wait(remaining)
+        return to_array(out)
+
+    def __iter__(self) -> Iterator[Sample]:
+        """Samples one by one until the link is lost or the sensor closed."""
+        while True:
+            with self._cond:
+                while not self._buffer:
+                    if self._lost is not None and not self._reconnect:
+                        return
+                    if self._closed:
+                        return
+                    self._cond.wait(0.5)
+                sample = self._buffer.popleft()
+            yield sample
+
+    @property
+    def buffered(self) -> int:
+        with self._cond:
+            return len(self._buffer)
+
+    # ------------------------------------------------------------------ internals
+    def _next_seq(self) -> int:
+        self._seq = (self._seq + 1) & 0xFFFF
+        return self._seq
+
+    def _write(self, data: bytes) -> None:
+        if self._lost is not None:
+            raise self._lost
+        with self._write_lock:
+            self._transport.write(data)
+
+    def _command(self, msg: Message) -> m.Ack:
+        reply = self._request(msg, (m.Ack.TYPE_ID, m.Nack.TYPE_ID), match_seq=True)
+        if isinstance(reply, m.Nack):
+            code = m.Error(reply.error) if reply.error in m.Error._value2member_map_ else None
+            meaning, action = (
+                m.ERROR_TEXT.get(code, ("unknown error code", ""))
+                if code
+                else ("unknown error code", "Update the host library.")
+            )
+            raise CommandRejectedError(
+                msg.NAME, reply.error, code.name if code else "?", meaning, action
+            )
+        assert isinstance(reply, m.Ack)
+        return reply
+
+    def _request(self, msg: Message, accepts: tuple[int, ...], match_seq: bool = False) -> Message:
+        msg.validate()
+        with self._write_lock:  # one seq per frame, in order on the wire
+            seq = self._next_seq()
+            waiter = _Waiter(accepts, seq if match_seq else None)
+            with self._cond:
+                if self._lost is not None and not self._reconnect:
+                    raise self._lost
+                self._waiters.append(waiter)
+            try:
+                self._transport.write(encode_frame(msg, seq, validate=False))
+            except DisconnectedError:
+                self._drop_waiter(waiter)
+                raise
+        if not waiter.event.wait(self.timeout):
+            self._drop_waiter(waiter)
+            if self._lost is not None:
+                raise self._lost
+            raise DeviceTimeoutError(
+                f"no reply to {msg.NAME} from {self.url} within {self.timeout:.1f} s: is the "
+                f"device powered, running SpectraTac firmware, and on this port/baud rate?"
+            )
+        if waiter.reply is None:
+            raise self._lost or DisconnectedError(f"{self.url} was closed")
+        self._last_reply_time = waiter.host_time
+        return waiter.reply
+
+    def _drop_waiter(self, waiter: _Waiter) -> None:
+        with self._cond:
+            if waiter in self._waiters:
+                self._waiters.remove(waiter)
+
+    def _take_waiters(self) -> list[_Waiter]:
+        with self._cond:
+            waiters, self._waiters = self._waiters, []
+        return waiters
+
+    def _unwrap_like(self, t32: int) -> int:
+        return self._unwrap(t32)
+
+    def _reader(self) -> None:
+        while not self._closed:
+            try:
+                data = self._transport.read(0.05)
+            except DisconnectedError as exc:
+                if self._closed:
+                    return
+                if not self._handle_loss(exc):
+                    return
+                continue
+            if data:
+                self._dispatch(data, time.monotonic())
+
+    def _dispatch(self, data: bytes, now: float) -> None:
+        frames = self._decoder.feed(data)
+        d = self._decoder.stats
+        st = self.stats
+        st.crc_errors, st.cobs_errors = d.bad_crc, d.bad_cobs
+        st.other_frame_errors = d.too_short + d.oversize + d.unknown_type
+        st.frame_gaps = d.seq_gaps
+        if d.version_mismatch and d.remote_version:
+            self._fail_waiters_version(d.remote_version)
+        samples: list[Sample] = []
+        for frame in frames:
+            st.frames_received += 1
+            msg = frame.message
+            if isinstance(msg, m.Sample):
+                samples.append(self._to_sample(msg, now))
+            elif isinstance(msg, m.Log):
+                st.logs += 1
+                self.logs.append(msg)
+                log.log(10 + 10 * min(msg.level, 3), "%s: %s", self.url, msg.text)
+            else:
+                self._deliver(msg, now)
+        if samples:
+            self._enqueue(samples)
+
+    def _to_sample(self, msg: m.Sample, now: float) -> Sample:
+        st = self.stats
+        st.samples_received += 1
+        last = self._last_sample_seq
+        if last is not None and msg.sample_seq > last + 1:
+            st.sample_gaps += msg.sample_seq - last - 1
+        self._last_sample_seq = msg.sample_seq
+        end = self._unwrap(msg.t_end_us)
+        start = end - ((msg.t_end_us - msg.t_start_us) & 0xFFFF_FFFF)
+        return Sample(
+            end,
+            start,
+            now,
+            msg.sample_seq,
+            msg.led_step,
+            msg.config_id,
+            msg.counts,
+            msg.sensor_status,
+        )
+
+    def _enqueue(self, samples: list[Sample]) -> None:
+        with self._cond:
+            buf = self._buffer
+            for sample in samples:
+                if len(buf) >= self._buffer_size:
+                    self.stats.buffer_overflows += 1
+                    self._overflowed = True
+                    if self._overflow == "drop_oldest":
+                        buf.popleft()
+                    else:
+                        continue  # drop_newest and error keep what is already buffered
+                buf.append(sample)
+            self._cond.notify_all()
+
+    def _deliver(self, msg: Message, now: float) -> None:
+        with self._cond:
+            for waiter in self._waiters:
+                if msg.TYPE_ID not in waiter.accepts:
+                    continue
+                if waiter.seq is not None:
+                    named = (
+                        msg.acked_seq
+                        if isinstance(msg, m.Ack)
+                        else getattr(msg, "rejected_seq", None)
+                    )
+                    if named != waiter.seq:
+                        continue
+                waiter.reply, waiter.host_time = msg, now
+                self._waiters.remove(waiter)
+                waiter.event.set()
+                return
+        if isinstance(msg, m.Nack):
+            log.warning("%s: unsolicited NACK %s", self.url, msg)
+
+    def _fail_waiters_version(self, remote: tuple[int, int]) -> None:
+        host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
+        self._lost = ProtocolMismatchError(  # type: ignore[assignment]
+            f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
+            f"{host[0]}.{host[1]}: update the library or reflash the firmware",
+            remote,
+            host,
+        )
+        for waiter in self._take_waiters():
+            waiter.event.set()
+
+    def _handle_loss(self, exc: DisconnectedError) -> bool:
+        """Record the loss; with reconnect=True, reopen and resume. False ends the reader."""
+        with self._cond:
+            self._lost = exc
+            self._cond.notify_all()
+        for waiter in self._take_waiters():
+            waiter.event.set()
+        if not self._reconnect:
+            return False
+        delay = 0.05
+        while not self._closed:
+            time.sleep(delay)
+            delay = min(delay * 2, 1.0)
+            try:
+                self._transport = open_transport(self.url)
+            except Exception:  # the device is still away: keep trying until close()
+                continue
+            self._decoder.reset()
+            self._lost = None
+            self.stats.reconnects += 1
+            threading.Thread(target=self._resume, daemon=True).start()
+            return True
+        return False
+
+    def _resume(self) -> None:
+        """After a reconnect: handshake again and restore configuration and streaming."""
+        try:
+            self._handshake()
+            if self._configure_msg is not None:
+                self.config_id = self._command(self._configure_msg).config_id
+            if self._streaming:
+                self._command(m.Start())
+        except Exception as exc:  # the reader reports the next loss; log why resuming failed
+            log.warning("%s: resuming after reconnect failed: %s", self.url, exc)
