@@ -204,7 +204,7 @@ def generate_session(
     track = MechanicsTrack.from_scene(scene, unit, dt=MECH_DT_S)
     temp = env.temperature(tmid)
     paths = window_transport(track, unit, t0, it_s, temp)
-    mean_duty = float(steps.mean()) * it_s / ((t1[1] - t0[0]) if len(t0) > 1 else it_s)
+    mean_duty = float(steps.mean()) * it_s / ((t0[1] - t0[0]) if len(t0) > 1 else it_s)
     junction = temp + optics.led_junction_rise(unit, mean_duty, tmid, env.leds_prewarmed)
     flicker = 1.0 + unit.led_flicker * rng_led.standard_normal((t0.shape[0], 3, 3))
     led = optics.led_intensity(unit, steps[step], junction, flicker)

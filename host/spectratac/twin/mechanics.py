@@ -8,7 +8,7 @@ the optics; the F/T sensor sees the applied load itself.
 >>> u = UnitParams.nominal()
 >>> d, a = indentation(np.array([0.0, 1.0, 10.0]), np.full(3, 4.0), u)
 >>> [round(float(v), 2) for v in d], [round(float(v), 2) for v in a]
-([0.0, 0.38, 1.09], [0.0, 1.26, 2.71])
+([0.0, 0.39, 1.31], [0.0, 1.26, 2.71])
 """
 
 from __future__ import annotations
@@ -59,10 +59,12 @@ def lowpass(x: F64, dt: float, tau: float) -> F64:
     return y.reshape(-1)[:n]
 
 
-def creep_load(load: F64, dt: float, unit: UnitParams) -> F64:
-    """Effective (creep-augmented) load on a regular time grid."""
+def creep_load(load: F64, dt: float, unit: UnitParams, *, shear: bool = False) -> F64:
+    """Effective (creep-augmented) load on a regular time grid (normal or shear Prony set)."""
     out = load.copy()
-    for beta, tau in zip(unit.creep_beta, unit.creep_tau_s, strict=True):
+    betas = unit.shear_creep_beta if shear else unit.creep_beta
+    taus = unit.shear_creep_tau_s if shear else unit.creep_tau_s
+    for beta, tau in zip(betas, taus, strict=True):
         out += beta * lowpass(load, dt, float(tau))
     return out
 
@@ -116,8 +118,8 @@ class MechanicsTrack:
         t = np.arange(n) * dt
         c = scene.contact(t)
         fn = creep_load(c.normal, dt, unit)
-        fx = creep_load(c.fx, dt, unit)
-        fy = creep_load(c.fy, dt, unit)
+        fx = creep_load(c.fx, dt, unit, shear=True)
+        fy = creep_load(c.fy, dt, unit, shear=True)
         delta, a = indentation(fn, c.indenter_radius_mm, unit)
         ux, uy = shear_displacement(fx, fy, a, unit)
         return MechanicsTrack(

@@ -11,7 +11,10 @@ transport. A contact changes it in three ways (MODEL.md gives each constant's re
    sensor k with softened inverse-square kernels about the patch; red-heavy (pigment
    reflectance), growing as the skin thins; shear moves the patch and tilts it toward the shear
    direction, brightening the sensors downstream of the shear and dimming the others;
-3. bulk: compression brings the skin closer everywhere, a small gain on every path.
+3. bulk: compression brings the skin closer everywhere, a small gain on every path;
+4. steering: shear tilts the whole skin/PDMS interface, steering guided light along the shear:
+   path j->k gains in proportion to u . (e_k - e_j) / |e_k - e_j| (e = unit position
+   vectors), so the sensors downstream of the shear brighten and the upstream ones dim.
 
 >>> u = UnitParams.nominal()
 >>> z = np.zeros(1)
@@ -50,14 +53,14 @@ def transport(
     w2 = unit.optical_height_mm**2
     lx = qx[:, None] - unit.led_xy[None, :, 0]
     ly = qy[:, None] - unit.led_xy[None, :, 1]
-    kl = (w2 / (lx * lx + ly * ly + w2)) ** 1.5  # (M, j)
+    kl = (w2 / (lx * lx + ly * ly + w2)) ** 1.5  # (M, j): softened inverse square
     sx = unit.sensor_xy[None, :, 0] - qx[:, None]
     sy = unit.sensor_xy[None, :, 1] - qy[:, None]
     ds = np.sqrt(sx * sx + sy * sy)
     ks = (w2 / (ds * ds + w2)) ** 1.5  # (M, k)
     along = (ux[:, None] * sx + uy[:, None] * sy) / np.maximum(ds, 1e-6)
     tilt = np.maximum(1.0 + unit.tilt_gain * along, 0.0)
-    vol = a * a * delta
+    vol = (a * a + unit.patch_floor_mm**2) * delta
     rho = unit.reflect_colour[None, :] * (1.0 + unit.reflect_strain[None, :] * delta[:, None])
     refl = (
         (unit.reflect_gain * vol[:, None] * kl)[:, :, None, None]
@@ -81,12 +84,25 @@ def transport(
     ]
     shadow = np.maximum(1.0 - loss, 0.02)
     bulk = 1.0 + unit.bulk_gain[None, :] * delta[:, None]  # (M, c)
-    t = unit.direct[None] * shadow * bulk[:, None, None, :] + refl
+    steer = 1.0 + (
+        (ux[:, None, None] * _steer_dir(unit)[None, :, :, 0]
+         + uy[:, None, None] * _steer_dir(unit)[None, :, :, 1])[..., None]
+        * unit.steer_gain[None, None, None, :]
+    )
+    t = unit.direct[None] * shadow * np.maximum(steer, 0.0) * bulk[:, None, None, :] + refl
     if temperature_c is not None:
         t *= (1.0 + unit.transport_temp_coeff * (temperature_c - REFERENCE_TEMP_C))[
             :, None, None, None
         ]
     return t
+
+
+def _steer_dir(unit: UnitParams) -> F64:
+    """(3 LEDs, 3 sensors, 2) unit vectors from LED j's to sensor k's bearing."""
+    ej = unit.led_xy / np.linalg.norm(unit.led_xy, axis=1, keepdims=True)
+    ek = unit.sensor_xy / np.linalg.norm(unit.sensor_xy, axis=1, keepdims=True)
+    d = ek[None, :, :] - ej[:, None, :]
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 def led_intensity(unit: UnitParams, duty: F64, junction_c: F64, flicker: F64 | None = None) -> F64:

@@ -24,9 +24,9 @@ from spectratac.twin.geometry import ACTIVE_RADIUS_MM, DISC_RADIUS_MM, region_of
 
 F64 = NDArray[np.float64]
 
-# A sample carries a region label only on a firm contact; lighter touches are -1 (as the
-# paper's "no valid annotation"), they still train the F/T head.
-LABEL_MIN_NORMAL_N = 0.5
+# A sample carries a region label only on a firm contact (the paper's interaction threshold,
+# 1.0 N); lighter touches are -1 ("no valid annotation") and still train the F/T head.
+LABEL_MIN_NORMAL_N = 1.0
 
 AMBIENT_SPECTRA = ("led", "fluorescent", "incandescent", "sunlight")
 

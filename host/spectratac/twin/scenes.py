@@ -20,6 +20,7 @@ from spectratac.twin.geometry import (
     CENTER_RADIUS_MM,
     SECTOR_CENTRE_DEG,
     region_centre,
+    region_of,
 )
 from spectratac.twin.scene import Environment, Presses, Scene
 
@@ -35,6 +36,7 @@ CAL_GAP_S = (0.3, 2.0)
 CAL_INDENTER_MM = (3.0, 6.0)  # fingertip / probe tip radii vary press to press
 CAL_RIM_FRACTION = 0.04  # presses that land on the clamped rim: F/T only, label -1
 REGION_MARGIN_MM = 0.3  # operators aim inside a region, not on its border
+AIM_SCATTER_MM = 0.8  # scatter of presses around a region's representative point
 FRICTION = 1.0  # silicone skin against a fingertip / rubber probe
 
 
@@ -55,6 +57,21 @@ def single_press(
 
 
 def sample_in_region(rng: np.random.Generator, regions: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Press positions around each region's representative point (the operator aims at it,
+    with `AIM_SCATTER_MM` scatter), kept `REGION_MARGIN_MM` inside the region's borders."""
+    n = regions.shape[0]
+    cx = np.array([region_centre(int(g))[0] for g in regions])
+    cy = np.array([region_centre(int(g))[1] for g in regions])
+    x = cx + rng.normal(0.0, AIM_SCATTER_MM, n)
+    y = cy + rng.normal(0.0, AIM_SCATTER_MM, n)
+    ux, uy = _uniform_in_region(rng, regions)
+    inside = region_of(x, y) == regions
+    inside &= region_of(x * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6)),
+                        y * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6))) == regions
+    return np.where(inside, x, ux), np.where(inside, y, uy)
+
+
+def _uniform_in_region(rng: np.random.Generator, regions: np.ndarray) -> tuple[np.ndarray, ...]:
     """Uniform-by-area positions inside each region, `REGION_MARGIN_MM` from its borders."""
     n = regions.shape[0]
     m = REGION_MARGIN_MM

@@ -71,9 +71,12 @@ class UnitParams:
     max_shear_mm: float
     creep_beta: F64  # (2,) Prony creep amplitudes (Lee-Radok)
     creep_tau_s: F64  # (2,) Prony creep time constants
+    shear_creep_beta: F64  # (2,) shear creep amplitudes (silicone creeps more in shear)
+    shear_creep_tau_s: F64  # (2,)
     # light transport under contact
     optical_height_mm: float  # kernel softening: PDMS height above the apertures + diffusion
     reflect_gain: float  # reference counts per duty per mm^3 of displaced skin (patch term)
+    patch_floor_mm: float  # skin bending widens the reflecting patch beyond the Hertz radius
     reflect_colour: F64  # (3,) relative skin reflectance per colour (black pigment: red-heavy)
     reflect_strain: F64  # (3,) reflectance increase per mm of indentation (skin thins)
     shadow_strength: F64  # (3,) fractional path loss per mm of indentation on the path
@@ -81,6 +84,7 @@ class UnitParams:
     bulk_gain: F64  # (3,) fractional gain of all paths per mm of indentation (compression)
     patch_shift: float  # fraction of the surface shear displacement seen by the patch
     tilt_gain: float  # per mm of shear: reflection tilts toward the shear direction
+    steer_gain: F64  # (3,) per mm of shear: guided light steered along the shear direction
     # electronics and noise
     electrons_per_count: float  # at gain x1: sets shot noise
     read_noise_counts: float
@@ -108,21 +112,25 @@ class UnitParams:
             dark_counts=np.full((3, 5), 3.0),
             skin_transmission=2e-3,
             e_star_mpa=1.5,
-            max_indent_mm=1.2,
+            max_indent_mm=1.6,
             shear_modulus_mpa=0.35,
             max_shear_mm=1.5,
-            creep_beta=np.array([0.08, 0.06]),
+            creep_beta=np.array([0.10, 0.08]),
             creep_tau_s=np.array([0.5, 8.0]),
-            optical_height_mm=3.0,
+            shear_creep_beta=np.array([0.15, 0.10]),
+            shear_creep_tau_s=np.array([0.3, 5.0]),
+            optical_height_mm=2.0,
             reflect_gain=20000.0,
-            reflect_colour=np.array([1.0, 0.7, 0.55]),
+            patch_floor_mm=1.0,
+            reflect_colour=np.array([1.0, 0.35, 0.12]),
             reflect_strain=np.array([0.3, 0.1, 0.0]),
-            shadow_strength=np.array([0.35, 0.45, 0.55]),
+            shadow_strength=np.array([0.08, 0.30, 0.75]),
             shadow_width_mm=0.8,
-            bulk_gain=np.array([0.03, 0.025, 0.02]),
+            bulk_gain=np.array([0.03, 0.03, 0.03]),
             patch_shift=0.6,
-            tilt_gain=0.5,
-            electrons_per_count=1.0,
+            tilt_gain=1.0,
+            steer_gain=np.array([0.25, 0.25, 0.25]),
+            electrons_per_count=3.0,
             read_noise_counts=2.0,
             led_flicker=0.002,
             ft_noise=np.array([0.01, 0.01, 0.02, 3e-4, 3e-4, 2e-4]),
@@ -170,4 +178,5 @@ VARIATION: dict[str, tuple[str, float]] = {
     "optical_height_mm": ("rel", 0.03),
     "reflect_gain": ("rel", 0.10),
     "shadow_strength": ("rel", 0.08),
+    "steer_gain": ("rel", 0.08),
 }
