@@ -1,0 +1,149 @@
+"""`SimDevice`: the firmware core (native build) with the twin answering on its buses.
+
+The core runs unmodified: its I2C transfers reach the twin's register-level VEML3328 models,
+its LED PWM settings drive the twin's LED timeline, and its UART frames go to `on_tx`. Time is
+whatever the caller says it is (`step(now_us)`), so the device can run in real time or as
+fast as the host can go.
+
+>>> from spectratac.sim.scenes import make_scene
+>>> frames = []
+>>> dev = SimDevice(make_scene("idle"), seed=1, on_tx=lambda data, t: frames.append(data))
+>>> dev.feed(b"\\x00" + __import__("spectratac.protocol").protocol.encode_frame(
+...     __import__("spectratac.protocol").protocol.messages.GetInfo(), seq=1))
+>>> dev.step(1000)
+>>> __import__("spectratac.protocol").protocol.decode_frame(frames[0][:-1]).message.board
+'native-sim'
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from spectratac.sim import native
+from spectratac.twin.errors import I2CNack
+from spectratac.twin.rig import TwinRig
+from spectratac.twin.scene import Scene
+from spectratac.twin.unit import UnitParams
+
+log = logging.getLogger("spectratac.sim")
+TxSink = Callable[[bytes, int], bool | None]  # (frame bytes, device µs) -> False to refuse
+
+
+class SimDevice:
+    def __init__(
+        self,
+        scene: Scene,
+        seed: int = 0,
+        *,
+        unit: UnitParams | None = None,
+        absent: Iterable[int] = (),
+        on_tx: TxSink | None = None,
+        board: str = "native-sim",
+        uid: bytes | None = None,
+        baud: int = 0,
+    ) -> None:
+        self.lib = native.load()
+        self.rig = TwinRig(scene, unit, seed)
+        self.absent = frozenset(absent)
+        self.on_tx = on_tx
+        self.now_us = 0  # 64-bit device time of the current step
+        self.i2c_errors = 0  # exceptions inside the twin, reported as bus errors
+        self._duties = np.zeros((3, 3))
+        self._duties_dirty_at: int | None = None
+        self._mem = (ctypes.c_uint64 * ((self.lib.stac_sim_sizeof() + 7) // 8))()
+        self._ptr = ctypes.cast(self._mem, ctypes.c_void_p)
+        # keep the callback objects alive as long as the instance
+        self._cb = native.Callbacks(
+            None,
+            native.I2C_FN(self._i2c),
+            native.PWM_FN(self._pwm),
+            native.TX_FN(self._tx),
+            native.CLOCK_FN(),
+        )
+        uid = (
+            uid
+            if uid is not None
+            else bytes(np.random.default_rng(seed).integers(0, 256, 12, dtype=np.uint8))
+        )
+        caps = self.lib.stac_sim_default_capabilities()
+        err = self.lib.stac_sim_init(
+            self._ptr, ctypes.byref(self._cb), board.encode("ascii"), caps, uid, baud, 0
+        )
+        if err != 0:
+            raise native.NativeBuildError(f"stac_sim_init failed ({err})")
+
+    # --- time and bytes --------------------------------------------------------------------
+    def step(self, now_us: int) -> None:
+        """Run one superloop pass at device time `now_us` (64-bit µs, never decreasing)."""
+        self.now_us = max(now_us, self.now_us)
+        self.lib.stac_sim_step(self._ptr, self.now_us & 0xFFFF_FFFF)
+        self._flush_duties()
+
+    def feed(self, data: bytes) -> None:
+        """Bytes from the host; steps the core at the current time if its buffer fills."""
+        view = memoryview(data)
+        while view:
+            taken = self.lib.stac_sim_rx_feed(self._ptr, bytes(view), len(view))
+            view = view[taken:]
+            if view:
+                self.step(self.now_us)
+
+    def next_wake_us(self) -> int:
+        """64-bit device time by which the core wants its next step."""
+        wake32 = self.lib.stac_sim_next_wake_us(self._ptr)
+        return self.now_us + ((wake32 - self.now_us) & 0xFFFF_FFFF) % 0x8000_0000
+
+    @property
+    def streaming(self) -> bool:
+        return bool(self.lib.stac_sim_streaming(self._ptr))
+
+    # --- callbacks from C (must never raise) -------------------------------------------------
+    def _t64(self, now32: int) -> int:
+        return self.now_us + ((now32 - self.now_us) & 0xFFFF_FFFF) % 0x8000_0000
+
+    def _i2c(self, _user, now32, bus, addr, wr, wr_len, rd, rd_len, _timeout):  # type: ignore[no-untyped-def]
+        try:
+            if bus in self.absent or addr != 0x10 or bus > 2:
+                return native.I2C_NACK
+            self._flush_duties()
+            reply = self.rig.sensors[bus].transfer(
+                self._t64(now32), ctypes.string_at(wr, wr_len), rd_len
+            )
+            if rd_len:
+                ctypes.memmove(rd, reply, rd_len)
+            return native.I2C_OK
+        except I2CNack:
+            return native.I2C_NACK
+        except Exception:  # a twin bug must not crash the firmware: report it as a bus error
+            self.i2c_errors += 1
+            log.exception("twin raised inside an I2C transfer")
+            return native.I2C_BUS_ERROR
+
+    def _pwm(self, _user, now32, led, colour, duty):  # type: ignore[no-untyped-def]
+        try:
+            self._duties[led, colour] = duty / 1000.0
+            if self._duties_dirty_at is None:
+                self._duties_dirty_at = self._t64(now32)
+        except Exception:
+            log.exception("bad PWM call from the firmware")
+
+    def _flush_duties(self) -> None:
+        """Hand a batch of PWM changes (the core sets nine channels at once) to the twin."""
+        if self._duties_dirty_at is not None:
+            self.rig.set_led_duties(self._duties_dirty_at, self._duties.copy())
+            self._duties_dirty_at = None
+
+    def _tx(self, _user, now32, data, length):  # type: ignore[no-untyped-def]
+        try:
+            sink = self.on_tx
+            if sink is None:
+                return length
+            taken = sink(ctypes.string_at(data, length), self._t64(now32))
+            return 0 if taken is False else length
+        except Exception:
+            log.exception("transmit sink raised")
+            return 0

@@ -1,0 +1,84 @@
+"""Drives a SimDevice in time: real time (scaled by `speed`) or as fast as possible.
+
+One thread owns the device (the native core is not thread-safe): it feeds bytes queued by
+the host, steps the core when it wants to wake, and hands frames to a sink. With
+speed="max" device time jumps straight to the next wake-up while the device streams, so
+samples come as fast as the host can take them; the sink may block (back-pressure) and
+nothing is lost. While idle, time runs at the wall clock's rate even at speed="max".
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from spectratac.sim.device import SimDevice
+
+MAX = "max"
+
+
+class DeviceRunner:
+    def __init__(self, device: SimDevice, speed: float | str = 1.0) -> None:
+        if speed != MAX and (not isinstance(speed, (int, float)) or speed <= 0):
+            raise ValueError(f"speed={speed!r}: give a positive number or 'max'")
+        self.device = device
+        self.speed = speed
+        self._inbound = bytearray()
+        self._wake = threading.Condition()
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, name="spectratac-sim", daemon=True)
+        self.error: BaseException | None = None
+
+    def start(self) -> DeviceRunner:
+        self._thread.start()
+        return self
+
+    def write(self, data: bytes) -> None:
+        """Bytes from the host to the device; wakes the device at once."""
+        with self._wake:
+            self._inbound += data
+            self._wake.notify()
+
+    def stop(self) -> None:
+        with self._wake:
+            self._stop = True
+            self._wake.notify()
+        if threading.current_thread() is not self._thread and self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        try:
+            self._loop()
+        except BaseException as exc:  # surfaced to the transport as a disconnect
+            self.error = exc
+
+    def _loop(self) -> None:
+        dev = self.device
+        fast = self.speed == MAX
+        rate = 1.0 if fast else float(self.speed)  # device µs per wall µs when paced
+        wall0, dev0 = time.monotonic(), dev.now_us
+        while True:
+            with self._wake:
+                if self._stop:
+                    return
+                data = bytes(self._inbound)
+                self._inbound.clear()
+            if data:
+                dev.feed(data)
+                dev.step(dev.now_us)  # answer commands without waiting for the next wake
+            wake = dev.next_wake_us()
+            if fast and dev.streaming:
+                dev.step(wake)
+                wall0, dev0 = time.monotonic(), dev.now_us  # paced time resumes from here
+                continue
+            now = dev0 + int((time.monotonic() - wall0) * 1e6 * rate)
+            if wake <= now:
+                dev.step(now)
+                continue
+            with self._wake:
+                if not self._inbound and not self._stop:
+                    self._wake.wait(min((wake - now) / 1e6 / rate, 0.05))

@@ -1,0 +1,67 @@
+"""The in-process transport behind sim:// URLs: Sensor.open("sim://?scene=tour&speed=max")."""
+
+from __future__ import annotations
+
+import threading
+
+from spectratac.device.errors import DeviceError, DisconnectedError
+from spectratac.sim.device import SimDevice
+from spectratac.sim.runner import MAX, DeviceRunner
+from spectratac.sim.scenes import make_scene
+from spectratac.sim.url import parse_sim_url
+
+HIGH_WATER = 256 * 1024  # bytes the host has not read yet before the device waits / drops
+
+
+class SimTransport:
+    def __init__(self, url: str) -> None:
+        self.url = url
+        try:
+            opts = parse_sim_url(url)
+            scene = make_scene(opts.scene, seed=str(opts.seed), **opts.scene_params)
+        except ValueError as exc:
+            raise DeviceError(str(exc)) from None
+        self.options = opts
+        self._out = bytearray()
+        self._cond = threading.Condition()
+        self._closed = False
+        self._blocking = opts.speed == MAX
+        self.device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=self._on_tx)
+        self.runner = DeviceRunner(self.device, opts.speed).start()
+
+    def _on_tx(self, data: bytes, _t: int) -> bool:
+        with self._cond:
+            while self._blocking and len(self._out) > HIGH_WATER and not self._closed:
+                self._cond.wait(0.1)  # back-pressure: speed=max never loses a frame
+            if len(self._out) > HIGH_WATER:
+                return False  # like a UART whose host stopped reading: the device counts it
+            self._out += data
+            self._cond.notify_all()
+            return True
+
+    def read(self, timeout: float) -> bytes:
+        with self._cond:
+            if not self._out and not self._closed and self.runner.running:
+                self._cond.wait(timeout)
+            if self._out:
+                data = bytes(self._out)
+                self._out.clear()
+                self._cond.notify_all()
+                return data
+            if self._closed or not self.runner.running:
+                raise DisconnectedError(
+                    f"simulated device {self.url} stopped"
+                    + (f": {self.runner.error!r}" if self.runner.error else "")
+                )
+            return b""
+
+    def write(self, data: bytes) -> None:
+        if self._closed or not self.runner.running:
+            raise DisconnectedError(f"simulated device {self.url} stopped")
+        self.runner.write(data)
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self.runner.stop()

@@ -1,0 +1,46 @@
+"""Parse sim:// URLs: sim://?scene=tour&seed=3&speed=max&absent=1"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from urllib.parse import parse_qs, urlsplit
+
+from spectratac.sim.runner import MAX
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    scene: str = "idle"
+    seed: int = 0
+    speed: float | str = 1.0
+    absent: tuple[int, ...] = ()  # sensors (0..2) that do not answer on their bus
+    scene_params: dict[str, str] = field(default_factory=dict)
+
+    def query(self) -> str:
+        parts = [f"scene={self.scene}", f"seed={self.seed}", f"speed={self.speed}"]
+        if self.absent:
+            parts.append("absent=" + ",".join(map(str, self.absent)))
+        parts += [f"{k}={v}" for k, v in self.scene_params.items()]
+        return "sim://?" + "&".join(parts)
+
+
+def parse_sim_url(url: str) -> SimOptions:
+    parts = urlsplit(url)
+    if parts.scheme != "sim":
+        raise ValueError(f"{url!r} is not a sim:// URL")
+    query = {k: v[-1] for k, v in parse_qs(parts.query, keep_blank_values=True).items()}
+    scene = query.pop("scene", parts.netloc or "idle")
+    try:
+        seed = int(query.pop("seed", "0"))
+        raw_speed = query.pop("speed", "1")
+        speed: float | str = MAX if raw_speed == MAX else float(raw_speed)
+        absent = tuple(int(a) for a in query.pop("absent", "").split(",") if a)
+    except ValueError as exc:
+        raise ValueError(
+            f"bad sim URL {url!r}: {exc}; example: sim://?scene=tour&seed=3&speed=max"
+        ) from None
+    if isinstance(speed, float) and speed <= 0:
+        raise ValueError(f"bad sim URL {url!r}: speed must be > 0 or 'max'")
+    if any(a not in (0, 1, 2) for a in absent):
+        raise ValueError(f"bad sim URL {url!r}: absent lists sensors 0, 1, 2")
+    return SimOptions(scene, seed, speed, absent, query)
