@@ -1,0 +1,182 @@
+#include "stac_cmd.h"
+
+#include <string.h>
+
+#include "stac_sched.h"
+
+#define NO_FIELD 255u
+
+static void send_ack(stac_app_t *app, const stac_frame_header_t *h) {
+    const stac_ack_t ack = {.acked_type = h->type, .acked_seq = h->seq,
+                            .config_id = app->latest_id};
+    uint8_t p[STAC_ACK_SIZE];
+    (void)stac_app_send(app, STAC_MSG_ACK, p, stac_ack_pack(&ack, p));
+}
+
+static void send_nack(stac_app_t *app, const stac_frame_header_t *h, uint16_t error,
+                      uint8_t field) {
+    const stac_nack_t nack = {.rejected_type = h->type, .rejected_seq = h->seq, .error = error,
+                              .field_index = field};
+    uint8_t p[STAC_NACK_SIZE];
+    app->stats.command_errors++;
+    (void)stac_app_send(app, STAC_MSG_NACK, p, stac_nack_pack(&nack, p));
+}
+
+static void send_info(stac_app_t *app) {
+    stac_info_t m;
+    memset(&m, 0, sizeof m);
+    m.protocol_major = (uint8_t)STAC_PROTOCOL_MAJOR;
+    m.protocol_minor = (uint8_t)STAC_PROTOCOL_MINOR;
+    m.definition_hash = STAC_DEFINITION_HASH;
+    m.firmware_version[0] = (uint8_t)STAC_FW_VERSION_MAJOR;
+    m.firmware_version[1] = (uint8_t)STAC_FW_VERSION_MINOR;
+    m.firmware_version[2] = (uint8_t)STAC_FW_VERSION_PATCH;
+    memcpy(m.build_id, app->id.build_id, sizeof m.build_id);
+    memcpy(m.device_uid, app->uid, sizeof m.device_uid);
+    memcpy(m.board, app->id.board, sizeof m.board);
+    m.sensor_count = (uint8_t)STAC_SENSORS;
+    m.sensor_present = app->present;
+    m.channels_per_sensor = (uint8_t)STAC_CHANNELS;
+    m.capabilities = app->id.capabilities;
+    m.max_led_steps = (uint8_t)STAC_MAX_LED_STEPS;
+    m.duty_full_scale = (uint16_t)STAC_DUTY_FULL_SCALE;
+    m.integration_times_mask = 0x0Fu;
+    m.max_frame = (uint16_t)STAC_MAX_FRAME;
+    m.baud = app->id.baud;
+    uint8_t p[STAC_INFO_SIZE];
+    (void)stac_app_send(app, STAC_MSG_INFO, p, stac_info_pack(&m, p));
+}
+
+static void send_status(stac_app_t *app) {
+    stac_status_t m;
+    memset(&m, 0, sizeof m);
+    m.uptime_ms = (uint32_t)(app->uptime_us / 1000u);
+    m.device_time_us = stac_app_clock(app);
+    m.streaming = app->streaming ? 1u : 0u;
+    m.config_id = app->cfg_id;
+    m.sensor_present = app->present;
+    m.samples_taken = app->stats.samples_taken;
+    m.frames_sent = app->stats.frames_sent;
+    m.frames_dropped = app->stats.frames_dropped;
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        m.bus_errors[k] = app->stats.bus_errors[k];
+        m.saturations[k] = app->stats.saturations[k];
+    }
+    m.rx_frames = app->stats.rx_frames;
+    m.rx_errors = app->stats.rx_errors;
+    m.command_errors = app->stats.command_errors;
+    uint8_t p[STAC_STATUS_SIZE];
+    (void)stac_app_send(app, STAC_MSG_STATUS, p, stac_status_pack(&m, p));
+}
+
+static void send_config(stac_app_t *app) {
+    const stac_configure_t *c = &app->cfg;
+    stac_config_t m;
+    m.config_id = app->cfg_id;
+    m.integration_ms = c->integration_ms;
+    m.gain = c->gain;
+    m.digital_gain = c->digital_gain;
+    m.sensitivity = c->sensitivity;
+    m.flags = c->flags;
+    m.led_settle_us = c->led_settle_us;
+    m.led_step_count = c->led_step_count;
+    memcpy(m.led_duty, c->led_duty, sizeof m.led_duty);
+    uint8_t p[STAC_CONFIG_SIZE];
+    (void)stac_app_send(app, STAC_MSG_CONFIG, p, stac_config_pack(&m, p));
+}
+
+static void handle_configure(stac_app_t *app, const stac_frame_header_t *h, const uint8_t *payload,
+                             size_t len) {
+    stac_configure_t c;
+    stac_configure_unpack(&c, payload, len);
+    uint8_t field = NO_FIELD;
+    const uint16_t err = stac_configure_validate(&c, &field);
+    if (err != STAC_OK) {
+        send_nack(app, h, err, field);
+        return;
+    }
+    app->pending = c;
+    app->has_pending = true;
+    app->latest_id++;
+    if (!app->streaming && app->acq.state == STAC_ACQ_IDLE) {
+        /* Nothing is integrating: the configuration is in force at once. */
+        app->cfg = c;
+        app->cfg_id = app->latest_id;
+        app->has_pending = false;
+        app->acq.step = 0u;
+    }
+    send_ack(app, h);
+    if ((c.flags & STAC_CONFIG_STREAM) != 0u) {
+        stac_sched_start(app);
+    }
+}
+
+static void handle_time_sync(stac_app_t *app, const uint8_t *payload, size_t len) {
+    const uint32_t rx_us = stac_app_clock(app);
+    stac_time_sync_request_t req;
+    stac_time_sync_request_unpack(&req, payload, len);
+    stac_time_sync_reply_t rep = {.exchange_id = req.exchange_id,
+                                  .host_time_ns = req.host_time_ns,
+                                  .device_rx_us = rx_us,
+                                  .device_tx_us = 0u};
+    uint8_t p[STAC_TIME_SYNC_REPLY_SIZE];
+    rep.device_tx_us = stac_app_clock(app); /* taken last: only framing separates it from tx */
+    (void)stac_app_send(app, STAC_MSG_TIME_SYNC_REPLY, p, stac_time_sync_reply_pack(&rep, p));
+}
+
+static void reset_stats(stac_app_t *app) {
+    memset(&app->stats, 0, sizeof app->stats);
+}
+
+void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
+    uint8_t raw[STAC_MAX_DECODED];
+    stac_frame_header_t h;
+    const uint8_t *payload = (const uint8_t *)0;
+    size_t plen = 0u;
+    if (stac_frame_decode(encoded, len, raw, &h, &payload, &plen) != STAC_FRAME_OK) {
+        app->stats.rx_errors++;
+        return;
+    }
+    app->stats.rx_frames++;
+    if (h.major != STAC_PROTOCOL_MAJOR) {
+        send_nack(app, &h, STAC_VERSION_MISMATCH, NO_FIELD);
+        return;
+    }
+    if ((h.type & 0x80u) != 0u) {
+        send_nack(app, &h, STAC_WRONG_DIRECTION, NO_FIELD);
+        return;
+    }
+    if (stac_payload_size(h.type) < 0) {
+        send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);
+        return;
+    }
+    if (plen > STAC_MAX_PAYLOAD) {
+        send_nack(app, &h, STAC_MALFORMED, NO_FIELD);
+        return;
+    }
+    /* Payload bytes beyond what this version knows are ignored, missing ones read as zero
+     * (the generated unpack functions implement both rules). */
+    switch (h.type) {
+    case STAC_MSG_GET_INFO: send_info(app); break;
+    case STAC_MSG_CONFIGURE: handle_configure(app, &h, payload, plen); break;
+    case STAC_MSG_START:
+        stac_sched_start(app);
+        send_ack(app, &h);
+        break;
+    case STAC_MSG_STOP:
+        stac_sched_stop(app);
+        send_ack(app, &h);
+        break;
+    case STAC_MSG_TIME_SYNC_REQUEST: handle_time_sync(app, payload, plen); break;
+    case STAC_MSG_GET_STATUS: send_status(app); break;
+    case STAC_MSG_GET_CONFIG: send_config(app); break;
+    case STAC_MSG_RESET_STATS:
+        reset_stats(app);
+        send_ack(app, &h);
+        break;
+    default:
+        /* A host-to-device type in the generated table that this firmware does not serve. */
+        send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);
+        break;
+    }
+}

@@ -1,0 +1,53 @@
+/* Hardware abstraction between the portable core and a port (native simulation or STM32F411).
+ *
+ * Every function is non-blocking or bounded: the core never waits on the hardware without a
+ * timeout, so a dead sensor or a stuck bus shows up in frames instead of hanging the device.
+ * Only plain C types cross this boundary so that the native port can hand it to ctypes. */
+#ifndef STAC_HAL_H
+#define STAC_HAL_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Result of one I2C transfer. */
+enum {
+    STAC_I2C_OK = 0,
+    STAC_I2C_NACK = 1,      /* address or data byte not acknowledged (sensor missing) */
+    STAC_I2C_TIMEOUT = 2,   /* the transfer did not finish within timeout_us (bus stalled) */
+    STAC_I2C_BUS_ERROR = 3  /* arbitration lost, bus error, or any other failure */
+};
+
+#define STAC_UID_SIZE 12u
+
+typedef struct stac_hal {
+    void *ctx; /* passed back unchanged as the first argument of every call */
+
+    /* Write wr_len bytes to 7-bit address addr7 on bus (0..2); when rd_len > 0 follow with a
+     * repeated start and read rd_len bytes. Returns a STAC_I2C_* code within timeout_us. */
+    int32_t (*i2c_transfer)(void *ctx, uint8_t bus, uint8_t addr7, const uint8_t *wr,
+                            uint32_t wr_len, uint8_t *rd, uint32_t rd_len, uint32_t timeout_us);
+
+    /* Set the PWM duty of one colour (0 R, 1 G, 2 B) of one LED (0..2), in permille. */
+    void (*pwm_set)(void *ctx, uint8_t led, uint8_t colour, uint16_t duty_permille);
+
+    /* Queue a whole encoded frame for transmission. All or nothing: returns len when queued,
+     * 0 when the transmit buffer cannot take it (the core then counts a dropped frame). */
+    uint32_t (*uart_write)(void *ctx, const uint8_t *data, uint32_t len);
+
+    /* Copy up to cap received bytes into buf without waiting; returns how many. */
+    uint32_t (*uart_read)(void *ctx, uint8_t *buf, uint32_t cap);
+
+    /* Monotonic microseconds, wrapping at 2^32. */
+    uint32_t (*clock_us)(void *ctx);
+
+    /* The 96-bit unique id of the device. */
+    void (*unique_id)(void *ctx, uint8_t uid[STAC_UID_SIZE]);
+} stac_hal_t;
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* STAC_HAL_H */

@@ -1,0 +1,278 @@
+#include "stac_sched.h"
+
+#include <string.h>
+
+#include "veml3328.h"
+
+static uint32_t integration_us(const stac_configure_t *cfg) {
+    return (uint32_t)cfg->integration_ms * 1000u;
+}
+
+static veml3328_settings_t sensor_settings(const stac_configure_t *cfg) {
+    veml3328_settings_t s;
+    const int32_t it = veml3328_it_code(cfg->integration_ms);
+    s.it_code = (uint8_t)(it < 0 ? 0 : it); /* cfg was validated; 50 ms is the safe fallback */
+    s.gain = cfg->gain;
+    s.dg = cfg->digital_gain;
+    s.sens_low = cfg->sensitivity;
+    return s;
+}
+
+static const char *i2c_reason(int32_t rc) {
+    switch (rc) {
+    case STAC_I2C_NACK: return "no acknowledge";
+    case STAC_I2C_TIMEOUT: return "bus timeout";
+    case VEML3328_WRONG_ID: return "wrong device id";
+    default: return "bus error";
+    }
+}
+
+/* Text for a LOG line: "sensor <k> <what>". Built by hand to stay printf-free on the MCU. */
+static void log_sensor(stac_app_t *app, uint8_t level, uint32_t k, const char *what) {
+    char text[STAC_LOG_SIZE];
+    size_t n = 0u;
+    static const char k_prefix[] = "sensor ";
+    memcpy(text, k_prefix, sizeof k_prefix - 1u);
+    n = sizeof k_prefix - 1u;
+    text[n++] = (char)('0' + k);
+    text[n++] = ' ';
+    for (size_t i = 0u; what[i] != '\0' && n < 63u; i++) {
+        text[n++] = what[i];
+    }
+    text[n] = '\0';
+    stac_app_log(app, level, text);
+}
+
+static void sensor_failed(stac_app_t *app, uint32_t k, int32_t rc) {
+    app->stats.bus_errors[k]++;
+    app->acq.fault |= (uint8_t)(1u << k);
+    app->acq.pending &= (uint8_t)~(1u << k);
+    if ((app->lost & (1u << k)) == 0u) {
+        app->lost |= (uint8_t)(1u << k);
+        char what[40] = "lost: ";
+        const char *reason = i2c_reason(rc);
+        size_t n = 6u;
+        for (size_t i = 0u; reason[i] != '\0' && n < sizeof what - 1u; i++) {
+            what[n++] = reason[i];
+        }
+        what[n] = '\0';
+        log_sensor(app, STAC_LOG_WARN, k, what);
+    }
+}
+
+static void sensor_ok(stac_app_t *app, uint32_t k) {
+    if ((app->lost & (1u << k)) != 0u) {
+        app->lost &= (uint8_t)~(1u << k);
+        log_sensor(app, STAC_LOG_INFO, k, "recovered");
+    }
+}
+
+void stac_sched_probe(stac_app_t *app) {
+    const veml3328_settings_t s = sensor_settings(&app->cfg);
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        const uint8_t bit = (uint8_t)(1u << k);
+        int32_t rc = veml3328_probe(&app->hal, (uint8_t)k);
+        if (rc == STAC_I2C_OK) {
+            rc = veml3328_configure(&app->hal, (uint8_t)k, &s);
+        }
+        if (rc == STAC_I2C_OK) {
+            app->present |= bit;
+        } else {
+            if ((app->present & bit) != 0u) {
+                log_sensor(app, STAC_LOG_WARN, k, "absent");
+            }
+            app->present &= (uint8_t)~bit;
+        }
+    }
+}
+
+/* Apply an accepted configuration: only ever between cycles. */
+static void apply_pending(stac_app_t *app) {
+    if (!app->has_pending) {
+        return;
+    }
+    app->cfg = app->pending;
+    app->cfg_id = app->latest_id;
+    app->has_pending = false;
+    app->acq.step = 0u;
+}
+
+void stac_sched_start(stac_app_t *app) {
+    if (app->streaming) {
+        return;
+    }
+    /* A sensor plugged in (or powered) since boot is picked up here. */
+    if (app->present != (uint8_t)((1u << STAC_SENSORS) - 1u)) {
+        stac_sched_probe(app);
+    }
+    app->streaming = true;
+    app->sample_seq = 0u;
+    app->acq.step = 0u;
+    app->acq.state = STAC_ACQ_IDLE;
+}
+
+void stac_sched_stop(stac_app_t *app) {
+    if (app->acq.state == STAC_ACQ_INTEGRATE && app->acq.pending != 0u) {
+        /* The sensors are still integrating: do not retrigger them before they finish. */
+        app->acq.busy = true;
+    }
+    app->streaming = false;
+    app->acq.state = STAC_ACQ_IDLE;
+    stac_leds_off(&app->leds, &app->hal);
+}
+
+static void begin_cycle(stac_app_t *app) {
+    apply_pending(app);
+    if (app->acq.step >= app->cfg.led_step_count) {
+        app->acq.step = 0u;
+    }
+    const bool changed = stac_leds_apply(&app->leds, &app->hal,
+                                         &app->cfg.led_duty[app->acq.step][0][0]);
+    /* Settle from when the light actually changed, not from the start of the pass. */
+    uint32_t at = stac_app_clock(app) + (changed ? (uint32_t)app->cfg.led_settle_us : 0u);
+    if (app->acq.busy) {
+        if (stac_before(at, app->acq.deadline)) {
+            at = app->acq.deadline;
+        }
+        app->acq.busy = false;
+    }
+    app->acq.settle_until = at;
+    app->acq.state = STAC_ACQ_SETTLE;
+}
+
+static void trigger(stac_app_t *app) {
+    const veml3328_settings_t s = sensor_settings(&app->cfg);
+    stac_acq_t *acq = &app->acq;
+    acq->t_start = stac_app_clock(app);
+    acq->fault = 0u;
+    acq->done = 0u;
+    acq->pending = 0u;
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        if ((app->present & (1u << k)) == 0u) {
+            continue;
+        }
+        acq->pending |= (uint8_t)(1u << k);
+        const int32_t rc = veml3328_trigger(&app->hal, (uint8_t)k, &s);
+        if (rc != STAC_I2C_OK) {
+            sensor_failed(app, k, rc);
+        }
+    }
+    const uint32_t it = integration_us(&app->cfg);
+    acq->poll_at = acq->t_start + it;
+    acq->deadline = acq->t_start + it + STAC_STALE_MARGIN_US(it);
+    acq->state = STAC_ACQ_INTEGRATE;
+}
+
+static void poll(stac_app_t *app) {
+    stac_acq_t *acq = &app->acq;
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        const uint8_t bit = (uint8_t)(1u << k);
+        if ((acq->pending & bit) == 0u) {
+            continue;
+        }
+        bool done = false;
+        const int32_t rc = veml3328_poll_done(&app->hal, (uint8_t)k, &done);
+        if (rc != STAC_I2C_OK) {
+            sensor_failed(app, k, rc);
+        } else if (done) {
+            acq->pending &= (uint8_t)~bit;
+            acq->done |= bit;
+        }
+    }
+}
+
+/* Read the finished sensors and hand the SAMPLE to the UART, all in this pass. */
+static void finish(stac_app_t *app) {
+    stac_acq_t *acq = &app->acq;
+    stac_sample_t s;
+    memset(&s, 0, sizeof s);
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        const uint8_t bit = (uint8_t)(1u << k);
+        uint8_t st = 0u;
+        if ((app->present & bit) == 0u) {
+            st = STAC_SENSOR_ABSENT;
+        } else if ((acq->done & bit) != 0u) {
+            bool sat = false;
+            uint16_t c[STAC_CHANNELS];
+            const int32_t rc = veml3328_read_channels(&app->hal, (uint8_t)k, c, &sat);
+            if (rc != STAC_I2C_OK) {
+                sensor_failed(app, k, rc);
+                st = STAC_SENSOR_BUS_FAULT;
+            } else {
+                sensor_ok(app, k);
+                memcpy(acq->last_counts[k], c, sizeof c);
+                memcpy(s.counts[k], c, sizeof c);
+                if (sat) {
+                    st = STAC_SENSOR_SATURATED;
+                    app->stats.saturations[k]++;
+                }
+            }
+        } else if ((acq->fault & bit) != 0u) {
+            st = STAC_SENSOR_BUS_FAULT;
+        } else {
+            /* Answered, but did not finish in time: repeat its last good counts. */
+            st = STAC_SENSOR_STALE;
+            memcpy(s.counts[k], acq->last_counts[k], sizeof s.counts[k]);
+        }
+        s.sensor_status[k] = st;
+    }
+    s.sample_seq = app->sample_seq++;
+    s.t_start_us = acq->t_start;
+    s.t_end_us = stac_app_clock(app);
+    s.led_step = acq->step;
+    s.config_id = app->cfg_id;
+    app->stats.samples_taken++;
+    uint8_t payload[STAC_SAMPLE_SIZE];
+    const size_t n = stac_sample_pack(&s, payload);
+    (void)stac_app_send(app, STAC_MSG_SAMPLE, payload, n);
+
+    acq->pending = 0u;
+    acq->step = (uint8_t)((acq->step + 1u) % app->cfg.led_step_count);
+    acq->state = STAC_ACQ_IDLE;
+}
+
+void stac_sched_run(stac_app_t *app) {
+    stac_acq_t *acq = &app->acq;
+    /* At most one full cycle per pass: finish -> next cycle -> trigger. */
+    for (uint32_t transitions = 0u; transitions < 4u; transitions++) {
+        /* Bus transfers take time, so each decision reads the clock afresh. */
+        const uint32_t now = stac_app_clock(app);
+        switch (acq->state) {
+        case STAC_ACQ_IDLE:
+            if (!app->streaming) {
+                apply_pending(app);
+                return;
+            }
+            begin_cycle(app);
+            break;
+        case STAC_ACQ_SETTLE:
+            if (stac_before(now, acq->settle_until)) {
+                return;
+            }
+            trigger(app);
+            break;
+        case STAC_ACQ_INTEGRATE:
+            if (stac_before(now, acq->poll_at)) {
+                return;
+            }
+            poll(app);
+            if (acq->pending != 0u && stac_before(stac_app_clock(app), acq->deadline)) {
+                acq->poll_at = now + STAC_POLL_INTERVAL_US;
+                return;
+            }
+            finish(app);
+            break;
+        default:
+            acq->state = STAC_ACQ_IDLE;
+            return;
+        }
+    }
+}
+
+uint32_t stac_sched_next_wake(const stac_app_t *app, uint32_t idle_us) {
+    switch (app->acq.state) {
+    case STAC_ACQ_SETTLE: return app->acq.settle_until;
+    case STAC_ACQ_INTEGRATE: return app->acq.poll_at;
+    default: return app->streaming ? app->now : app->now + idle_us;
+    }
+}

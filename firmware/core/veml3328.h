@@ -1,0 +1,77 @@
+/* Register-level driver for the Vishay VEML3328 RGBCIR colour sensor (7-bit address 0x10).
+ * 16-bit registers, little-endian: write [reg, lsb, msb]; read [reg] then repeated start and
+ * two bytes. Every call is one or a few bounded HAL transfers; nothing here waits. */
+#ifndef VEML3328_H
+#define VEML3328_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "stac_hal.h"
+
+#define VEML3328_ADDR 0x10u
+
+#define VEML3328_REG_CONF 0x00u
+#define VEML3328_REG_C 0x04u
+#define VEML3328_REG_R 0x05u
+#define VEML3328_REG_G 0x06u
+#define VEML3328_REG_B 0x07u
+#define VEML3328_REG_IR 0x08u
+#define VEML3328_REG_ID 0x0Cu
+#define VEML3328_ID_LOW 0x28u /* low byte of the ID register */
+
+/* CONF bits. Both shutdown bits (15 and 0) must be clear for the sensor to run. */
+#define VEML3328_CONF_SD 0x8001u
+#define VEML3328_CONF_DG_SHIFT 12u   /* 0 ×1, 1 ×2, 2 ×4 */
+#define VEML3328_CONF_GAIN_SHIFT 10u /* 0 ×1, 1 ×2, 2 ×4, 3 ×1/2 */
+#define VEML3328_CONF_SENS 0x0040u   /* low sensitivity (1/3) */
+#define VEML3328_CONF_IT_SHIFT 4u    /* 0 50 ms, 1 100 ms, 2 200 ms, 3 400 ms */
+#define VEML3328_CONF_AF 0x0008u     /* active force mode: one measurement per trigger */
+#define VEML3328_CONF_TRIG 0x0004u   /* start one measurement; the sensor clears it when done */
+
+/* Channel order of a reading, as in SAMPLE.counts. */
+enum { VEML3328_CH_R = 0, VEML3328_CH_G, VEML3328_CH_B, VEML3328_CH_C, VEML3328_CH_IR,
+       VEML3328_CHANNELS };
+
+/* Driver results: a STAC_I2C_* code, or this one when a device answers with another ID. */
+#define VEML3328_WRONG_ID 16
+
+/* Per-transfer bound: a 3-byte transfer takes ~0.1 ms at 400 kHz and ~0.4 ms at 100 kHz. */
+#define VEML3328_TIMEOUT_US 2000u
+
+typedef struct veml3328_settings {
+    uint8_t it_code;   /* 0..3: 50/100/200/400 ms */
+    uint8_t gain;      /* 0..3 */
+    uint8_t dg;        /* 0..2 */
+    uint8_t sens_low;  /* 0 high, 1 low */
+} veml3328_settings_t;
+
+/* IT code of an integration time in ms, or -1 if the sensor has no such setting. */
+int32_t veml3328_it_code(uint16_t integration_ms);
+
+/* CONF word for the settings: running, active force mode, TRIG as given. */
+uint16_t veml3328_conf_word(const veml3328_settings_t *s, bool trigger);
+
+int32_t veml3328_read_reg(const stac_hal_t *hal, uint8_t bus, uint8_t reg, uint16_t *value);
+int32_t veml3328_write_reg(const stac_hal_t *hal, uint8_t bus, uint8_t reg, uint16_t value);
+
+/* Read the ID register; STAC_I2C_OK only if its low byte is 0x28. */
+int32_t veml3328_probe(const stac_hal_t *hal, uint8_t bus);
+
+/* Power up in active force mode with the settings, without starting a measurement. */
+int32_t veml3328_configure(const stac_hal_t *hal, uint8_t bus, const veml3328_settings_t *s);
+
+/* Write the settings with TRIG set: one integration starts now. */
+int32_t veml3328_trigger(const stac_hal_t *hal, uint8_t bus, const veml3328_settings_t *s);
+
+/* Read CONF; *done is true once the sensor has cleared TRIG (the measurement finished). */
+int32_t veml3328_poll_done(const stac_hal_t *hal, uint8_t bus, bool *done);
+
+/* Read R, G, B, C, IR; *saturated is true if any channel reads 65535 (clipped). */
+int32_t veml3328_read_channels(const stac_hal_t *hal, uint8_t bus,
+                               uint16_t counts[VEML3328_CHANNELS], bool *saturated);
+
+/* Put the sensor into shutdown (both SD bits). */
+int32_t veml3328_shutdown(const stac_hal_t *hal, uint8_t bus);
+
+#endif /* VEML3328_H */

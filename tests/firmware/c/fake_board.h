@@ -1,0 +1,102 @@
+/* A fake board for the core's unit tests: three register-level VEML3328 models on three
+ * buses, a PWM recorder, a UART that captures frames and a settable clock. A sensor can be
+ * made to NACK (absent), stall (timeout), answer with a wrong ID, never finish, or saturate. */
+#ifndef FAKE_BOARD_H
+#define FAKE_BOARD_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "stac_app.h"
+#include "stac_frame.h"
+
+enum fake_mode {
+    FAKE_OK = 0,
+    FAKE_ABSENT,     /* every transfer NACKs */
+    FAKE_STALL,      /* every transfer times out (the clock advances by the timeout) */
+    FAKE_WRONG_ID,   /* answers, but ID register low byte is not 0x28 */
+    FAKE_NEVER_DONE, /* TRIG never clears */
+    FAKE_BUS_ERROR   /* every transfer fails with a bus error */
+};
+
+typedef struct fake_sensor {
+    int mode;
+    uint16_t conf;
+    uint16_t base[5];    /* counts R, G, B, C, IR in the dark */
+    uint16_t data[5];    /* latched result registers */
+    bool saturate;       /* results read 65535 */
+    bool measuring;
+    uint32_t trig_at;
+    uint32_t it_us;
+    uint32_t led_sum_at_trigger; /* sum of all duties when the measurement started */
+    uint32_t triggers;
+    uint32_t transfers;
+    uint32_t fail_next;  /* the next n transfers fail as `fail_mode` */
+    int fail_mode;
+    uint32_t slow_ppm;   /* the sensor's oscillator runs this much slower than nominal */
+    bool fresh;          /* finished, and the firmware has not yet seen TRIG cleared */
+} fake_sensor_t;
+
+typedef struct fake_pwm_event {
+    uint32_t t;
+    uint8_t led, colour;
+    uint16_t duty;
+} fake_pwm_event_t;
+
+typedef struct fake_window {
+    uint32_t start, end; /* integration of one sensor, for straddle checks */
+    uint8_t bus;
+} fake_window_t;
+
+#define FAKE_MAX_PWM 4096
+#define FAKE_MAX_WINDOWS 4096
+#define FAKE_TX_CAP 65536
+#define FAKE_RX_CAP 8192
+
+typedef struct fake_board {
+    fake_sensor_t s[3];
+    uint32_t now;
+    uint32_t transfer_cost_us; /* each I2C transfer advances the clock by this much */
+    uint16_t duty[3][3];
+    fake_pwm_event_t pwm[FAKE_MAX_PWM];
+    size_t n_pwm;
+    fake_window_t win[FAKE_MAX_WINDOWS];
+    size_t n_win;
+    uint8_t tx[FAKE_TX_CAP];
+    size_t tx_len;
+    bool tx_full;       /* refuse frames (transmit buffer full) */
+    uint32_t tx_frames;
+    uint32_t pass;              /* superloop passes run by fake_run_until */
+    uint32_t done_pass;         /* pass in which the firmware last saw a measurement finish */
+    uint32_t tx_pass[1024];     /* per captured frame: the pass that sent it */
+    uint32_t tx_done_pass[1024];/* per captured frame: done_pass at that moment */
+    uint8_t rx[FAKE_RX_CAP];
+    size_t rx_len, rx_pos;
+    stac_hal_t hal;
+} fake_board_t;
+
+void fake_init(fake_board_t *b);
+/* Start an app on the board: boot at b->now. */
+void fake_boot(fake_board_t *b, stac_app_t *app);
+/* Step the app every `tick_us` until `until` (absolute device time). */
+void fake_run_until(fake_board_t *b, stac_app_t *app, uint32_t until, uint32_t tick_us);
+/* Queue a command frame for the device. */
+void fake_send(fake_board_t *b, uint8_t type, uint16_t seq, const uint8_t *payload, size_t len);
+void fake_send_raw(fake_board_t *b, const uint8_t *bytes, size_t len);
+
+/* Decoded frames the device sent, in order. */
+typedef struct fake_frame {
+    stac_frame_header_t h;
+    uint8_t payload[STAC_MAX_PAYLOAD];
+    size_t len;
+} fake_frame_t;
+
+/* Decode every captured frame into out (capacity cap); returns the count, -1 on a bad one. */
+int fake_frames(const fake_board_t *b, fake_frame_t *out, size_t cap);
+/* The last frame of a type, or NULL. */
+const fake_frame_t *fake_last(const fake_frame_t *f, int n, uint8_t type);
+int fake_count(const fake_frame_t *f, int n, uint8_t type);
+void fake_clear_tx(fake_board_t *b);
+
+#endif /* FAKE_BOARD_H */
