@@ -34,7 +34,7 @@ from spectratac.device.errors import (
 )
 from spectratac.device.records import Sample, Unwrapper, to_array
 from spectratac.device.transport import Transport, open_transport
-from spectratac.protocol import StreamDecoder, encode_frame
+from spectratac.protocol import StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
 from spectratac.protocol.schema import Message
 
@@ -305,6 +305,28 @@ class Sensor:
         best = min(done, key=lambda e: e.round_trip)
         return ClockSync(best.offset, best.round_trip, tuple(done))
 
+    def request_raw(
+        self,
+        type_id: int,
+        payload: bytes,
+        accepts: tuple[int, ...] = (m.Ack.TYPE_ID, m.Nack.TYPE_ID),
+        version: tuple[int, int] = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR),
+    ) -> Message:
+        """Send a frame with any type, payload and version, unvalidated, and return the reply
+        (for conformance tests and debugging). ACK/NACK replies are matched by sequence."""
+        with self._write_lock:
+            seq = self._next_seq()
+            match = m.Ack.TYPE_ID in accepts or m.Nack.TYPE_ID in accepts
+            waiter = _Waiter(accepts, seq if match else None)
+            with self._cond:
+                self._waiters.append(waiter)
+            self._transport.write(encode_raw(type_id, payload, seq, version))
+        return self._await(waiter, f"frame type 0x{type_id:02X}")
+
+    def write_raw(self, data: bytes) -> None:
+        """Put arbitrary bytes on the link (e.g. garbage, to test the device's recovery)."""
+        self._write(data)
+
     # ------------------------------------------------------------------ samples
     def read(self, n: int, timeout: float | None = None) -> np.ndarray:
         """Up to `n` samples as a SAMPLE_RECORD array, waiting up to `timeout` s (default:
@@ -396,12 +418,15 @@ class Sensor:
             except DisconnectedError:
                 self._drop_waiter(waiter)
                 raise
+        return self._await(waiter, msg.NAME)
+
+    def _await(self, waiter: _Waiter, what: str) -> Message:
         if not waiter.event.wait(self.timeout):
             self._drop_waiter(waiter)
             if self._lost is not None:
                 raise self._lost
             raise DeviceTimeoutError(
-                f"no reply to {msg.NAME} from {self.url} within {self.timeout:.1f} s: is the "
+                f"no reply to {what} from {self.url} within {self.timeout:.1f} s: is the "
                 f"device powered, running SpectraTac firmware, and on this port/baud rate?"
             )
         if waiter.reply is None:

@@ -1,0 +1,304 @@
+"""The conformance checks: what any SpectraTac device must do, tested over its real link.
+
+Each check gets a connected Sensor and returns (passed, detail). They assume nothing about the
+device beyond the protocol: the same suite runs against the simulated device in-process or over
+a pty, the STM32F411 image in QEMU, and a real board.
+"""
+
+from __future__ import annotations
+
+import itertools
+import random
+import struct
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from spectratac.device import Sensor
+from spectratac.protocol import messages as m
+
+WHITE = [[[500, 500, 500]] * 3]
+RGB_STEPS = [[[(c == k and 1000) or 0 for c in range(3)]] * 3 for k in range(3)]
+
+
+@dataclass
+class Outcome:
+    passed: bool
+    detail: str
+
+
+Check = Callable[[Sensor], Outcome]
+
+
+def _configure_payload(**overrides: int) -> bytes:
+    """A CONFIGURE payload packed by hand so that invalid values reach the device."""
+    f = {
+        "integration_ms": 50,
+        "gain": 0,
+        "digital_gain": 0,
+        "sensitivity": 0,
+        "flags": 0,
+        "led_settle_us": 1000,
+        "led_step_count": 1,
+        "duty": 500,
+    } | overrides
+    head = struct.pack(
+        "<HBBBBHB",
+        f["integration_ms"],
+        f["gain"],
+        f["digital_gain"],
+        f["sensitivity"],
+        f["flags"],
+        f["led_settle_us"],
+        f["led_step_count"],
+    )
+    duties = [0] * (m.MAX_LED_STEPS * 9)
+    duties[:9] = [f["duty"]] * 9
+    return head + struct.pack(f"<{len(duties)}H", *duties)
+
+
+def handshake(s: Sensor) -> Outcome:
+    i = s.info
+    ok = i.protocol_major == m.PROTOCOL_MAJOR and i.definition_hash == m.DEFINITION_HASH
+    return Outcome(
+        ok,
+        f"protocol {i.protocol_major}.{i.protocol_minor}, hash "
+        f"0x{i.definition_hash:08X}, board {i.board!r}, fw "
+        f"{'.'.join(map(str, i.firmware_version))}, build {i.build_id!r}",
+    )
+
+
+def info_limits(s: Sensor) -> Outcome:
+    i = s.info
+    problems = []
+    if i.sensor_count != 3 or i.channels_per_sensor != 5:
+        problems.append(f"sensor_count {i.sensor_count}, channels {i.channels_per_sensor}")
+    if not 1 <= i.max_led_steps <= m.MAX_LED_STEPS:
+        problems.append(f"max_led_steps {i.max_led_steps}")
+    if i.duty_full_scale != m.DUTY_FULL_SCALE or i.integration_times_mask & 0x0F != 0x0F:
+        problems.append("duty scale or integration times")
+    if not 0 < i.max_frame <= m.MAX_FRAME:
+        problems.append(f"max_frame {i.max_frame}")
+    present = [k for k in range(3) if i.sensor_present >> k & 1]
+    return Outcome(not problems, "; ".join(problems) or f"sensors present: {present}")
+
+
+def configure_ack(s: Sensor) -> Outcome:
+    before = s.get_config().config_id
+    cid = s.configure(integration_ms=100, gain=2.0, leds=RGB_STEPS)
+    cfg = s.get_config()
+    ok = (
+        cid != before
+        and cfg.config_id == cid
+        and cfg.integration_ms == 100
+        and cfg.led_step_count == 3
+        and cfg.gain == m.Gain.GAIN_X2
+    )
+    s.configure(integration_ms=50, leds=WHITE)
+    return Outcome(ok, f"config_id {before} -> {cid}; CONFIG echoes it: {cfg.config_id == cid}")
+
+
+INVALID = [
+    ({"integration_ms": 75}, m.Error.BAD_INTEGRATION_TIME, 0),
+    ({"gain": 4}, m.Error.BAD_GAIN, 1),
+    ({"digital_gain": 3}, m.Error.BAD_DIGITAL_GAIN, 2),
+    ({"sensitivity": 2}, m.Error.BAD_SENSITIVITY, 3),
+    ({"flags": 0x80}, m.Error.BAD_FLAGS, 4),
+    ({"led_settle_us": 20000}, m.Error.BAD_SETTLE_TIME, 5),
+    ({"led_step_count": 0}, m.Error.BAD_STEP_COUNT, 6),
+    ({"led_step_count": 9}, m.Error.BAD_STEP_COUNT, 6),
+    ({"duty": 1001}, m.Error.DUTY_OUT_OF_RANGE, 7),
+]
+
+
+def configure_nack(s: Sensor) -> Outcome:
+    before = s.get_config()
+    wrong = []
+    for overrides, code, field in INVALID:
+        reply = s.request_raw(m.Configure.TYPE_ID, _configure_payload(**overrides))
+        if not (isinstance(reply, m.Nack) and reply.error == code and reply.field_index == field):
+            wrong.append(f"{overrides}: got {reply}")
+    after = s.get_config()
+    if after != before:
+        wrong.append("a refused CONFIGURE changed the configuration")
+    return Outcome(
+        not wrong,
+        "; ".join(wrong)
+        or f"{len(INVALID)} invalid configurations "
+        "refused with the specific code and field; configuration unchanged",
+    )
+
+
+def bad_messages(s: Sensor) -> Outcome:
+    cases = [
+        (0x7E, b"", (1, 0), m.Error.UNKNOWN_TYPE),
+        (m.Sample.TYPE_ID, bytes(48), (1, 0), m.Error.WRONG_DIRECTION),
+        (m.GetInfo.TYPE_ID, b"", (2, 0), m.Error.VERSION_MISMATCH),
+    ]
+    wrong = []
+    for type_id, payload, version, code in cases:
+        reply = s.request_raw(type_id, payload, version=version)
+        if not (isinstance(reply, m.Nack) and reply.error == code):
+            wrong.append(f"type 0x{type_id:02X} v{version}: got {reply}")
+    return Outcome(
+        not wrong,
+        "; ".join(wrong)
+        or "unknown type, wrong direction and "
+        "another major version each answered with their NACK code",
+    )
+
+
+def _stream(s: Sensor, n: int, integration_ms: int, leds: list) -> np.ndarray:
+    s.configure(integration_ms=integration_ms, leds=leds)
+    s.read(10_000, timeout=0)  # discard anything older
+    s.start()
+    try:
+        batch = s.read(n, timeout=n * integration_ms / 1000 * 3 + 2)
+    finally:
+        s.stop()
+    return batch
+
+
+def sample_rate(s: Sensor) -> Outcome:
+    details, ok = [], True
+    for leds, name in ((WHITE, "1 step"), (RGB_STEPS, "3 steps")):
+        batch = _stream(s, 24, 50, leds)
+        if len(batch) < 24:
+            return Outcome(False, f"{name}: only {len(batch)} of 24 samples arrived")
+        period = np.diff(batch["device_time_us"].astype(np.int64)).mean() / 1000
+        steps = batch["step"].tolist()
+        per_step = 1000 / (period * len(leds))
+        cycle_ok = all(b == (a + 1) % len(leds) for a, b in itertools.pairwise(steps))
+        ok &= abs(period - 50) <= 2.5 and cycle_ok
+        details.append(
+            f"{name}: {1000 / period:.2f} samples/s, {per_step:.2f}/s per step, "
+            f"steps cycle {'ok' if cycle_ok else steps[:6]}"
+        )
+    return Outcome(ok, "; ".join(details))
+
+
+def continuity_and_time(s: Sensor) -> Outcome:
+    gaps_before = s.stats.sample_gaps
+    batch = _stream(s, 40, 50, WHITE)
+    seq = batch["sequence"].astype(np.int64)
+    t_end = batch["device_time_us"].astype(np.int64)
+    width = (t_end - batch["t_start_us"].astype(np.int64)) / 1000
+    problems = []
+    if len(batch) < 40:
+        problems.append(f"only {len(batch)} samples")
+    if len(seq) and (seq[0] != 0 or np.any(np.diff(seq) != 1)):
+        problems.append(f"sequence not 0,1,2,…: {seq[:5].tolist()}")
+    if np.any(np.diff(t_end) <= 0):
+        problems.append("device timestamps not increasing")
+    if len(width) and not np.all((width >= 49) & (width <= 60)):
+        problems.append(f"integration windows {width.min():.1f}..{width.max():.1f} ms, not ~50")
+    if s.stats.sample_gaps != gaps_before:
+        problems.append("sample gaps")
+    return Outcome(
+        not problems,
+        "; ".join(problems)
+        or f"{len(batch)} samples, seq 0..{seq[-1]}, windows {width.mean():.2f} ms",
+    )
+
+
+def time_sync(s: Sensor) -> Outcome:
+    sync = s.sync_clock(exchanges=8)
+    offsets = [e.offset for e in sync.exchanges]
+    ordered = all(e.device_tx_us >= e.device_rx_us for e in sync.exchanges)
+    spread = max(offsets) - min(offsets)
+    ok = (
+        ordered
+        and sync.round_trip < 0.5
+        and spread <= max(e.round_trip for e in sync.exchanges) + 0.01
+    )
+    return Outcome(
+        ok,
+        f"best round trip {sync.round_trip * 1e3:.2f} ms, offset spread "
+        f"{spread * 1e3:.2f} ms over 8 exchanges",
+    )
+
+
+def garbage_recovery(s: Sensor) -> Outcome:
+    rx_errors = s.status().rx_errors
+    s.configure(integration_ms=50, leds=WHITE)
+    s.start()
+    try:
+        s.read(3, timeout=2)
+        rng = random.Random(3)
+        junk = bytes(rng.randrange(256) for _ in range(600))
+        s.write_raw(junk + b"\x00")
+        info_ok = s.get_config().integration_ms == 50
+        after = s.read(10, timeout=3)
+    finally:
+        s.stop()
+    seq = after["sequence"].astype(np.int64)
+    continuous = len(seq) == 10 and bool(np.all(np.diff(seq) == 1))
+    counted = s.status().rx_errors > rx_errors
+    ok = info_ok and continuous and counted
+    return Outcome(
+        ok,
+        f"answers after 600 garbage bytes: {info_ok}; streaming continued: "
+        f"{continuous}; device counted rx errors: {counted}",
+    )
+
+
+def stop_stops(s: Sensor) -> Outcome:
+    s.configure(integration_ms=50, leds=WHITE)
+    s.start()
+    s.read(3, timeout=2)
+    s.stop()
+    s.read(10_000, timeout=0.15)  # frames already on the wire before the ACK
+    late = s.read(10_000, timeout=0.5)
+    return Outcome(
+        len(late) == 0,
+        f"{len(late)} samples after STOP was acknowledged (waited 10 integration times)",
+    )
+
+
+def sensor_status(s: Sensor) -> Outcome:
+    batch = _stream(s, 5, 50, WHITE)
+    if not len(batch):
+        return Outcome(False, "no samples")
+    present = s.info.sensor_present
+    problems = []
+    for k in range(3):
+        flags = batch["status"][:, k]
+        if present >> k & 1:
+            if np.any(flags & (m.SensorStatus.SENSOR_ABSENT | m.SensorStatus.SENSOR_BUS_FAULT)):
+                problems.append(f"sensor {k} present but flagged faulty")
+        elif not np.all(flags & (m.SensorStatus.SENSOR_ABSENT | m.SensorStatus.SENSOR_BUS_FAULT)):
+            problems.append(f"sensor {k} absent but not flagged")
+    status = s.status()
+    return Outcome(
+        not problems,
+        "; ".join(problems)
+        or f"status flags match presence {present:03b}; bus errors "
+        f"{list(status.bus_errors)}, frames sent {status.frames_sent}",
+    )
+
+
+CHECKS: list[tuple[str, Check]] = [
+    ("handshake, version and definition hash", handshake),
+    ("info limits", info_limits),
+    ("configure accepted (ACK, CONFIG echo)", configure_ack),
+    ("invalid configurations refused (NACK codes)", configure_nack),
+    ("unknown type / direction / version refused", bad_messages),
+    ("sample rate matches integration and steps", sample_rate),
+    ("sequence continuity and monotonic time", continuity_and_time),
+    ("time-sync round trip", time_sync),
+    ("recovery after garbage bytes", garbage_recovery),
+    ("stop really stops", stop_stops),
+    ("sensor status flags", sensor_status),
+]
+
+
+def run_check(sensor: Sensor, check: Check) -> Outcome:
+    started = time.monotonic()
+    try:
+        outcome = check(sensor)
+    except Exception as exc:  # a failing device must give a failed row, not a traceback
+        outcome = Outcome(False, f"{type(exc).__name__}: {exc}")
+    outcome.detail += f" [{time.monotonic() - started:.1f} s]"
+    return outcome

@@ -1,0 +1,176 @@
+"""Expose a simulated device to other programs as a serial port (pty) or a TCP socket.
+
+    spectratac sim serve --pty [--link /tmp/spectratac0]   # then open /tmp/spectratac0
+    spectratac sim serve --tcp 5555                       # then open socket://127.0.0.1:5555
+
+The pty behaves like a USB-serial adapter: the device is silent until asked, and bytes the
+device sends while nobody reads are dropped (counted by the firmware). SIGUSR1 simulates
+unplugging the adapter: the pty disappears, and after --replug-after seconds a new one
+(a freshly booted device) appears behind the same --link path.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import select
+import signal
+import socket
+import threading
+import time
+import tty
+from collections.abc import Callable
+from pathlib import Path
+
+from spectratac.sim.device import SimDevice
+from spectratac.sim.runner import MAX, DeviceRunner
+from spectratac.sim.scenes import make_scene
+from spectratac.sim.url import SimOptions
+
+
+class _Endpoint:
+    """The current file descriptor the device talks through (pty master or socket)."""
+
+    def __init__(self, blocking_writes: bool) -> None:
+        self.fd: int | None = None
+        self.blocking = blocking_writes
+        self.lock = threading.Lock()
+
+    def send(self, data: bytes, _t: int) -> bool:
+        view = memoryview(data)
+        deadline = time.monotonic() + (5.0 if self.blocking else 0.0)
+        while view:
+            with self.lock:
+                fd = self.fd
+                if fd is None:
+                    return False
+                try:
+                    view = view[os.write(fd, view) :]
+                    continue
+                except BlockingIOError:
+                    pass
+                except OSError:
+                    return False
+            if time.monotonic() >= deadline:
+                return False  # nobody reads: the device counts the frame as dropped
+            select.select([], [fd], [], 0.05)
+        return True
+
+
+def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
+    scene = make_scene(opts.scene, seed=str(opts.seed), **opts.scene_params)
+    device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=endpoint.send, baud=921_600)
+    return DeviceRunner(device, opts.speed).start()
+
+
+def _open_pty(link: Path | None) -> tuple[int, str]:
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    path = os.ttyname(slave)
+    os.close(slave)  # the host opens it by name; keeping it closed lets EIO signal "no host"
+    os.set_blocking(master, False)
+    if link is not None:
+        tmp = link.with_name(link.name + ".new")
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        tmp.symlink_to(path)
+        tmp.replace(link)
+    return master, path
+
+
+def serve_pty(
+    opts: SimOptions,
+    link: Path | None = None,
+    replug_after: float = 1.0,
+    announce: Callable[[str], None] = print,
+    stop: threading.Event | None = None,
+) -> None:
+    """Serve until SIGINT/SIGTERM (or `stop` is set); SIGUSR1 unplugs and replugs."""
+    stop = stop or threading.Event()
+    unplug = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGUSR1, lambda *_: unplug.set())
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    endpoint = _Endpoint(opts.speed == MAX)
+    while not stop.is_set():
+        master, path = _open_pty(link)
+        endpoint.fd = master
+        runner = _boot(opts, endpoint)
+        announce(path)
+        try:
+            while not stop.is_set() and not unplug.is_set():
+                readable, _, _ = select.select([master], [], [], 0.1)
+                if not readable:
+                    continue
+                try:
+                    data = os.read(master, 65536)
+                except BlockingIOError:
+                    continue
+                except OSError as exc:  # EIO: no host has the pty open right now
+                    if exc.errno != errno.EIO:
+                        raise
+                    time.sleep(0.02)
+                    continue
+                runner.write(data)
+        finally:
+            runner.stop()
+            with endpoint.lock:
+                endpoint.fd = None
+                os.close(master)
+        if unplug.is_set():
+            unplug.clear()
+            if link is not None:
+                with contextlib.suppress(FileNotFoundError):
+                    link.unlink()
+            stop.wait(replug_after)
+
+
+def serve_tcp(
+    opts: SimOptions,
+    port: int,
+    host: str = "127.0.0.1",
+    announce: Callable[[str], None] = print,
+    stop: threading.Event | None = None,
+) -> None:
+    """Serve one client at a time on host:port; each connection talks to the same device."""
+    stop = stop or threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    endpoint = _Endpoint(opts.speed == MAX)
+    runner = _boot(opts, endpoint)
+    with socket.create_server((host, port), reuse_port=False) as server:
+        server.settimeout(0.2)
+        announce(f"socket://{host}:{server.getsockname()[1]}")
+        try:
+            while not stop.is_set():
+                try:
+                    conn, _ = server.accept()
+                except TimeoutError:
+                    continue
+                with conn:
+                    conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                    conn.setblocking(False)
+                    with endpoint.lock:
+                        endpoint.fd = conn.fileno()
+                    _pump_socket(conn, runner, stop)
+                    with endpoint.lock:
+                        endpoint.fd = None
+        finally:
+            runner.stop()
+
+
+def _pump_socket(conn: socket.socket, runner: DeviceRunner, stop: threading.Event) -> None:
+    while not stop.is_set():
+        readable, _, _ = select.select([conn], [], [], 0.1)
+        if not readable:
+            continue
+        try:
+            data = conn.recv(65536)
+        except BlockingIOError:
+            continue
+        except OSError:
+            return
+        if not data:
+            return  # the client closed the connection
+        runner.write(data)
