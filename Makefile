@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 EXTRAS := train,sim,record,report,hardware,dev
 
-.PHONY: venv test lint regen hardware clean
+.PHONY: venv demo test lint regen hardware clean
 
 venv: $(STAMP)
 
@@ -17,6 +17,10 @@ $(STAMP): pyproject.toml requirements/lock.txt
 	# Fail set-up, not experiments, if cobs/crcmod fell back to pure Python (35x slower framing).
 	$(BIN)/python -m spectratac.protocol.accel
 	touch $@
+
+# The main job on the built-in simulated sensor (real firmware core on the digital twin).
+demo: $(STAMP)
+	$(BIN)/spectratac demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

@@ -22,7 +22,14 @@ EXIT_USAGE = 2  # bad arguments (argparse's own convention)
 EXIT_ERROR = 3  # a SpectraTacError: bad input, device problem; message says what to do
 
 # Verb modules under spectratac.cli, in the order they appear in --help.
-VERB_MODULES: tuple[str, ...] = ("protocol_cmd",)
+VERB_MODULES: tuple[str, ...] = (
+    "device_cmd",
+    "sim_cmd",
+    "conformance_cmd",
+    "demo_cmd",
+    "protocol_cmd",
+    "twin_cmd",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

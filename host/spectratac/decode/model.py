@@ -116,8 +116,11 @@ class PaperDecoder:
     def save(self, path: str | Path) -> None:
         arrays: dict[str, Any] = {f"w/{k}": v for k, v in self.weights.items()}
         arrays.update(
-            x_mean=self.x_scaler.mean, x_std=self.x_scaler.std, y_std=self.y_scaler.std,
-            history=np.asarray(self.history), meta=np.asarray(repr(self.meta)),
+            x_mean=self.x_scaler.mean,
+            x_std=self.x_scaler.std,
+            y_std=self.y_scaler.std,
+            history=np.asarray(self.history),
+            meta=np.asarray(repr(self.meta)),
         )
         np.savez(path, **arrays)
 

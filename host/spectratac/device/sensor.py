@@ -156,7 +156,13 @@ class Sensor:
         ('drop_oldest' | 'drop_newest' | 'error'), timeout (s), reconnect, strict_hash,
         baudrate."""
         baudrate = options.pop("baudrate", 921_600)
-        sensor = cls(open_transport(url, baudrate), **options)
+        return cls.attach(open_transport(url, baudrate), **options)
+
+    @classmethod
+    def attach(cls, transport: Transport, **options: Any) -> Sensor:
+        """Like open(), over a transport you opened yourself (a custom link, or one wrapped
+        for fault injection). The sensor owns it from now on and closes it."""
+        sensor = cls(transport, **options)
         try:
             sensor._handshake()
         except BaseException:
@@ -540,7 +546,7 @@ class Sensor:
 
     def _fail_waiters_version(self, remote: tuple[int, int]) -> None:
         host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
-        self._lost = ProtocolMismatchError(  # type: ignore[assignment]
+        self._lost = ProtocolMismatchError(  # type: ignore[assignment]  # reported like a loss
             f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
             f"{host[0]}.{host[1]}: update the library or reflash the firmware",
             remote,

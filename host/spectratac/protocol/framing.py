@@ -1,12 +1,12 @@
 """One frame on the wire: header + payload + CRC-32C, COBS-encoded, 0x00-terminated (SPEC.md).
 
-    >>> from spectratac.protocol import messages as m
-    >>> wire = encode_frame(m.Ack(acked_type=0x02, acked_seq=7, config_id=3), seq=41)
-    >>> wire[-1]
-    0
-    >>> frame = decode_frame(wire[:-1])
-    >>> frame.seq, frame.message
-    (41, Ack(acked_type=2, acked_seq=7, config_id=3))
+>>> from spectratac.protocol import messages as m
+>>> wire = encode_frame(m.Ack(acked_type=0x02, acked_seq=7, config_id=3), seq=41)
+>>> wire[-1]
+0
+>>> frame = decode_frame(wire[:-1])
+>>> frame.seq, frame.message
+(41, Ack(acked_type=2, acked_seq=7, config_id=3))
 """
 
 from __future__ import annotations
@@ -112,9 +112,7 @@ def encode_frame(
     return cobs.encode(raw + CRC.pack(crc32c(raw))) + b"\x00"
 
 
-def encode_raw(
-    type_id: int, payload: bytes, seq: int, version: tuple[int, int] = (1, 0)
-) -> bytes:
+def encode_raw(type_id: int, payload: bytes, seq: int, version: tuple[int, int] = (1, 0)) -> bytes:
     """Frame arbitrary payload bytes (for tests, vectors and future-version emulation)."""
     raw = HEADER.pack(version[0], version[1], type_id, seq) + payload
     return cobs.encode(raw + CRC.pack(crc32c(raw))) + b"\x00"

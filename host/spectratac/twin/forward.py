@@ -52,8 +52,9 @@ def static_rates(
     temp = np.broadcast_to(np.asarray(temperature_c, dtype=np.float64), (m,))
     paths = optics.transport(unit, x, y, delta, a, ux, uy, temp)
     led_m = np.broadcast_to(led, (m, 3, 3))
-    amb = optics.ambient_rates(unit, np.broadcast_to(np.asarray(lux, dtype=np.float64), (m,)),
-                               spectrum)
+    amb = optics.ambient_rates(
+        unit, np.broadcast_to(np.asarray(lux, dtype=np.float64), (m,)), spectrum
+    )
     return optics.sensor_rates(unit, paths, led_m, amb)
 
 
@@ -75,10 +76,25 @@ def expected_output(
 ) -> F64:
     """Mean output counts (M, 3, 5), before noise and clipping, at LED `duty` (3, 3)."""
     cfg = cfg or SensorConfig()
-    rise = (unit.led_self_heating_c * float(np.mean(duty))
-            if junction_rise_c is None else junction_rise_c)
-    led = optics.led_intensity(unit, np.asarray(duty, dtype=np.float64),
-                               np.asarray(temperature_c + rise))
-    rates = static_rates(unit, x, y, fx, fy, normal, radius_mm, led, lux=lux,
-                         spectrum=spectrum, temperature_c=temperature_c)
+    rise = (
+        unit.led_self_heating_c * float(np.mean(duty))
+        if junction_rise_c is None
+        else junction_rise_c
+    )
+    led = optics.led_intensity(
+        unit, np.asarray(duty, dtype=np.float64), np.asarray(temperature_c + rise)
+    )
+    rates = static_rates(
+        unit,
+        x,
+        y,
+        fx,
+        fy,
+        normal,
+        radius_mm,
+        led,
+        lux=lux,
+        spectrum=spectrum,
+        temperature_c=temperature_c,
+    )
     return expected_counts(rates, cfg, unit, np.full(np.shape(x)[0], temperature_c)) * cfg.dg

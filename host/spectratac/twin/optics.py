@@ -85,8 +85,10 @@ def transport(
     shadow = np.maximum(1.0 - loss, 0.02)
     bulk = 1.0 + unit.bulk_gain[None, :] * delta[:, None]  # (M, c)
     steer = 1.0 + (
-        (ux[:, None, None] * _steer_dir(unit)[None, :, :, 0]
-         + uy[:, None, None] * _steer_dir(unit)[None, :, :, 1])[..., None]
+        (
+            ux[:, None, None] * _steer_dir(unit)[None, :, :, 0]
+            + uy[:, None, None] * _steer_dir(unit)[None, :, :, 1]
+        )[..., None]
         * unit.steer_gain[None, None, None, :]
     )
     t = unit.direct[None] * shadow * np.maximum(steer, 0.0) * bulk[:, None, None, :] + refl

@@ -72,9 +72,7 @@ class Oracle:
 
     @staticmethod
     def for_session(session: Session, scene: Scene) -> Oracle:
-        period = (
-            float(session.t_start[1] - session.t_start[0]) if len(session) > 1 else None
-        )
+        period = float(session.t_start[1] - session.t_start[0]) if len(session) > 1 else None
         return Oracle(
             session.unit, session.config, session.led_steps, scene.env, sample_period_s=period
         )
@@ -82,25 +80,35 @@ class Oracle:
     # --- forward ------------------------------------------------------------------------------
     def _led(self, t_mid: F64, step: NDArray[np.integer]) -> tuple[F64, F64]:
         temp = self.env.temperature(t_mid)
-        rise = optics.led_junction_rise(
-            self.unit, self.mean_duty, t_mid, self.env.leds_prewarmed
-        )
+        rise = optics.led_junction_rise(self.unit, self.mean_duty, t_mid, self.env.leds_prewarmed)
         return optics.led_intensity(self.unit, self.steps[step], temp + rise), temp
 
     def _predict(self, theta: F64, led: F64, lux: F64, temp: F64) -> F64:
         u = self.unit
         r = np.exp(np.clip(theta[:, 5], *_LOG_R))
         rates = static_rates(
-            u, theta[:, 0], theta[:, 1], theta[:, 2], theta[:, 3], theta[:, 4] ** 2, r, led,
-            lux=lux, spectrum=self.env.spectrum, temperature_c=temp,
+            u,
+            theta[:, 0],
+            theta[:, 1],
+            theta[:, 2],
+            theta[:, 3],
+            theta[:, 4] ** 2,
+            r,
+            led,
+            lux=lux,
+            spectrum=self.env.spectrum,
+            temperature_c=temp,
         )
         return (expected_counts(rates, self.cfg, u, temp) * self.cfg.dg).reshape(-1, 15)
 
     def _weights(self, counts: F64) -> F64:
         u, cfg = self.unit, self.cfg
         analog = counts / cfg.dg
-        var = cfg.dg**2 * (analog * cfg.gain / u.electrons_per_count + u.read_noise_counts**2
-                           + 1.0 / 12.0) + (u.led_flicker * counts) ** 2
+        var = (
+            cfg.dg**2
+            * (analog * cfg.gain / u.electrons_per_count + u.read_noise_counts**2 + 1.0 / 12.0)
+            + (u.led_flicker * counts) ** 2
+        )
         w = 1.0 / np.sqrt(np.maximum(var, 1.0))
         return np.where(counts >= FULL_SCALE, 0.0, w)
 
@@ -135,8 +143,10 @@ class Oracle:
         rows = np.repeat(np.arange(n), g)
         costs = cost_of(np.tile(grid, (n, 1)), rows).reshape(n, g)
         best = np.argsort(costs, axis=1)[:, :2]
-        results = [self._refine(grid[best[:, s]].copy(), y, w, led, lux, temp, iterations)
-                   for s in range(2)]
+        results = [
+            self._refine(grid[best[:, s]].copy(), y, w, led, lux, temp, iterations)
+            for s in range(2)
+        ]
         pick = results[0][1] <= results[1][1]
         theta = np.where(pick[:, None], results[0][0], results[1][0])
         cost = np.where(pick, results[0][1], results[1][1])

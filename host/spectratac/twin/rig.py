@@ -42,9 +42,7 @@ _CACHE_MAX = 64
 class TwinRig:
     """Scene + unit + LED timeline + three `Veml3328` register models + reference F/T."""
 
-    def __init__(
-        self, scene: Scene, unit: UnitParams | None = None, seed: int = 0
-    ) -> None:
+    def __init__(self, scene: Scene, unit: UnitParams | None = None, seed: int = 0) -> None:
         if not isinstance(seed, (int, np.integer)) or seed < 0:
             raise TwinError(f"seed must be a non-negative int, got {seed!r}")
         self.scene = scene
@@ -104,9 +102,7 @@ class TwinRig:
         i = bisect.bisect_right(self._times, t_us) - 1
         target = self.unit.led_self_heating_c * float(self._duties[i].mean())
         dt = (t_us - self._times[i]) * 1e-6
-        return target + (self._heat[i] - target) * float(
-            np.exp(-dt / self.unit.led_thermal_tau_s)
-        )
+        return target + (self._heat[i] - target) * float(np.exp(-dt / self.unit.led_thermal_tau_s))
 
     def mean_duty(self, t0_us: int, t1_us: int) -> F64:
         """Time-weighted mean LED duty (3, 3) over [t0, t1) from the timeline."""

@@ -33,8 +33,8 @@ CAL_RISE_S = (0.3, 1.0)
 CAL_HOLD_S = (0.5, 3.0)
 CAL_FALL_S = (0.3, 1.0)
 CAL_GAP_S = (0.3, 2.0)
-CAL_INDENTER_MM = (3.0, 6.0)  # fingertip / probe tip radii vary press to press
-CAL_RIM_FRACTION = 0.04  # presses that land on the clamped rim: F/T only, label -1
+CAL_INDENTER_MM = (2.5, 6.5)  # fingertip / probe tip radii vary press to press
+CAL_RIM_FRACTION = 0.02  # presses that land on the clamped rim: F/T only, label -1
 REGION_MARGIN_MM = 0.3  # operators aim inside a region, not on its border
 AIM_SCATTER_MM = 0.8  # scatter of presses around a region's representative point
 FRICTION = 1.0  # silicone skin against a fingertip / rubber probe
@@ -66,8 +66,13 @@ def sample_in_region(rng: np.random.Generator, regions: np.ndarray) -> tuple[np.
     y = cy + rng.normal(0.0, AIM_SCATTER_MM, n)
     ux, uy = _uniform_in_region(rng, regions)
     inside = region_of(x, y) == regions
-    inside &= region_of(x * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6)),
-                        y * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6))) == regions
+    inside &= (
+        region_of(
+            x * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6)),
+            y * (1 + REGION_MARGIN_MM / np.maximum(np.hypot(x, y), 1e-6)),
+        )
+        == regions
+    )
     return np.where(inside, x, ux), np.where(inside, y, uy)
 
 

@@ -99,9 +99,7 @@ class Veml3328:
                     raise I2CNack(f"register 0x{reg:02x} is read-only; only CONF 0x00 is writable")
                 self._write_conf(now, write[1] | (write[2] << 8))
             elif len(write) != 1:
-                raise I2CNack(
-                    f"write of {len(write)} bytes: send [reg] or [reg, lsb, msb]"
-                )
+                raise I2CNack(f"write of {len(write)} bytes: send [reg] or [reg, lsb, msb]")
             self._pointer = reg
         if read_len == 0:
             return b""

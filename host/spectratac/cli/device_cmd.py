@@ -1,0 +1,113 @@
+"""`spectratac info URL` and `spectratac stream URL`: talk to a device from the shell."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+from spectratac.cli.output import Table
+from spectratac.errors import SpectraTacError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    info = subparsers.add_parser("info", help="show a device's identity, versions and limits")
+    info.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
+    info.add_argument("--json", action="store_true", help="machine-readable output")
+    info.set_defaults(func=_info)
+    stream = subparsers.add_parser("stream", help="stream samples to the terminal")
+    stream.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
+    stream.add_argument("--count", type=int, default=20, help="samples to print (0: forever)")
+    stream.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
+    stream.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    stream.add_argument("--duty", type=int, default=500, help="white LED duty, permille")
+    stream.set_defaults(func=_stream)
+
+
+def _info(args: argparse.Namespace) -> int:
+    from spectratac.device import Sensor
+    from spectratac.protocol import messages as m
+
+    with Sensor.open(args.url) as sensor:
+        info = sensor.info
+        status = sensor.status()
+    caps = [c.name for c in m.Capabilities if info.capabilities & c]
+    row = info.to_dict() | {
+        "definition_hash": f"0x{info.definition_hash:08X}",
+        "capabilities": caps,
+        "sensors_present": [k for k in range(3) if info.sensor_present >> k & 1],
+        "uptime_ms": status.uptime_ms,
+    }
+    if args.json:
+        print(json.dumps(row))
+        return 0
+    print(
+        f"{args.url}: {info.board} firmware {'.'.join(map(str, info.firmware_version))} "
+        f"({info.build_id}), protocol {info.protocol_major}.{info.protocol_minor}"
+    )
+    print(f"  unique id        {info.device_uid.hex()}")
+    print(f"  definition hash  0x{info.definition_hash:08X}")
+    print(
+        f"  sensors present  {row['sensors_present']} of {info.sensor_count}, "
+        f"{info.channels_per_sensor} channels each"
+    )
+    print(f"  capabilities     {', '.join(caps)}")
+    print(
+        f"  limits           {info.max_led_steps} LED steps, max frame {info.max_frame} B, "
+        f"baud {info.baud or 'n/a'}"
+    )
+    print(f"  uptime           {status.uptime_ms / 1000:.1f} s")
+    return 0
+
+
+CHANNELS = ("R", "G", "B", "C", "IR")
+
+
+def _stream(args: argparse.Namespace) -> int:
+    from spectratac.device import Sensor
+
+    if args.count < 0:
+        raise SpectraTacError("--count must be >= 0 (0 streams until interrupted)")
+    if not 0 <= args.duty <= 1000:
+        raise SpectraTacError("--duty is in permille: 0..1000")
+    columns = ["seq", "t_ms", "step", *(f"s{k}{c}" for k in range(3) for c in CHANNELS), "status"]
+    table = Table(columns, width=7) if args.format == "table" else None
+    if args.format == "csv":
+        print(",".join(columns))
+    printed = 0
+    with Sensor.open(args.url) as sensor:
+        sensor.configure(integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3])
+        sensor.start()
+        t0 = time.monotonic()
+        try:
+            for sample in sensor:
+                values = [
+                    sample.sequence,
+                    sample.device_time_us // 1000,
+                    sample.step,
+                    *(v for counts in sample.counts for v in counts),
+                ]
+                status = "".join(f"{s:x}" for s in sample.status)
+                if table:
+                    table.row([*values, status])
+                elif args.format == "csv":
+                    print(",".join(map(str, values)) + f",{status}")
+                else:
+                    print(
+                        json.dumps(dict(zip(columns, [*values, list(sample.status)], strict=True)))
+                    )
+                printed += 1
+                if args.count and printed >= args.count:
+                    break
+        finally:
+            if not sensor.stats.reconnects:
+                sensor.stop()
+        stats = sensor.stats
+    rate = printed / max(time.monotonic() - t0, 1e-9)
+    print(
+        f"{printed} samples ({rate:.1f}/s); CRC errors {stats.crc_errors}, gaps "
+        f"{stats.sample_gaps}, overflows {stats.buffer_overflows}",
+        file=sys.stderr,
+    )
+    return 0

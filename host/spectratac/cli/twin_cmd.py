@@ -1,0 +1,143 @@
+"""`spectratac twin`: generate simulated sessions and report the twin's fidelity.
+
+spectratac twin report [--json] [--check]     train the paper recipe on a simulated session
+spectratac twin generate OUT.npz [--scene S]  write a session (counts, F/T, truth) to .npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+SCENES = ("calibration", "idle", "drift", "press")
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("twin", help="digital twin: simulated sessions, fidelity report")
+    sub = p.add_subparsers(dest="twin_verb", metavar="<sub-verb>")
+
+    r = sub.add_parser("report", help="train the paper recipe on a simulated session; compare")
+    r.add_argument("--json", action="store_true", help="print one JSON object")
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--duration", type=float, default=3000.0, help="session length in s")
+    r.add_argument("--epochs", type=int, default=30)
+    r.add_argument("--oracle-samples", type=int, default=1000)
+    r.add_argument("--check", action="store_true", help="exit 1 if outside the calibration band")
+    r.add_argument("--no-progress", action="store_true")
+    r.set_defaults(func=_report)
+
+    g = sub.add_parser("generate", help="simulate a session and write it to an .npz file")
+    g.add_argument("out", help="output .npz path")
+    g.add_argument(
+        "--scene",
+        default="calibration",
+        help=f"one of {', '.join(SCENES)} or a hard case (see --list)",
+    )
+    g.add_argument("--list", action="store_true", help="list the scenes and exit")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--duration", type=float, default=None, help="session length in s")
+    g.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    g.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
+    g.add_argument("--dg", type=int, default=1, choices=(1, 2, 4))
+    g.add_argument("--sens-low", action="store_true")
+    g.add_argument("--duty", type=float, default=None, help="white LED duty for all channels")
+    g.add_argument("--json", action="store_true", help="print a JSON summary")
+    g.set_defaults(func=_generate)
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def _report(args: argparse.Namespace) -> int:
+    from spectratac.decode.fidelity import ReportConfig, fidelity_report, format_report
+    from spectratac.twin.errors import TwinError
+
+    if args.duration < 60 or args.epochs < 1 or args.oracle_samples < 1:
+        raise TwinError("need --duration >= 60 s, --epochs >= 1 and --oracle-samples >= 1")
+    cfg = ReportConfig(
+        seed=args.seed,
+        duration_s=args.duration,
+        epochs=args.epochs,
+        oracle_samples=args.oracle_samples,
+    )
+    bar = None
+    if not args.no_progress:
+        from tqdm import tqdm
+
+        bar = tqdm(
+            total=1 + 2 * (cfg.epochs + 1),
+            desc="twin report",
+            unit="step",
+            file=sys.stderr,
+            leave=False,
+        )
+
+    def progress(stage: str, n: int) -> None:
+        if bar is not None:
+            bar.set_postfix_str(stage)
+            bar.update(n)
+
+    try:
+        rep = fidelity_report(cfg, progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    print(json.dumps(rep) if args.json else format_report(rep))
+    return 1 if args.check and not rep["pass"] else 0
+
+
+def _generate(args: argparse.Namespace) -> int:
+    from spectratac.twin import generate_session, scenes, white_step
+    from spectratac.twin.errors import TwinError
+
+    hard = scenes.hard_cases()
+    if args.list:
+        for name in (*SCENES, *sorted(hard)):
+            print(name)
+        return 0
+    settings: dict[str, Any] = {}
+    if args.scene == "calibration":
+        scene = scenes.calibration_session(args.seed, args.duration or scenes.CAL_DURATION_S)
+    elif args.scene == "idle":
+        scene = scenes.idle(args.duration or 10.0)
+    elif args.scene == "drift":
+        scene = scenes.drift_session(args.duration or 1200.0)
+    elif args.scene == "press":
+        scene = scenes.single_press(6, 6.0, (1.0, 0.5))
+    elif args.scene in hard:
+        scene, settings = hard[args.scene].scene, dict(hard[args.scene].settings)
+    else:
+        raise TwinError(f"unknown scene {args.scene!r}; `spectratac twin generate x --list`")
+    settings.setdefault("integration_ms", args.integration_ms)
+    settings.setdefault("gain", args.gain)
+    settings.setdefault("dg", args.dg)
+    settings.setdefault("sens_low", args.sens_low)
+    if args.duty is not None:
+        settings["led_steps"] = white_step(args.duty)
+    t0 = time.perf_counter()
+    s = generate_session(scene, seed=args.seed, **settings)
+    gen_s = time.perf_counter() - t0
+    s.save_npz(args.out)
+    summary = {
+        "out": str(args.out),
+        "scene": scene.name,
+        "samples": len(s),
+        "ft_samples": int(s.ft.shape[0]),
+        "generation_s": round(gen_s, 3),
+        "saturated_fraction": float(s.saturated.mean()),
+        "labelled_fraction": float(np.mean(s.region > 0)),
+        "clear_mean": [float(v) for v in s.counts[:, :, 3].mean(axis=0)],
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"wrote {summary['out']}: {summary['samples']} optical samples, "
+            f"{summary['ft_samples']} F/T samples of scene '{scene.name}' in {gen_s:.2f} s; "
+            f"{100 * summary['saturated_fraction']:.1f} % saturated, "
+            f"{100 * summary['labelled_fraction']:.1f} % labelled"
+        )
+    return 0
