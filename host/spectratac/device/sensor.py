@@ -28,6 +28,7 @@ import numpy as np
 from spectratac.device.errors import (
     BufferOverflowError,
     CommandRejectedError,
+    DeviceError,
     DeviceTimeoutError,
     DisconnectedError,
     ProtocolMismatchError,
@@ -140,7 +141,7 @@ class Sensor:
         self._unwrap = Unwrapper()
         self._last_sample_seq: int | None = None
         self._closed = False
-        self._lost: DisconnectedError | None = None
+        self._lost: DeviceError | None = None
         self._streaming = False
         self._configure_msg: m.Configure | None = None
         self.info: m.Info = m.Info()
@@ -546,7 +547,7 @@ class Sensor:
 
     def _fail_waiters_version(self, remote: tuple[int, int]) -> None:
         host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
-        self._lost = ProtocolMismatchError(  # type: ignore[assignment]  # reported like a loss
+        self._lost = ProtocolMismatchError(  # reported to readers like a loss
             f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
             f"{host[0]}.{host[1]}: update the library or reflash the firmware",
             remote,
