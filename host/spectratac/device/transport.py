@@ -72,7 +72,8 @@ class SerialTransport:
                 return b""
             waiting = port.in_waiting
             return first + port.read(waiting) if waiting else first
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+            # TypeError/AttributeError: pyserial's state after close() raced with this read
             raise DisconnectedError(f"lost the link to {self.url}: {exc}") from None
 
     def write(self, data: bytes) -> None:

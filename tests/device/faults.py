@@ -1,0 +1,64 @@
+"""Fault-injecting transports: wrap a real transport and damage what crosses it."""
+
+from __future__ import annotations
+
+import random
+
+from spectratac.device.transport import Transport
+from spectratac.protocol import decode_frame, encode_raw
+from spectratac.protocol.framing import FrameError
+
+
+class CorruptingTransport:
+    """Flips random bits in a fraction of the bytes the device sends, once `armed`."""
+
+    def __init__(self, inner: Transport, rate: float, seed: int = 1) -> None:
+        self.inner = inner
+        self.url = inner.url
+        self.rate = rate
+        self.armed = False
+        self.flipped = 0
+        self._rng = random.Random(seed)
+
+    def read(self, timeout: float) -> bytes:
+        data = self.inner.read(timeout)
+        if not self.armed or not data:
+            return data
+        out = bytearray(data)
+        for i in range(len(out)):
+            if self._rng.random() < self.rate:
+                out[i] ^= 1 << self._rng.randrange(8)
+                self.flipped += 1
+        return bytes(out)
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+class FutureMajorTransport:
+    """Re-frames every device frame as protocol major 2: a firmware from another major."""
+
+    def __init__(self, inner: Transport) -> None:
+        self.inner = inner
+        self.url = inner.url
+        self._pending = b""
+
+    def read(self, timeout: float) -> bytes:
+        *frames, self._pending = (self._pending + self.inner.read(timeout)).split(b"\x00")
+        out = b""
+        for encoded in frames:
+            try:
+                frame = decode_frame(encoded)
+            except FrameError:
+                continue
+            out += encode_raw(frame.message.TYPE_ID, frame.message.pack(), frame.seq, (2, 1))
+        return out
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def close(self) -> None:
+        self.inner.close()
