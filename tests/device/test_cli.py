@@ -1,0 +1,54 @@
+"""The device verbs from the shell, including the conformance suite over a served pty."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from spectratac.cli import EXIT_ERROR, EXIT_OK, main
+
+from .conftest import Served
+
+SIM = "sim://?scene=tour&seed=1&speed=max"
+
+
+def spectratac(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "spectratac", *args], capture_output=True, text=True, timeout=timeout
+    )
+
+
+def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["info", SIM, "--json"]) == EXIT_OK
+    info = json.loads(capsys.readouterr().out)
+    assert info["board"] == "native-sim" and info["sensors_present"] == [0, 1, 2]
+    assert "CAP_SIMULATED" in info["capabilities"]
+
+
+def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["stream", SIM, "--count", "5", "--format", "jsonl"]) == EXIT_OK
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["seq"] for r in rows] == [0, 1, 2, 3, 4] and len(rows[0]["status"]) == 3
+    assert main(["stream", SIM, "--count", "3", "--format", "csv"]) == EXIT_OK
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("seq,t_ms,step,s0R") and len(lines) == 4
+
+
+def test_stream_missing_port_exit_code(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["stream", "/dev/ttyNOPE"]) == EXIT_ERROR
+    assert "no device at" in capsys.readouterr().err
+
+
+def test_conformance_over_pty(pty_device: Served) -> None:
+    done = spectratac("conformance", pty_device.url, "--json")
+    report = json.loads(done.stdout.splitlines()[-1])
+    failed = [c for c in report["checks"] if not c["passed"]]
+    assert done.returncode == 0 and report["passed"], failed
+    assert len(report["checks"]) == 11
+
+
+def test_conformance_fails_nonzero_on_missing_device() -> None:
+    done = spectratac("conformance", "/dev/ttyNOPE")
+    assert done.returncode == 1 and "FAIL" in done.stdout
