@@ -1,0 +1,92 @@
+"""Benchmark: generating the 50-minute calibration session (60,000 optical samples plus the
+1 kHz F/T stream) against merely allocating its output arrays, side by side in one run.
+
+    .venv/bin/python tools/bench/twin.py [--json] [--rounds 3]
+
+Also times one register-level integration window (three sensors triggered together) against
+a bare NumPy call of similar size, the cost the firmware-in-the-loop device pays per sample.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
+
+import benchlib
+from spectratac.twin import generate_session, scenes
+from spectratac.twin.electronics import AF, TRIG, SensorConfig
+from spectratac.twin.rig import TwinRig
+
+
+def allocate_like(n: int, m: int) -> int:
+    """Allocate (and touch) the arrays a session returns: the floor for any generator."""
+    arrays = [
+        np.empty(n), np.empty(n), np.empty(n, np.int16), np.empty((n, 3, 5), np.uint16),
+        np.empty((n, 3), bool), np.empty(m), np.empty((m, 6)), np.empty((n, 6)),
+        np.empty((n, 3)), np.empty((n, 2)), np.empty(n, bool), np.empty(n, np.int8),
+    ]
+    for a in arrays:
+        a.fill(0)
+    return n
+
+
+def main() -> None:
+    p = benchlib.parser(__doc__.splitlines()[0])
+    p.add_argument("--rounds", type=int, default=3)
+    args = p.parse_args()
+    scene = scenes.calibration_session(seed=0)
+    first = generate_session(scene, seed=0)
+    n, m = len(first), first.ft.shape[0]
+
+    def gen() -> int:
+        return len(generate_session(scene, seed=0))
+
+    gen_rate, alloc_rate = benchlib.side_by_side(gen, lambda: allocate_like(n, m), args.rounds)
+    gen_s, alloc_s = n / gen_rate, n / alloc_rate
+
+    rig = TwinRig(scenes.calibration_session(seed=0, duration_s=120.0), seed=0)
+    rig.set_led_duties(0, np.full((3, 3), 0.25))
+    conf = SensorConfig().to_conf() | AF | TRIG
+    write = bytes([0x00, conf & 0xFF, conf >> 8])
+    clock = [0]
+
+    def windows() -> int:
+        for _ in range(200):
+            t = clock[0]
+            for dev in rig.sensors:
+                dev.transfer(t, write, 0)
+            t += 50_000
+            for dev in rig.sensors:
+                for reg in (0x04, 0x05, 0x06, 0x07, 0x08):
+                    dev.transfer(t, bytes([reg]), 2)
+            clock[0] = (t + 1_000) % 100_000_000
+        return 200
+
+    x = np.random.default_rng(0).random((5, 27))
+
+    def numpy_ref() -> int:
+        for _ in range(200):
+            (x * x).sum(axis=0)
+        return 200
+
+    win_rate, ref_rate = benchlib.side_by_side(windows, numpy_ref, args.rounds)
+    benchlib.report(
+        [
+            benchlib.Figure("calibration session generation", gen_s, "s", "allocate outputs",
+                            alloc_s, gen_s / alloc_s,
+                            {"samples": n, "ft_samples": m, "budget_s": 5.0}),
+            benchlib.Figure("register-level window, 3 sensors", 1e6 / win_rate, "us",
+                            "numpy (5,27) square+sum", 1e6 / ref_rate, ref_rate / win_rate,
+                            {"windows_per_s": win_rate}),
+        ],
+        args.json,
+    )
+
+
+if __name__ == "__main__":
+    main()
