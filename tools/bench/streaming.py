@@ -1,0 +1,236 @@
+"""Host streaming: frame-to-user latency, samples/s at speed=max, CPU for 16 devices.
+
+    python tools/bench/streaming.py [--json] [--frames N] [--devices N] [--seconds S]
+
+1. Latency over a pty: real firmware output (captured from the simulated device) is written to
+   a pty one SAMPLE frame at a time; the figure is the time from os.write() to the sample
+   coming out of Sensor.read(), p50 and p99, beside the raw pty latency (os.write() to pyserial
+   read() of the same bytes) measured alternately in the same run.
+2. Samples/s from one simulated device at speed=max through Sensor (no loss allowed), beside
+   the bare device loop (firmware core + twin, no transport, no parsing).
+3. CPU of one process streaming from N simulated devices at 20 Hz (each served by its own
+   `spectratac sim serve --tcp` process), in % of one core, beside the same process merely
+   reading the raw bytes from the same sockets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+import threading
+import time
+import tty
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import numpy as np
+import serial
+from benchlib import Figure, parser, report
+from spectratac.device import Sensor
+from spectratac.device.transport import SerialTransport
+from spectratac.protocol import encode_frame
+from spectratac.protocol import messages as m
+from spectratac.sim.device import SimDevice
+from spectratac.sim.scenes import make_scene
+
+
+def capture_device_frames(n: int) -> tuple[bytes, list[bytes]]:
+    """The INFO reply and n SAMPLE frames, produced by the real firmware on the twin."""
+    out: list[bytes] = []
+    dev = SimDevice(make_scene("tour"), 1, on_tx=lambda data, _t: out.append(data))
+    dev.feed(b"\x00" + encode_frame(m.GetInfo(), 1))
+    dev.step(0)
+    info = out.pop()
+    dev.feed(encode_frame(m.Start(), 2))
+    dev.step(0)
+    out.clear()  # the ACK
+    while len(out) < n:
+        dev.step(dev.next_wake_us())
+    return info, out[:n]
+
+
+def _pty() -> tuple[int, int, str]:
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    return master, slave, os.ttyname(slave)
+
+
+def latency(n: int) -> tuple[list[float], list[float]]:
+    """(os.write -> Sensor.read, os.write -> pyserial read) per frame, alternating."""
+    info, frames = capture_device_frames(n)
+    master, slave, path = _pty()
+    ref_master, ref_slave, ref_path = _pty()
+
+    def answer_handshake() -> None:  # replays the firmware's INFO when the host asks
+        data = b""
+        while b"\x00" not in data[1:]:
+            data += os.read(master, 4096)
+        os.write(master, info)
+
+    threading.Thread(target=answer_handshake, daemon=True).start()
+    sensor = Sensor.attach(SerialTransport(path), timeout=5.0)
+    ref = serial.Serial(ref_path, timeout=1.0)
+    sensor_lat, raw_lat = [], []
+    try:
+        for frame in frames:
+            t0 = time.monotonic()
+            os.write(master, frame)
+            got = sensor.read(1, timeout=1.0)
+            sensor_lat.append(time.monotonic() - t0)
+            assert len(got) == 1
+            t0 = time.monotonic()
+            os.write(ref_master, frame)
+            buf = ref.read(1)
+            while len(buf) < len(frame):
+                buf += ref.read(max(1, ref.in_waiting))
+            raw_lat.append(time.monotonic() - t0)
+            time.sleep(0.0005)
+    finally:
+        ref.close()
+        sensor.close()
+        for fd in (master, slave, ref_master, ref_slave):
+            os.close(fd)
+    return sensor_lat, raw_lat
+
+
+def throughput(samples: int) -> tuple[float, float, int]:
+    """(Sensor samples/s, bare device samples/s, gaps)."""
+    with Sensor.open("sim://?scene=tour&speed=max", buffer_size=samples * 2) as sensor:
+        sensor.start()
+        sensor.read(10, timeout=10)
+        t0 = time.perf_counter()
+        got = sensor.read(samples, timeout=120)
+        rate = len(got) / (time.perf_counter() - t0)
+        sensor.stop()
+        gaps = sensor.stats.sample_gaps + (samples - len(got))
+    count = [0]
+    dev = SimDevice(make_scene("tour"), 1, on_tx=lambda _d, _t: count.__setitem__(0, count[0] + 1))
+    dev.feed(encode_frame(m.Start(), 1))
+    dev.step(0)
+    t0 = time.perf_counter()
+    while count[0] < samples:
+        dev.step(dev.next_wake_us())
+    bare = count[0] / (time.perf_counter() - t0)
+    return rate, bare, gaps
+
+
+def serve_many(n: int) -> list[tuple[subprocess.Popen[str], str]]:
+    procs = []
+    for i in range(n):
+        p = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "spectratac",
+                "sim",
+                "serve",
+                "--tcp",
+                "0",
+                "--json",
+                "--scene",
+                "idle",
+                "--seed",
+                str(i),
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        procs.append(p)
+    return [(p, json.loads(p.stdout.readline())["url"]) for p in procs]  # type: ignore[union-attr]
+
+
+def cpu_many(n: int, seconds: float) -> tuple[float, float, int]:
+    """(% of a core streaming through Sensor, % reading raw bytes, samples received)."""
+    servers = serve_many(n)
+    try:
+        sensors = [Sensor.open(url, timeout=10.0) for _, url in servers]
+        for s in sensors:
+            s.start()
+        time.sleep(1.0)
+        for s in sensors:
+            s.read(10_000, timeout=0)
+        c0, t0 = time.process_time(), time.monotonic()
+        time.sleep(seconds)
+        received = sum(len(s.read(100_000, timeout=0)) for s in sensors)
+        sensor_cpu = (time.process_time() - c0) / (time.monotonic() - t0) * 100
+        transports = [s._transport for s in sensors]
+        for s in sensors:
+            s._closed = True  # stop the readers but keep the links open and streaming
+            s._thread.join(timeout=2)
+        stop = threading.Event()
+
+        def drain(t: SerialTransport) -> None:
+            while not stop.is_set():
+                t.read(0.05)
+
+        threads = [threading.Thread(target=drain, args=(t,), daemon=True) for t in transports]
+        for t in threads:
+            t.start()
+        c0, t0 = time.process_time(), time.monotonic()
+        time.sleep(seconds)
+        raw_cpu = (time.process_time() - c0) / (time.monotonic() - t0) * 100
+        stop.set()
+        for t in threads:
+            t.join(timeout=2)
+        for t in transports:
+            t.close()
+        return sensor_cpu, raw_cpu, received
+    finally:
+        for p, _ in servers:
+            p.terminate()
+        for p, _ in servers:
+            p.wait(timeout=10)
+
+
+def main() -> int:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--frames", type=int, default=2000, help="frames for the latency test")
+    p.add_argument("--samples", type=int, default=5000, help="samples for the throughput test")
+    p.add_argument("--devices", type=int, default=16)
+    p.add_argument("--seconds", type=float, default=10.0, help="CPU measurement per variant")
+    args = p.parse_args()
+    s_lat, r_lat = latency(args.frames)
+    p50, p99 = (float(np.percentile(s_lat, q)) * 1e6 for q in (50, 99))
+    r50, r99 = (float(np.percentile(r_lat, q)) * 1e6 for q in (50, 99))
+    rate, bare, gaps = throughput(args.samples)
+    cpu, raw_cpu, received = cpu_many(args.devices, args.seconds)
+    figures = [
+        Figure("frame-to-user latency p50", p50, "ms", "raw pty p50", r50, p50 / r50),
+        Figure(
+            "frame-to-user latency p99",
+            p99,
+            "ms",
+            "raw pty p99",
+            r99,
+            p99 / r99,
+            {"frames": len(s_lat), "mean_ms": statistics.mean(s_lat) * 1e3},
+        ),
+        Figure(
+            "samples/s at speed=max",
+            rate,
+            "samples/s",
+            "bare device loop",
+            bare,
+            rate / bare,
+            {"lost": gaps},
+        ),
+        Figure(
+            f"CPU, {args.devices} devices at 20 Hz",
+            cpu,
+            "% core",
+            "raw socket reads",
+            raw_cpu,
+            cpu / raw_cpu if raw_cpu else float("inf"),
+            {"samples": received, "expected": int(args.devices * 20 * args.seconds)},
+        ),
+    ]
+    report(figures, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
