@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 EXTRAS := train,sim,record,report,hardware,dev
 
-.PHONY: venv demo test lint regen hardware clean
+.PHONY: venv demo test lint regen hardware firmware firmware-test firmware-native flash clean
 
 venv: $(STAMP)
 
@@ -36,6 +36,23 @@ regen: $(STAMP)
 # Needs apt's kicad, openscad, gerbv and xvfb (.ci/run installs them).
 hardware: $(STAMP)
 	$(BIN)/python tools/hardware/build.py
+
+# Firmware (offline PlatformIO: project platforms + pip scons; never the registry).
+FW_BIN := build/pio/blackpill/firmware.bin
+firmware: $(STAMP)
+	$(BIN)/python tools/platformio/pio.py run -e blackpill
+
+# C unit tests of the core with ASan + UBSan through PlatformIO's native env.
+firmware-test: $(STAMP)
+	$(BIN)/python tools/platformio/pio.py run -e native -t exec
+
+# The core as a host shared library (build/firmware/native/libstac_sim.so, C ABI in stac_sim.h).
+firmware-native:
+	$(PYTHON) firmware/ports/native/build.py lib
+
+# Black Pill in ROM DFU mode (hold BOOT0, tap NRST); ST-Link: see firmware/README.md.
+flash: firmware
+	dfu-util -a 0 -s 0x08000000:leave -D $(FW_BIN)
 
 clean:
 	rm -rf $(VENV) .pytest_cache build

@@ -1,0 +1,92 @@
+/* Black Pill port: bring up clocks, pins, peripherals; run the core's superloop for ever.
+ * The independent watchdog resets the board if a pass ever takes longer than ~0.5 s, which
+ * the bounded waits make impossible in normal operation. */
+#include <string.h>
+
+#include "board.h"
+#include "clock.h"
+#include "gpio.h"
+#include "i2c.h"
+#include "pwm.h"
+#include "regs.h"
+#include "stac_app.h"
+#include "systick.h"
+#include "uart.h"
+#include "uid.h"
+
+#ifndef STAC_BUILD_ID
+#define STAC_BUILD_ID "dev"
+#endif
+
+static stac_app_t g_app;
+
+static int32_t hal_i2c(void *ctx, uint8_t bus, uint8_t addr7, const uint8_t *wr, uint32_t wr_len,
+                       uint8_t *rd, uint32_t rd_len, uint32_t timeout_us) {
+    (void)ctx;
+    return i2c_transfer(bus, addr7, wr, wr_len, rd, rd_len, timeout_us);
+}
+
+static void hal_pwm(void *ctx, uint8_t led, uint8_t colour, uint16_t duty) {
+    (void)ctx;
+    pwm_set(led, colour, duty);
+}
+
+static uint32_t hal_write(void *ctx, const uint8_t *data, uint32_t len) {
+    (void)ctx;
+    return uart_write(data, len);
+}
+
+static uint32_t hal_read(void *ctx, uint8_t *buf, uint32_t cap) {
+    (void)ctx;
+    return uart_read(buf, cap);
+}
+
+static uint32_t hal_clock(void *ctx) {
+    (void)ctx;
+    return systick_now_us();
+}
+
+static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
+    (void)ctx;
+    uid_read(uid);
+}
+
+static void watchdog_start(void) {
+    IWDG->KR = 0x5555u; /* unlock PR/RLR */
+    IWDG->PR = 2u;      /* 32 kHz / 16 = 2 kHz */
+    IWDG->RLR = 1000u;  /* ~0.5 s */
+    IWDG->KR = 0xCCCCu;
+}
+
+int main(void) {
+    clocks_t clk;
+    clock_init(&clk);
+    systick_init(clk.sys_hz);
+    gpio_init_board();
+    pwm_init(clk.tim_hz);
+    uart_init(clk.apb2_hz, BOARD_BAUD);
+    i2c_init_all(clk.apb1_hz);
+    watchdog_start();
+
+    stac_identity_t id;
+    memset(&id, 0, sizeof id);
+    memcpy(id.board, BOARD_NAME, sizeof BOARD_NAME);
+    strncpy(id.build_id, STAC_BUILD_ID, sizeof id.build_id - 1u);
+    id.capabilities = STAC_CAPS_CORE;
+    id.baud = BOARD_BAUD;
+    const stac_hal_t hal = {
+        .ctx = 0,
+        .i2c_transfer = hal_i2c,
+        .pwm_set = hal_pwm,
+        .uart_write = hal_write,
+        .uart_read = hal_read,
+        .clock_us = hal_clock,
+        .unique_id = hal_uid,
+    };
+    stac_app_init(&g_app, &hal, &id, systick_now_us());
+    for (;;) {
+        IWDG->KR = 0xAAAAu;
+        uart_service();
+        stac_app_step(&g_app, systick_now_us());
+    }
+}

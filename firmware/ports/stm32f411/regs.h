@@ -1,0 +1,116 @@
+/* The STM32F411 registers this port touches (RM0383). No vendor headers exist on our build
+ * machines, so each peripheral is declared here as a struct at its bus address. */
+#ifndef STM32F411_REGS_H
+#define STM32F411_REGS_H
+
+#include <stdint.h>
+
+#define REG32(addr) (*(volatile uint32_t *)(addr))
+
+typedef struct {
+    volatile uint32_t CR, PLLCFGR, CFGR, CIR, AHB1RSTR, AHB2RSTR, RES0[2], APB1RSTR, APB2RSTR,
+        RES1[2], AHB1ENR, AHB2ENR, RES2[2], APB1ENR, APB2ENR;
+} rcc_t;
+#define RCC ((rcc_t *)0x40023800u)
+#define RCC_CR_HSEON (1u << 16)
+#define RCC_CR_HSERDY (1u << 17)
+#define RCC_CR_PLLON (1u << 24)
+#define RCC_CR_PLLRDY (1u << 25)
+#define RCC_CFGR_SW_PLL 2u
+#define RCC_CFGR_SWS_MASK (3u << 2)
+#define RCC_CFGR_SWS_PLL (2u << 2)
+#define RCC_CFGR_PPRE1_DIV2 (4u << 10)
+#define RCC_AHB1ENR_GPIOA (1u << 0)
+#define RCC_AHB1ENR_GPIOB (1u << 1)
+#define RCC_APB1ENR_TIM2 (1u << 0)
+#define RCC_APB1ENR_TIM3 (1u << 1)
+#define RCC_APB1ENR_TIM4 (1u << 2)
+#define RCC_APB1ENR_I2C1 (1u << 21)
+#define RCC_APB1ENR_I2C2 (1u << 22)
+#define RCC_APB1ENR_I2C3 (1u << 23)
+#define RCC_APB1ENR_PWR (1u << 28)
+#define RCC_APB2ENR_USART1 (1u << 4)
+
+#define FLASH_ACR REG32(0x40023C00u)
+#define FLASH_ACR_LATENCY_3WS 3u
+#define FLASH_ACR_PRFTEN (1u << 8)
+#define FLASH_ACR_ICEN (1u << 9)
+#define FLASH_ACR_DCEN (1u << 10)
+
+typedef struct {
+    volatile uint32_t MODER, OTYPER, OSPEEDR, PUPDR, IDR, ODR, BSRR, LCKR, AFR[2];
+} gpio_t;
+#define GPIOA ((gpio_t *)0x40020000u)
+#define GPIOB ((gpio_t *)0x40020400u)
+
+typedef struct {
+    volatile uint32_t CR1, CR2, OAR1, OAR2, DR, SR1, SR2, CCR, TRISE, FLTR;
+} i2c_t;
+#define I2C1 ((i2c_t *)0x40005400u)
+#define I2C2 ((i2c_t *)0x40005800u)
+#define I2C3 ((i2c_t *)0x40005C00u)
+#define I2C_CR1_PE (1u << 0)
+#define I2C_CR1_START (1u << 8)
+#define I2C_CR1_STOP (1u << 9)
+#define I2C_CR1_ACK (1u << 10)
+#define I2C_CR1_POS (1u << 11)
+#define I2C_CR1_SWRST (1u << 15)
+#define I2C_SR1_SB (1u << 0)
+#define I2C_SR1_ADDR (1u << 1)
+#define I2C_SR1_BTF (1u << 2)
+#define I2C_SR1_RXNE (1u << 6)
+#define I2C_SR1_TXE (1u << 7)
+#define I2C_SR1_BERR (1u << 8)
+#define I2C_SR1_ARLO (1u << 9)
+#define I2C_SR1_AF (1u << 10)
+#define I2C_SR2_BUSY (1u << 1)
+#define I2C_CCR_FS (1u << 15)
+
+typedef struct {
+    volatile uint32_t CR1, CR2, SMCR, DIER, SR, EGR, CCMR1, CCMR2, CCER, CNT, PSC, ARR, RCR,
+        CCR[4], BDTR, DCR, DMAR, OR;
+} tim_t;
+#define TIM2 ((tim_t *)0x40000000u)
+#define TIM3 ((tim_t *)0x40000400u)
+#define TIM4 ((tim_t *)0x40000800u)
+#define TIM_CR1_CEN (1u << 0)
+#define TIM_CR1_ARPE (1u << 7)
+#define TIM_EGR_UG (1u << 0)
+
+typedef struct {
+    volatile uint32_t SR, DR, BRR, CR1, CR2, CR3, GTPR;
+} usart_t;
+#define USART1 ((usart_t *)0x40011000u)
+#define USART_SR_ORE (1u << 3)
+#define USART_SR_RXNE (1u << 5)
+#define USART_SR_TXE (1u << 7)
+#define USART_CR1_RE (1u << 2)
+#define USART_CR1_TE (1u << 3)
+#define USART_CR1_RXNEIE (1u << 5)
+#define USART_CR1_UE (1u << 13)
+#define USART1_IRQN 37u
+
+typedef struct {
+    volatile uint32_t CSR, RVR, CVR, CALIB;
+} systick_t;
+#define SYSTICK ((systick_t *)0xE000E010u)
+#define SYSTICK_CSR_ENABLE (1u << 0)
+#define SYSTICK_CSR_TICKINT (1u << 1)
+#define SYSTICK_CSR_CLKSOURCE (1u << 2)
+
+#define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
+#define SCB_CPACR REG32(0xE000ED88u)
+#define SCB_CCR REG32(0xE000ED14u)
+#define SCB_CCR_BFHFNMIGN (1u << 8)
+#define SCB_CFSR REG32(0xE000ED28u)
+#define SCB_AIRCR REG32(0xE000ED0Cu)
+#define SCB_AIRCR_RESET 0x05FA0004u
+
+typedef struct {
+    volatile uint32_t KR, PR, RLR, SR;
+} iwdg_t;
+#define IWDG ((iwdg_t *)0x40003000u)
+
+#define UID_BASE 0x1FFF7A10u
+
+#endif /* STM32F411_REGS_H */

@@ -1,0 +1,81 @@
+#include "uart.h"
+
+#include "regs.h"
+
+#define TX_SIZE 2048u /* power of two; several full frames */
+#define RX_SIZE 512u  /* power of two; ~5 ms of input at 921600 baud */
+
+static uint8_t g_tx[TX_SIZE];
+static volatile uint32_t g_tx_head, g_tx_tail; /* both written by the main context only */
+static uint8_t g_rx[RX_SIZE];
+static volatile uint32_t g_rx_head; /* written by the interrupt */
+static volatile uint32_t g_rx_tail; /* written by the main context */
+static volatile uint32_t g_rx_lost;
+
+void USART1_IRQHandler(void) {
+    const uint32_t sr = USART1->SR;
+    if ((sr & (USART_SR_RXNE | USART_SR_ORE)) != 0u) {
+        const uint8_t byte = (uint8_t)USART1->DR; /* also clears ORE after the SR read */
+        if ((sr & USART_SR_ORE) != 0u) {
+            g_rx_lost++;
+        }
+        const uint32_t head = g_rx_head;
+        if (head - g_rx_tail < RX_SIZE) {
+            g_rx[head % RX_SIZE] = byte;
+            g_rx_head = head + 1u;
+        } else {
+            g_rx_lost++;
+        }
+    }
+}
+
+void uart_init(uint32_t apb2_hz, uint32_t baud) {
+    RCC->APB2ENR |= RCC_APB2ENR_USART1;
+    (void)RCC->APB2ENR;
+    USART1->CR1 = 0u;
+    USART1->BRR = (apb2_hz + baud / 2u) / baud; /* 16x oversampling: mantissa.fraction/16 */
+    USART1->CR1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE;
+    NVIC_ISER(USART1_IRQN / 32u) = 1u << (USART1_IRQN % 32u);
+}
+
+uint32_t uart_write(const uint8_t *data, uint32_t len) {
+    const uint32_t head = g_tx_head;
+    if (TX_SIZE - (head - g_tx_tail) < len) {
+        uart_service();
+        if (TX_SIZE - (head - g_tx_tail) < len) {
+            return 0u;
+        }
+    }
+    for (uint32_t i = 0; i < len; i++) {
+        g_tx[(head + i) % TX_SIZE] = data[i];
+    }
+    g_tx_head = head + len;
+    uart_service();
+    return len;
+}
+
+uint32_t uart_read(uint8_t *buf, uint32_t cap) {
+    uint32_t n = 0u;
+    uint32_t tail = g_rx_tail;
+    const uint32_t head = g_rx_head;
+    while (tail != head && n < cap) {
+        buf[n++] = g_rx[tail % RX_SIZE];
+        tail++;
+    }
+    g_rx_tail = tail;
+    return n;
+}
+
+void uart_service(void) {
+    uint32_t tail = g_tx_tail;
+    const uint32_t head = g_tx_head;
+    while (tail != head && (USART1->SR & USART_SR_TXE) != 0u) {
+        USART1->DR = g_tx[tail % TX_SIZE];
+        tail++;
+    }
+    g_tx_tail = tail;
+}
+
+uint32_t uart_rx_lost(void) {
+    return g_rx_lost;
+}

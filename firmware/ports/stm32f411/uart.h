@@ -1,0 +1,18 @@
+/* USART1 host link at 921600 baud (8N1). Received bytes go into a ring from the RX interrupt
+ * (an I2C transfer may keep the superloop away for a few ms); frames to send go into a ring
+ * drained whenever uart_service() runs (superloop and inside bounded waits). */
+#ifndef UART_H
+#define UART_H
+
+#include <stdint.h>
+
+void uart_init(uint32_t apb2_hz, uint32_t baud);
+/* All or nothing: returns len if the frame fits the transmit ring, else 0. */
+uint32_t uart_write(const uint8_t *data, uint32_t len);
+uint32_t uart_read(uint8_t *buf, uint32_t cap);
+/* Move queued bytes into the transmitter while it has room; never waits. */
+void uart_service(void);
+/* Received bytes lost to a full ring or a hardware overrun. */
+uint32_t uart_rx_lost(void);
+
+#endif /* UART_H */
