@@ -1,0 +1,195 @@
+"""The STM32F411 image: builds offline through PlatformIO with -Werror, fits the budget, and
+boots under QEMU (-M netduinoplus2), where it answers on USART1 and reports all three sensors
+absent (QEMU's I2C reads zero, so every probe times out) instead of hanging."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from spectratac.protocol import StreamDecoder, encode_frame, messages
+from spectratac.protocol.framing import Frame
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "tools" / "platformio"))
+
+import pio  # noqa: E402  (tools/platformio/pio.py: the offline PlatformIO runner)
+
+ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+FLASH_BUDGET = 32 * 1024
+RAM_BUDGET = 8 * 1024
+BUILD_TIMEOUT_S = 600
+IO_TIMEOUT_S = 20.0  # bound on every wait for the emulated board
+
+
+def need(tool: str, package: str) -> None:
+    if shutil.which(tool) is None:
+        pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")
+
+
+@pytest.fixture(scope="session")
+def image() -> Path:
+    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
+    result = pio.run(["run", "-e", "blackpill"], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    return ELF
+
+
+def section_sizes(elf: Path) -> dict[str, int]:
+    out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(elf)], capture_output=True,
+                         text=True, check=True, timeout=60).stdout
+    return {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
+
+
+def test_board_env_builds_with_werror(image: Path) -> None:
+    ini = (REPO / "platformio.ini").read_text()
+    assert re.search(r"^warnings = .*-Werror", ini, flags=re.M)
+    assert "${common.warnings}" in ini.split("[env:blackpill]")[1].split("[env:")[0]
+    assert image.exists() and image.with_suffix(".bin").exists()
+
+
+def test_image_within_budget(image: Path) -> None:
+    s = section_sizes(image)
+    flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
+    ram = s.get(".data", 0) + s[".bss"]
+    print(f"flash {flash} B of {FLASH_BUDGET}, static RAM {ram} B of {RAM_BUDGET}")
+    assert flash <= FLASH_BUDGET
+    assert ram <= RAM_BUDGET
+
+
+def test_native_env_runs_c_tests() -> None:
+    need("gcc", "build-essential")
+    result = pio.run(["run", "-e", "native", "-t", "exec"], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    assert re.search(r"^\d+ tests, 0 failed$", result.stdout, flags=re.M), result.stdout[-2000:]
+
+
+# --- QEMU -------------------------------------------------------------------------------------
+
+
+class Board:
+    """The emulated board's USART1 as a frame stream (pyserial socket:// to QEMU)."""
+
+    def __init__(self, port: int) -> None:
+        import serial
+
+        deadline = time.monotonic() + IO_TIMEOUT_S
+        while True:
+            try:
+                self.link = serial.serial_for_url(f"socket://127.0.0.1:{port}", timeout=0.05)
+                break
+            except serial.SerialException:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.05)
+        self.decoder = StreamDecoder()
+        self.seq = 0
+        self.pending: list[Frame] = []
+
+    def send(self, message: messages.Message) -> int:
+        self.seq += 1
+        self.link.write(encode_frame(message, seq=self.seq))
+        return self.seq
+
+    def frames(self, seconds: float) -> list[Frame]:
+        out, self.pending = self.pending, []
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            out += self.decoder.feed(self.link.read(4096))
+        return out
+
+    def wait_for(self, name: str, seconds: float = IO_TIMEOUT_S) -> tuple[Frame, list[Frame]]:
+        """First frame of a type, and every frame received up to and including it."""
+        seen: list[Frame] = []
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            batch = self.pending or self.decoder.feed(self.link.read(4096))
+            self.pending = []
+            for i, frame in enumerate(batch):
+                seen.append(frame)
+                if name == frame.message.NAME:
+                    self.pending = batch[i + 1 :]
+                    return frame, seen
+        raise AssertionError(f"no {name} within {seconds} s; got {[f.message.NAME for f in seen]}")
+
+
+@pytest.fixture
+def board(image: Path) -> Iterator[Board]:
+    need("qemu-system-arm", "qemu-system-arm")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    qemu = subprocess.Popen(
+        ["qemu-system-arm", "-M", "netduinoplus2", "-nographic", "-monitor", "none",
+         "-kernel", str(image), "-serial", f"tcp:127.0.0.1:{port},server=on,wait=on"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )
+    try:
+        b = Board(port)
+        yield b
+        b.link.close()
+    finally:
+        qemu.kill()
+        qemu.wait(timeout=30)
+
+
+def get_info(board: Board) -> messages.Info:
+    """Ask until answered: bytes sent while the board still boots are lost, as on hardware."""
+    deadline = time.monotonic() + IO_TIMEOUT_S
+    while time.monotonic() < deadline:
+        board.link.write(b"\x00")
+        board.send(messages.GetInfo())
+        for frame in board.frames(0.3):
+            if isinstance(frame.message, messages.Info):
+                return frame.message
+    raise AssertionError("the emulated board never answered GET_INFO")
+
+
+def test_qemu_boot_answers_get_info(board: Board) -> None:
+    info = get_info(board)
+    assert (info.protocol_major, info.protocol_minor) == (1, 0)
+    assert info.definition_hash == messages.DEFINITION_HASH
+    assert info.board == "blackpill-f411"
+    assert info.sensor_count == 3 and info.channels_per_sensor == 5
+    assert info.sensor_present == 0, "QEMU models no VEML3328: every probe must fail"
+    assert info.max_led_steps == 8 and info.duty_full_scale == 1000
+    assert info.integration_times_mask == 0x0F and info.max_frame == 256
+    assert info.baud == 921600
+    assert not info.capabilities & messages.Capabilities.CAP_SIMULATED
+
+
+def test_qemu_streams_with_sensors_absent_and_stops(board: Board) -> None:
+    get_info(board)
+    seq = board.send(messages.Start())
+    ack, _ = board.wait_for("ACK")
+    assert (ack.message.acked_type, ack.message.acked_seq) == (messages.Start.TYPE_ID, seq)
+    samples = [board.wait_for("SAMPLE")[0].message for _ in range(5)]
+    absent = int(messages.SensorStatus.SENSOR_ABSENT)
+    for i, s in enumerate(samples):
+        assert s.sample_seq == i
+        assert tuple(s.sensor_status) == (absent,) * 3
+        assert s.t_end_us - s.t_start_us >= 50_000
+    # A bad command while streaming: NACK with the code and field, and streaming goes on.
+    bad = messages.Configure(integration_ms=50, led_step_count=9)
+    board.link.write(encode_frame(bad, seq=500, validate=False))
+    nack, _ = board.wait_for("NACK")
+    assert nack.message.error == messages.Error.BAD_STEP_COUNT
+    assert (nack.message.rejected_seq, nack.message.field_index) == (500, 6)
+    board.wait_for("SAMPLE")
+    seq = board.send(messages.Stop())
+    ack, _ = board.wait_for("ACK")
+    assert ack.message.acked_seq == seq
+    tail = board.frames(0.5)
+    assert not [f for f in tail if f.message.NAME == "SAMPLE"], "SAMPLE after STOP's ACK"
+    board.send(messages.GetStatus())
+    status, _ = board.wait_for("STATUS")
+    assert status.message.streaming == 0 and status.message.sensor_present == 0
+    assert status.message.samples_taken >= 6 and status.message.command_errors == 1
+    assert board.decoder.stats.dropped == 0
