@@ -59,6 +59,7 @@ class TwinRig:
         self._heat: list[float] = [0.0]  # junction rise (°C) at each change time
         self._heat_set = False
         self._paths: dict[tuple[int, int], F64] = {}
+        self._rates_cache: dict[tuple[int, int, int], tuple[F64, float]] = {}
         seconds = int(np.ceil(scene.duration_s)) + 3600
         a = np.exp(-1.0 / self.unit.ft_bias_tau_s)
         steps = self._rng_ft.standard_normal((seconds, 6)) * self.unit.ft_bias_std
@@ -139,7 +140,21 @@ class TwinRig:
         return paths
 
     def window_rates(self, t0_us: int, t1_us: int) -> tuple[F64, float]:
-        """Reference count rates (3 sensors, 5 channels) over a window, and the temperature."""
+        """Reference count rates (3 sensors, 5 channels) over a window, and the temperature.
+
+        Cached per window and LED timeline: the firmware triggers the three sensors together,
+        so they share one evaluation and one draw of LED flicker (the LEDs are common to all
+        three, so a shared draw is also the physical behaviour)."""
+        key = (t0_us, t1_us, len(self._times))
+        hit = self._rates_cache.get(key)
+        if hit is None:
+            hit = self._window_rates(t0_us, t1_us)
+            if len(self._rates_cache) >= 8:
+                self._rates_cache.pop(next(iter(self._rates_cache)))
+            self._rates_cache[key] = hit
+        return hit
+
+    def _window_rates(self, t0_us: int, t1_us: int) -> tuple[F64, float]:
         tmid = np.array([0.5 * (t0_us + t1_us) * 1e-6])
         env = self.scene.env
         temp = float(env.temperature(tmid)[0])
