@@ -135,6 +135,9 @@ uint32_t stac_sim_rx_feed(stac_sim_t *sim, const uint8_t *data, uint32_t len) {
 }
 
 uint32_t stac_sim_next_wake_us(const stac_sim_t *sim) {
+    if (sim->rx_len > sim->rx_pos) {
+        return sim->now; /* fed bytes not yet read: a pass reads at most 512 of them */
+    }
     return stac_app_next_wake_us(&sim->app);
 }
 

@@ -97,7 +97,8 @@ STAC_SIM_API void stac_sim_step(stac_sim_t *sim, uint32_t now_us);
  * step, then feed them again). */
 STAC_SIM_API uint32_t stac_sim_rx_feed(stac_sim_t *sim, const uint8_t *data, uint32_t len);
 
-/* Device time by which the next stac_sim_step() should run. */
+/* Device time by which the next stac_sim_step() should run (the current step's time while
+ * fed bytes are still waiting: one pass reads at most 512 of them). */
 STAC_SIM_API uint32_t stac_sim_next_wake_us(const stac_sim_t *sim);
 
 /* 1 while streaming SAMPLEs, else 0. */
