@@ -136,5 +136,6 @@ def ambient_rates(unit: UnitParams, lux: F64, spectrum: str) -> F64:
 def sensor_rates(unit: UnitParams, t_paths: F64, led: F64, ambient: F64) -> F64:
     """Reference count rates (N, 3 sensors, 5 channels) from transport (N, j, k, c) and LED
     output (N, j, c): each channel weights the LED colours by its spectral response."""
-    tl = np.einsum("njkc,njc->nkc", t_paths, led, optimize=True)
-    return np.einsum("nkc,kdc->nkd", tl, unit.spectral, optimize=True) + ambient
+    big = t_paths.shape[0] > 64  # path optimisation pays for batches, costs ~20 µs for one
+    tl = np.einsum("njkc,njc->nkc", t_paths, led, optimize=big)
+    return np.einsum("nkc,kdc->nkd", tl, unit.spectral, optimize=big) + ambient
