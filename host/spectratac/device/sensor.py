@@ -1,16 +1,19 @@
 """`Sensor`: open a SpectraTac device, configure it, stream samples.
 
     >>> from spectratac.device import Sensor
-    >>> with Sensor.open("sim://?scene=idle&speed=max") as sensor:   # doctest: +SKIP
-    ...     sensor.configure(integration_ms=50, leds=[[[500] * 3] * 3])
+    >>> with Sensor.open("sim://?scene=tour&speed=max") as sensor:
+    ...     config_id = sensor.configure(integration_ms=50, leds=[[[500] * 3] * 3])
     ...     sensor.start()
-    ...     batch = sensor.read(20, timeout=5.0)
-    >>> batch["counts"].shape                                         # doctest: +SKIP
-    (20, 3, 5)
+    ...     batch = sensor.read(20, timeout=10.0)
+    ...     sensor.stop()
+    >>> batch["counts"].shape, batch["sequence"][:3].tolist()
+    ((20, 3, 5), [0, 1, 2])
+    >>> bool((batch["config_id"] == config_id).all())
+    True
 
 A background thread reads the link, decodes frames and puts samples into a bounded buffer;
 replies to commands are matched by the command's sequence number. Every public method is
-thread-safe. The tested, runnable version of this example lives in the device tests.
+thread-safe.
 """
 
 from __future__ import annotations
