@@ -77,7 +77,7 @@ def build_vector_check(out: Path = DEFAULT_OUT) -> Path:
 
 def build_bench(out: Path = DEFAULT_OUT) -> Path:
     """Timing program for tools/bench/firmware.py (optimised like a release build)."""
-    return _build(out / "stac_bench", [*core_sources(), NATIVE / "stac_bench.c"], ["-O2"])
+    return _build(out / "stac_bench", [*core_sources(), NATIVE / "bench" / "stac_bench.c"], ["-O2"])
 
 
 BUILDERS = {"lib": build_lib, "unit": build_unit, "vectors": build_vector_check,

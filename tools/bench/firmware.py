@@ -1,0 +1,86 @@
+"""Firmware benchmark: frame encode cost on the native build beside a memcpy of the same bytes,
+the superloop pass that turns an integration's end into a frame handed to the UART beside an
+idle pass, and the STM32F411 image's flash and static RAM against the budget.
+
+    .venv/bin/python tools/bench/firmware.py [--json] [--no-image]
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from types import ModuleType
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import benchlib
+
+REPO = Path(__file__).resolve().parents[2]
+FLASH_BUDGET = 32 * 1024
+RAM_BUDGET = 8 * 1024
+ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+
+
+def load(path: Path, name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def native_figures() -> list[benchlib.Figure]:
+    build = load(REPO / "firmware" / "ports" / "native" / "build.py", "stac_native_build")
+    exe = build.build_bench()
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True, timeout=600)
+    v = {k: float(x) for k, x in (line.split() for line in out.stdout.splitlines())}
+    frame = int(v["frame_bytes"])
+    return [
+        benchlib.Figure(
+            f"SAMPLE frame encode ({frame} B)", v["encode_ns"], "ns/frame",
+            f"memcpy of {frame} B", v["memcpy_ns"], v["encode_ns"] / v["memcpy_ns"],
+            {"what": "pack + CRC-32C + COBS + delimiter, native -O2"},
+        ),
+        benchlib.Figure(
+            "integration end -> frame to UART", v["pass_us"], "us",
+            "idle superloop pass", v["idle_pass_us"], v["pass_us"] / v["idle_pass_us"],
+            {"passes": 1, "what": "one pass: poll 3 sensors, read 15 channels, frame, hand over"},
+        ),
+    ]
+
+
+def image_figures() -> list[benchlib.Figure]:
+    sys.path.insert(0, str(REPO / "tools" / "platformio"))
+    import pio
+
+    result = pio.run(["run", "-e", "blackpill"], timeout=600)
+    if result.returncode != 0:
+        raise SystemExit(result.stdout[-3000:] + result.stderr[-3000:])
+    out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(ELF)], capture_output=True,
+                         text=True, check=True, timeout=60).stdout
+    s = {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
+    flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
+    ram = s.get(".data", 0) + s[".bss"]
+    return [
+        benchlib.Figure("STM32F411 image flash", flash, "B", "budget", FLASH_BUDGET,
+                        flash / FLASH_BUDGET, {"sections": s}),
+        benchlib.Figure("STM32F411 static RAM", ram, "B", "budget", RAM_BUDGET,
+                        ram / RAM_BUDGET, {"data": s.get(".data", 0), "bss": s[".bss"]}),
+    ]
+
+
+def main() -> None:
+    p = benchlib.parser(__doc__.splitlines()[0])
+    p.add_argument("--no-image", action="store_true", help="skip the STM32 image figures")
+    args = p.parse_args()
+    figures = native_figures()
+    if not args.no_image and shutil.which("arm-none-eabi-gcc"):
+        figures += image_figures()
+    benchlib.report(figures, args.json)
+
+
+if __name__ == "__main__":
+    main()
