@@ -25,8 +25,12 @@ def pcbnew_missing() -> str | None:
     """Why the pcbnew tests cannot run here, or None when they can."""
     if not Path(SYSTEM_PYTHON).exists():
         return f"{SYSTEM_PYTHON} not found (KiCad's Python API lives in Debian's python3)"
-    probe = subprocess.run([SYSTEM_PYTHON, "-c", "import pcbnew"], capture_output=True,
-                           text=True, env={"HOME": "/tmp", "PATH": "/usr/bin:/bin"})
+    probe = subprocess.run(
+        [SYSTEM_PYTHON, "-c", "import pcbnew"],
+        capture_output=True,
+        text=True,
+        env={"HOME": "/tmp", "PATH": "/usr/bin:/bin"},
+    )
     if probe.returncode != 0:
         return "KiCad 6 is not installed (apt-get install kicad): pcbnew does not import"
     return None

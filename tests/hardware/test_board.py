@@ -37,10 +37,12 @@ def test_board_thickness_matches_stack(board: Board, geo: Geometry) -> None:
     assert geo.board_thickness + geo.pdms_thickness + geo.skin_top == pytest.approx(4.0)
 
 
-@pytest.mark.parametrize(("prefix", "angles"), [("U", (0.0, 120.0, 240.0)),
-                                                ("D", (60.0, 180.0, 300.0))])
-def test_optical_parts_on_ring(board: Board, geo: Geometry, prefix: str,
-                               angles: tuple[float, ...]) -> None:
+@pytest.mark.parametrize(
+    ("prefix", "angles"), [("U", (0.0, 120.0, 240.0)), ("D", (60.0, 180.0, 300.0))]
+)
+def test_optical_parts_on_ring(
+    board: Board, geo: Geometry, prefix: str, angles: tuple[float, ...]
+) -> None:
     fps = _footprints(board)
     for k, want in enumerate(angles):
         fp = fps[f"{prefix}{k + 1}"]
@@ -56,7 +58,8 @@ def test_same_type_120_alternating_60(board: Board, geo: Geometry) -> None:
     fps = _footprints(board)
     ring = sorted(
         (geo.from_kicad(fps[r].position.X, fps[r].position.Y)[1], r[0])
-        for r in ("U1", "U2", "U3", "D1", "D2", "D3"))
+        for r in ("U1", "U2", "U3", "D1", "D2", "D3")
+    )
     kinds = [kind for _, kind in ring]
     assert kinds in (["U", "D"] * 3, ["D", "U"] * 3), "sensors and LEDs alternate"
     for i in range(6):
@@ -70,8 +73,10 @@ def pad_centre(fp: object, pad: object) -> tuple[float, float]:
     """Absolute pad centre: KiCad rotates counter-clockwise on screen (y axis down)."""
     t = math.radians(fp.position.angle or 0.0)  # type: ignore[attr-defined]
     x, y = pad.position.X, pad.position.Y  # type: ignore[attr-defined]
-    return (fp.position.X + x * math.cos(t) + y * math.sin(t),  # type: ignore[attr-defined]
-            fp.position.Y - x * math.sin(t) + y * math.cos(t))  # type: ignore[attr-defined]
+    return (
+        fp.position.X + x * math.cos(t) + y * math.sin(t),  # type: ignore[attr-defined]
+        fp.position.Y - x * math.sin(t) + y * math.cos(t),
+    )  # type: ignore[attr-defined]
 
 
 def test_all_copper_pads_inside_board(board: Board, geo: Geometry) -> None:
@@ -83,7 +88,8 @@ def test_all_copper_pads_inside_board(board: Board, geo: Geometry) -> None:
             r, _ = geo.from_kicad(*pad_centre(fp, pad))
             reach = math.hypot(pad.size.X, pad.size.Y) / 2
             assert r + reach < geo.board_radius - edge_clearance, (
-                f"{reference(fp)} pad {pad.number} too close to the edge")
+                f"{reference(fp)} pad {pad.number} too close to the edge"
+            )
 
 
 def test_every_pad_on_a_net(board: Board) -> None:
@@ -109,8 +115,11 @@ def test_each_sensor_has_its_own_bus_pullups_and_decoupling(board: Board) -> Non
     for k in (1, 2, 3):
         sensor = {nets_of[(f"U{k}", n)] for n in "1234"}
         assert sensor == {"GND", "VDD", f"SCL{k}", f"SDA{k}"}
-        pullups = {net for (ref, pad), net in nets_of.items() if ref.startswith("R") and
-                   nets_of[(ref, "1")] == "VDD" and pad == "2"}
+        pullups = {
+            net
+            for (ref, pad), net in nets_of.items()
+            if ref.startswith("R") and nets_of[(ref, "1")] == "VDD" and pad == "2"
+        }
         assert {f"SCL{k}", f"SDA{k}"} <= pullups
         assert {nets_of[(f"C{k}", "1")], nets_of[(f"C{k}", "2")]} == {"VDD", "GND"}
 
@@ -121,8 +130,9 @@ def test_led_drive_common_anode_with_series_resistors(board: Board) -> None:
         assert nets_of[(f"D{j}", "1")] == "VLED"
         for i, c in enumerate(LED_COLOURS):
             cathode = nets_of[(f"D{j}", str(i + 2))]
-            resistor = [ref for (ref, pad), net in nets_of.items()
-                        if ref.startswith("R") and net == cathode]
+            resistor = [
+                ref for (ref, pad), net in nets_of.items() if ref.startswith("R") and net == cathode
+            ]
             assert len(resistor) == 1, f"one resistor on {cathode}"
             assert nets_of[(resistor[0], "1")] == f"LED{j}_{c}", "resistor leads to the pin"
 
@@ -152,8 +162,17 @@ def test_committed_drc_report_is_clean() -> None:
 
 def test_fab_outputs_present() -> None:
     gerbers = {p.name for p in (KICAD_DIR / "gerber").iterdir()}
-    for layer in ("F_Cu", "B_Cu", "F_Mask", "B_Mask", "F_Paste", "B_Paste", "F_Silkscreen",
-                  "B_Silkscreen", "Edge_Cuts"):
+    for layer in (
+        "F_Cu",
+        "B_Cu",
+        "F_Mask",
+        "B_Mask",
+        "F_Paste",
+        "B_Paste",
+        "F_Silkscreen",
+        "B_Silkscreen",
+        "Edge_Cuts",
+    ):
         assert f"spectratac-{layer}.gbr" in gerbers
     assert "spectratac.drl" in gerbers
     bom = (KICAD_DIR / "spectratac-bom.csv").read_text().splitlines()

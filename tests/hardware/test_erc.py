@@ -32,11 +32,20 @@ def missing() -> str | None:
 def test_erc_reports_no_errors_or_warnings(tmp_path: Path) -> None:
     # kiauto needs pcbnew, which only Debian's python3 imports; kiauto itself and its pure
     # Python dependencies come from the venv's site-packages.
-    env = dict(os.environ, HOME=str(tmp_path / "home"),
-               PYTHONPATH=sysconfig.get_paths()["purelib"])
-    proc = subprocess.run([SYSTEM_PYTHON, str(EESCHEMA_DO), "run_erc",
-                           str(KICAD_DIR / "spectratac.kicad_sch"), str(tmp_path)],
-                          capture_output=True, text=True, env=env, timeout=120)
+    env = dict(os.environ, HOME=str(tmp_path / "home"), PYTHONPATH=sysconfig.get_paths()["purelib"])
+    proc = subprocess.run(
+        [
+            SYSTEM_PYTHON,
+            str(EESCHEMA_DO),
+            "run_erc",
+            str(KICAD_DIR / "spectratac.kicad_sch"),
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
     report = tmp_path / "spectratac.erc"
     assert report.exists(), proc.stdout + proc.stderr
     m = re.search(r"ERC messages: (\d+)\s+Errors (\d+)\s+Warnings (\d+)", report.read_text())

@@ -20,8 +20,12 @@ pytestmark = pytest.mark.skipif(REASON is not None, reason=REASON or "")
 def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, object]]:
     out = tmp_path_factory.mktemp("pcb")
     home = tmp_path_factory.mktemp("home")  # KiCad writes settings under HOME
-    proc = subprocess.run([SYSTEM_PYTHON, str(TOOLS / "pcb_build.py"), str(out)],
-                          capture_output=True, text=True, env=dict(os.environ, HOME=str(home)))
+    proc = subprocess.run(
+        [SYSTEM_PYTHON, str(TOOLS / "pcb_build.py"), str(out)],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, HOME=str(home)),
+    )
     summary = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     assert proc.returncode == 0 and summary, proc.stdout + proc.stderr
     return out, json.loads(summary[-1])
@@ -30,36 +34,58 @@ def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[st
 def canonical(path: Path) -> dict[str, object]:
     b = Board.from_file(str(path))
     names = {n.number: n.name for n in b.nets}
-    fps = sorted((reference(fp), fp.layer, round(fp.position.X, 4), round(fp.position.Y, 4),
-                  round(fp.position.angle or 0.0, 3),
-                  tuple(sorted((p.number, p.net.name if p.net else "") for p in fp.pads)))
-                 for fp in b.footprints)
+    fps = sorted(
+        (
+            reference(fp),
+            fp.layer,
+            round(fp.position.X, 4),
+            round(fp.position.Y, 4),
+            round(fp.position.angle or 0.0, 3),
+            tuple(sorted((p.number, p.net.name if p.net else "") for p in fp.pads)),
+        )
+        for fp in b.footprints
+    )
     segs, vias = [], []
     for t in b.traceItems:
         if type(t).__name__ == "Via":
-            vias.append((round(t.position.X, 4), round(t.position.Y, 4), t.size, t.drill,
-                         names[t.net]))
+            vias.append(
+                (round(t.position.X, 4), round(t.position.Y, 4), t.size, t.drill, names[t.net])
+            )
         else:
-            segs.append((round(t.start.X, 4), round(t.start.Y, 4), round(t.end.X, 4),
-                         round(t.end.Y, 4), t.width, t.layer, names[t.net]))
+            segs.append(
+                (
+                    round(t.start.X, 4),
+                    round(t.start.Y, 4),
+                    round(t.end.X, 4),
+                    round(t.end.Y, 4),
+                    t.width,
+                    t.layer,
+                    names[t.net],
+                )
+            )
     return {"footprints": fps, "segments": sorted(segs), "vias": sorted(vias)}
 
 
 def test_drc_has_no_violations_and_nothing_unconnected(
-        regenerated: tuple[Path, dict[str, object]]) -> None:
+    regenerated: tuple[Path, dict[str, object]],
+) -> None:
     out, summary = regenerated
     drc = summary["drc"]
     assert drc == {"violations": 0, "unconnected": 0, "footprint_errors": 0, "errors": 0}, (
-        (out / "drc.rpt").read_text())
+        out / "drc.rpt"
+    ).read_text()
 
 
 def test_committed_board_is_what_the_generator_makes(
-        regenerated: tuple[Path, dict[str, object]]) -> None:
+    regenerated: tuple[Path, dict[str, object]],
+) -> None:
     out, _ = regenerated
     assert canonical(out / "spectratac.kicad_pcb") == canonical(
-        KICAD_DIR / "spectratac.kicad_pcb"), "board drifted: run `make hardware` and commit"
+        KICAD_DIR / "spectratac.kicad_pcb"
+    ), "board drifted: run `make hardware` and commit"
     assert (out / "spectratac.kicad_pro").read_text() == (
-        KICAD_DIR / "spectratac.kicad_pro").read_text(), "design rules drifted"
+        KICAD_DIR / "spectratac.kicad_pro"
+    ).read_text(), "design rules drifted"
     for name in ("spectratac-bom.csv", "spectratac-cpl.csv"):
         assert (out / name).read_text() == (KICAD_DIR / name).read_text(), name
 

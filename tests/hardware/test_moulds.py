@@ -70,7 +70,8 @@ def test_pdms_mould_casts_the_light_guide(geo: Geometry) -> None:
     assert len([lp for lp in loop_radii(m, sensor_top - 0.05) if lp[1] - lp[0] > 0.02]) == 3
     assert not [lp for lp in loop_radii(m, sensor_top + 0.05) if lp[1] - lp[0] > 0.02]
     assert geo.pdms_thickness - geo.sensor_body[2] - geo.pocket_extra_depth >= 1.0, (
-        "at least 1 mm of PDMS over the tallest part")
+        "at least 1 mm of PDMS over the tallest part"
+    )
 
 
 def test_skin_mould_casts_a_cup_of_board_diameter(geo: Geometry) -> None:
@@ -87,7 +88,8 @@ def test_skin_mould_casts_a_cup_of_board_diameter(geo: Geometry) -> None:
     assert (inner - plug[0]) / 2 == pytest.approx(geo.skin_wall, abs=0.01)
     # The lid rests on the cavity's rim: same outer diameter.
     assert circles(core, geo.mould_floor / 2)[-1] == pytest.approx(
-        circles(cavity, geo.mould_floor / 2)[-1])
+        circles(cavity, geo.mould_floor / 2)[-1]
+    )
 
 
 def test_fixture_takes_the_whole_stack(geo: Geometry) -> None:
@@ -102,8 +104,7 @@ def test_fixture_takes_the_whole_stack(geo: Geometry) -> None:
 
 
 def test_scad_parameters_come_from_params_toml(geo: Geometry) -> None:
-    assert (MOULD / "params.scad").read_text() == moulds.scad_params(geo), (
-        "run `make hardware`")
+    assert (MOULD / "params.scad").read_text() == moulds.scad_params(geo), "run `make hardware`"
 
 
 @pytest.mark.skipif(openscad_missing() is not None, reason=openscad_missing() or "")

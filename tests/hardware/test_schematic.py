@@ -29,8 +29,10 @@ def schematic_netlist(sch: Schematic) -> dict[tuple[str, str], str]:
         pins = [pin for unit in lib[sym.libId].units for pin in unit.pins]
         for pin in pins:
             # Library coordinates point y up, sheet coordinates y down.
-            key = (round(sym.position.X + pin.position.X, 3),
-                   round(sym.position.Y - pin.position.Y, 3))
+            key = (
+                round(sym.position.X + pin.position.X, 3),
+                round(sym.position.Y - pin.position.Y, 3),
+            )
             names = labels.get(key, [])
             assert len(names) == 1, f"{ref} pin {pin.number}: labels {names} at {key}"
             netlist[(ref, pin.number)] = names[0]

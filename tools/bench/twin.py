@@ -26,9 +26,18 @@ from spectratac.twin.rig import TwinRig
 def allocate_like(n: int, m: int) -> int:
     """Allocate (and touch) the arrays a session returns: the floor for any generator."""
     arrays = [
-        np.empty(n), np.empty(n), np.empty(n, np.int16), np.empty((n, 3, 5), np.uint16),
-        np.empty((n, 3), bool), np.empty(m), np.empty((m, 6)), np.empty((n, 6)),
-        np.empty((n, 3)), np.empty((n, 2)), np.empty(n, bool), np.empty(n, np.int8),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n, np.int16),
+        np.empty((n, 3, 5), np.uint16),
+        np.empty((n, 3), bool),
+        np.empty(m),
+        np.empty((m, 6)),
+        np.empty((n, 6)),
+        np.empty((n, 3)),
+        np.empty((n, 2)),
+        np.empty(n, bool),
+        np.empty(n, np.int8),
     ]
     for a in arrays:
         a.fill(0)
@@ -77,12 +86,24 @@ def main() -> None:
     win_rate, ref_rate = benchlib.side_by_side(windows, numpy_ref, args.rounds)
     benchlib.report(
         [
-            benchlib.Figure("calibration session generation", gen_s, "s", "allocate outputs",
-                            alloc_s, gen_s / alloc_s,
-                            {"samples": n, "ft_samples": m, "budget_s": 5.0}),
-            benchlib.Figure("register-level window, 3 sensors", 1e6 / win_rate, "us",
-                            "numpy (5,27) square+sum", 1e6 / ref_rate, ref_rate / win_rate,
-                            {"windows_per_s": win_rate}),
+            benchlib.Figure(
+                "calibration session generation",
+                gen_s,
+                "s",
+                "allocate outputs",
+                alloc_s,
+                gen_s / alloc_s,
+                {"samples": n, "ft_samples": m, "budget_s": 5.0},
+            ),
+            benchlib.Figure(
+                "register-level window, 3 sensors",
+                1e6 / win_rate,
+                "us",
+                "numpy (5,27) square+sum",
+                1e6 / ref_rate,
+                ref_rate / win_rate,
+                {"windows_per_s": win_rate},
+            ),
         ],
         args.json,
     )
