@@ -176,7 +176,21 @@ class Sensor:
 
     def _handshake(self) -> None:
         self._write(b"\x00")  # ends any partial frame the device holds from earlier garbage
-        info = self._request(m.GetInfo(), (m.Info.TYPE_ID,))
+        # Ask again every 0.5 s within the timeout: a board that is still booting (or reset
+        # by opening its port) loses what it receives before its UART is up.
+        deadline = time.monotonic() + self.timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            try:
+                info = self._request(m.GetInfo(), (m.Info.TYPE_ID,), timeout=min(0.5, remaining))
+                break
+            except DeviceTimeoutError:
+                if deadline - time.monotonic() <= 0:
+                    raise DeviceTimeoutError(
+                        f"no reply to GET_INFO from {self.url} within {self.timeout:.1f} s: is "
+                        f"the device powered, running SpectraTac firmware, and on this "
+                        f"port/baud rate?"
+                    ) from None
         assert isinstance(info, m.Info)
         host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
         device = (info.protocol_major, info.protocol_minor)
@@ -414,7 +428,13 @@ class Sensor:
         assert isinstance(reply, m.Ack)
         return reply
 
-    def _request(self, msg: Message, accepts: tuple[int, ...], match_seq: bool = False) -> Message:
+    def _request(
+        self,
+        msg: Message,
+        accepts: tuple[int, ...],
+        match_seq: bool = False,
+        timeout: float | None = None,
+    ) -> Message:
         msg.validate()
         with self._write_lock:  # one seq per frame, in order on the wire
             seq = self._next_seq()
@@ -428,15 +448,16 @@ class Sensor:
             except DisconnectedError:
                 self._drop_waiter(waiter)
                 raise
-        return self._await(waiter, msg.NAME)
+        return self._await(waiter, msg.NAME, timeout)
 
-    def _await(self, waiter: _Waiter, what: str) -> Message:
-        if not waiter.event.wait(self.timeout):
+    def _await(self, waiter: _Waiter, what: str, timeout: float | None = None) -> Message:
+        timeout = self.timeout if timeout is None else timeout
+        if not waiter.event.wait(timeout):
             self._drop_waiter(waiter)
             if self._lost is not None:
                 raise self._lost
             raise DeviceTimeoutError(
-                f"no reply to {what} from {self.url} within {self.timeout:.1f} s: is the "
+                f"no reply to {what} from {self.url} within {timeout:.1f} s: is the "
                 f"device powered, running SpectraTac firmware, and on this port/baud rate?"
             )
         if waiter.reply is None:

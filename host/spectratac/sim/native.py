@@ -1,27 +1,22 @@
 """Build (once, cached) and load the firmware core as a host shared library.
 
 The simulated device is the real firmware: firmware/core plus firmware/ports/native compiled
-with the system C compiler into build/native/libstac_sim-<hash>.so, where <hash> covers every
-source, so an edited firmware is rebuilt on next use and never loaded stale.
+with the system C compiler by firmware/ports/native/build.py (rebuilt when a source changes).
 """
 
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import shutil
-import subprocess
+import importlib.util
 import threading
 from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_void_p
 from pathlib import Path
+from types import ModuleType
 
 from spectratac.errors import SpectraTacError
 
 REPO = Path(__file__).resolve().parents[3]
 FIRMWARE = REPO / "firmware"
-SOURCE_DIRS = ("core", "core/generated", "ports/native")
-BUILD_DIR = REPO / "build" / "native"
 ABI_VERSION = 1
 
 I2C_OK, I2C_NACK, I2C_TIMEOUT, I2C_BUS_ERROR = 0, 1, 2, 3
@@ -61,62 +56,33 @@ _lock = threading.Lock()
 _lib: ctypes.CDLL | None = None
 
 
-def sources() -> list[Path]:
-    files: list[Path] = []
-    for sub in SOURCE_DIRS:
-        folder = FIRMWARE / sub
-        files += sorted(folder.glob("*.c")) + sorted(folder.glob("*.h"))
-    if not files:
+def _builder() -> ModuleType:
+    """firmware/ports/native/build.py: the one place that knows how to compile the core."""
+    path = FIRMWARE / "ports" / "native" / "build.py"
+    if not path.exists():
         raise NativeBuildError(
-            f"no firmware sources under {FIRMWARE}: the simulated device needs the repository "
+            f"{path} is missing: the simulated device compiles the firmware from the repository "
             f"checkout (firmware/ next to host/)"
         )
-    return files
-
-
-def library_path() -> Path:
-    digest = hashlib.sha256()
-    for path in sources():
-        digest.update(path.relative_to(FIRMWARE).as_posix().encode())
-        digest.update(path.read_bytes())
-    return BUILD_DIR / f"libstac_sim-{digest.hexdigest()[:12]}.so"
+    spec = importlib.util.spec_from_file_location("stac_native_build", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def build() -> Path:
-    """Compile the native port if this exact source set has not been built yet."""
-    target = library_path()
-    if target.exists():
-        return target
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
+    """Compile the native port unless an up-to-date build exists; return the library."""
+    builder = _builder()
+    if builder.compiler() is None:
         raise NativeBuildError(
             "no C compiler found: the simulated device compiles the firmware for this host. "
             "Install one (Debian: apt install build-essential) or set CC."
         )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    c_files = [str(p) for p in sources() if p.suffix == ".c"]
-    includes = [f"-I{FIRMWARE / sub}" for sub in SOURCE_DIRS]
-    tmp = target.with_suffix(f".{os.getpid()}.tmp")
-    cmd = [
-        cc,
-        "-std=c11",
-        "-O2",
-        "-fPIC",
-        "-shared",
-        "-fvisibility=hidden",
-        "-Wall",
-        "-Wextra",
-        "-Werror",
-        *includes,
-        *c_files,
-        "-o",
-        str(tmp),
-    ]
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise NativeBuildError(f"compiling the native firmware failed:\n{done.stderr[-4000:]}")
-    tmp.replace(target)  # atomic: concurrent builders never load a half-written file
-    return target
+    try:
+        return Path(builder.build_lib())
+    except RuntimeError as exc:
+        raise NativeBuildError(f"compiling the native firmware failed: {exc}") from None
 
 
 def load() -> ctypes.CDLL:
