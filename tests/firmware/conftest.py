@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import importlib.util
 import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -11,6 +16,65 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "build" / "firmware" / "native"
+ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+BUILD_TIMEOUT_S = 600
+
+sys.path.insert(0, str(REPO / "tools" / "platformio"))
+import pio  # noqa: E402  (tools/platformio/pio.py: the offline PlatformIO runner)
+
+
+def need(tool: str, package: str) -> None:
+    if shutil.which(tool) is None:
+        pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")
+
+
+@pytest.fixture(scope="session")
+def image() -> Path:
+    """The STM32F411 image, built offline through PlatformIO (once per session)."""
+    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
+    result = pio.run(["run", "-e", "blackpill"], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    return ELF
+
+
+@pytest.fixture
+def qemu_port(image: Path) -> Iterator[int]:
+    """The image running in QEMU (-M netduinoplus2), USART1 on a local TCP port. QEMU holds
+    the guest until the host connects (wait=on)."""
+    need("qemu-system-arm", "qemu-system-arm")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    qemu = subprocess.Popen(
+        [
+            "qemu-system-arm",
+            "-M",
+            "netduinoplus2",
+            "-nographic",
+            "-monitor",
+            "none",
+            "-kernel",
+            str(image),
+            "-serial",
+            f"tcp:127.0.0.1:{port},server=on,wait=on",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.monotonic() + 20.0
+        while True:  # until QEMU listens; this first connection releases the guest (wait=on)
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+                break
+            except OSError:
+                if time.monotonic() > deadline or qemu.poll() is not None:
+                    raise
+                time.sleep(0.05)
+        yield port
+    finally:
+        qemu.kill()
+        qemu.wait(timeout=30)
 
 
 def load_native_build() -> ModuleType:

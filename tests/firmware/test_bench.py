@@ -11,7 +11,11 @@ from pathlib import Path
 def test_firmware_bench_json(repo: Path, native_build: object) -> None:
     out = subprocess.run(
         [sys.executable, "tools/bench/firmware.py", "--json", "--no-image"],
-        cwd=repo, capture_output=True, text=True, check=True, timeout=600,
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
     ).stdout
     figures = {f["name"]: f for f in map(json.loads, out.splitlines())}
     encode = next(f for name, f in figures.items() if name.startswith("SAMPLE frame encode"))

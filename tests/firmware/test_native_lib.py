@@ -13,16 +13,31 @@ import pytest
 from spectratac.protocol import StreamDecoder, encode_frame, messages
 from spectratac.protocol.framing import Frame
 
-I2C_FN = ctypes.CFUNCTYPE(c_int32, c_void_p, c_uint32, c_uint8, c_uint8, POINTER(c_uint8),
-                          c_uint32, POINTER(c_uint8), c_uint32, c_uint32)
+I2C_FN = ctypes.CFUNCTYPE(
+    c_int32,
+    c_void_p,
+    c_uint32,
+    c_uint8,
+    c_uint8,
+    POINTER(c_uint8),
+    c_uint32,
+    POINTER(c_uint8),
+    c_uint32,
+    c_uint32,
+)
 PWM_FN = ctypes.CFUNCTYPE(None, c_void_p, c_uint32, c_uint8, c_uint8, c_uint16)
 TX_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p, c_uint32, POINTER(c_uint8), c_uint32)
 CLOCK_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p)
 
 
 class Callbacks(ctypes.Structure):
-    _fields_ = (("user", c_void_p), ("i2c_transfer", I2C_FN), ("pwm_set", PWM_FN),
-                ("uart_tx", TX_FN), ("clock_us", CLOCK_FN))
+    _fields_ = (
+        ("user", c_void_p),
+        ("i2c_transfer", I2C_FN),
+        ("pwm_set", PWM_FN),
+        ("uart_tx", TX_FN),
+        ("clock_us", CLOCK_FN),
+    )
 
 
 class Nack(Exception):
@@ -54,8 +69,15 @@ class Veml3328Model:
             if self.conf & 0x000C == 0x000C and self.conf & 0x8001 == 0:
                 self.done_at = now_us + self.IT_US[(self.conf >> 4) & 3]
             return b""
-        value = {0x00: self.conf, 0x0C: 0x0028, 0x05: self.latched[0], 0x06: self.latched[1],
-                 0x07: self.latched[2], 0x04: self.latched[3], 0x08: self.latched[4]}.get(reg, 0)
+        value = {
+            0x00: self.conf,
+            0x0C: 0x0028,
+            0x05: self.latched[0],
+            0x06: self.latched[1],
+            0x07: self.latched[2],
+            0x04: self.latched[3],
+            0x08: self.latched[4],
+        }.get(reg, 0)
         return value.to_bytes(2, "little")[:read_len]
 
 
@@ -69,8 +91,7 @@ class Device:
         self.tx = bytearray()
         self.pwm: dict[tuple[int, int], int] = {}
         self.mem = (ctypes.c_uint64 * ((lib.stac_sim_sizeof() + 7) // 8))()
-        self.cb = Callbacks(None, I2C_FN(self._i2c), PWM_FN(self._pwm), TX_FN(self._tx),
-                            CLOCK_FN())
+        self.cb = Callbacks(None, I2C_FN(self._i2c), PWM_FN(self._pwm), TX_FN(self._tx), CLOCK_FN())
         uid = bytes(range(12))
         caps = lib.stac_sim_default_capabilities()
         assert lib.stac_sim_init(self.mem, ctypes.byref(self.cb), board, caps, uid, 0, 0) == 0
@@ -112,8 +133,15 @@ def lib(sim_library: Path) -> ctypes.CDLL:
     lib.stac_sim_sizeof.restype = c_uint32
     lib.stac_sim_default_capabilities.restype = c_uint32
     lib.stac_sim_init.restype = c_int32
-    lib.stac_sim_init.argtypes = [c_void_p, POINTER(Callbacks), ctypes.c_char_p, c_uint32,
-                                  ctypes.c_char_p, c_uint32, c_uint32]
+    lib.stac_sim_init.argtypes = [
+        c_void_p,
+        POINTER(Callbacks),
+        ctypes.c_char_p,
+        c_uint32,
+        ctypes.c_char_p,
+        c_uint32,
+        c_uint32,
+    ]
     lib.stac_sim_step.argtypes = [c_void_p, c_uint32]
     lib.stac_sim_rx_feed.restype = c_uint32
     lib.stac_sim_rx_feed.argtypes = [c_void_p, ctypes.c_char_p, c_uint32]
@@ -139,12 +167,21 @@ def test_abi_basics(lib: ctypes.CDLL) -> None:
 
 def test_two_instances_stream_independently(lib: ctypes.CDLL) -> None:
     a = Device(lib, b"sim-a", [Veml3328Model((10 * k + 1, 2, 3, 4, 5)) for k in range(3)])
-    b = Device(lib, b"sim-b", [Veml3328Model((7, 7, 7, 7, 7)),
-                               Veml3328Model((0, 0, 0, 0, 0), present=False),
-                               Veml3328Model((9, 9, 9, 9, 9))])
+    b = Device(
+        lib,
+        b"sim-b",
+        [
+            Veml3328Model((7, 7, 7, 7, 7)),
+            Veml3328Model((0, 0, 0, 0, 0), present=False),
+            Veml3328Model((9, 9, 9, 9, 9)),
+        ],
+    )
     for dev in (a, b):
-        dev.feed(b"\x00" + encode_frame(messages.GetInfo(), seq=1)
-                 + encode_frame(messages.Start(), seq=2))
+        dev.feed(
+            b"\x00"
+            + encode_frame(messages.GetInfo(), seq=1)
+            + encode_frame(messages.Start(), seq=2)
+        )
     steps = a.run(1_000_000)
     b.run(1_000_000)
     frames_a, dec_a = decode(bytes(a.tx))

@@ -35,8 +35,13 @@ def expected() -> dict[str, tuple[str, int, int, int, int]]:
             continue  # supplies and ground
         fn = FUNCTION.search(pad["function"])
         assert fn, f"pad {pad['pad']}: cannot read function {pad['function']!r}"
-        out[pad["signal"]] = (mcu[1], int(mcu[2:]), int(fn["af"]), int(fn["unit"]),
-                              int(fn["ch"] or 0))
+        out[pad["signal"]] = (
+            mcu[1],
+            int(mcu[2:]),
+            int(fn["af"]),
+            int(fn["unit"]),
+            int(fn["ch"] or 0),
+        )
     link = data["host_link"]
     # USART1 is AF7 on PA9/PA10 (datasheet table 9); pinmap.toml names the pins.
     out["TX"] = (link["tx"][1], int(link["tx"][2:]), 7, 1, 0)
@@ -50,8 +55,7 @@ def test_port_pins_match_pinmap() -> None:
     assert set(table) == set(want), "board.h and pinmap.toml name different signals"
     for signal, (port, pin, af, unit, channel) in want.items():
         row = table[signal]
-        got = (row["port"], int(row["pin"]), int(row["af"]), int(row["unit"]),
-               int(row["channel"]))
+        got = (row["port"], int(row["pin"]), int(row["af"]), int(row["unit"]), int(row["channel"]))
         assert got == (port, pin, af, unit, channel), f"{signal}: port {got} != pinmap {want}"
 
 

@@ -5,10 +5,7 @@ absent (QEMU's I2C reads zero, so every probe times out) instead of hanging."""
 from __future__ import annotations
 
 import re
-import shutil
-import socket
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,34 +14,21 @@ import pytest
 from spectratac.protocol import StreamDecoder, encode_frame, messages
 from spectratac.protocol.framing import Frame
 
-REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "tools" / "platformio"))
+from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
 
-import pio  # noqa: E402  (tools/platformio/pio.py: the offline PlatformIO runner)
-
-ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
 FLASH_BUDGET = 32 * 1024
 RAM_BUDGET = 8 * 1024
-BUILD_TIMEOUT_S = 600
 IO_TIMEOUT_S = 20.0  # bound on every wait for the emulated board
 
 
-def need(tool: str, package: str) -> None:
-    if shutil.which(tool) is None:
-        pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")
-
-
-@pytest.fixture(scope="session")
-def image() -> Path:
-    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
-    result = pio.run(["run", "-e", "blackpill"], timeout=BUILD_TIMEOUT_S)
-    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
-    return ELF
-
-
 def section_sizes(elf: Path) -> dict[str, int]:
-    out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(elf)], capture_output=True,
-                         text=True, check=True, timeout=60).stdout
+    out = subprocess.run(
+        ["arm-none-eabi-size", "-A", "-d", str(elf)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    ).stdout
     return {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
 
 
@@ -121,23 +105,10 @@ class Board:
 
 
 @pytest.fixture
-def board(image: Path) -> Iterator[Board]:
-    need("qemu-system-arm", "qemu-system-arm")
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    qemu = subprocess.Popen(
-        ["qemu-system-arm", "-M", "netduinoplus2", "-nographic", "-monitor", "none",
-         "-kernel", str(image), "-serial", f"tcp:127.0.0.1:{port},server=on,wait=on"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-    )
-    try:
-        b = Board(port)
-        yield b
-        b.link.close()
-    finally:
-        qemu.kill()
-        qemu.wait(timeout=30)
+def board(qemu_port: int) -> Iterator[Board]:
+    b = Board(qemu_port)
+    yield b
+    b.link.close()
 
 
 def get_info(board: Board) -> messages.Info:
