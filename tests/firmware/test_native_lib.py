@@ -6,38 +6,13 @@ host's own protocol package, so the C and Python sides of the protocol are cross
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_void_p
+from ctypes import POINTER, c_int32, c_uint32, c_void_p
 from pathlib import Path
 
 import pytest
 from spectratac.protocol import StreamDecoder, encode_frame, messages
 from spectratac.protocol.framing import Frame
-
-I2C_FN = ctypes.CFUNCTYPE(
-    c_int32,
-    c_void_p,
-    c_uint32,
-    c_uint8,
-    c_uint8,
-    POINTER(c_uint8),
-    c_uint32,
-    POINTER(c_uint8),
-    c_uint32,
-    c_uint32,
-)
-PWM_FN = ctypes.CFUNCTYPE(None, c_void_p, c_uint32, c_uint8, c_uint8, c_uint16)
-TX_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p, c_uint32, POINTER(c_uint8), c_uint32)
-CLOCK_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p)
-
-
-class Callbacks(ctypes.Structure):
-    _fields_ = (
-        ("user", c_void_p),
-        ("i2c_transfer", I2C_FN),
-        ("pwm_set", PWM_FN),
-        ("uart_tx", TX_FN),
-        ("clock_us", CLOCK_FN),
-    )
+from spectratac.sim.native import CLOCK_FN, I2C_FN, PWM_FN, TX_FN, Callbacks
 
 
 class Nack(Exception):
