@@ -199,15 +199,15 @@ def main() -> int:
     rate, bare, gaps = throughput(args.samples)
     cpu, raw_cpu, received = cpu_many(args.devices, args.seconds)
     figures = [
-        Figure("frame-to-user latency p50", p50, "ms", "raw pty p50", r50, p50 / r50),
+        Figure("frame-to-user latency p50", p50, "µs", "raw pty p50", r50, p50 / r50),
         Figure(
             "frame-to-user latency p99",
             p99,
-            "ms",
+            "µs",
             "raw pty p99",
             r99,
             p99 / r99,
-            {"frames": len(s_lat), "mean_ms": statistics.mean(s_lat) * 1e3},
+            {"frames": len(s_lat), "mean_us": statistics.mean(s_lat) * 1e6},
         ),
         Figure(
             "samples/s at speed=max",
