@@ -108,10 +108,3 @@ def vector_binary(native_build: ModuleType) -> Path:
 @pytest.fixture(scope="session")
 def sim_library(native_build: ModuleType) -> Path:
     return native_build.build_lib(OUT)
-
-
-def require_tool(name: str, package: str) -> str:
-    path = shutil.which(name)
-    if path is None:
-        pytest.skip(f"{name} not installed (apt install {package}; .ci/run installs it)")
-    return path

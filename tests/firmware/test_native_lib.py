@@ -6,13 +6,12 @@ host's own protocol package, so the C and Python sides of the protocol are cross
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, c_int32, c_uint32, c_void_p
 from pathlib import Path
 
 import pytest
 from spectratac.protocol import StreamDecoder, encode_frame, messages
 from spectratac.protocol.framing import Frame
-from spectratac.sim.native import CLOCK_FN, I2C_FN, PWM_FN, TX_FN, Callbacks
+from spectratac.sim.native import CLOCK_FN, I2C_FN, PWM_FN, TX_FN, Callbacks, declare
 
 
 class Nack(Exception):
@@ -103,27 +102,7 @@ class Device:
 
 @pytest.fixture(scope="module")
 def lib(sim_library: Path) -> ctypes.CDLL:
-    lib = ctypes.CDLL(str(sim_library))
-    lib.stac_sim_abi_version.restype = c_uint32
-    lib.stac_sim_sizeof.restype = c_uint32
-    lib.stac_sim_default_capabilities.restype = c_uint32
-    lib.stac_sim_init.restype = c_int32
-    lib.stac_sim_init.argtypes = [
-        c_void_p,
-        POINTER(Callbacks),
-        ctypes.c_char_p,
-        c_uint32,
-        ctypes.c_char_p,
-        c_uint32,
-        c_uint32,
-    ]
-    lib.stac_sim_step.argtypes = [c_void_p, c_uint32]
-    lib.stac_sim_rx_feed.restype = c_uint32
-    lib.stac_sim_rx_feed.argtypes = [c_void_p, ctypes.c_char_p, c_uint32]
-    lib.stac_sim_next_wake_us.restype = c_uint32
-    lib.stac_sim_next_wake_us.argtypes = [c_void_p]
-    lib.stac_sim_streaming.restype = c_uint32
-    lib.stac_sim_streaming.argtypes = [c_void_p]
+    lib = declare(ctypes.CDLL(str(sim_library)))
     return lib
 
 

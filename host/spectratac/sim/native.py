@@ -91,32 +91,37 @@ def load() -> ctypes.CDLL:
     with _lock:
         if _lib is not None:
             return _lib
-        lib = ctypes.CDLL(str(build()))
-        lib.stac_sim_abi_version.restype = c_uint32
+        lib = declare(ctypes.CDLL(str(build())))
         if lib.stac_sim_abi_version() != ABI_VERSION:
             raise NativeBuildError(
                 f"native firmware ABI {lib.stac_sim_abi_version()} != {ABI_VERSION} expected by "
                 f"this host library: update both from one checkout"
             )
-        lib.stac_sim_sizeof.restype = c_uint32
-        lib.stac_sim_default_capabilities.restype = c_uint32
-        lib.stac_sim_init.restype = c_int32
-        lib.stac_sim_init.argtypes = [
-            c_void_p,
-            POINTER(Callbacks),
-            ctypes.c_char_p,
-            c_uint32,
-            c_void_p,
-            c_uint32,
-            c_uint32,
-        ]
-        lib.stac_sim_step.restype = None
-        lib.stac_sim_step.argtypes = [c_void_p, c_uint32]
-        lib.stac_sim_rx_feed.restype = c_uint32
-        lib.stac_sim_rx_feed.argtypes = [c_void_p, ctypes.c_char_p, c_uint32]
-        lib.stac_sim_next_wake_us.restype = c_uint32
-        lib.stac_sim_next_wake_us.argtypes = [c_void_p]
-        lib.stac_sim_streaming.restype = c_uint32
-        lib.stac_sim_streaming.argtypes = [c_void_p]
         _lib = lib
         return lib
+
+
+def declare(lib: ctypes.CDLL) -> ctypes.CDLL:
+    """Declare the stac_sim_* argument and result types on a loaded library."""
+    lib.stac_sim_abi_version.restype = c_uint32
+    lib.stac_sim_sizeof.restype = c_uint32
+    lib.stac_sim_default_capabilities.restype = c_uint32
+    lib.stac_sim_init.restype = c_int32
+    lib.stac_sim_init.argtypes = [
+        c_void_p,
+        POINTER(Callbacks),
+        ctypes.c_char_p,
+        c_uint32,
+        c_void_p,
+        c_uint32,
+        c_uint32,
+    ]
+    lib.stac_sim_step.restype = None
+    lib.stac_sim_step.argtypes = [c_void_p, c_uint32]
+    lib.stac_sim_rx_feed.restype = c_uint32
+    lib.stac_sim_rx_feed.argtypes = [c_void_p, ctypes.c_char_p, c_uint32]
+    lib.stac_sim_next_wake_us.restype = c_uint32
+    lib.stac_sim_next_wake_us.argtypes = [c_void_p]
+    lib.stac_sim_streaming.restype = c_uint32
+    lib.stac_sim_streaming.argtypes = [c_void_p]
+    return lib
