@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 
+import cobs.cobs as cobs
 import numpy as np
 import pytest
 from spectratac.device import (
@@ -12,6 +13,7 @@ from spectratac.device import (
     CommandRejectedError,
     Sensor,
 )
+from spectratac.protocol import Frame, decode_frame
 from spectratac.protocol import messages as m
 
 FAST = "sim://?scene=tour&seed=3&speed=max"
@@ -128,3 +130,22 @@ def test_absent_sensor_flagged_others_stream() -> None:
     assert np.all(batch["counts"][:, 1] == 0)
     assert np.all(batch["status"][:, [0, 2]] == 0) and np.all(batch["counts"][:, [0, 2], 3] > 0)
     assert status.sensor_present == 0b101
+
+
+def test_frame_listener_sees_raw_frames_and_a_failing_one_is_dropped() -> None:
+    seen: list[bytes] = []
+
+    def broken(frame: Frame, host_time: float) -> None:
+        raise RuntimeError("recorder bug")
+
+    with Sensor.open(FAST) as sensor:
+        sensor.add_listener(lambda frame, t: seen.append(frame.raw))
+        sensor.add_listener(broken)
+        sensor.start()
+        samples = sensor.read(20, timeout=10)
+        sensor.stop()
+    raw_samples = [r for r in seen if r[2] == m.Sample.TYPE_ID]
+    assert len(samples) == 20 and len(raw_samples) >= 20
+    # the raw bytes are the frame as sent: they decode to the same sample
+    first = decode_frame(cobs.encode(raw_samples[0])).message
+    assert isinstance(first, m.Sample) and first.sample_seq == samples["sequence"][0]

@@ -22,7 +22,7 @@ import collections
 import logging
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -38,13 +38,14 @@ from spectratac.device.errors import (
 )
 from spectratac.device.records import Sample, Unwrapper, to_array
 from spectratac.device.transport import Transport, open_transport
-from spectratac.protocol import StreamDecoder, encode_frame, encode_raw
+from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
 from spectratac.protocol.schema import Message
 
 log = logging.getLogger("spectratac.device")
 
 OverflowPolicy = Literal["drop_oldest", "drop_newest", "error"]
+FrameListener = Callable[[Frame, float], None]  # (accepted frame, host receive time)
 INTEGRATION_TIMES = (50, 100, 200, 400)
 _GAINS = {1.0: m.Gain.GAIN_X1, 2.0: m.Gain.GAIN_X2, 4.0: m.Gain.GAIN_X4, 0.5: m.Gain.GAIN_X0_5}
 _DG = {1: m.DigitalGain.DG_X1, 2: m.DigitalGain.DG_X2, 4: m.DigitalGain.DG_X4}
@@ -149,6 +150,7 @@ class Sensor:
         self._configure_msg: m.Configure | None = None
         self.info: m.Info = m.Info()
         self.config_id = 0
+        self._listeners: list[FrameListener] = []
         self._thread = threading.Thread(target=self._reader, name="spectratac-reader", daemon=True)
         self._thread.start()
 
@@ -230,6 +232,16 @@ class Sensor:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def add_listener(self, listener: FrameListener) -> None:
+        """Call `listener(frame, host_time)` from the reader thread for every accepted frame,
+        before it is parsed into samples or replies (a recorder stores `frame.raw` verbatim).
+        Keep it fast: it runs on the reader thread. Exceptions it raises are logged and
+        the listener is removed, so a broken recorder never stops the stream."""
+        self._listeners = [*self._listeners, listener]
+
+    def remove_listener(self, listener: FrameListener) -> None:
+        self._listeners = [x for x in self._listeners if x is not listener]
 
     # ------------------------------------------------------------------ commands
     def configure(
@@ -501,6 +513,13 @@ class Sensor:
         if d.version_mismatch and d.remote_version:
             self._fail_waiters_version(d.remote_version)
         samples: list[Sample] = []
+        for listener in self._listeners:
+            try:
+                for frame in frames:
+                    listener(frame, now)
+            except Exception:
+                log.exception("%s: frame listener %r failed; removed", self.url, listener)
+                self.remove_listener(listener)
         for frame in frames:
             st.frames_received += 1
             msg = frame.message

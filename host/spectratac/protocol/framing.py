@@ -86,11 +86,13 @@ class VersionMismatchError(FrameError):
 
 @dataclass(slots=True)  # not frozen: frozen dataclasses cost 3x more to build per frame
 class Frame:
-    """A decoded frame: the sender's protocol version and sequence number, and the message."""
+    """A decoded frame: the sender's protocol version and sequence number, the message, and
+    the frame's decoded bytes (header, payload, CRC; what a recorder stores verbatim)."""
 
     version: tuple[int, int]
     seq: int
     message: Message
+    raw: bytes = b""
 
 
 def encode_frame(
@@ -143,7 +145,9 @@ def parse_body(body: bytes) -> Frame:
     cls = m.MESSAGES_BY_ID.get(type_id)
     if cls is None:
         raise UnknownTypeError(type_id, seq)
-    return Frame((major, minor), seq, cls.unpack(body[HEADER.size :]))
+    return Frame(
+        (major, minor), seq, cls.unpack(body[HEADER.size :]), body + CRC.pack(crc32c(body))
+    )
 
 
 def decode_frame(encoded: bytes) -> Frame:

@@ -128,7 +128,7 @@ class StreamDecoder:
             if cls is None:
                 stats.unknown_type += 1
                 continue
-            out.append(Frame((v_major, v_minor), seq, cls.unpack(raw[5:-4])))
+            out.append(Frame((v_major, v_minor), seq, cls.unpack(raw[5:-4]), raw))
         self._last_seq = last_seq
         stats.frames_ok += len(out)
         if len(tail) > MAX_ENCODED:
