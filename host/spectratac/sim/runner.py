@@ -18,11 +18,16 @@ MAX = "max"
 
 
 class DeviceRunner:
-    def __init__(self, device: SimDevice, speed: float | str = 1.0) -> None:
+    def __init__(
+        self, device: SimDevice, speed: float | str = 1.0, epoch: float | None = None
+    ) -> None:
+        """`epoch`: host monotonic time at which device time was 0 (a shared world's clock;
+        paced runs only). By default device time starts at 0 now."""
         if speed != MAX and (not isinstance(speed, (int, float)) or speed <= 0):
             raise ValueError(f"speed={speed!r}: give a positive number or 'max'")
         self.device = device
         self.speed = speed
+        self.epoch = epoch
         self._inbound = bytearray()
         self._wake = threading.Condition()
         self._stop = False
@@ -61,6 +66,8 @@ class DeviceRunner:
         fast = self.speed == MAX
         rate = 1.0 if fast else float(self.speed)  # device µs per wall µs when paced
         wall0, dev0 = time.monotonic(), dev.now_us
+        if self.epoch is not None and not fast:
+            wall0, dev0 = self.epoch, 0
         while True:
             with self._wake:
                 if self._stop:

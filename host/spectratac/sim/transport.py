@@ -7,8 +7,8 @@ import threading
 from spectratac.device.errors import DeviceError, DisconnectedError
 from spectratac.sim.device import SimDevice
 from spectratac.sim.runner import MAX, DeviceRunner
-from spectratac.sim.scenes import make_scene
 from spectratac.sim.url import parse_sim_url
+from spectratac.sim.world import SimWorld
 
 HIGH_WATER = 256 * 1024  # bytes the host has not read yet before the device waits / drops
 
@@ -18,7 +18,7 @@ class SimTransport:
         self.url = url
         try:
             opts = parse_sim_url(url)
-            scene = make_scene(opts.scene, seed=str(opts.seed), **opts.scene_params)
+            self.world = SimWorld.join(opts)
         except ValueError as exc:
             raise DeviceError(str(exc)) from None
         self.options = opts
@@ -26,8 +26,14 @@ class SimTransport:
         self._cond = threading.Condition()
         self._closed = False
         self._blocking = opts.speed == MAX
-        self.device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=self._on_tx)
-        self.runner = DeviceRunner(self.device, opts.speed).start()
+        self.device = SimDevice(  # its own rig: a device's sensor models are stateful
+            self.world.scene,
+            opts.seed,
+            absent=opts.absent,
+            on_tx=self._on_tx,
+        )
+        epoch = self.world.epoch if self.world.paced else None
+        self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
 
     def _on_tx(self, data: bytes, _t: int) -> bool:
         with self._cond:
@@ -62,6 +68,9 @@ class SimTransport:
 
     def close(self) -> None:
         with self._cond:
+            if self._closed:
+                return
             self._closed = True
             self._cond.notify_all()
         self.runner.stop()
+        self.world.release()

@@ -1,0 +1,84 @@
+"""One simulated world per scene: the clock and twin that every simulated device of a
+sim:// URL shares, so that the optical sensor and a simulated reference F/T sensor opened
+on the same scene and seed see the same contact at the same moment.
+
+Scene time runs at `speed` times the host's monotonic clock from the world's epoch (the
+moment its first device opened). Worlds are shared within one process by key (scene,
+seed, speed, scene parameters) and dropped when the last device releases them.
+
+>>> from spectratac.sim.url import parse_sim_url
+>>> a = SimWorld.join(parse_sim_url("sim://?scene=press&seed=2&speed=5"))
+>>> b = SimWorld.join(parse_sim_url("sim://?scene=press&seed=2&speed=5&ft=bota"))
+>>> a is b, a.speed
+(True, 5.0)
+>>> a.release(); b.release()
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import ClassVar
+
+from spectratac.sim.runner import MAX
+from spectratac.sim.scenes import make_scene
+from spectratac.sim.url import SimOptions
+from spectratac.twin.rig import TwinRig
+from spectratac.twin.scene import Scene
+
+#: URL parameters that choose devices rather than the scene; they do not split worlds.
+DEVICE_PARAMS = frozenset({"ft", "ft_rate", "ft_loss", "ft_offset", "ft_drift", "ft_port"})
+
+
+class SimWorld:
+    _registry: ClassVar[dict[tuple[object, ...], SimWorld]] = {}
+    _lock: ClassVar[threading.Lock] = threading.Lock()
+
+    def __init__(self, key: tuple[object, ...], scene: Scene, seed: int, speed: float | str):
+        self.key = key
+        self.scene = scene
+        self.seed = seed
+        self.speed = speed
+        self.epoch = time.monotonic()
+        self._users = 0
+        self._ft_rig: TwinRig | None = None
+
+    @classmethod
+    def join(cls, opts: SimOptions) -> SimWorld:
+        """The world of `opts` (created on first use); call release() when done with it."""
+        params = {k: v for k, v in opts.scene_params.items() if k not in DEVICE_PARAMS}
+        key = (opts.scene, opts.seed, opts.speed, tuple(sorted(params.items())))
+        with cls._lock:
+            world = cls._registry.get(key)
+            if world is None:
+                scene = make_scene(opts.scene, seed=str(opts.seed), **params)
+                world = cls._registry[key] = SimWorld(key, scene, opts.seed, opts.speed)
+            world._users += 1
+            return world
+
+    def release(self) -> None:
+        with self._lock:
+            self._users -= 1
+            if self._users <= 0 and self._registry.get(self.key) is self:
+                del self._registry[self.key]
+
+    @property
+    def ft_rig(self) -> TwinRig:
+        """A twin of this world's scene and unit for reference F/T models (built on first
+        use, then shared; optical devices build their own, their sensor models hold state)."""
+        with self._lock:
+            if self._ft_rig is None:
+                self._ft_rig = TwinRig(self.scene, seed=self.seed)
+            return self._ft_rig
+
+    @property
+    def paced(self) -> bool:
+        """True when scene time follows the wall clock (speed is a number, not 'max')."""
+        return self.speed != MAX
+
+    def scene_time(self, now: float | None = None) -> float:
+        """Scene seconds at host monotonic time `now` (default: now). Paced worlds only."""
+        if not self.paced:
+            raise ValueError("speed=max has no wall-clock scene time; give a numeric speed")
+        t = time.monotonic() if now is None else now
+        return (t - self.epoch) * float(self.speed)
