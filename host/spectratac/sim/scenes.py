@@ -1,6 +1,7 @@
 """Scenes a simulated device can play, by the name used in sim:// URLs.
 
 sim://?scene=idle | press | tour | calibration | drift | saturation_ambient | ... &seed=3
+Scene parameters: press (region, force), tour (period), calibration (duration, s).
 """
 
 from __future__ import annotations
@@ -53,7 +54,9 @@ SCENES: dict[str, Callable[..., Scene]] = {
     "idle": lambda **_: twin_scenes.idle(LONG_S),
     "press": _press,
     "tour": lambda period="1.111", **_: region_tour(float(period)),
-    "calibration": lambda seed="0", **_: twin_scenes.calibration_session(int(seed)),
+    "calibration": lambda seed="0", duration=str(twin_scenes.CAL_DURATION_S), **_: (
+        twin_scenes.calibration_session(int(seed), float(duration))
+    ),
     "drift": lambda **_: twin_scenes.drift_session(),
 }
 
