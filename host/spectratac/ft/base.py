@@ -1,0 +1,248 @@
+"""FTSensor: the one interface of every reference F/T driver.
+
+A driver connects in its constructor (so a wrong URL fails at open), then a background
+reader thread parses whatever arrives into FT_RECORD batches and appends them to a bounded
+buffer (oldest records are dropped first when it is full, counted in stats.overflows).
+Users read NumPy batches (read, read_available) or iterate record by record. Closing is
+idempotent and thread-safe; records received before a link loss stay readable, the error
+is raised once they are all read.
+
+>>> with FTSensor.open("csv://" + _example_csv()) as ft:
+...     rows = ft.read(3, timeout=1.0)
+>>> rows["wrench"][:, 2].tolist(), ft.info.kind, ft.stats.received
+([-1.0, -2.0, -3.0], 'csv', 3)
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any, ClassVar
+
+import numpy as np
+
+from spectratac.ft.errors import FTDisconnectedError, FTError
+from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
+
+
+class FTSensor:
+    """Base class of the F/T drivers. Open one with FTSensor.open(url)."""
+
+    #: Subclasses set their URL scheme.
+    scheme: ClassVar[str] = ""
+
+    def __init__(self, url: str, info: FTInfo, *, timeout: float, buffer_size: int) -> None:
+        if buffer_size < 1:
+            raise FTError(f"buffer_size={buffer_size}: give at least 1 record")
+        self.url = url
+        self.info = info
+        self.stats = FTStats()
+        self.timeout = float(timeout)
+        self.buffer_size = int(buffer_size)
+        self._chunks: collections.deque[np.ndarray] = collections.deque()
+        self._buffered = 0
+        self._cond = threading.Condition()
+        self._closed = False
+        self._ended = False  # the source has no more records (end of a CSV file)
+        self._error: FTError | None = None
+        self._streaming = False
+        self._thread: threading.Thread | None = None
+        self._on_close: list[Any] = []  # callables run after the driver closed (sim servers)
+
+    # ------------------------------------------------------------------ opening and closing
+    @classmethod
+    def open(
+        cls, url: str, *, timeout: float = 2.0, buffer_size: int = 1 << 20, **options: Any
+    ) -> FTSensor:
+        """Connect to the F/T sensor named by `url`; dispatches on the scheme:
+        netft://HOST[:PORT]?cpf=&cpt=&http_port=, bota:///dev/ttyUSB0?baud=460800,
+        csv://PATH?rate=&realtime=1, sim://?scene=…&ft=netft|bota (starts a simulated
+        sensor in this process and connects the real driver to it). Options given as
+        keywords override the URL's query. Raises FTURLError, FTNotFoundError or
+        FTTimeoutError (within `timeout`) with what to do."""
+        from spectratac.ft.open import open_url
+
+        return open_url(url, timeout=timeout, buffer_size=buffer_size, **options)
+
+    def close(self) -> None:
+        """Stop the stream and the reader, close the link. Safe to call more than once."""
+        with self._cond:
+            if self._closed:
+                return
+            self._closed = True
+            self._cond.notify_all()
+        try:
+            if self._streaming:
+                self._send_stop()
+        except (OSError, FTError):
+            pass  # the link may already be gone; closing must still succeed
+        self._close_link()
+        if self._thread is not None and threading.current_thread() is not self._thread:
+            self._thread.join(timeout=2.0)
+        for hook in self._on_close:
+            hook()
+        self._on_close.clear()
+
+    def __enter__(self) -> FTSensor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        if getattr(self, "_closed", True) is False and self._thread is None:
+            self._close_link()
+
+    # ------------------------------------------------------------------ streaming
+    def start(self) -> None:
+        """Ask the sensor to stream (idempotent); records then arrive in the buffer."""
+        with self._cond:
+            if self._closed:
+                raise FTError(f"{self.url} is closed: open it again")
+            if self._streaming:
+                return
+            self._streaming = True
+        self._send_start()
+        if self._thread is None:
+            self._thread = threading.Thread(
+                target=self._reader, name=f"spectratac-ft-{self.scheme}", daemon=True
+            )
+            self._thread.start()
+
+    def stop(self) -> None:
+        """Ask the sensor to stop streaming; records already received stay readable."""
+        with self._cond:
+            if not self._streaming or self._closed:
+                return
+            self._streaming = False
+        self._send_stop()
+
+    def read(self, n: int, timeout: float | None = None) -> np.ndarray:
+        """Up to `n` FT_RECORD rows, waiting up to `timeout` s (default: the open timeout) for
+        all of them; fewer on timeout or at the end of a replay. Starts the stream if needed.
+        Raises the link's error only once everything received before it has been read."""
+        if not self._streaming and not self._closed:
+            self.start()
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        with self._cond:
+            while self._buffered < n:
+                if self._closed or self._ended or self._error is not None:
+                    break
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._cond.wait(remaining)
+            if self._buffered == 0 and self._error is not None:
+                raise self._error
+            return self._take(n)
+
+    def read_available(self) -> np.ndarray:
+        """Everything buffered now (possibly nothing), without waiting."""
+        with self._cond:
+            if self._buffered == 0 and self._error is not None:
+                raise self._error
+            return self._take(self._buffered)
+
+    def __iter__(self) -> Iterator[np.void]:
+        """Records one by one until the sensor is closed, the replay ends or the link fails."""
+        while True:
+            batch = self.read(4096, timeout=0.5)
+            if len(batch) == 0 and (self._closed or self._ended):
+                return
+            yield from batch
+
+    @property
+    def buffered(self) -> int:
+        with self._cond:
+            return self._buffered
+
+    @property
+    def streaming(self) -> bool:
+        return self._streaming
+
+    # ------------------------------------------------------------------ for drivers
+    def _send_start(self) -> None:
+        """Tell the device to stream (drivers override)."""
+
+    def _send_stop(self) -> None:
+        """Tell the device to stop (drivers override)."""
+
+    def _close_link(self) -> None:
+        """Close the socket, port or file (drivers override)."""
+
+    def _poll(self, timeout: float) -> np.ndarray | None:
+        """Wait up to `timeout` s for data; return the FT_RECORD rows it held (possibly none),
+        or None at the end of the source. Raise FTDisconnectedError when the link is lost."""
+        raise NotImplementedError
+
+    def _reader(self) -> None:
+        while not self._closed:
+            try:
+                batch = self._poll(0.05)
+            except FTError as exc:
+                self._fail(exc)
+                return
+            except OSError as exc:
+                if not self._closed:
+                    self._fail(FTDisconnectedError(f"lost {self.url}: {exc}; reopen it"))
+                return
+            if batch is None:
+                with self._cond:
+                    self._ended = True
+                    self._cond.notify_all()
+                return
+            if len(batch):
+                self._push(batch)
+
+    def _fail(self, exc: FTError) -> None:
+        with self._cond:
+            if not self._closed:
+                self._error = exc
+            self._cond.notify_all()
+
+    def _push(self, batch: np.ndarray) -> None:
+        with self._cond:
+            self.stats.received += len(batch)
+            self._chunks.append(batch)
+            self._buffered += len(batch)
+            excess = self._buffered - self.buffer_size
+            while excess > 0:
+                head = self._chunks[0]
+                if len(head) <= excess:
+                    self._chunks.popleft()
+                    dropped = len(head)
+                else:
+                    self._chunks[0] = head[excess:]
+                    dropped = excess
+                self._buffered -= dropped
+                self.stats.overflows += dropped
+                excess -= dropped
+            self._cond.notify_all()
+
+    def _take(self, n: int) -> np.ndarray:
+        parts: list[np.ndarray] = []
+        need = min(n, self._buffered)
+        while need > 0:
+            head = self._chunks[0]
+            if len(head) <= need:
+                parts.append(self._chunks.popleft())
+                need -= len(head)
+            else:
+                parts.append(head[:need])
+                self._chunks[0] = head[need:]
+                need = 0
+        out = np.concatenate(parts) if parts else np.empty(0, dtype=FT_RECORD)
+        self._buffered -= len(out)
+        return out
+
+
+def _example_csv() -> str:
+    """A three-row replay file for the docstring example."""
+    import tempfile
+
+    with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
+        f.write("t,Fx,Fy,Fz,Tx,Ty,Tz\n")
+        f.writelines(f"{i * 0.001},0,0,{-i - 1},0,0,0\n" for i in range(3))
+    return f.name

@@ -1,0 +1,181 @@
+"""Replay an F/T recording from CSV: csv://PATH[?rate=HZ|realtime=1&speed=S&host_time=file|now].
+
+Format: a header row, then one sample per row. Columns by name, any order:
+  t (or sensor_time)     sensor clock, s (required)
+  Fx Fy Fz               N (required)
+  Tx Ty Tz (or Mx My Mz) N*m (required)
+  host_time              s, host monotonic time it arrived (optional; used when host_time=file,
+                         the default when present, so recorded sessions keep their alignment)
+  sequence, status       integers (optional; default: row number and 0)
+Pacing: as fast as possible by default; rate=HZ paces rows at HZ; realtime=1 paces them by
+their t column (times speed=S). Rows that do not parse are skipped and counted in
+stats.bad_frames; gaps in `sequence` count as lost.
+
+>>> import tempfile, os
+>>> path = os.path.join(tempfile.mkdtemp(), "ft.csv")
+>>> text = "t,Fx,Fy,Fz,Mx,My,Mz,sequence\\n0,1,0,0,0,0,0,7\\nbad\\n0.1,2,0,0,0,0,0,9\\n"
+>>> _ = open(path, "w").write(text)
+>>> with CsvFTSensor.connect("csv://" + path, timeout=1, buffer_size=10) as ft:
+...     rows = ft.read(5, timeout=1)
+>>> rows["sequence"].tolist(), ft.stats.bad_frames, ft.stats.lost
+([7, 9], 1, 1)
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from pathlib import Path
+
+import numpy as np
+
+from spectratac.ft.base import FTSensor
+from spectratac.ft.errors import FTConfigError, FTNotFoundError, FTURLError
+from spectratac.ft.options import Options
+from spectratac.ft.records import FT_RECORD, FTInfo
+from spectratac.ft.sequence import SequenceTracker
+
+_ALIASES = {
+    "sensor_time": "t",
+    "time": "t",
+    "mx": "tx",
+    "my": "ty",
+    "mz": "tz",
+}
+_WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
+_CHUNK = 65536
+
+
+def csv_path(url: str) -> tuple[Path, str]:
+    """The file path and query of a csv:// URL (relative paths allowed: csv://data/ft.csv)."""
+    rest = url[len("csv://") :]
+    path, _, query = rest.partition("?")
+    if not path:
+        raise FTURLError(f"{url}: no file; example: csv://session_ft.csv")
+    return Path(path), query
+
+
+def load_csv(path: Path) -> tuple[np.ndarray, int, bool]:
+    """FT_RECORD rows of a CSV file (host_time NaN where absent), bad row count, and whether
+    it had a host_time column."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FTNotFoundError(f"no such F/T CSV file: {path}") from None
+    except OSError as exc:
+        raise FTNotFoundError(f"cannot read F/T CSV file {path}: {exc}") from None
+    header, _, body = text.partition("\n")
+    names = [_ALIASES.get(h.strip().lower(), h.strip().lower()) for h in header.split(",")]
+    missing = [c for c in ("t", *_WRENCH) if c not in names]
+    if missing:
+        raise FTConfigError(
+            f"{path}: header {header.strip()!r} lacks column(s) {', '.join(missing)}; "
+            f"need t, Fx, Fy, Fz, Tx, Ty, Tz (optional host_time, sequence, status)"
+        )
+    lines = [ln for ln in body.splitlines() if ln.strip()]
+    try:
+        table = np.loadtxt(io.StringIO("\n".join(lines)), delimiter=",", ndmin=2)
+        bad = 0
+    except ValueError:  # some rows are damaged: parse row by row, skipping them
+        good = []
+        for ln in lines:
+            try:
+                row = [float(v) for v in ln.split(",")]
+            except ValueError:
+                continue
+            if len(row) == len(names):
+                good.append(row)
+        bad = len(lines) - len(good)
+        table = np.array(good, dtype=np.float64).reshape(-1, len(names))
+    if table.shape[1] != len(names):
+        raise FTConfigError(f"{path}: rows have {table.shape[1]} values, header {len(names)}")
+    finite = np.all(np.isfinite(table[:, [names.index(c) for c in ("t", *_WRENCH)]]), axis=1)
+    bad += int(np.count_nonzero(~finite))
+    table = table[finite]
+    col = {n: table[:, i] for i, n in enumerate(names)}
+    rows = np.zeros(len(table), dtype=FT_RECORD)
+    rows["sensor_time"] = col["t"]
+    rows["wrench"] = np.stack([col[c] for c in _WRENCH], axis=1)
+    rows["host_time"] = col.get("host_time", np.nan)
+    rows["sequence"] = col["sequence"] if "sequence" in col else np.arange(len(table))
+    if "status" in col:
+        rows["status"] = col["status"]
+    return rows, bad, "host_time" in col
+
+
+class CsvFTSensor(FTSensor):
+    """Replays a CSV file (see the module documentation for columns and pacing)."""
+
+    scheme = "csv"
+
+    @classmethod
+    def connect(
+        cls, url: str, *, timeout: float, buffer_size: int, **options: object
+    ) -> CsvFTSensor:
+        from urllib.parse import parse_qsl
+
+        path, query = csv_path(url)
+        opts = Options(url, {**dict(parse_qsl(query)), **options})
+        rate = opts.number("rate")
+        realtime = opts.flag("realtime")
+        speed = opts.number("speed", 1.0)
+        host_mode = opts.text("host_time", "auto")
+        opts.done()
+        if host_mode not in ("auto", "file", "now"):
+            raise FTURLError(f"{url}: host_time={host_mode!r}: use file or now")
+        if (rate is not None and rate <= 0) or speed is None or speed <= 0:
+            raise FTURLError(f"{url}: rate and speed must be > 0")
+        rows, bad, has_host = load_csv(path)
+        if host_mode == "file" and not has_host:
+            raise FTConfigError(f"{path} has no host_time column: use host_time=now")
+        dt = np.diff(rows["sensor_time"])
+        nominal = float(1.0 / np.median(dt)) if len(dt) and np.median(dt) > 0 else 0.0
+        info = FTInfo("csv", model="CSV replay", serial=str(path), rate_hz=rate or nominal)
+        info.extra.update(rows=len(rows), path=str(path), has_host_time=has_host)
+        sensor = cls(url, info, timeout=timeout, buffer_size=buffer_size)
+        sensor.stats.bad_frames = bad
+        sensor._rows = rows
+        sensor._keep_host = host_mode == "file" or (host_mode == "auto" and has_host)
+        sensor._rate = rate
+        sensor._realtime = realtime
+        sensor._speed = speed
+        sensor._tracker = SequenceTracker(sensor.stats)
+        return sensor
+
+    _rows: np.ndarray
+    _keep_host: bool
+    _rate: float | None
+    _realtime: bool
+    _speed: float
+    _tracker: SequenceTracker
+    _pos = 0
+    _t0: float | None = None
+
+    def _due(self, now: float) -> int:
+        """How many rows a paced replay has released by `now`."""
+        assert self._t0 is not None
+        elapsed = (now - self._t0) * self._speed
+        if self._rate is not None:
+            return int(elapsed * self._rate) + 1
+        times = self._rows["sensor_time"]
+        return int(np.searchsorted(times, times[0] + elapsed, side="right"))
+
+    def _poll(self, timeout: float) -> np.ndarray | None:
+        n = len(self._rows)
+        if self._pos >= n:
+            return None
+        if self._rate is None and not self._realtime:
+            end = min(self._pos + _CHUNK, n)
+        else:
+            if self._t0 is None:
+                self._t0 = time.monotonic()
+            end = min(self._due(time.monotonic()), n)
+            if end <= self._pos:
+                time.sleep(min(timeout, 0.002))
+                return self._rows[:0]
+        batch = self._rows[self._pos : end].copy()
+        self._pos = end
+        if not self._keep_host:
+            batch["host_time"] = time.monotonic()
+        keep = self._tracker.update(batch["sequence"].astype(np.int64))
+        return batch if keep.all() else batch[keep]

@@ -1,0 +1,74 @@
+"""URL query options: parsed once, typed per driver, unknown names refused by name.
+
+>>> opts = Options("netft://h?cpf=1e6&x=1", {"cpf": "1e6", "x": "1"})
+>>> opts.number("cpf"), opts.number("cpt", 2.0)
+(1000000.0, 2.0)
+>>> opts.done()
+Traceback (most recent call last):
+...
+spectratac.ft.errors.FTURLError: netft://h?cpf=1e6&x=1: unknown option(s) x; known: cpf, cpt
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from spectratac.ft.errors import FTURLError
+
+
+class Options:
+    """Typed access to a URL's options; done() refuses any the driver did not ask for."""
+
+    def __init__(self, url: str, values: dict[str, Any]) -> None:
+        self.url = url
+        self._values = dict(values)
+        self._asked: list[str] = []
+
+    def _raw(self, name: str) -> Any:
+        self._asked.append(name)
+        return self._values.get(name)
+
+    def has(self, name: str) -> bool:
+        self._asked.append(name)
+        return name in self._values
+
+    def text(self, name: str, default: str | None = None) -> str | None:
+        raw = self._raw(name)
+        return default if raw is None else str(raw)
+
+    def number(self, name: str, default: float | None = None) -> float | None:
+        raw = self._raw(name)
+        if raw is None:
+            return default
+        try:
+            return float(raw)
+        except (TypeError, ValueError):
+            raise FTURLError(f"{self.url}: option {name}={raw!r} is not a number") from None
+
+    def integer(self, name: str, default: int | None = None) -> int | None:
+        raw = self._raw(name)
+        if raw is None:
+            return default
+        try:
+            return int(raw)
+        except (TypeError, ValueError):
+            raise FTURLError(f"{self.url}: option {name}={raw!r} is not an integer") from None
+
+    def flag(self, name: str, default: bool = False) -> bool:
+        raw = self._raw(name)
+        if raw is None:
+            return default
+        if isinstance(raw, bool):
+            return raw
+        word = str(raw).lower()
+        if word in ("1", "true", "yes", "on"):
+            return True
+        if word in ("0", "false", "no", "off"):
+            return False
+        raise FTURLError(f"{self.url}: option {name}={raw!r}: use 1 or 0")
+
+    def done(self) -> None:
+        unknown = sorted(set(self._values) - set(self._asked))
+        if unknown:
+            known = ", ".join(dict.fromkeys(self._asked))
+            raise FTURLError(f"{self.url}: unknown option(s) {', '.join(unknown)}; known: {known}")
