@@ -1,0 +1,71 @@
+"""The MCAP channel layout of a SpectraTac recording (described for people in FORMAT.md).
+
+Times: every message's MCAP ``log_time`` is the host's receive time, ``time.monotonic()`` in
+ns shifted by one constant per file (``unix_minus_monotonic_ns`` in the session message) so
+that viewers such as Foxglove show wall-clock dates; the shift is undone exactly on reading.
+
+>>> clock = HostClock(unix_minus_monotonic_ns=1_700_000_000_000_000_000)
+>>> ns = clock.log_time(12.5)
+>>> ns, clock.monotonic(ns)
+(1700000012500000000, 12.5)
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+FORMAT = "spectratac.recording"
+VERSION = 1
+
+# topic -> message encoding; JSON topics carry one JSON object per message.
+SESSION = "/spectratac/session"  # once, first: URLs, sim scene, clocks, versions
+FRAMES = "/spectratac/frames"  # one decoded device frame per message (header+payload+CRC)
+INFO = "/spectratac/info"  # the device's INFO, on connect
+CONFIG = "/spectratac/config"  # every configuration: id, request, GET_CONFIG reply
+TIME_SYNC = "/spectratac/time_sync"  # a batch of TIME_SYNC exchanges
+STATS = "/spectratac/stats"  # link health of both sensors, about once per second
+END = "/spectratac/end"  # summary of a cleanly finished recording (absent after a crash)
+FT_SAMPLES = "/ft/samples"  # a batch of FT_RECORD rows, raw little-endian bytes
+FT_INFO = "/ft/info"  # the reference sensor's FTInfo and URL
+LABELS = "/labels"  # one region-label event per message
+
+FRAME_ENCODING = "spectratac.frame"
+FT_ENCODING = "spectratac.ft_record"
+JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS)
+JSON_SCHEMA = b'{"type": "object"}'
+
+
+@dataclass(frozen=True)
+class HostClock:
+    """Maps host monotonic seconds to MCAP log_time (ns) and back."""
+
+    unix_minus_monotonic_ns: int
+
+    def log_time(self, monotonic_s: float) -> int:
+        return round(monotonic_s * 1e9) + self.unix_minus_monotonic_ns
+
+    def monotonic(self, log_time_ns: int) -> float:
+        return (log_time_ns - self.unix_minus_monotonic_ns) / 1e9
+
+    def monotonic_array(self, log_time_ns: np.ndarray) -> np.ndarray:
+        """Vectorised monotonic(); int64 arithmetic first, so no nanosecond is lost."""
+        return (np.asarray(log_time_ns, np.int64) - self.unix_minus_monotonic_ns) / 1e9
+
+
+def dtype_to_json(dtype: np.dtype) -> str:
+    """A structured dtype as JSON (the `descr` list), stored in a binary channel's metadata."""
+    return json.dumps([list(d) if len(d) == 2 else [d[0], d[1], list(d[2])] for d in dtype.descr])
+
+
+def dtype_from_json(text: str) -> np.dtype:
+    """Inverse of dtype_to_json.
+
+    >>> dt = np.dtype([("t", "<f8"), ("w", "<f8", (6,))])
+    >>> dtype_from_json(dtype_to_json(dt)) == dt
+    True
+    """
+    fields = json.loads(text)
+    return np.dtype([tuple(d[:2]) if len(d) == 2 else (d[0], d[1], tuple(d[2])) for d in fields])

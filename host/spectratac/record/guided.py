@@ -1,0 +1,163 @@
+"""The guided labelling protocol for real sessions: the recorder tells the user which region
+to press next, counts down, asks to hold, then to release, and records one label event per
+prompt with the prompted region and the hold's time span (LABELS.md).
+
+It is a state machine polled by the recorder's loop with the current time, so the recording
+never waits on it; the clock and the output stream are injected (tests drive it without a
+terminal or real time).
+
+>>> import io
+>>> out = io.StringIO()
+>>> g = GuidedProtocol(1, regions=[6], countdown_s=1, hold_s=2.0, rest_s=1.0, out=out)
+>>> [g.poll(t) for t in (0.0, 1.0, 2.5, 3.0)]
+[[], [], [], [{'source': 'guided', 'index': 0, 'region': 6, 't_start': 1.0, 't_end': 3.0}]]
+>>> print(out.getvalue().strip().splitlines()[-1])
+[1/1] release
+>>> g.done(3.9), g.done(4.0)
+(False, True)
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from typing import Any, TextIO
+
+import numpy as np
+
+from spectratac.record.errors import RecordingError
+
+REGION_NAMES = {
+    1: "upper left",
+    2: "top",
+    3: "upper right",
+    4: "left",
+    5: "centre",
+    6: "right, at sensor 0",
+    7: "lower left",
+    8: "bottom",
+    9: "lower right",
+}
+KEYPAD = ("1 2 3", "4 5 6", "7 8 9")
+
+
+def region_map(highlight: int | None = None) -> str:
+    """The keypad-style region map, the highlighted region in brackets.
+
+    >>> print(region_map(5))
+     1  2  3
+     4 [5] 6
+     7  8  9
+    """
+    rows = []
+    for row in KEYPAD:
+        cells = [f"[{c}]" if highlight == int(c) else f" {c} " for c in row.split()]
+        rows.append("".join(cells).rstrip())
+    return "\n".join(rows)
+
+
+def prompt_order(n: int, seed: int | None = None) -> list[int]:
+    """`n` regions: shuffled rounds of 1..9, so every region comes up equally often.
+
+    >>> sorted(prompt_order(9, seed=1)) == list(range(1, 10))
+    True
+    """
+    rng = np.random.default_rng(seed)
+    out: list[int] = []
+    while len(out) < n:
+        out += [int(r) for r in rng.permutation(np.arange(1, 10))]
+    return out[:n]
+
+
+class GuidedProtocol:
+    """`n` prompts: countdown (`countdown_s` whole seconds), hold (`hold_s`), rest (`rest_s`)."""
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        regions: Sequence[int] | None = None,
+        countdown_s: int = 3,
+        hold_s: float = 3.0,
+        rest_s: float = 2.0,
+        seed: int | None = None,
+        out: TextIO | None = None,
+    ) -> None:
+        if n < 1:
+            raise RecordingError(f"--guided {n}: give at least one prompt")
+        if countdown_s < 0 or hold_s <= 0 or rest_s < 0:
+            raise RecordingError("guided timing: countdown >= 0, hold > 0 and rest >= 0 s")
+        self.regions = list(regions) if regions is not None else prompt_order(n, seed)
+        if len(self.regions) < n or any(r not in REGION_NAMES for r in self.regions):
+            raise RecordingError("guided regions: give n regions, each 1..9")
+        self.n = n
+        self.countdown_s = int(countdown_s)
+        self.hold_s = float(hold_s)
+        self.rest_s = float(rest_s)
+        self.out = out if out is not None else sys.stderr
+        self.events: list[dict[str, Any]] = []
+        self._t0: float | None = None
+        self._said: set[tuple[int, str]] = set()
+
+    @property
+    def period(self) -> float:
+        return self.countdown_s + self.hold_s + self.rest_s
+
+    def done(self, now: float) -> bool:
+        """True once the last prompt's rest is over."""
+        return self._t0 is not None and now >= self._t0 + self.n * self.period
+
+    def poll(self, now: float) -> list[dict[str, Any]]:
+        """Advance to `now` (host monotonic s): print due prompts, return finished labels."""
+        if self._t0 is None:
+            self._t0 = now
+        finished: list[dict[str, Any]] = []
+        k_now = min(int((now - self._t0) // self.period), self.n)
+        for k in range(len(self.events), self.n):
+            go = self._t0 + k * self.period + self.countdown_s
+            release = go + self.hold_s
+            if now >= release:
+                self._say(k, "release", now)
+                event = {
+                    "source": "guided",
+                    "index": k,
+                    "region": self.regions[k],
+                    "t_start": go,
+                    "t_end": release,
+                }
+                self.events.append(event)
+                finished.append(event)
+            else:
+                break
+        if k_now < self.n and len(self.events) == k_now:
+            self._announce(k_now, now)
+        return finished
+
+    def _announce(self, k: int, now: float) -> None:
+        start = self._t0 + k * self.period  # type: ignore[operator]
+        go = start + self.countdown_s
+        if now < go:
+            self._say(k, "ready", now)
+            left = int(np.ceil(go - now))
+            self._say(k, f"{left}", now)
+        elif now < go + self.hold_s:
+            self._say(k, "ready", now)
+            self._say(k, "press", now)
+
+    def _say(self, k: int, what: str, now: float) -> None:
+        if (k, what) in self._said:
+            return
+        self._said.add((k, what))
+        region = self.regions[k]
+        head = f"[{k + 1}/{self.n}]"
+        if what == "ready":
+            text = (
+                f"{head} next: press region {region} ({REGION_NAMES[region]})\n{region_map(region)}"
+            )
+        elif what == "press":
+            text = f"{head} PRESS region {region} now and hold for {self.hold_s:g} s"
+        elif what == "release":
+            text = f"{head} release"
+        else:
+            text = f"{head} {what}…"
+        print(text, file=self.out, flush=True)

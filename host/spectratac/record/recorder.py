@@ -1,0 +1,390 @@
+"""`Recorder`: one session of a SpectraTac device (and optionally a reference F/T sensor)
+into an MCAP file: raw frames, F/T batches, clock-sync exchanges, info, configuration,
+labels and stats, until a duration, a sample count, the guided protocol or a stop request.
+
+The device's frames are taken verbatim by a frame listener on the sensor's reader thread
+(a deque append per frame); everything else happens on the caller's thread in one loop that
+moves what arrived into the file every `poll_s`, re-syncs the device clock every
+`sync_every_s` and flushes a chunk at least every `flush_s` (crash safety). Torch-free.
+
+>>> import tempfile
+>>> from spectratac.device import Sensor
+>>> path = tempfile.mkdtemp() + "/tour.mcap"
+>>> with Sensor.open("sim://?scene=tour&speed=max") as sensor:
+...     summary = Recorder(sensor, path, RecordOptions(samples=40)).run()
+>>> summary.samples >= 40, summary.lost, summary.stopped_by
+(True, 0, 'samples')
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from spectratac.device import Sensor
+from spectratac.errors import SpectraTacError
+from spectratac.protocol import Frame
+from spectratac.record.describe import config_summary, info_dict
+from spectratac.record.errors import RecordingError
+from spectratac.record.format import CONFIG, END, FT_INFO, INFO, LABELS, STATS, TIME_SYNC
+from spectratac.record.guided import GuidedProtocol
+from spectratac.record.labels import SceneLabeler
+from spectratac.record.writer import RecordingWriter
+
+StopReason = Literal["duration", "samples", "guided", "interrupt", "error"]
+
+
+@dataclass
+class RecordOptions:
+    """What to record and how. Stops at whichever of duration_s, samples, the guided
+    protocol's end or a stop request comes first (none given: only a stop request)."""
+
+    duration_s: float | None = None
+    samples: int | None = None
+    integration_ms: int = 50
+    gain: float = 1.0
+    digital_gain: int = 1
+    sensitivity: Literal["high", "low"] = "high"
+    leds: Sequence[Sequence[Sequence[int]]] | None = None  # steps x 3 LEDs x RGB permille
+    settle_us: int = 1000
+    sync_every_s: float = 5.0
+    sync_exchanges: int = 8
+    flush_s: float = 1.0
+    poll_s: float = 0.02
+
+    def validate(self) -> None:
+        if self.duration_s is not None and not self.duration_s > 0:
+            raise RecordingError(f"duration {self.duration_s!r} s: give a positive number")
+        if self.samples is not None and self.samples < 1:
+            raise RecordingError(f"samples {self.samples!r}: give at least 1")
+        if self.sync_every_s <= 0 or self.flush_s <= 0 or self.poll_s <= 0:
+            raise RecordingError("sync, flush and poll intervals must be > 0 s")
+
+
+@dataclass
+class RecordingStatus:
+    """Live figures for a progress display."""
+
+    elapsed_s: float
+    samples: int
+    ft_samples: int
+    ft_rate_hz: float
+    lost: int  # optical samples missing by sequence number
+    crc_errors: int
+    ft_lost: int
+    labels: int
+    file_bytes: int
+
+
+@dataclass
+class RecordingSummary:
+    path: Path
+    samples: int
+    frames: int
+    ft_samples: int
+    lost: int
+    frame_gaps: int
+    crc_errors: int
+    ft_lost: int
+    labels: int
+    duration_s: float
+    file_bytes: int
+    stopped_by: StopReason
+    config_id: int
+    error: str | None = None
+    sensor_stats: dict[str, int] = field(default_factory=dict)
+    ft_stats: dict[str, int] | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self) | {"path": str(self.path)}
+
+
+class Recorder:
+    def __init__(
+        self,
+        sensor: Sensor,
+        path: str | Path,
+        options: RecordOptions | None = None,
+        *,
+        ft: Any = None,
+        session: dict[str, Any] | None = None,
+        labeler: SceneLabeler | None = None,
+        guided: GuidedProtocol | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
+        message (URLs, sim scene). `labeler`: scene labels (simulated sessions). `guided`:
+        the guided labelling protocol (real sessions). `clock` drives guided prompts."""
+        self.sensor = sensor
+        self.path = Path(path)
+        self.options = options or RecordOptions()
+        self.options.validate()
+        self.ft = ft
+        self.session = dict(session or {})
+        self.labeler = labeler
+        self.guided = guided
+        self.clock = clock
+        self._frames: collections.deque[tuple[bytes, float]] = collections.deque()
+        self._samples = 0
+        self._ft_rows = 0
+        self._labels = 0
+        self._scene_now = 0.0  # device clock of the newest sample, s (= scene time in sim)
+        self._sync_seen = 0
+        self._ft_window: collections.deque[tuple[float, int]] = collections.deque()
+
+    # ------------------------------------------------------------------ the session
+    def run(
+        self,
+        stop: threading.Event | None = None,
+        progress: Callable[[RecordingStatus], None] | None = None,
+    ) -> RecordingSummary:
+        """Record until done; the file is finished (indexed) whatever ends the session.
+        Raises RecordingError only if the session could not start; a link lost midway ends
+        the session with `stopped_by="error"` and the error in the summary."""
+        opts = self.options
+        stop = stop or threading.Event()
+        ft_dtype = None
+        if self.ft is not None:
+            from spectratac.ft import FT_RECORD  # only sessions with F/T need the drivers
+
+            ft_dtype = FT_RECORD
+        session = {
+            "url": self.sensor.url,
+            "ft_url": getattr(self.ft, "url", None),
+            "request": asdict(opts) | {"leds": _listify(opts.leds)},
+            "labels": "scene" if self.labeler else "guided" if self.guided else "none",
+            **self.session,
+        }
+        writer = RecordingWriter(self.path, session, ft_dtype=ft_dtype, flush_s=opts.flush_s)
+        self.sensor.add_listener(self._on_frame)
+        t_begin = time.monotonic()
+        stopped_by: StopReason = "error"
+        error: str | None = None
+        config_id = 0
+        started = False
+        try:
+            config_id = self._start(writer)
+            started = True
+            t_begin = time.monotonic()
+            stopped_by, error = self._loop(writer, stop, progress, t_begin)
+        except SpectraTacError as exc:
+            stopped_by, error = "error", str(exc)
+            if not started:
+                self._finish(writer, stopped_by, error)
+                raise RecordingError(f"recording {self.path} could not start: {exc}") from exc
+        except BaseException:  # KeyboardInterrupt and the like: a finished file, then go on
+            self._finish(writer, "interrupt", "interrupted")
+            raise
+        self._finish(writer, stopped_by, error)
+        duration = time.monotonic() - t_begin
+        st = self.sensor.stats
+        return RecordingSummary(
+            path=self.path,
+            samples=self._samples,
+            frames=writer.frames_written,
+            ft_samples=self._ft_rows,
+            lost=st.sample_gaps,
+            frame_gaps=st.frame_gaps,
+            crc_errors=st.crc_errors,
+            ft_lost=self.ft.stats.lost if self.ft is not None else 0,
+            labels=self._labels,
+            duration_s=duration,
+            file_bytes=self.path.stat().st_size,
+            stopped_by=stopped_by,
+            config_id=config_id,
+            error=error,
+            sensor_stats=st.as_dict(),
+            ft_stats=self.ft.stats.as_dict() if self.ft is not None else None,
+        )
+
+    def _start(self, writer: RecordingWriter) -> int:
+        opts = self.options
+        now = time.monotonic()
+        writer.json(INFO, info_dict(self.sensor.info), now)
+        if self.ft is not None:
+            writer.json(FT_INFO, {"url": self.ft.url, **self.ft.info.as_dict()}, now)
+        config_id = self.sensor.configure(
+            integration_ms=opts.integration_ms,
+            gain=opts.gain,
+            digital_gain=opts.digital_gain,
+            sensitivity=opts.sensitivity,
+            leds=None if opts.leds is None else np.asarray(opts.leds),
+            settle_us=opts.settle_us,
+        )
+        reply = self.sensor.get_config().to_dict()
+        writer.json(
+            CONFIG,
+            {
+                "config_id": config_id,
+                "request": {k: v for k, v in asdict(opts).items() if k not in _LOOP_FIELDS}
+                | {"leds": _listify(opts.leds)},
+                "reply": reply,
+                "config": config_summary(reply),
+            },
+            time.monotonic(),
+        )
+        self._sync(writer)
+        if self.ft is not None:
+            self.ft.start()
+        self.sensor.start()
+        writer.flush()
+        return config_id
+
+    def _loop(
+        self,
+        writer: RecordingWriter,
+        stop: threading.Event,
+        progress: Callable[[RecordingStatus], None] | None,
+        t_begin: float,
+    ) -> tuple[StopReason, str | None]:
+        opts = self.options
+        next_sync = t_begin + opts.sync_every_s
+        next_progress = t_begin
+        while True:
+            self._move(writer)
+            now = time.monotonic()
+            if now >= next_sync:
+                self._sync(writer)
+                next_sync = now + opts.sync_every_s
+            self._label(writer)
+            if writer.maybe_flush():
+                self._stats(writer)
+            if progress is not None and now >= next_progress:
+                progress(self.status(now - t_begin, writer))
+                next_progress = now + 0.2
+            if stop.is_set():
+                return "interrupt", None
+            if opts.samples is not None and self._samples >= opts.samples:
+                return "samples", None
+            if opts.duration_s is not None and now - t_begin >= opts.duration_s:
+                return "duration", None
+            if self.guided is not None and self.guided.done(self.clock()):
+                return "guided", None
+            stop.wait(opts.poll_s)
+
+    def _finish(self, writer: RecordingWriter, stopped_by: StopReason, error: str | None) -> None:
+        """Stop both streams, keep what is still in flight, write the end summary, close."""
+        try:
+            for action in (self.sensor.stop, lambda: self._sync(writer), self._stop_ft):
+                # a lost link cannot be stopped; what arrived is still written
+                with contextlib.suppress(SpectraTacError):
+                    action()
+            with contextlib.suppress(SpectraTacError):
+                self._move(writer)
+            self.sensor.remove_listener(self._on_frame)
+            self._move_frames(writer)
+            if self.labeler is not None:
+                self._write_labels(writer, self.labeler.due(self._scene_now))
+                self._write_labels(writer, self.labeler.started(self._scene_now))
+            now = time.monotonic()
+            self._stats(writer)
+            writer.json(
+                END,
+                {
+                    "stopped_by": stopped_by,
+                    "error": error,
+                    "samples": self._samples,
+                    "frames": writer.frames_written,
+                    "ft_samples": self._ft_rows,
+                    "labels": self._labels,
+                },
+                now,
+            )
+        finally:
+            writer.close()
+
+    # ------------------------------------------------------------------ moving data
+    def _on_frame(self, frame: Frame, host_time: float) -> None:
+        self._frames.append((frame.raw, host_time))  # reader thread: keep it this small
+
+    def _move_frames(self, writer: RecordingWriter) -> None:
+        q = self._frames
+        n = len(q)
+        if n:
+            writer.frames([q.popleft() for _ in range(n)])
+
+    def _move(self, writer: RecordingWriter) -> None:
+        """Frames and F/T rows that arrived since the last call into the file."""
+        self._move_frames(writer)
+        batch = self.sensor.read(1 << 30, timeout=0)  # keeps the sensor's buffer empty
+        if len(batch):
+            self._samples += len(batch)
+            self._scene_now = float(batch["device_time_us"][-1]) / 1e6
+        if self.ft is not None:
+            rows = self.ft.read_available()
+            if len(rows):
+                writer.ft(rows)
+                self._ft_rows += len(rows)
+                self._ft_window.append((time.monotonic(), self._ft_rows))
+
+    def _sync(self, writer: RecordingWriter) -> None:
+        self.sensor.sync_clock(self.options.sync_exchanges)
+        new = self.sensor.time_sync[self._sync_seen :]
+        self._sync_seen = len(self.sensor.time_sync)
+        if new:
+            writer.json(
+                TIME_SYNC,
+                {"exchanges": [asdict(e) for e in new]},
+                new[-1].host_received,
+            )
+
+    def _stop_ft(self) -> None:
+        if self.ft is not None:
+            self.ft.stop()
+
+    def _label(self, writer: RecordingWriter) -> None:
+        if self.labeler is not None:
+            self._write_labels(writer, self.labeler.due(self._scene_now))
+        if self.guided is not None:
+            self._write_labels(writer, self.guided.poll(self.clock()))
+
+    def _write_labels(self, writer: RecordingWriter, events: list[dict[str, Any]]) -> None:
+        for event in events:
+            t = event.get("t_end") or time.monotonic()
+            writer.json(LABELS, event, t)
+            self._labels += 1
+
+    def _stats(self, writer: RecordingWriter) -> None:
+        writer.json(
+            STATS,
+            {
+                "sensor": self.sensor.stats.as_dict(),
+                "ft": self.ft.stats.as_dict() if self.ft is not None else None,
+                "samples": self._samples,
+                "ft_samples": self._ft_rows,
+            },
+            time.monotonic(),
+        )
+
+    def status(self, elapsed: float, writer: RecordingWriter) -> RecordingStatus:
+        w = self._ft_window
+        while len(w) > 2 and w[-1][0] - w[0][0] > 2.0:
+            w.popleft()
+        rate = (w[-1][1] - w[0][1]) / (w[-1][0] - w[0][0]) if len(w) > 1 else 0.0
+        st = self.sensor.stats
+        return RecordingStatus(
+            elapsed_s=elapsed,
+            samples=self._samples,
+            ft_samples=self._ft_rows,
+            ft_rate_hz=rate,
+            lost=st.sample_gaps,
+            crc_errors=st.crc_errors,
+            ft_lost=self.ft.stats.lost if self.ft is not None else 0,
+            labels=self._labels,
+            file_bytes=writer.bytes_written,
+        )
+
+
+_LOOP_FIELDS = ("duration_s", "samples", "sync_every_s", "sync_exchanges", "flush_s", "poll_s")
+
+
+def _listify(leds: Any) -> Any:
+    return None if leds is None else np.asarray(leds).tolist()

@@ -1,0 +1,187 @@
+"""`RecordingWriter`: the MCAP file of one session, written crash-safe.
+
+Data go into small zstd chunks; a chunk reaches the disk as soon as it fills and at least
+every `flush_s` seconds (`maybe_flush`), so a process killed with SIGKILL leaves a file whose
+every complete chunk is readable (`spectratac.record.reader` returns that prefix). Not
+thread-safe: one thread (the recorder's loop) writes.
+
+>>> import tempfile, numpy as np
+>>> path = tempfile.mkdtemp() + "/s.mcap"
+>>> with RecordingWriter(path, {"url": "sim://"}, unix_minus_monotonic_ns=0) as w:
+...     w.frames([(b"\\x01\\x00\\x84\\x00\\x00", 1.0)])
+...     w.json(LABELS, {"region": 5}, 1.5)
+>>> from spectratac.record.reader import read_recording
+>>> rec = read_recording(path)
+>>> rec.frame_host_times.tolist(), rec.labels, rec.truncated
+([1.0], [{'region': 5}], False)
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.writer import CompressionType, Writer
+
+from spectratac import __version__
+from spectratac.record.errors import RecordingError
+from spectratac.record.format import (
+    FORMAT,
+    FRAME_ENCODING,
+    FRAMES,
+    FT_ENCODING,
+    FT_SAMPLES,
+    JSON_SCHEMA,
+    JSON_TOPICS,
+    LABELS,
+    SESSION,
+    VERSION,
+    HostClock,
+    dtype_to_json,
+)
+
+__all__ = ["LABELS", "RecordingWriter"]
+
+CHUNK_BYTES = 64 * 1024  # small chunks: little is lost to a crash, zstd still works well
+
+
+class RecordingWriter:
+    def __init__(
+        self,
+        path: str | Path,
+        session: dict[str, Any],
+        *,
+        ft_dtype: np.dtype | None = None,
+        unix_minus_monotonic_ns: int | None = None,
+        flush_s: float = 1.0,
+        chunk_bytes: int = CHUNK_BYTES,
+    ) -> None:
+        """Create `path` and write the session message. `session` is free-form JSON (URLs,
+        sim scene, request); format, version, library version and clocks are added."""
+        self.path = Path(path)
+        if unix_minus_monotonic_ns is None:
+            unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
+        self.clock = HostClock(unix_minus_monotonic_ns)
+        try:
+            self._file: io.BufferedWriter = open(self.path, "wb")  # noqa: SIM115
+        except OSError as exc:
+            raise RecordingError(
+                f"cannot create {self.path}: {exc}; give a writable path"
+            ) from None
+        self._mcap = Writer(self._file, chunk_size=chunk_bytes, compression=CompressionType.ZSTD)
+        self._mcap.start(profile="", library=f"spectratac/{__version__}")
+        json_schema = self._mcap.register_schema("spectratac.json", "jsonschema", JSON_SCHEMA)
+        self._channels = {
+            topic: self._mcap.register_channel(topic, "json", json_schema) for topic in JSON_TOPICS
+        }
+        self._channels[FRAMES] = self._mcap.register_channel(
+            FRAMES, FRAME_ENCODING, 0, {"content": "COBS-decoded frame: header, payload, CRC-32C"}
+        )
+        if ft_dtype is not None:
+            self._channels[FT_SAMPLES] = self._mcap.register_channel(
+                FT_SAMPLES, FT_ENCODING, 0, {"dtype": dtype_to_json(ft_dtype)}
+            )
+        self.ft_dtype = ft_dtype
+        self.flush_s = flush_s
+        self._last_flush = time.monotonic()
+        self._closed = False
+        self.frames_written = 0
+        self.ft_rows_written = 0
+        now = time.monotonic()
+        header = {
+            "format": FORMAT,
+            "version": VERSION,
+            "library_version": __version__,
+            "started_unix": (self.clock.log_time(now)) / 1e9,
+            "started_monotonic": now,
+            "unix_minus_monotonic_ns": unix_minus_monotonic_ns,
+        }
+        self.json(SESSION, {**header, **session}, now)
+        self.flush()
+
+    # ------------------------------------------------------------------ messages
+    def frames(self, frames: Sequence[tuple[bytes, float]]) -> None:
+        """(decoded frame bytes, host receive time) pairs, one MCAP message each."""
+        add = self._mcap.add_message
+        channel = self._channels[FRAMES]
+        offset = self.clock.unix_minus_monotonic_ns
+        for raw, t in frames:
+            ns = round(t * 1e9) + offset
+            # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
+            add(channel, ns, raw, ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
+        self.frames_written += len(frames)
+
+    def ft(self, rows: np.ndarray) -> None:
+        """A batch of F/T rows as one message; log_time is the last row's host time."""
+        if not len(rows):
+            return
+        if self.ft_dtype is None or rows.dtype != self.ft_dtype:
+            raise RecordingError(
+                f"F/T rows of dtype {rows.dtype} given to a recording opened for "
+                f"{self.ft_dtype}: open the writer with ft_dtype=FT_RECORD"
+            )
+        ns = self.clock.log_time(float(rows["host_time"][-1]))
+        self._mcap.add_message(self._channels[FT_SAMPLES], ns, rows.tobytes(), ns)
+        self.ft_rows_written += len(rows)
+
+    def json(self, topic: str, obj: Any, host_time: float) -> None:
+        """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""
+        ns = self.clock.log_time(host_time)
+        data = json.dumps(obj, default=_jsonable).encode()
+        self._mcap.add_message(self._channels[topic], ns, data, ns)
+
+    # ------------------------------------------------------------------ durability
+    @property
+    def bytes_written(self) -> int:
+        """Bytes handed to the file so far (all of them readable after a crash once flushed)."""
+        return self._file.tell()
+
+    def maybe_flush(self) -> bool:
+        """Close the chunk in progress if `flush_s` passed since the last flush; push any
+        chunk already closed (because it filled) to the OS. True if a chunk was closed."""
+        if time.monotonic() - self._last_flush >= self.flush_s:
+            self.flush()
+            return True
+        self._file.flush()
+        return False
+
+    def flush(self) -> None:
+        """Write the chunk in progress and hand everything to the OS (survives SIGKILL)."""
+        self._mcap.flush()
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        """Write the summary section and close the file (a finished, indexed MCAP)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._mcap.finish()
+            self._file.flush()
+            os.fsync(self._file.fileno())
+        finally:
+            self._file.close()
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, bytes):
+        return obj.hex()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
