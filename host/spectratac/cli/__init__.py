@@ -29,6 +29,7 @@ VERB_MODULES: tuple[str, ...] = (
     "demo_cmd",
     "protocol_cmd",
     "twin_cmd",
+    "record_cmd",
 )
 
 

@@ -1,0 +1,186 @@
+"""`spectratac record URL -o session.mcap`: record a session (optical + reference F/T) to MCAP.
+
+spectratac record sim://?scene=tour&seed=1&speed=10&ft=bota -o s.mcap --duration 30
+spectratac record /dev/ttyACM0 --ft netft://192.168.1.1 -o s.mcap --guided 27
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from typing import Any
+
+from spectratac.errors import SpectraTacError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "record",
+        help="record a session (device frames, reference F/T, labels) to an MCAP file",
+        description="Record raw device frames, reference F/T samples, clock-sync exchanges, "
+        "configuration and region labels into a crash-safe MCAP file. Ctrl-C stops cleanly.",
+    )
+    p.add_argument("url", help="serial port, socket://host:port, or sim://?scene=…&ft=bota")
+    p.add_argument(
+        "--ft",
+        metavar="FT_URL",
+        help="reference F/T: netft://HOST, bota:///dev/ttyUSB1, csv://path, sim://… "
+        "(default for sim:// URLs with ft=…: the same URL)",
+    )
+    p.add_argument("-o", "--output", required=True, help="the .mcap file to write")
+    until = p.add_mutually_exclusive_group()
+    until.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    until.add_argument("--samples", type=int, metavar="N", help="stop after N optical samples")
+    p.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    p.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
+    p.add_argument("--sensitivity", default="high", choices=("high", "low"))
+    p.add_argument(
+        "--leds",
+        default="500",
+        metavar="SPEC",
+        help="LED steps separated by '/': each one duty for all nine channels (500), three "
+        "(R,G,B for every LED) or nine (LED0 RGB, LED1 RGB, LED2 RGB), permille; "
+        "e.g. 1000,0,0/0,1000,0/0,0,1000",
+    )
+    p.add_argument("--guided", type=int, metavar="N", help="guided labelling: N prompted presses")
+    p.add_argument("--guided-hold", type=float, default=3.0, metavar="S", help="hold time")
+    p.add_argument("--guided-rest", type=float, default=2.0, metavar="S", help="rest time")
+    p.add_argument("--guided-seed", type=int, default=None, help="seed of the prompt order")
+    p.add_argument("--sync-every", type=float, default=5.0, metavar="S", help="clock sync period")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--no-progress", action="store_true", help="no live progress display")
+    p.set_defaults(func=_record)
+
+
+def parse_leds(spec: str) -> list[list[list[int]]]:
+    """--leds SPEC to steps x 3 LEDs x (R, G, B) permille.
+
+    >>> parse_leds("500")[0][2], parse_leds("1000,0,0/0,0,1000")[1][0]
+    ([500, 500, 500], [0, 0, 1000])
+    """
+    steps = []
+    for part in spec.split("/"):
+        try:
+            values = [int(v) for v in part.split(",")]
+        except ValueError:
+            raise SpectraTacError(f"--leds {spec!r}: duties are integers in permille") from None
+        if len(values) == 1:
+            values *= 9
+        elif len(values) == 3:
+            values *= 3
+        if len(values) != 9 or not all(0 <= v <= 1000 for v in values):
+            raise SpectraTacError(
+                f"--leds {spec!r}: each step gives 1, 3 or 9 duties in 0..1000, e.g. 500 or "
+                f"1000,0,0/0,1000,0"
+            )
+        steps.append([values[0:3], values[3:6], values[6:9]])
+    if not 1 <= len(steps) <= 8:
+        raise SpectraTacError(f"--leds {spec!r}: give 1..8 steps")
+    return steps
+
+
+def _record(args: argparse.Namespace) -> int:
+    from spectratac.record import GuidedProtocol, RecordOptions, record_url
+    from spectratac.record.session import ft_url_for
+
+    options = RecordOptions(
+        duration_s=args.duration,
+        samples=args.samples,
+        integration_ms=args.integration_ms,
+        gain=args.gain,
+        sensitivity=args.sensitivity,
+        leds=parse_leds(args.leds),
+        sync_every_s=args.sync_every,
+    )
+    options.validate()
+    guided = None
+    if args.guided is not None:
+        guided = GuidedProtocol(
+            args.guided,
+            hold_s=args.guided_hold,
+            rest_s=args.guided_rest,
+            seed=args.guided_seed,
+            out=sys.stderr,
+        )
+    if ft_url_for(args.url, args.ft) is None and not args.json:
+        print(
+            "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
+            file=sys.stderr,
+        )
+    stop = threading.Event()
+    progress, bar = (None, None) if args.no_progress or guided else _progress_bar(options)
+    previous = _on_signals(stop)
+    try:
+        summary = record_url(
+            args.url,
+            args.output,
+            options,
+            ft_url=args.ft,
+            guided=guided,
+            stop=stop,
+            progress=progress,
+        )
+    finally:
+        _restore(previous)
+        if bar is not None:
+            bar.close()
+    if args.json:
+        print(json.dumps(summary.as_dict()))
+    else:
+        s = summary
+        print(
+            f"recorded {s.path}: {s.samples} samples ({s.lost} lost, {s.crc_errors} CRC "
+            f"errors), {s.ft_samples} F/T samples ({s.ft_lost} lost), {s.labels} labels, "
+            f"{s.duration_s:.1f} s, {s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
+        )
+        if s.error:
+            print(f"the session ended early: {s.error}", file=sys.stderr)
+    return 3 if summary.stopped_by == "error" else 0
+
+
+def _progress_bar(options: Any) -> tuple[Any, Any]:
+    from tqdm import tqdm
+
+    by_samples = options.samples is not None
+    total = options.samples if by_samples else options.duration_s
+    bar = tqdm(
+        total=total,
+        unit="samples" if by_samples or total is None else "s",
+        desc="recording",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        bar_format=None if total else "{desc}: {n_fmt} {unit} [{elapsed}{postfix}]",
+    )
+
+    def update(status: Any) -> None:
+        bar.n = status.samples if by_samples or total is None else round(status.elapsed_s, 1)
+        bar.set_postfix_str(
+            f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, lost {status.lost}"
+            f"+{status.ft_lost} F/T, CRC {status.crc_errors}, {status.file_bytes / 1e6:.1f} MB",
+            refresh=True,
+        )
+
+    return update, bar
+
+
+def _on_signals(stop: threading.Event) -> dict[int, Any]:
+    """SIGINT/SIGTERM ask the recorder to stop: it finishes the file, then the CLI returns."""
+
+    def handler(signum: int, _frame: Any) -> None:
+        if stop.is_set():  # a second Ctrl-C: the user insists
+            raise KeyboardInterrupt
+        stop.set()
+        print("\nstopping: finishing the file…", file=sys.stderr)
+
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        previous[sig] = signal.signal(sig, handler)
+    return previous
+
+
+def _restore(previous: dict[int, Any]) -> None:
+    for sig, handler in previous.items():
+        signal.signal(sig, handler)
