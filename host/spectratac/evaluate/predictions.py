@@ -1,0 +1,114 @@
+"""One view of what any decoder predicted for some rows of a dataset, whichever decoder API
+produced it (`Decoder.predict(dataset, rows)` giving `Estimates`, or the legacy
+`PaperDecoder.predict(raw12)`), with its columns matched to the dataset's target names.
+
+>>> import numpy as np
+>>> p = Predictions(["Fx", "Mz"], np.array([[1.0, 2.0]]))
+>>> p.aligned(["Fx", "Tz"]).tolist()
+[[1.0, 2.0]]
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.errors import SpectraTacError
+
+F64 = NDArray[np.float64]
+# The paper writes torques M, the dataset T: the same components.
+_ALIASES = {"Mx": "Tx", "My": "Ty", "Mz": "Tz"}
+
+
+class PredictionError(SpectraTacError):
+    """A decoder's output cannot be matched to the dataset's targets."""
+
+
+def canonical(name: str) -> str:
+    return _ALIASES.get(name, name)
+
+
+@dataclass
+class Predictions:
+    target_names: list[str]
+    targets: F64  # (N, T)
+    region: NDArray[np.int64] | None = None  # (N,) 1..9
+    region_prob: F64 | None = None  # (N, 9)
+    contact: NDArray[np.bool_] | None = None  # (N,)
+    contact_prob: F64 | None = None
+    std: F64 | None = None  # (N, T) predicted standard deviation, if the model has one
+
+    def _columns(self, names: Sequence[str]) -> list[int | None]:
+        mine = [canonical(n) for n in self.target_names]
+        return [mine.index(canonical(n)) if canonical(n) in mine else None for n in names]
+
+    def aligned(self, names: Sequence[str], std: bool = False) -> F64:
+        """(N, len(names)) columns in the order of `names`; NaN where not predicted."""
+        src = self.std if std else self.targets
+        out = np.full((self.targets.shape[0], len(names)), np.nan)
+        if src is None:
+            return out
+        for j, i in enumerate(self._columns(names)):
+            if i is not None:
+                out[:, j] = src[:, i]
+        return out
+
+    def predicts(self, names: Sequence[str]) -> list[str]:
+        """Which of `names` this decoder predicts."""
+        return [n for n, i in zip(names, self._columns(names), strict=True) if i is not None]
+
+
+def predict(decoder: Any, dataset: Any, rows: NDArray[np.int64]) -> Predictions:
+    """Run `decoder` on `rows` of `dataset` (the decoder sees the whole dataset, so models with
+    temporal context can use the rows before each one)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    if hasattr(decoder, "predict") and _takes_dataset(decoder):
+        est = decoder.predict(dataset, rows=rows)
+        return _from_estimates(est)
+    # Legacy paper-recipe decoder: (N, 12) raw counts in, Prediction out.
+    pred = decoder.predict(np.asarray(dataset.arrays["inputs"])[rows])
+    return Predictions(
+        target_names=["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"],
+        targets=np.asarray(pred.ft, dtype=np.float64),
+        region=np.asarray(pred.region, dtype=np.int64),
+        region_prob=np.asarray(pred.region_prob),
+    )
+
+
+def _takes_dataset(decoder: Any) -> bool:
+    """New API: predict(dataset, rows=...); the legacy PaperDecoder: predict(raw12)."""
+    try:
+        params = inspect.signature(decoder.predict).parameters
+    except (TypeError, ValueError):
+        return True
+    return "rows" in params
+
+
+def _opt(est: Any, name: str, dtype: Any) -> Any:
+    v = getattr(est, name, None)
+    return None if v is None else np.asarray(v, dtype=dtype)
+
+
+def _from_estimates(est: Any) -> Predictions:
+    names = list(getattr(est, "target_names", []))
+    targets = np.asarray(est.targets, dtype=np.float64)
+    if targets.ndim != 2 or targets.shape[1] != len(names):
+        raise PredictionError(
+            f"decoder returned targets {targets.shape} for names {names}: update the decoder"
+        )
+    region = _opt(est, "region", np.int64)
+    contact = _opt(est, "contact", bool)
+    return Predictions(
+        target_names=names,
+        targets=targets,
+        region=region if region is not None and region.size else None,
+        region_prob=_opt(est, "region_prob", np.float64),
+        contact=contact if contact is not None and contact.size else None,
+        contact_prob=_opt(est, "contact_prob", np.float64),
+        std=_opt(est, "std", np.float64),
+    )

@@ -1,0 +1,181 @@
+"""Evaluate a trained model on a dataset: which rows are honest to score, on which split,
+beside the oracle floor and an optional baseline model.
+
+A model's `meta["holdout"]` (see `evaluate.holdout`) names the split it was trained under;
+only that split's test rows are scored with it. The other split is scored with a companion
+model trained under that split (`fit_and_evaluate` writes both), or reported as unavailable.
+A model without the record, or one trained on another dataset, is scored on every row.
+
+>>> import numpy as np
+>>> from spectratac.dataset import Dataset
+>>> from spectratac.evaluate.predictions import Predictions
+>>> class Mean:  # a toy decoder: predicts 1.0 N everywhere
+...     meta = {}
+...     def predict(self, dataset, rows):
+...         return Predictions(["Fz"], np.ones((len(rows), 1)))
+>>> ds = Dataset.generic(np.zeros((10, 1)), np.arange(10.0), ["a"], ["Fz"])
+>>> ev = evaluate_model(Mean(), ds, oracle_samples=0)
+>>> list(ev.sections), ev.sections["all"].decoder.scores["components"]["Fz"]["mae"]
+(['all'], 3.7)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.evaluate.floor import oracle_predictions
+from spectratac.evaluate.holdout import resolve
+from spectratac.evaluate.predictions import predict
+from spectratac.evaluate.scoring import Scored, score
+from spectratac.evaluate.splits import KINDS
+from spectratac.twin.scene import Scene
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class Section:
+    """One evaluated set of rows: a split's test rows, or the whole dataset."""
+
+    name: str  # "random", "blocked" or "all"
+    note: str
+    rows: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    decoder: Scored | None = None
+    oracle: Scored | None = None
+    oracle_note: str = ""
+    baseline: Scored | None = None
+    baseline_note: str = ""
+    history: list[float] = field(default_factory=list)
+    model_info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def available(self) -> bool:
+        return self.decoder is not None
+
+
+@dataclass
+class Evaluation:
+    sections: dict[str, Section]
+    notes: list[str]
+
+
+def model_info(model: Any) -> dict[str, Any]:
+    """What the report says about a model (JSON-ready, whatever the decoder API)."""
+    meta = getattr(model, "meta", {}) or {}
+    info: dict[str, Any] = {}
+    for key in ("spec", "unit_id", "train_seconds", "recipe", "config", "n_train"):
+        if key in meta:
+            info[key] = _jsonable(meta[key])
+    for attr in ("n_params", "flops_per_sample"):
+        v = getattr(model, attr, None)
+        if v is not None:
+            info[attr] = int(v)
+    return info
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, (str, int, float, bool)) or v is None:
+        return v
+    if isinstance(v, np.generic):
+        return v.item()
+    if hasattr(v, "__dataclass_fields__"):
+        return _jsonable(v.__dict__)
+    return str(v)
+
+
+def _history(model: Any) -> list[float]:
+    h = getattr(model, "history", None)
+    if h is None:
+        h = (getattr(model, "meta", {}) or {}).get("history")
+    try:
+        return [float(x) for x in (h or [])]
+    except (TypeError, ValueError):
+        return []
+
+
+def evaluate_model(
+    model: Any,
+    dataset: Any,
+    *,
+    splits: Sequence[str] = KINDS,
+    companions: dict[str, Any] | None = None,
+    baseline: Any | None = None,
+    scene: Scene | None = None,
+    oracle_samples: int = 500,
+    seed: int = 0,
+    progress: Progress | None = None,
+) -> Evaluation:
+    """Score `model` (and `baseline`, and the twin oracle) on the honest rows of `dataset`."""
+    tick = progress or (lambda stage: None)
+    h = resolve(getattr(model, "meta", {}) or {}, dataset)
+    notes = [h.note]
+    plan: list[tuple[str, Any, NDArray[np.int64], str]] = []
+    if h.split is None:
+        plan.append(("all", model, np.arange(dataset.n), h.note))
+    else:
+        pool = {h.split.kind: (model, h.split)}
+        for m in (companions or {}).values():
+            hm = resolve(getattr(m, "meta", {}) or {}, dataset)
+            if hm.split is not None:
+                pool.setdefault(hm.split.kind, (m, hm.split))
+        for kind in splits:
+            if kind in pool:
+                m, sp = pool[kind]
+                plan.append((kind, m, sp.test, sp.describe()))
+            else:
+                plan.append((kind, None, np.zeros(0, np.int64), _missing(kind, h.split.kind)))
+    sections: dict[str, Section] = {}
+    for name, m, rows, note in plan:
+        sec = Section(name, note, rows)
+        sections[name] = sec
+        if m is None:
+            continue
+        tick(f"{name}: decoder")
+        sec.decoder = score(dataset, rows, predict(m, dataset, rows))
+        sec.history = _history(m)
+        sec.model_info = model_info(m)
+        if baseline is not None:
+            tick(f"{name}: baseline")
+            sec.baseline, sec.baseline_note = _score_baseline(baseline, dataset, rows)
+        if oracle_samples > 0:
+            tick(f"{name}: oracle")
+            o_rows, o_pred, sec.oracle_note = oracle_predictions(
+                dataset, rows, scene, oracle_samples, seed
+            )
+            if o_pred is not None:
+                sec.oracle = score(dataset, o_rows, o_pred)
+    return Evaluation(sections, notes)
+
+
+def _missing(kind: str, have: str) -> str:
+    return (
+        f"not evaluated: the model was trained on the {have} split's training rows, so the "
+        f"{kind} split's test rows include rows it was trained on; train a companion under the "
+        f"{kind} split (evaluate.protocol.fit_and_evaluate writes both) and pass it"
+    )
+
+
+def _score_baseline(
+    baseline: Any, dataset: Any, rows: NDArray[np.int64]
+) -> tuple[Scored | None, str]:
+    hb = resolve(getattr(baseline, "meta", {}) or {}, dataset)
+    if hb.split is not None:
+        overlap = np.intersect1d(hb.split.train, rows).size
+        if overlap:
+            return None, (
+                f"baseline not comparable here: it was trained on {overlap} of these test rows "
+                f"({hb.split.describe()})"
+            )
+    note = "baseline scored on the same rows" + (
+        f" (caveat: {hb.note})" if hb.status == "unknown" else ""
+    )
+    return score(dataset, rows, predict(baseline, dataset, rows)), note
