@@ -1,0 +1,157 @@
+"""The samples a simulated reference F/T sensor produces: the world's reference wrench
+(twin scene + noise + slow bias, the same ground truth the simulated optical sensor sees)
+sampled on the F/T's own crystal clock, with occasional losses.
+
+The F/T clock reads sensor = offset + (1 + drift) * scene seconds; sample k is taken when
+that clock reads k / rate, i.e. at scene time (k / rate - offset) / (1 + drift). Samples
+are computed ahead in blocks (one vectorised twin call per block) and released when their
+scene time has come, so a sender wakes often but pays for the twin rarely.
+
+>>> from spectratac.sim.url import parse_sim_url
+>>> from spectratac.sim.world import SimWorld
+>>> world = SimWorld.join(parse_sim_url("sim://?scene=press&seed=1&speed=10"))
+>>> src = FTSource(world, FTParams(rate=1000.0, loss=0.0, offset=0.05, drift=1e-4))
+>>> batch = src.pop_due(world.epoch + 0.02)  # 0.2 scene s after the epoch
+>>> bool(len(batch.k) > 0), batch.wrench.shape[1], float(batch.sensor_time[0]) >= 0.05
+(True, 6, True)
+>>> world.release()
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.ft.errors import FTURLError
+from spectratac.sim.url import SimOptions
+from spectratac.sim.world import SimWorld
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class FTParams:
+    """Simulated F/T sensor settings (sim:// URL: ft_rate, ft_loss, ft_offset, ft_drift)."""
+
+    rate: float = 1000.0  # samples per scene second, on the sensor's clock
+    loss: float = 0.001  # probability that a sample never reaches the host
+    offset: float = 0.05  # sensor clock reading at scene time 0, s
+    drift: float = 1e-4  # sensor clock rate error (ratio - 1)
+
+    @classmethod
+    def from_sim(cls, opts: SimOptions) -> FTParams:
+        p = opts.scene_params
+        try:
+            params = cls(
+                rate=float(p.get("ft_rate", cls.rate)),
+                loss=float(p.get("ft_loss", cls.loss)),
+                offset=float(p.get("ft_offset", cls.offset)),
+                drift=float(p.get("ft_drift", cls.drift)),
+            )
+        except ValueError as exc:
+            raise FTURLError(f"{opts.query()}: bad F/T parameter: {exc}") from None
+        params.validate()
+        return params
+
+    def validate(self) -> None:
+        if not (0 < self.rate <= 100_000):
+            raise FTURLError(f"ft_rate={self.rate}: give samples per second in (0, 100000]")
+        if not (0 <= self.loss < 1):
+            raise FTURLError(f"ft_loss={self.loss}: give a probability in [0, 1)")
+        if not (abs(self.drift) < 0.01) or not math.isfinite(self.offset):
+            raise FTURLError("ft_drift must be within ±0.01 and ft_offset finite")
+
+
+@dataclass
+class FTBatch:
+    k: NDArray[np.int64]  # sample index on the sensor clock
+    sensor_time: F64  # k / rate, s
+    scene_time: F64
+    wrench: F64  # (n, 6) N and N*m
+    lost: NDArray[np.bool_]  # these never reach the host
+
+
+class FTSource:
+    """Releases a simulated F/T sensor's samples as scene time passes (paced worlds only)."""
+
+    def __init__(self, world: SimWorld, params: FTParams, stream: int = 0) -> None:
+        if not world.paced:
+            raise FTURLError(
+                "a simulated F/T sensor needs scene time that follows the wall clock: "
+                "speed=max has none; give a numeric speed (e.g. speed=10)"
+            )
+        params.validate()
+        self.world = world
+        self.params = params
+        self._rng = np.random.default_rng([world.seed, 0xF7, stream])
+        self._speed = float(world.speed)
+        self._block: FTBatch | None = None
+        self._k_next = 0
+        self.skip()
+        self._block_n = max(16, int(params.rate * self._speed * 0.02))  # ~20 ms of samples
+
+    def skip(self) -> None:
+        """Forget samples not yet taken: the next one is the next tick of the sensor clock
+        (a stream starts now; nothing is computed for the time nobody listened)."""
+        self._k_next = math.floor(self.sensor_of(self.world.scene_time()) * self.params.rate) + 1
+
+    def sensor_of(self, scene_time: float) -> float:
+        return self.params.offset + (1.0 + self.params.drift) * scene_time
+
+    def scene_of_k(self, k: NDArray[np.int64] | int) -> F64:
+        p = self.params
+        return (np.asarray(k) / p.rate - p.offset) / (1.0 + p.drift)
+
+    def next_due_host(self) -> float:
+        """Host monotonic time at which the next sample is due."""
+        t_scene = float(self.scene_of_k(self._k_next))
+        return self.world.epoch + t_scene / self._speed
+
+    def pop_due(self, now: float | None = None) -> FTBatch:
+        """Every sample whose time has come by host time `now` (default: now), in order."""
+        t = time.monotonic() if now is None else now
+        k_due = math.floor(self.sensor_of(self.world.scene_time(t)) * self.params.rate)
+        parts: list[FTBatch] = []
+        while self._k_next <= k_due:
+            block = self._block
+            if block is None or block.k[-1] < self._k_next:
+                block = self._block = self._compute(self._k_next, self._block_n)
+            i0 = self._k_next - int(block.k[0])
+            i1 = min(len(block.k), k_due - int(block.k[0]) + 1)
+            parts.append(_slice(block, i0, i1))
+            self._k_next = int(block.k[0]) + i1
+        if not parts:
+            return _empty()
+        return parts[0] if len(parts) == 1 else _concat(parts)
+
+    def _compute(self, k0: int, n: int) -> FTBatch:
+        k = np.arange(k0, k0 + n, dtype=np.int64)
+        scene = self.scene_of_k(k)
+        wrench = self.world.ft_rig.ft(np.maximum(scene, 0.0))
+        lost = self._rng.random(n) < self.params.loss
+        return FTBatch(k, k / self.params.rate, scene, wrench, lost)
+
+
+def _slice(b: FTBatch, i0: int, i1: int) -> FTBatch:
+    return FTBatch(
+        b.k[i0:i1], b.sensor_time[i0:i1], b.scene_time[i0:i1], b.wrench[i0:i1], b.lost[i0:i1]
+    )
+
+
+def _concat(parts: list[FTBatch]) -> FTBatch:
+    return FTBatch(
+        np.concatenate([p.k for p in parts]),
+        np.concatenate([p.sensor_time for p in parts]),
+        np.concatenate([p.scene_time for p in parts]),
+        np.concatenate([p.wrench for p in parts]),
+        np.concatenate([p.lost for p in parts]),
+    )
+
+
+def _empty() -> FTBatch:
+    z = np.empty(0)
+    return FTBatch(np.empty(0, dtype=np.int64), z, z, np.empty((0, 6)), np.empty(0, dtype=bool))
