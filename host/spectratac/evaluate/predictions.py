@@ -38,9 +38,9 @@ class Predictions:
     target_names: list[str]
     targets: F64  # (N, T)
     region: NDArray[np.int64] | None = None  # (N,) 1..9
-    region_prob: F64 | None = None  # (N, 9)
+    region_prob: F64 | None = None  # (N, 9) class probabilities
     contact: NDArray[np.bool_] | None = None  # (N,)
-    contact_prob: F64 | None = None
+    contact_prob: F64 | None = None  # NaN when contact is derived from |F|, not a head
     std: F64 | None = None  # (N, T) predicted standard deviation, if the model has one
 
     def _columns(self, names: Sequence[str]) -> list[int | None]:
@@ -102,12 +102,14 @@ def _from_estimates(est: Any) -> Predictions:
             f"decoder returned targets {targets.shape} for names {names}: update the decoder"
         )
     region = _opt(est, "region", np.int64)
+    if hasattr(est, "region_probs") and est.region_probs is None:
+        region = None  # no class head: region is all -1 by convention, not a prediction
     contact = _opt(est, "contact", bool)
     return Predictions(
         target_names=names,
         targets=targets,
         region=region if region is not None and region.size else None,
-        region_prob=_opt(est, "region_prob", np.float64),
+        region_prob=_opt(est, "region_probs", np.float64),
         contact=contact if contact is not None and contact.size else None,
         contact_prob=_opt(est, "contact_prob", np.float64),
         std=_opt(est, "std", np.float64),

@@ -55,6 +55,8 @@ def score(dataset: Any, rows: NDArray[np.int64], pred: Predictions) -> Scored:
     scores: dict[str, Any] = {
         "n": int(rows.size),
         "n_valid_targets": int(np.sum(valid)),
+        # Rows the decoder returned no estimate for (invalid input, incomplete context).
+        "n_unpredicted": int(np.sum(~np.all(np.isfinite(p), axis=1))) if names else 0,
         "components": regression_scores(y, p, names, valid),
     }
     labels = np.asarray(a["region"][rows], dtype=np.int64)
@@ -62,6 +64,10 @@ def score(dataset: Any, rows: NDArray[np.int64], pred: Predictions) -> Scored:
         scores["region"] = region_scores(labels, pred.region)
     if pred.contact is not None:
         scores["contact"] = contact_scores(a["in_contact"][rows], pred.contact)
+        cp = pred.contact_prob
+        scores["contact"]["source"] = (
+            "head" if cp is not None and np.isfinite(cp).any() else "derived from |F|"
+        )
     if pred.std is not None:
         scores["coverage"] = interval_coverage(y, p, pred.aligned(names, std=True), names, valid)
     return Scored(scores, rows, names, y, p, labels, pred.region)

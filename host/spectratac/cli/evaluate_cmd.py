@@ -1,0 +1,163 @@
+"""`spectratac evaluate MODEL DATA --report DIR`: score a trained decoder on a dataset.
+
+Trains nothing. The model's metadata says which rows it was trained on (see
+`spectratac.evaluate.holdout`): on its own training dataset only the held-out rows of its
+split are scored (the companion model named in the file scores the other split); on any other
+dataset every row is held out. Writes report.md, report.json and the Fig. 3 panels to DIR,
+with the paper's figures and, for simulated data, the twin oracle's floor beside ours.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from spectratac.evaluate.metrics import COVERAGE_LEVELS
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "evaluate",
+        help="score a trained decoder on a dataset; write a report (Fig. 3 panels)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("model", help="decoder file (.stac)")
+    p.add_argument("data", help="dataset file (.npz)")
+    p.add_argument("--report", required=True, metavar="DIR", help="folder for the report")
+    p.add_argument(
+        "--split",
+        choices=("random", "blocked", "both"),
+        default="both",
+        help="which split(s) to report when the data is the model's training set",
+    )
+    p.add_argument("--baseline", metavar="MODEL", help="another decoder scored on the same rows")
+    p.add_argument(
+        "--oracle-samples",
+        type=int,
+        default=500,
+        metavar="N",
+        help="rows the twin oracle decodes per split (simulated data; 0 turns it off)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the oracle's subsample")
+    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from spectratac.dataset import Dataset
+    from spectratac.decode import Decoder
+    from spectratac.evaluate.holdout import fingerprint
+    from spectratac.evaluate.protocol import load_companions
+    from spectratac.evaluate.report import write_report
+    from spectratac.evaluate.run import evaluate_model
+
+    if args.oracle_samples < 0:
+        from spectratac.errors import SpectraTacError
+
+        raise SpectraTacError("--oracle-samples must be >= 0")
+    dataset = Dataset.load(args.data)
+    model = Decoder.load(args.model)
+    companions = load_companions(model, args.model, Decoder.load)
+    baseline = Decoder.load(args.baseline) if args.baseline else None
+    kinds = ("random", "blocked") if args.split == "both" else (args.split,)
+    per = 1 + (baseline is not None) + (args.oracle_samples > 0)
+    bar = tqdm(
+        total=len(kinds) * per,
+        desc="evaluate",
+        unit="step",
+        file=sys.stderr,
+        leave=False,
+        disable=args.no_progress,
+    )
+
+    def tick(stage: str) -> None:
+        bar.set_postfix_str(stage)
+        bar.update(1)
+
+    try:
+        ev = evaluate_model(
+            model,
+            dataset,
+            splits=kinds,
+            companions=companions,
+            baseline=baseline,
+            oracle_samples=args.oracle_samples,
+            seed=args.seed,
+            progress=tick,
+        )
+    finally:
+        bar.close()
+    dataset_info = {
+        "path": str(args.data),
+        "rows": dataset.n,
+        "fingerprint": fingerprint(dataset),
+        "unit_id": dataset.meta.get("unit_id"),
+        "config": dataset.meta.get("config"),
+        "sessions": dataset.meta.get("sessions"),
+    }
+    model_info = {
+        "path": str(args.model),
+        "companions": {k: str(v) for k, v in _companion_files(model).items()},
+        "baseline": args.baseline,
+    }
+    rep = write_report(ev, args.report, dataset_info, model_info, dataset)
+    if args.json:
+        print(json.dumps(rep))
+    else:
+        print(summary(rep, Path(args.report)))
+    return 0
+
+
+def _companion_files(model: Any) -> dict[str, str]:
+    rec = (getattr(model, "meta", {}) or {}).get("holdout") or {}
+    return dict(rec.get("companions") or {})
+
+
+def _num(v: Any, digits: int = 4) -> str:
+    return "–" if v is None else f"{v:.{digits}g}"
+
+
+def summary(rep: dict[str, Any], out: Path) -> str:
+    """Short human table per section; the full one is in report.md."""
+    from spectratac.evaluate.paper import paper_mae
+
+    lines: list[str] = []
+    for name, sec in rep["sections"].items():
+        lines.append(f"{name}: {sec['note']}")
+        if not sec["available"]:
+            lines.append("")
+            continue
+        orc = sec.get("oracle", {}).get("components", {})
+        base = sec.get("baseline", {}).get("components", {})
+        head = f"  {'':<4} {'MAE':>9} {'RMSE':>9} {'R2':>7} {'paper':>9} {'oracle':>9}"
+        lines.append(head + (f" {'baseline':>9}" if base else ""))
+        for comp, m in sec["decoder"]["components"].items():
+            row = (
+                f"  {comp:<4} {_num(m['mae']):>9} {_num(m['rmse']):>9} {_num(m['r2'], 3):>7} "
+                f"{paper_mae(comp) or '–':>9} {_num(orc.get(comp, {}).get('mae')):>9}"
+            )
+            lines.append(row + (f" {_num(base.get(comp, {}).get('mae')):>9}" if base else ""))
+        reg = sec["decoder"].get("region")
+        if reg and reg["accuracy"] is not None:
+            lines.append(f"  region accuracy {100 * reg['accuracy']:.2f} % (paper 99.9 %)")
+        con = sec["decoder"].get("contact")
+        if con and con["accuracy"] is not None:
+            lines.append(f"  contact accuracy {100 * con['accuracy']:.2f} % ({con['source']})")
+        cov = sec["decoder"].get("coverage")
+        if cov:
+            lv = "/".join(f"{100 * v:.0f} %" for v in COVERAGE_LEVELS)
+            cells = ", ".join(
+                f"{k} " + "/".join(f"{100 * (c.get(f'{v:g}') or 0):.0f}" for v in COVERAGE_LEVELS)
+                for k, c in cov.items()
+            )
+            lines.append(f"  interval coverage (nominal {lv}): {cells}")
+        lines.append("")
+    lines.append(f"report: {out / 'report.md'} (+ report.json and PNG panels)")
+    return "\n".join(lines)

@@ -1,0 +1,120 @@
+"""Train and evaluate under both splits: the protocol every reported number goes through.
+
+`fit_and_evaluate(dataset, spec)` trains one decoder per split kind on that split's training
+rows only, records the split in the decoder's metadata (`evaluate.holdout.mark`), and scores
+it on the split's test rows. `save_models` writes them as ``model.stac`` (blocked: the honest
+one) and ``model.random.stac`` (its companion), each naming the other, so that
+``spectratac evaluate model.stac data.npz`` later rebuilds both test sets without training.
+
+With the real trainer: ``fit_and_evaluate(ds, TrainSpec.paper(epochs=5))``. Any trainer
+with the same signature works, e.g. a stand-in:
+
+>>> import numpy as np
+>>> from spectratac.dataset import Dataset
+>>> from spectratac.evaluate.predictions import Predictions
+>>> class Zero:
+...     def __init__(self):
+...         self.meta = {}
+...     def predict(self, dataset, rows):
+...         return Predictions(["Fz"], np.zeros((len(rows), 1)))
+>>> ds = Dataset.generic(np.zeros((100, 1)), np.ones(100), ["a"], ["Fz"])
+>>> res = fit_and_evaluate(ds, None, trainer=lambda *a, **k: Zero(), oracle_samples=0)
+>>> sorted(res.sections), res.sections["blocked"].decoder.scores["components"]["Fz"]["mae"]
+(['blocked', 'random'], 1.0)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from spectratac.evaluate.holdout import mark
+from spectratac.evaluate.run import Evaluation, Section, evaluate_model
+from spectratac.evaluate.splits import KINDS, Split, SplitSpec, split_dataset
+
+Trainer = Callable[..., Any]  # (dataset, spec, rows=..., progress=...) -> decoder
+
+
+@dataclass
+class FitResult:
+    """Decoders and splits per kind, the evaluation, and training wall times (s)."""
+
+    models: dict[str, Any]
+    splits: dict[str, Split]
+    evaluation: Evaluation
+    train_seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def sections(self) -> dict[str, Section]:
+        return self.evaluation.sections
+
+
+def default_trainer() -> Trainer:
+    from spectratac.decode import train
+
+    return train
+
+
+def fit_and_evaluate(
+    dataset: Any,
+    spec: Any,
+    kinds: Sequence[str] = KINDS,
+    *,
+    seed: int = 0,
+    split_options: dict[str, Any] | None = None,
+    trainer: Trainer | None = None,
+    oracle_samples: int = 500,
+    progress: bool = False,
+) -> FitResult:
+    """Train `spec` on each split's training rows and score it on the split's test rows."""
+    fit = trainer or default_trainer()
+    models: dict[str, Any] = {}
+    splits: dict[str, Split] = {}
+    seconds: dict[str, float] = {}
+    for kind in kinds:
+        split = split_dataset(dataset, SplitSpec(kind, seed=seed, **(split_options or {})))
+        t0 = time.perf_counter()
+        model = fit(dataset, spec, rows=split.train, progress=progress)
+        seconds[kind] = time.perf_counter() - t0
+        mark(model, dataset, split)
+        models[kind], splits[kind] = model, split
+    first, *rest = kinds
+    ev = evaluate_model(
+        models[first],
+        dataset,
+        splits=kinds,
+        companions={k: models[k] for k in rest},
+        oracle_samples=oracle_samples,
+        seed=seed,
+    )
+    return FitResult(models, splits, ev, seconds)
+
+
+def save_models(result: FitResult, path: str | Path) -> dict[str, Path]:
+    """Write the blocked model to `path` and each other kind to ``<stem>.<kind><suffix>``,
+    each recording the others as companions (file names relative to its folder)."""
+    path = Path(path)
+    main = "blocked" if "blocked" in result.models else next(iter(result.models))
+    files = {
+        k: path if k == main else path.with_name(f"{path.stem}.{k}{path.suffix or '.stac'}")
+        for k in result.models
+    }
+    for kind, model in result.models.items():
+        model.meta["holdout"]["companions"] = {k: f.name for k, f in files.items() if k != kind}
+        model.save(files[kind])
+    return files
+
+
+def load_companions(model: Any, model_path: str | Path, loader: Callable[[Path], Any]) -> dict:
+    """The companion models a model file names, loaded from its folder (missing ones skipped)."""
+    rec = (getattr(model, "meta", {}) or {}).get("holdout") or {}
+    folder = Path(model_path).parent
+    out: dict[str, Any] = {}
+    for kind, name in (rec.get("companions") or {}).items():
+        f = folder / name
+        if f.exists():
+            out[kind] = loader(f)
+    return out
