@@ -7,14 +7,21 @@ import pytest
 from spectratac.decode import (
     EPS,
     FEATURE_NAMES,
+    Decoder,
+    DecoderDataError,
     FeatureError,
-    PaperDecoder,
-    TrainConfig,
+    TrainSpec,
     ZeroAnchoredScaler,
     features33,
     raw12_from_counts,
-    train_paper_recipe,
+    train,
 )
+from spectratac.decode.featureset import build_features
+from spectratac.decode.layout import Layout
+
+from tests.decode.conftest import SPECTRATAC_INPUTS
+
+TINY = {"epochs": 25, "batch_size": 128, "hidden": 32, "blocks": 1, "threads": 1}
 
 
 def test_feature_layout() -> None:
@@ -29,6 +36,16 @@ def test_feature_layout() -> None:
     np.testing.assert_allclose(f[:, 21:25], s[:, 0] - s[:, 1])
     np.testing.assert_allclose(f[:, 29:33], s[:, 2] - s[:, 0])
     assert FEATURE_NAMES[12] == "R1/C1" and FEATURE_NAMES[29] == "R3-R1"
+
+
+def test_feature_set_paper33_is_the_papers_33_features() -> None:
+    raw = np.random.default_rng(1).uniform(0, 65535, (7, 12))
+    fs = build_features("paper33", Layout(SPECTRATAC_INPUTS))
+    mine = fs.apply(raw)
+    paper = features33(raw)
+    # same columns, in the order [raw 12, differences 12, ratios 9]
+    order = list(range(12)) + list(range(21, 33)) + list(range(12, 21))
+    np.testing.assert_allclose(mine, paper[:, order], rtol=1e-12)
 
 
 def test_features_survive_dark_sensors_and_reject_bad_input() -> None:
@@ -49,37 +66,23 @@ def test_zero_anchored_scaling_keeps_rest_at_zero() -> None:
     np.testing.assert_allclose(s.inverse(s.transform(y)), y)
 
 
-def test_training_masks_unlabelled_samples_and_inference_is_numpy(tmp_path) -> None:
-    rng = np.random.default_rng(2)
-    n = 600
-    raw = rng.uniform(1000, 30000, (n, 12))
-    ft = np.stack(
-        [
-            raw[:, 0] / 1e4,
-            raw[:, 4] / 1e4,
-            -raw[:, 8] / 5e3,
-            raw[:, 1] / 1e6,
-            raw[:, 2] / 1e6,
-            raw[:, 3] / 1e6,
-        ],
-        axis=1,
-    )
-    region = np.where(raw[:, 0] > raw[:, 4], 3, 7)
-    region[::3] = -1  # unlabelled rows still train the F/T head
-    dec = train_paper_recipe(
-        raw, ft, region, TrainConfig(epochs=25, batch_size=128, hidden=32, blocks=1)
-    )
-    assert all(np.isfinite(dec.history)) and dec.history[-1] < dec.history[0]
-    pred = dec.predict(raw)
-    assert pred.ft.shape == (n, 6) and set(np.unique(pred.region)) <= set(range(1, 10))
-    valid = region > 0
-    assert np.mean(pred.region[valid] == region[valid]) > 0.8
-    path = tmp_path / "d.npz"
-    dec.save(path)
-    again = PaperDecoder.load(path).predict(raw)
-    np.testing.assert_allclose(again.ft, pred.ft, rtol=1e-6, atol=1e-6)
+def test_training_masks_unlabelled_samples_and_inference_is_numpy(synth_ds, tmp_path) -> None:
+    dec = train(synth_ds, TrainSpec.paper(**TINY), progress=False)
+    hist = dec.meta["history"]
+    assert all(np.isfinite(hist)) and hist[-1] < hist[0]
+    est = dec.predict(synth_ds)
+    n = synth_ds.n
+    assert est.targets.shape == (n, 6) and est.force.shape == (n, 3)
+    assert set(np.unique(est.region)) <= set(range(1, 10))
+    valid = synth_ds.region > 0
+    assert np.mean(est.region[valid] == synth_ds.region[valid]) > 0.8
+    path = dec.save(tmp_path / "d.stac")
+    again = Decoder.load(path).predict(synth_ds)
+    np.testing.assert_array_equal(again.targets, est.targets)
+    np.testing.assert_array_equal(again.region, est.region)
 
 
-def test_training_rejects_bad_labels() -> None:
-    with pytest.raises(FeatureError, match=r"1\.\.9"):
-        train_paper_recipe(np.ones((4, 12)), np.zeros((4, 6)), np.array([0, 1, 2, 3]))
+def test_training_rejects_bad_labels(synth_ds) -> None:
+    synth_ds.region[[4, 9]] = 0
+    with pytest.raises(DecoderDataError, match=r"2 training row.*1\.\.9.*rows 4, 9"):
+        train(synth_ds, TrainSpec.paper(**TINY), progress=False)

@@ -1,14 +1,29 @@
-"""Decoding counts into F/T and contact region: the paper's recipe (features, scaling, model).
+"""Decoding counts into F/T, contact region and contact: train, predict, save, export, stream.
 
-Importing this package never imports torch; `train_paper_recipe` imports it when called.
+Importing this package never imports torch; `train` imports it when called, and so do the
+ONNX and TorchScript exporters. Prediction, `Decoder.load` and `Decoder.stream` are NumPy.
 
->>> from spectratac.decode import features33
->>> features33([[1.0] * 12]).shape
-(1, 33)
+    from spectratac.decode import TrainSpec, train, Decoder
+    dec = train(dataset, TrainSpec.paper(), rows=train_rows)
+    est = dec.predict(dataset, rows=test_rows)       # Estimates
+    dec.save("model.stac"); Decoder.load("model.stac", expect_config=cfg)
+
+>>> from spectratac.decode import features33, TrainSpec
+>>> features33([[1.0] * 12]).shape, TrainSpec.paper().model
+((1, 33), 'resmlp')
 """
 
 from __future__ import annotations
 
+from spectratac.decode.decoder import Decoder
+from spectratac.decode.errors import (
+    DecoderConfigError,
+    DecoderDataError,
+    DecoderError,
+    DecoderFileError,
+    DecoderUnitWarning,
+)
+from spectratac.decode.estimates import Estimate, Estimates
 from spectratac.decode.features import (
     EPS,
     FEATURE_NAMES,
@@ -17,23 +32,31 @@ from spectratac.decode.features import (
     raw12_from_counts,
 )
 from spectratac.decode.metrics import region_accuracy, regression_metrics
-from spectratac.decode.model import PaperDecoder, Prediction
+from spectratac.decode.runtime import Runtime
 from spectratac.decode.scaling import Standardizer, ZeroAnchoredScaler
-from spectratac.decode.train import PAPER_LOSS_WEIGHTS, TrainConfig, train_paper_recipe
+from spectratac.decode.spec import TrainSpec
+from spectratac.decode.train import PAPER_LOSS_WEIGHTS, train
 
 __all__ = [
     "EPS",
     "FEATURE_NAMES",
     "PAPER_LOSS_WEIGHTS",
+    "Decoder",
+    "DecoderConfigError",
+    "DecoderDataError",
+    "DecoderError",
+    "DecoderFileError",
+    "DecoderUnitWarning",
+    "Estimate",
+    "Estimates",
     "FeatureError",
-    "PaperDecoder",
-    "Prediction",
+    "Runtime",
     "Standardizer",
-    "TrainConfig",
+    "TrainSpec",
     "ZeroAnchoredScaler",
     "features33",
     "raw12_from_counts",
     "region_accuracy",
     "regression_metrics",
-    "train_paper_recipe",
+    "train",
 ]

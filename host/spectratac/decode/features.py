@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from spectratac.errors import SpectraTacError
+from spectratac.decode.errors import DecoderDataError
 
 EPS = 1e-5
 N_RAW = 12
@@ -30,7 +30,7 @@ FEATURE_NAMES: tuple[str, ...] = (
 )
 
 
-class FeatureError(SpectraTacError):
+class FeatureError(DecoderDataError):
     """Input to the feature pipeline has the wrong shape or non-finite values."""
 
 

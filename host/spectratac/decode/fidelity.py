@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from spectratac.decode.metrics import AXES, region_accuracy, regression_metrics
-from spectratac.decode.train import TrainConfig, train_paper_recipe
+from spectratac.decode.spec import TrainSpec
+from spectratac.decode.train import train
 
 PAPER: dict[str, Any] = {
     "mae": {"Fx": 0.161, "Fy": 0.164, "Fz": 0.429},
@@ -69,7 +70,10 @@ def fidelity_report(
     session = generate_session(scene, seed=cfg.seed)
     gen_s = time.perf_counter() - t0
     tick("generate", 1)
-    x, y, lab = session.raw12(), session.ft_window, session.region
+    from spectratac.dataset.from_twin import from_twin_session
+
+    ds = from_twin_session(session, scene)
+    y, lab = session.ft_window, session.region
     n = len(session)
     n_test = max(1, round(cfg.test_fraction * n))
     rng = np.random.default_rng([cfg.seed, 0xF1DE])
@@ -79,13 +83,11 @@ def fidelity_report(
         "heldout": (np.arange(n - n_test), np.arange(n - n_test, n)),
     }
     oracle = Oracle.for_session(session, scene)
-    tcfg = TrainConfig(epochs=cfg.epochs, batch_size=cfg.batch_size, seed=cfg.seed)
+    spec = TrainSpec.paper(epochs=cfg.epochs, batch_size=cfg.batch_size, seed=cfg.seed)
     out: dict[str, Any] = {}
     for name, (tr, te) in splits.items():
-        dec = train_paper_recipe(
-            x[tr], y[tr], lab[tr], tcfg, progress=lambda e, loss, s=name: tick(f"train {s}", 1)
-        )
-        pred = dec.predict(x[te])
+        dec = train(ds, spec, rows=tr, progress=lambda e, loss, s=name: tick(f"train {s}", 1))
+        pred = dec.predict(ds, rows=te)
         sub = (
             te
             if te.shape[0] <= cfg.oracle_samples
@@ -95,9 +97,9 @@ def fidelity_report(
         orc = oracle.decode(session.counts[sub], tmid, session.step[sub])
         tick("oracle", 1)
         out[name] = {
-            "recipe": _scores(y[te], pred.ft, lab[te], pred.region),
+            "recipe": _scores(y[te], pred.targets, lab[te], pred.region),
             "oracle": _scores(y[sub], orc.ft, lab[sub], orc.region),
-            "train_loss": dec.history[-1],
+            "train_loss": dec.meta["history"][-1],
         }
     rnd = out["random"]["recipe"]
     checks = {

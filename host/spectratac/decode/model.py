@@ -1,140 +1,108 @@
-"""The shared-backbone residual MLP, evaluated in NumPy (no torch needed at inference).
+"""The decoder networks, evaluated in NumPy (torch is needed for training only).
 
-stem Linear(33, H) -> GELU, then `blocks` pre-norm residual blocks
-h + W2 GELU(W1 LayerNorm(h)), a final LayerNorm, and two heads: 6-axis F/T (scaled targets)
-and 9 region logits. GELU is the tanh approximation in training and inference alike.
+Architectures over z-scored features z (N, F), all ending in one fused linear head whose
+outputs are [scaled targets, log-scales (uncertainty), class logits, contact logit]:
 
->>> import numpy as np
->>> w = init_weights(hidden=8, blocks=1, rng=np.random.default_rng(0))
->>> ft, logits = forward(w, np.zeros((2, 33)))
->>> ft.shape, logits.shape
-((2, 6), (2, 9))
+- linear: head(z)
+- mlp:    `blocks` x (Linear(H) -> GELU), head
+- resmlp: the paper's shared backbone: stem Linear(F, H) -> GELU, `blocks` pre-norm residual
+          blocks h + W2 GELU(W1 LayerNorm(h)), a final LayerNorm, head
+
+GELU is the tanh approximation in training and inference alike (exact GELU differs ~1e-3).
+Weight names equal the torch module's state_dict keys.
+
+>>> w = init_weights(("resmlp", 8, 1), n_in=33, n_out=15, rng=np.random.default_rng(0))
+>>> forward(("resmlp", 8, 1), w, np.zeros((2, 33))).shape
+(2, 15)
+>>> n_params(w), flops(("resmlp", 8, 1), 33, 15)
+(583, 1024)
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.decode.features import N_FEATURES, features33
-from spectratac.decode.scaling import Standardizer, ZeroAnchoredScaler
-from spectratac.errors import SpectraTacError
-
 F64 = NDArray[np.float64]
-Weights = dict[str, NDArray[np.float32]]
+Weights = dict[str, NDArray[Any]]
+Arch = tuple[str, int, int]  # (kind, hidden, blocks)
 
-N_OUT = 6
-N_REGIONS = 9
 LN_EPS = 1e-5
+SQRT_2_OVER_PI = 0.7978845608028654
 
 
 def gelu_tanh(x: F64) -> F64:
-    return 0.5 * x * (1.0 + np.tanh(0.7978845608028654 * (x + 0.044715 * x * x * x)))
+    return 0.5 * x * (1.0 + np.tanh(SQRT_2_OVER_PI * (x + 0.044715 * x * x * x)))
 
 
-def layer_norm(x: F64, g: NDArray[np.float32], b: NDArray[np.float32]) -> F64:
+def layer_norm(x: F64, g: NDArray[Any], b: NDArray[Any]) -> F64:
     mu = x.mean(axis=-1, keepdims=True)
     var = x.var(axis=-1, keepdims=True)
-    return (x - mu) / np.sqrt(var + LN_EPS) * g + b
+    return (x - mu) / np.sqrt(var + x.dtype.type(LN_EPS)) * g + b
 
 
-def n_blocks(w: Weights) -> int:
-    return sum(1 for k in w if k.startswith("blocks.") and k.endswith(".fc1.weight"))
+def forward(arch: Arch, w: Weights, z: F64) -> F64:
+    """Fused head outputs (N, O) for z-scored features (N, F), in z's dtype."""
+    kind, _, blocks = arch
+    dt = z.dtype
+
+    def lin(name: str, v: F64) -> F64:
+        return v @ w[name + ".weight"].T.astype(dt) + w[name + ".bias"].astype(dt)
+
+    h = z
+    if kind == "mlp":
+        for i in range(blocks):
+            h = gelu_tanh(lin(f"layers.{i}", h))
+    elif kind == "resmlp":
+        h = gelu_tanh(lin("stem", h))
+        for i in range(blocks):
+            p = f"blocks.{i}."
+            u = layer_norm(h, w[p + "norm.weight"].astype(dt), w[p + "norm.bias"].astype(dt))
+            h = h + lin(p + "fc2", gelu_tanh(lin(p + "fc1", u)))
+        h = layer_norm(h, w["norm.weight"].astype(dt), w["norm.bias"].astype(dt))
+    return lin("head", h)
 
 
-def forward(w: Weights, z: F64) -> tuple[F64, F64]:
-    """Scaled F/T (N, 6) and region logits (N, 9) for z-scored features (N, 33)."""
-    h = gelu_tanh(z @ w["stem.weight"].T + w["stem.bias"])
-    for i in range(n_blocks(w)):
-        p = f"blocks.{i}."
-        u = layer_norm(h, w[p + "norm.weight"], w[p + "norm.bias"])
-        u = gelu_tanh(u @ w[p + "fc1.weight"].T + w[p + "fc1.bias"])
-        h = h + u @ w[p + "fc2.weight"].T + w[p + "fc2.bias"]
-    h = layer_norm(h, w["norm.weight"], w["norm.bias"])
-    ft = h @ w["head_ft.weight"].T + w["head_ft.bias"]
-    logits = h @ w["head_region.weight"].T + w["head_region.bias"]
-    return ft, logits
-
-
-def init_weights(hidden: int, blocks: int, rng: np.random.Generator) -> Weights:
-    """Random weights with the same names and shapes as the torch module (for tests)."""
-
-    def lin(name: str, n_out: int, n_in: int) -> dict[str, NDArray[np.float32]]:
-        k = 1.0 / np.sqrt(n_in)
-        return {
-            f"{name}.weight": rng.uniform(-k, k, (n_out, n_in)).astype(np.float32),
-            f"{name}.bias": rng.uniform(-k, k, n_out).astype(np.float32),
-        }
-
-    w: Weights = {}
-    w.update(lin("stem", hidden, N_FEATURES))
+def layer_shapes(arch: Arch, n_in: int, n_out: int) -> list[tuple[str, int, int]]:
+    """(name, out, in) of every linear layer, in order."""
+    kind, hidden, blocks = arch
+    if kind == "linear":
+        return [("head", n_out, n_in)]
+    if kind == "mlp":
+        dims = [n_in] + [hidden] * blocks
+        layers = [(f"layers.{i}", dims[i + 1], dims[i]) for i in range(blocks)]
+        return [*layers, ("head", n_out, dims[-1])]
+    layers = [("stem", hidden, n_in)]
     for i in range(blocks):
-        w[f"blocks.{i}.norm.weight"] = np.ones(hidden, np.float32)
-        w[f"blocks.{i}.norm.bias"] = np.zeros(hidden, np.float32)
-        w.update(lin(f"blocks.{i}.fc1", hidden, hidden))
-        w.update(lin(f"blocks.{i}.fc2", hidden, hidden))
-    w["norm.weight"] = np.ones(hidden, np.float32)
-    w["norm.bias"] = np.zeros(hidden, np.float32)
-    w.update(lin("head_ft", N_OUT, hidden))
-    w.update(lin("head_region", N_REGIONS, hidden))
+        layers += [(f"blocks.{i}.fc1", hidden, hidden), (f"blocks.{i}.fc2", hidden, hidden)]
+    return [*layers, ("head", n_out, hidden)]
+
+
+def norm_names(arch: Arch) -> list[str]:
+    if arch[0] != "resmlp":
+        return []
+    return [f"blocks.{i}.norm" for i in range(arch[2])] + ["norm"]
+
+
+def init_weights(arch: Arch, n_in: int, n_out: int, rng: np.random.Generator) -> Weights:
+    """Random weights with the torch module's names and shapes (for tests)."""
+    w: Weights = {}
+    for name, o, i in layer_shapes(arch, n_in, n_out):
+        k = 1.0 / np.sqrt(i)
+        w[name + ".weight"] = rng.uniform(-k, k, (o, i)).astype(np.float32)
+        w[name + ".bias"] = rng.uniform(-k, k, o).astype(np.float32)
+    for name in norm_names(arch):
+        w[name + ".weight"] = np.ones(arch[1], np.float32)
+        w[name + ".bias"] = np.zeros(arch[1], np.float32)
     return w
 
 
-@dataclass(frozen=True)
-class Prediction:
-    ft: F64  # (N, 6) in N and N·m
-    region: NDArray[np.int8]  # (N,) 1-9
-    region_prob: F64  # (N, 9)
+def n_params(w: Weights) -> int:
+    return int(sum(v.size for v in w.values()))
 
 
-@dataclass
-class PaperDecoder:
-    """A trained paper-recipe decoder: weights + input/target normalisation + metadata."""
-
-    weights: Weights
-    x_scaler: Standardizer
-    y_scaler: ZeroAnchoredScaler
-    meta: dict[str, Any] = field(default_factory=dict)
-    history: list[float] = field(default_factory=list)
-
-    def predict(self, raw12: F64) -> Prediction:
-        """Decode (N, 12) raw counts (R, G, B, C per sensor)."""
-        z = self.x_scaler.transform(features33(raw12))
-        ft_s, logits = forward(self.weights, z)
-        e = np.exp(logits - logits.max(axis=1, keepdims=True))
-        prob = e / e.sum(axis=1, keepdims=True)
-        return Prediction(
-            ft=self.y_scaler.inverse(ft_s),
-            region=(np.argmax(logits, axis=1) + 1).astype(np.int8),
-            region_prob=prob,
-        )
-
-    def save(self, path: str | Path) -> None:
-        arrays: dict[str, Any] = {f"w/{k}": v for k, v in self.weights.items()}
-        arrays.update(
-            x_mean=self.x_scaler.mean,
-            x_std=self.x_scaler.std,
-            y_std=self.y_scaler.std,
-            history=np.asarray(self.history),
-            meta=np.asarray(repr(self.meta)),
-        )
-        np.savez(path, **arrays)
-
-    @staticmethod
-    def load(path: str | Path) -> PaperDecoder:
-        try:
-            z = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise SpectraTacError(f"cannot read decoder file {path}: {exc}") from exc
-        w = {k[2:]: z[k] for k in z.files if k.startswith("w/")}
-        return PaperDecoder(
-            weights=w,
-            x_scaler=Standardizer(z["x_mean"], z["x_std"]),
-            y_scaler=ZeroAnchoredScaler(z["y_std"]),
-            meta={"repr": str(z["meta"])},
-            history=z["history"].tolist(),
-        )
+def flops(arch: Arch, n_in: int, n_out: int) -> int:
+    """Multiply-adds x 2 of the linear layers per sample (activations and norms excluded)."""
+    return int(sum(2 * o * i for _, o, i in layer_shapes(arch, n_in, n_out)))

@@ -1,155 +1,376 @@
-"""Training the paper's recipe (torch is imported inside `train_paper_recipe` only).
+"""Training a decoder from a Dataset (torch is imported inside `train` only).
 
-Loss: component-weighted L1 on zero-anchored scaled targets,
-L_F = 1/(6N) sum_i sum_j w_j |y~_ij - y^_ij| with w = [1, 1, 0.5, 0.1, 0.1, 0.2], plus
-cross-entropy over the nine regions on samples whose label is not -1. AdamW with a One-Cycle
-learning-rate schedule.
+The loss is the paper's masked multitask objective, generalised to any target subset:
+component-weighted L1 on zero-anchored scaled targets (paper weights Fx 1, Fy 1, Fz 0.5,
+Tx 0.1, Ty 0.1, Tz 0.2; 1 for other targets; rows whose target_valid is False excluded),
+plus cross-entropy over classes on rows labelled 1..K, plus binary cross-entropy on
+in_contact with a contact head, plus a Laplace NLL for the uncertainty head (on a detached
+mean, so that asking for uncertainty never changes the point estimates' loss). AdamW with a
+One-Cycle learning-rate schedule.
 
->>> TrainConfig().loss_weights
-(1.0, 1.0, 0.5, 0.1, 0.1, 0.2)
+>>> paper_weight("Fz"), paper_weight("Tz"), paper_weight("pressure")
+(0.5, 0.2, 1.0)
 """
 
 from __future__ import annotations
 
+import sys
+import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from spectratac.decode.features import FeatureError, features33
-from spectratac.decode.model import N_OUT, N_REGIONS, PaperDecoder
-from spectratac.decode.scaling import Standardizer, ZeroAnchoredScaler
+from spectratac.decode import sensor_config
+from spectratac.decode.assemble import assemble, session_order
+from spectratac.decode.decoder import Decoder
+from spectratac.decode.errors import DecoderConfigError, DecoderDataError
+from spectratac.decode.featureset import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.guard import SATURATION, Guard
+from spectratac.decode.heads import Heads
+from spectratac.decode.layout import Layout
+from spectratac.decode.runtime import Runtime
+from spectratac.decode.spec import TrainSpec
 
-PAPER_LOSS_WEIGHTS = (1.0, 1.0, 0.5, 0.1, 0.1, 0.2)
+F64 = NDArray[np.float64]
+PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
+PAPER_LOSS_WEIGHTS.update({"Mx": 0.1, "My": 0.1, "Mz": 0.2})
+HUBER_DELTA = 0.1  # in scaled target units
+N_VAL_BLOCKS = 10
+Progress = bool | Callable[[int, float], None]
+
+
+def paper_weight(name: str) -> float:
+    return PAPER_LOSS_WEIGHTS.get(name, 1.0)
 
 
 @dataclass(frozen=True)
-class TrainConfig:
-    hidden: int = 128
-    blocks: int = 3
-    epochs: int = 30
-    batch_size: int = 1024
-    max_lr: float = 3e-3
-    weight_decay: float = 1e-4
-    loss_weights: tuple[float, ...] = PAPER_LOSS_WEIGHTS
-    seed: int = 0
-    threads: int = 2
+class Plan:
+    """What `spec` means for this dataset."""
+
+    spec: TrainSpec
+    layout: Layout
+    features: FeatureSet
+    heads: Heads
+    reg_cols: list[int]  # dataset target columns of the regression targets
+    class_name: str | None
+    class_labels: list[str] | None
 
 
-def check_training_data(
-    raw12: ArrayLike, ft: ArrayLike, region: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
-    x = np.asarray(raw12, dtype=np.float64)
-    y = np.asarray(ft, dtype=np.float64)
-    lab = np.asarray(region).astype(np.int64)
-    n = x.shape[0]
-    if x.ndim != 2 or x.shape[1] != 12:
-        raise FeatureError(f"raw12 must be (N, 12), got {x.shape}")
-    if y.shape != (n, N_OUT):
-        raise FeatureError(f"ft targets must be (N, 6) matching raw12, got {y.shape}")
-    if lab.shape != (n,):
-        raise FeatureError(f"region labels must be (N,), got {lab.shape}")
-    if not np.all((lab == -1) | ((lab >= 1) & (lab <= N_REGIONS))):
-        raise FeatureError("region labels must be 1..9, or -1 for 'no valid region'")
-    if not np.all(np.isfinite(y)):
-        raise FeatureError("ft targets contain NaN or inf")
-    if n < 2:
-        raise FeatureError("need at least 2 training samples")
-    return x, y, lab
+def plan(dataset: Any, spec: TrainSpec) -> Plan:
+    """Resolve targets, LED steps and features against `dataset`; DecoderConfigError if the
+    spec asks for something the dataset lacks."""
+    names = list(dataset.target_names)
+    class_name = dataset.meta.get("region_name", "region")
+    labels = dataset.meta.get("region_labels")
+    reg, cols = [], []
+    want_class = want_contact = False
+    for t in spec.targets:
+        if t in ("region", class_name):
+            want_class = True
+        elif t == "contact":
+            want_contact = True
+        elif t in names:
+            reg.append(t)
+            cols.append(names.index(t))
+        else:
+            raise DecoderConfigError(
+                f"target {t!r} is not in this dataset: it has {', '.join(names)}"
+                f", {class_name!r} (classes) and 'contact'"
+            )
+    region = np.asarray(dataset.region)
+    if want_class and not np.any(region > 0):
+        raise DecoderConfigError(
+            f"target {class_name!r} asked for, but no row of the dataset has a class label"
+        )
+    spectratac = tuple(dataset.input_names) == SPECTRATAC_CHANNELS
+    if dataset.meta.get("kind") == "spectratac" and spectratac:
+        n_classes = 9
+    else:
+        n_classes = len(labels) if labels else int(region.max(initial=0))
+    steps = sensor_config.n_steps(dataset.meta.get("config"))
+    if steps > 1 and int(np.max(dataset.step, initial=0)) >= steps:
+        raise DecoderConfigError(f"rows have LED step >= {steps}, the configuration's steps")
+    layout = Layout(tuple(dataset.input_names), steps, spec.lags, spec.drift == "baseline")
+    heads = Heads(
+        tuple(reg),
+        uncertainty=spec.uncertainty and bool(reg),
+        n_classes=n_classes if want_class else 0,
+        contact=want_contact,
+    )
+    return Plan(
+        spec,
+        layout,
+        build_features(spec.features, layout),
+        heads,
+        cols,
+        class_name if want_class else None,
+        labels,
+    )
 
 
-def train_paper_recipe(
-    raw12: ArrayLike,
-    ft: ArrayLike,
-    region: ArrayLike,
-    config: TrainConfig | None = None,
-    progress: Callable[[int, float], None] | None = None,
-) -> PaperDecoder:
-    """Train the shared-backbone ResMLP on (N, 12) raw counts, (N, 6) F/T, (N,) labels.
+def select_rows(n: int, rows: Any) -> NDArray[np.intp]:
+    if rows is None:
+        return np.arange(n)
+    r = np.asarray(rows)
+    if r.dtype == bool:
+        if r.shape != (n,):
+            raise DecoderDataError(f"row mask has shape {r.shape}; the dataset has {n} rows")
+        return np.flatnonzero(r)
+    if r.size and (r.min() < 0 or r.max() >= n):
+        raise DecoderDataError(f"row indices must lie in 0..{n - 1}")
+    return np.unique(r.astype(np.intp))
 
-    `progress(epoch, mean_loss)` is called after each epoch. Returns a NumPy `PaperDecoder`.
+
+def _name_rows(bad: NDArray[np.intp], what: str, fix: str) -> DecoderDataError:
+    first = ", ".join(str(int(i)) for i in bad[:5])
+    return DecoderDataError(
+        f"{bad.size} training row(s) have {what} (rows {first}{', …' if bad.size > 5 else ''})"
+        f": {fix}"
+    )
+
+
+def check_rows(dataset: Any, p: Plan, rows: NDArray[np.intp]) -> None:
+    """Refuse training rows that cannot be used, naming them."""
+    x = np.asarray(dataset.inputs, dtype=np.float64)[rows]
+    bad = rows[~np.all(np.isfinite(x), axis=1)]
+    if bad.size:
+        raise _name_rows(
+            bad,
+            "NaN or inf inputs",
+            "drop those rows (rows=…) or repair the recording; `spectratac dataset build` "
+            "keeps dropouts out of the inputs",
+        )
+    if p.reg_cols:
+        y = np.asarray(dataset.targets, dtype=np.float64)[rows][:, p.reg_cols]
+        tv = np.asarray(dataset.target_valid, bool)[rows]
+        bad = rows[tv & ~np.all(np.isfinite(y), axis=1)]
+        if bad.size:
+            raise _name_rows(
+                bad,
+                "NaN or inf targets while target_valid is True",
+                "set target_valid False on reference dropouts (they are then left out of the "
+                "regression loss)",
+            )
+        if not np.any(tv):
+            raise DecoderDataError("no training row has a valid target (target_valid all False)")
+    if p.heads.n_classes:
+        lab = np.asarray(dataset.region)[rows].astype(np.int64)
+        bad = rows[~((lab == -1) | ((lab >= 1) & (lab <= p.heads.n_classes)))]
+        if bad.size:
+            raise _name_rows(
+                bad, f"class labels outside 1..{p.heads.n_classes} and -1", "use -1 for 'no label'"
+            )
+
+
+def val_split(order: NDArray[np.intp], fraction: float) -> tuple[NDArray, NDArray]:
+    """Hold out the last `fraction` of each of N_VAL_BLOCKS contiguous blocks (time order)."""
+    if fraction <= 0:
+        return order, order[:0]
+    fit, val = [], []
+    for block in np.array_split(order, N_VAL_BLOCKS):
+        k = round(fraction * block.size)
+        fit.append(block[: block.size - k])
+        val.append(block[block.size - k :])
+    return np.concatenate(fit), np.concatenate(val)
+
+
+def train(
+    dataset: Any, spec: TrainSpec | None = None, rows: Any = None, progress: Progress = True
+) -> Decoder:
+    """Train a decoder on `rows` (mask, indices or None: all) of `dataset`.
+
+    Reproducible: the same dataset, spec and rows give the same weights (spec.seed).
+    `progress`: True for a tqdm bar on stderr, False for none, or a callable
+    (epoch, mean loss). Raises DecoderDataError naming unusable rows and
+    DecoderConfigError when the spec asks for targets or features the data lacks.
     """
+    t0 = time.perf_counter()
+    spec = spec or TrainSpec.paper()
+    p = plan(dataset, spec)
+    n = dataset.n
+    sel = select_rows(n, rows)
+    if sel.size < 2:
+        raise DecoderDataError(f"need at least 2 training rows, got {sel.size}")
+    check_rows(dataset, p, sel)
+    u, valid = assemble(p.layout, dataset.inputs, dataset.step, dataset.session, dataset.t_end)
+    keep_mask = np.zeros(n, bool)
+    keep_mask[sel] = True
+    keep_mask &= valid
+    order = np.concatenate(session_order(np.asarray(dataset.session), np.asarray(dataset.t_end)))
+    order = order[keep_mask[order]]
+    fit_rows, val_rows = val_split(order, spec.val_fraction)
+    if fit_rows.size < 2:
+        raise DecoderDataError("fewer than 2 usable training rows after LED-step assembly")
+    y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
+    tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
+    y_fit = y_all[fit_rows][tv[fit_rows]]
+    y_scale = _safe_std(y_fit) if p.reg_cols else np.ones(0)
+    from spectratac.decode.model import init_weights
+
+    dummy = init_weights(spec.arch, p.features.n_features, p.heads.n_out, np.random.default_rng(0))
+    rt = Runtime.create(p.features, spec.arch, dummy, p.heads, u[fit_rows], y_scale)
+    z = rt.with_dtype(np.float64).normalised(u)
+    data = {
+        "z": z,
+        "y": np.where(tv[:, None], y_all, 0.0) / y_scale,
+        "y_ok": tv,
+        "label": np.asarray(dataset.region).astype(np.int64),
+        "contact": np.asarray(dataset.in_contact, bool),
+    }
+    weights, history, val_history = _fit(spec, p, data, fit_rows, val_rows, progress)
+    rt.weights = weights
+    rt._plan = None
+    if p.heads.uncertainty and val_rows.size:
+        rt.std_scale = _calibrate(rt, u[val_rows], y_all[val_rows], tv[val_rows])
+    base = p.layout.base
+    is_st = dataset.meta.get("kind") == "spectratac"
+    dark = (
+        [s * len(p.layout.channels) + 4 * k + 3 for s in range(p.layout.steps) for k in range(3)]
+        if is_st
+        else []
+    )
+    guard = Guard.fit(u[fit_rows, :base], y_fit, SATURATION if is_st else None, dark)
+    meta = {
+        "spec": spec.to_dict(),
+        "features": {"kind": spec.features, "names": p.features.names},
+        "targets": list(spec.targets),
+        "regression_targets": list(p.heads.regression),
+        "class_name": p.class_name,
+        "class_labels": p.class_labels,
+        "input_names": list(dataset.input_names),
+        "kind": dataset.meta.get("kind"),
+        "config": dataset.meta.get("config"),
+        "unit_id": dataset.meta.get("unit_id"),
+        "n_train": int(fit_rows.size),
+        "n_val": int(val_rows.size),
+        "train_seconds": time.perf_counter() - t0,
+        "history": history,
+        "val_history": val_history,
+        "std_scale": rt.std_scale.tolist(),
+    }
+    return Decoder(rt, p.layout, guard, meta)
+
+
+def _safe_std(y: F64) -> F64:
+    sd = y.std(axis=0) if y.shape[0] else np.ones(y.shape[1])
+    return np.where(sd > 1e-12, sd, 1.0)
+
+
+def _calibrate(rt: Runtime, u: F64, y: F64, ok: NDArray[np.bool_]) -> F64:
+    """Per-target factor making held-out |error| / std match the Laplace expectation."""
+    out = rt.with_dtype(np.float64).run(u)
+    s = rt.heads.slices()
+    err = np.abs(out[:, s["targets"]] - y)[ok]
+    std = out[:, s["std"]][ok]
+    if err.shape[0] < 10:
+        return np.ones(rt.heads.n_reg)
+    # Laplace: E|e| = b = std / sqrt(2); scale std so that mean(|e| / std) = 1/sqrt(2)
+    return np.sqrt(2.0) * np.mean(err / np.maximum(std, 1e-12), axis=0)
+
+
+def _fit(
+    spec: TrainSpec,
+    p: Plan,
+    data: dict[str, Any],
+    fit_rows: NDArray[np.intp],
+    val_rows: NDArray[np.intp],
+    progress: Progress,
+) -> tuple[dict, list, list]:
     import torch
-    from torch import nn
 
-    cfg = config or TrainConfig()
-    x, y, lab = check_training_data(raw12, ft, region)
-    feats = features33(x)
-    xs = Standardizer.fit(feats)
-    ys = ZeroAnchoredScaler.fit(y)
-    torch.manual_seed(cfg.seed)
-    torch.set_num_threads(max(1, cfg.threads))
-    gen = torch.Generator().manual_seed(cfg.seed)
+    from spectratac.decode.torch_net import Net, laplace_nll, numpy_weights
 
-    class Block(nn.Module):
-        def __init__(self, h: int) -> None:
-            super().__init__()
-            self.norm = nn.LayerNorm(h)
-            self.fc1 = nn.Linear(h, h)
-            self.fc2 = nn.Linear(h, h)
-            self.act = nn.GELU(approximate="tanh")
+    torch.manual_seed(spec.seed)
+    torch.set_num_threads(max(1, spec.threads))
+    gen = torch.Generator().manual_seed(spec.seed)
+    heads = p.heads
+    sl = heads.slices()
+    net = Net(spec.arch, p.features.n_features, heads.n_out)
 
-        def forward(self, v: torch.Tensor) -> torch.Tensor:
-            return v + self.fc2(self.act(self.fc1(self.norm(v))))
+    def tensors(idx: NDArray[np.intp]) -> dict[str, torch.Tensor]:
+        return {
+            "z": torch.as_tensor(data["z"][idx], dtype=torch.float32),
+            "y": torch.as_tensor(data["y"][idx], dtype=torch.float32),
+            "y_ok": torch.as_tensor(data["y_ok"][idx], dtype=torch.float32),
+            "label": torch.as_tensor(
+                np.where(data["label"][idx] > 0, data["label"][idx] - 1, -100)
+            ),
+            "contact": torch.as_tensor(data["contact"][idx], dtype=torch.float32),
+        }
 
-    class ResMLP(nn.Module):
-        def __init__(self) -> None:
-            super().__init__()
-            h = cfg.hidden
-            self.stem = nn.Linear(feats.shape[1], h)
-            self.act = nn.GELU(approximate="tanh")
-            self.blocks = nn.ModuleList(Block(h) for _ in range(cfg.blocks))
-            self.norm = nn.LayerNorm(h)
-            self.head_ft = nn.Linear(h, N_OUT)
-            self.head_region = nn.Linear(h, N_REGIONS)
+    tr, va = tensors(fit_rows), tensors(val_rows)
+    if spec.loss == "paper":
+        w = torch.tensor([paper_weight(t) for t in heads.regression], dtype=torch.float32)
+    else:
+        w = torch.ones(heads.n_reg)
+    ce = torch.nn.CrossEntropyLoss(ignore_index=-100, reduction="sum")
+    bce = torch.nn.BCEWithLogitsLoss()
 
-        def forward(self, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-            v = self.act(self.stem(v))
-            for b in self.blocks:
-                v = b(v)
-            v = self.norm(v)
-            return self.head_ft(v), self.head_region(v)
+    def loss_of(out: torch.Tensor, b: dict[str, torch.Tensor]) -> torch.Tensor:
+        total = out.new_zeros(())
+        if heads.n_reg:
+            err = out[:, sl["targets"]] - b["y"]
+            if spec.loss == "huber":
+                e = torch.nn.functional.huber_loss(
+                    err, torch.zeros_like(err), reduction="none", delta=HUBER_DELTA
+                )
+            else:
+                e = err.abs()
+            m = b["y_ok"][:, None]
+            denom = heads.n_reg * torch.clamp(b["y_ok"].sum(), min=1.0)
+            total = total + (w * e * m).sum() / denom
+            if heads.uncertainty:
+                nll = laplace_nll(err.detach(), out[:, sl["std"]])
+                total = total + (nll * m).sum() / denom
+        if heads.n_classes:
+            lab = b["label"]
+            total = total + ce(out[:, sl["classes"]], lab) / max(int((lab >= 0).sum()), 1)
+        if heads.contact:
+            total = total + bce(out[:, sl["contact"]][:, 0], b["contact"])
+        return total
 
-    model = ResMLP()
-    xt = torch.as_tensor(xs.transform(feats), dtype=torch.float32)
-    yt = torch.as_tensor(ys.transform(y), dtype=torch.float32)
-    lt = torch.as_tensor(np.where(lab > 0, lab - 1, -100), dtype=torch.long)
-    w = torch.as_tensor(cfg.loss_weights, dtype=torch.float32)
-    n = xt.shape[0]
-    steps = -(-n // cfg.batch_size)
-    opt = torch.optim.AdamW(model.parameters(), lr=cfg.max_lr, weight_decay=cfg.weight_decay)
+    n = tr["z"].shape[0]
+    bs = min(spec.batch_size, n)
+    steps = -(-n // bs)
+    opt = torch.optim.AdamW(net.parameters(), lr=spec.lr, weight_decay=spec.weight_decay)
     sched = torch.optim.lr_scheduler.OneCycleLR(
-        opt, max_lr=cfg.max_lr, total_steps=cfg.epochs * steps
+        opt, max_lr=spec.lr, total_steps=spec.epochs * steps
     )
-    ce = nn.CrossEntropyLoss(ignore_index=-100, reduction="sum")
+    bar = None
+    if progress is True:
+        from tqdm import tqdm
+
+        bar = tqdm(total=spec.epochs, desc="train", unit="epoch", file=sys.stderr, leave=False)
     history: list[float] = []
-    for epoch in range(cfg.epochs):
-        perm = torch.randperm(n, generator=gen)
-        total = 0.0
-        model.train()
-        for s in range(steps):
-            idx = perm[s * cfg.batch_size : (s + 1) * cfg.batch_size]
-            pred_ft, logits = model(xt[idx])
-            loss_f = (w * (pred_ft - yt[idx]).abs()).mean()
-            labels = lt[idx]
-            valid = int((labels >= 0).sum())
-            loss_l = ce(logits, labels) / max(valid, 1)
-            loss = loss_f + loss_l
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            sched.step()
-            total += float(loss.detach()) * idx.shape[0]
-        history.append(total / n)
-        if progress is not None:
-            progress(epoch + 1, history[-1])
-    state = model.state_dict()
-    weights = {k: v.detach().cpu().numpy().astype(np.float32) for k, v in state.items()}
-    return PaperDecoder(
-        weights=weights,
-        x_scaler=xs,
-        y_scaler=ys,
-        meta={"recipe": "paper", "config": asdict(cfg), "n_train": int(n)},
-        history=history,
-    )
+    val_history: list[float] = []
+    try:
+        for epoch in range(spec.epochs):
+            perm = torch.randperm(n, generator=gen)
+            net.train()
+            total = 0.0
+            for s in range(steps):
+                idx = perm[s * bs : (s + 1) * bs]
+                batch = {k: v[idx] for k, v in tr.items()}
+                loss = loss_of(net(batch["z"]), batch)
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+                sched.step()
+                total += float(loss.detach()) * idx.shape[0]
+            history.append(total / n)
+            if va["z"].shape[0]:
+                net.eval()
+                with torch.no_grad():
+                    val_history.append(float(loss_of(net(va["z"]), va)))
+            if bar is not None:
+                bar.set_postfix(loss=f"{history[-1]:.4f}")
+                bar.update(1)
+            elif callable(progress):
+                progress(epoch + 1, history[-1])
+    finally:
+        if bar is not None:
+            bar.close()
+    return numpy_weights(net), history, val_history

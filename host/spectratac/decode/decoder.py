@@ -1,0 +1,341 @@
+"""`Decoder`: a trained decoder that predicts, saves, loads, exports and streams (no torch).
+
+>>> import numpy as np
+>>> from spectratac.dataset import Dataset
+>>> from spectratac.decode.layout import Layout
+>>> ds = Dataset.generic(np.eye(3) + 1, np.zeros((3, 1)), ["a", "b", "c"], ["Fz"])
+>>> dec = Decoder.untrained(ds, features="generic", targets=("Fz",))
+>>> est = dec.predict(ds)
+>>> est.force.shape, est.target_names, bool(est.invalid.any())
+((3, 3), ('Fz',), False)
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.decode import sensor_config
+from spectratac.decode.assemble import Assembler, assemble
+from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
+from spectratac.decode.estimates import FORCE, TORQUE, Estimate, Estimates
+from spectratac.decode.featureset import build_features
+from spectratac.decode.guard import Guard
+from spectratac.decode.heads import Heads
+from spectratac.decode.layout import Layout
+from spectratac.decode.model import flops, init_weights, n_params
+from spectratac.decode.runtime import Runtime
+
+F64 = NDArray[np.float64]
+CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
+EXPORT_FORMATS = ("onnx", "numpy", "torchscript", "c")
+
+
+@dataclass
+class Decoder:
+    runtime: Runtime
+    layout: Layout
+    guard: Guard
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ facts
+    @property
+    def heads(self) -> Heads:
+        return self.runtime.heads
+
+    @property
+    def target_names(self) -> tuple[str, ...]:
+        return self.heads.regression
+
+    @property
+    def config(self) -> dict[str, Any] | None:
+        return self.meta.get("config")
+
+    @property
+    def unit_id(self) -> str | None:
+        return self.meta.get("unit_id")
+
+    @property
+    def n_params(self) -> int:
+        return n_params(self.runtime.weights)
+
+    @property
+    def flops_per_sample(self) -> int:
+        """Network multiply-adds x 2 plus the feature arithmetic, per sample."""
+        fs = self.runtime.features
+        feat = 2 * int(np.count_nonzero(fs.L)) + 2 * int(
+            np.count_nonzero(fs.P) + np.count_nonzero(fs.Q)
+        )
+        return flops(self.runtime.arch, fs.n_features, self.heads.n_out) + feat
+
+    def __repr__(self) -> str:
+        spec = self.meta.get("spec", {})
+        return (
+            f"Decoder({spec.get('model', '?')}, features={spec.get('features', '?')}, "
+            f"targets={list(self.meta.get('targets', []))}, unit={self.unit_id!r}, "
+            f"params={self.n_params})"
+        )
+
+    # ------------------------------------------------------------------ checks
+    def check_config(self, config: Any, what: str = "the data") -> None:
+        """Raise DecoderConfigError if `config` differs from the training configuration."""
+        diffs = sensor_config.differences(self.config, sensor_config.normalise(config))
+        if diffs:
+            raise DecoderConfigError(
+                f"{what} was recorded under another sensor configuration than this decoder "
+                f"was trained under ({'; '.join(diffs)}): reconfigure the sensor to the "
+                f"decoder's configuration, or train a decoder for this one"
+            )
+
+    def check_unit(self, unit_id: str | None, what: str = "the data") -> None:
+        """Warn (DecoderUnitWarning) when `unit_id` is another unit than the training one."""
+        if unit_id is not None and self.unit_id is not None and unit_id != self.unit_id:
+            warnings.warn(
+                f"{what} comes from unit {unit_id!r} but this decoder was trained on "
+                f"{self.unit_id!r}: expect larger errors; calibrate a decoder for this unit",
+                DecoderUnitWarning,
+                stacklevel=3,
+            )
+
+    def _check_inputs(self, names: list[str]) -> None:
+        if tuple(names) != self.layout.channels:
+            raise DecoderConfigError(
+                f"inputs {names} differ from the decoder's {list(self.layout.channels)}: "
+                f"give the same channels in the same order"
+            )
+
+    # ------------------------------------------------------------------ prediction
+    def predict(self, dataset: Any, rows: Any = None) -> Estimates:
+        """Estimates for `rows` (mask, indices or None for all) of a Dataset.
+
+        Samples are assembled over the whole dataset per session in time order, so rows see
+        their real past (temporal context, baseline) even when their neighbours are not
+        selected. Raises DecoderConfigError on other inputs or sensor configuration; warns on
+        another unit.
+        """
+        self._check_inputs(dataset.input_names)
+        self.check_config(dataset.meta.get("config"), "the dataset")
+        self.check_unit(dataset.meta.get("unit_id"), "the dataset")
+        status = dataset.arrays.get("status")
+        est = self.predict_inputs(
+            dataset.inputs,
+            step=dataset.step,
+            session=dataset.session,
+            t=dataset.t_end,
+            status=status,
+            rows=rows,
+        )
+        return est
+
+    def predict_inputs(
+        self,
+        inputs: Any,
+        step: Any = None,
+        session: Any = None,
+        t: Any = None,
+        status: Any = None,
+        rows: Any = None,
+    ) -> Estimates:
+        """Estimates for raw input rows (N, C) in the decoder's channel order.
+
+        step, session, t (time order) matter for LED sequences, temporal context and the
+        baseline; status (N, ...) SENSOR_* bits mark saturated or faulty rows OOD.
+        """
+        x = np.asarray(inputs, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != len(self.layout.channels):
+            raise DecoderConfigError(
+                f"inputs have shape {x.shape}; this decoder takes (N, "
+                f"{len(self.layout.channels)}) columns {list(self.layout.channels)}"
+            )
+        u, valid = assemble(self.layout, x, step, session, t)
+        sel = np.arange(x.shape[0]) if rows is None else np.asarray(rows)
+        if sel.dtype == bool:
+            sel = np.flatnonzero(sel)
+        st = None if status is None else np.asarray(status)[sel]
+        return self._estimates(u[sel], valid[sel], st)
+
+    def predict_assembled(self, u: Any, status: Any = None) -> Estimates:
+        """Estimates for assembled vectors (N, D) (the exports' input)."""
+        u = np.atleast_2d(np.asarray(u, dtype=np.float64))
+        valid = np.all(np.isfinite(u), axis=1)
+        return self._estimates(u, valid, status)
+
+    def _estimates(self, u: F64, valid: NDArray[np.bool_], status: Any) -> Estimates:
+        n = u.shape[0]
+        heads = self.heads
+        est = Estimates.empty(self.target_names, n)
+        est.invalid = ~valid
+        if n == 0:
+            return est
+        out = np.full((n, heads.n_out), np.nan)
+        if valid.any():
+            out[valid] = self.runtime.run(u[valid])
+        s = heads.slices()
+        est.targets = out[:, s["targets"]].astype(np.float64)
+        if heads.uncertainty:
+            est.std = out[:, s["std"]].astype(np.float64)
+        if heads.n_classes:
+            p = out[:, s["classes"]].astype(np.float64)
+            est.region_probs = p
+            pv = np.where(np.isnan(p), -np.inf, p)
+            est.region = np.where(valid, np.argmax(pv, axis=1) + 1, -1)
+            est.region_prob = np.where(valid, np.max(pv, axis=1), np.nan)
+        if heads.contact:
+            est.contact_prob = out[:, s["contact"]][:, 0].astype(np.float64)
+            est.contact = valid & (est.contact_prob > 0.5)
+        else:
+            f = [i for i, t in enumerate(self.target_names) if t in FORCE]
+            if f:
+                with np.errstate(invalid="ignore"):
+                    mag = np.sqrt(np.sum(est.targets[:, f] ** 2, axis=1))
+                est.contact = valid & (mag > CONTACT_FORCE_N)
+        x = u[:, : self.layout.base]
+        ood = self.guard.check(x, est.targets, status)
+        est.ood = valid & ood
+        return est
+
+    # ------------------------------------------------------------------ live
+    def stream(self, sensor: Any, check_config: bool = True) -> Iterator[Estimate]:
+        """Estimates of a live, streaming `spectratac.device.Sensor`, one per sample.
+
+        Checks the sensor's configuration first (DecoderConfigError on mismatch) and again
+        whenever the configuration id changes; warns if the unit differs.
+        """
+        if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
+            raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
+        config_id = None
+        asm = Assembler(self.layout)
+        run1 = self.runtime.run1
+        s = self.heads.slices()
+        fi = [self.target_names.index(n) if n in self.target_names else -1 for n in FORCE]
+        ti = [self.target_names.index(n) if n in self.target_names else -1 for n in TORQUE]
+        for sample in sensor:
+            if sample.config_id != config_id:
+                if check_config:
+                    self.check_config(sensor.get_config(), "the sensor")
+                config_id = sample.config_id
+                asm.reset()
+            counts = np.asarray(sample.counts, dtype=np.float64)
+            x = counts[:, :4].reshape(-1)
+            u, ok = asm.push(int(sample.step), x)
+            yield self._one(sample, u, ok, run1, s, fi, ti)
+
+    def _one(self, sample: Any, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any) -> Estimate:
+        heads = self.heads
+        if not ok:
+            nan3 = np.full(3, np.nan)
+            return Estimate(
+                float(sample.host_time),
+                nan3,
+                nan3.copy(),
+                -1,
+                float("nan"),
+                False,
+                float("nan"),
+                False,
+                True,
+                np.full(heads.n_reg, np.nan),
+            )
+        out = run1(u).astype(np.float64)
+        tg = out[s["targets"]]
+        force = np.array([tg[i] if i >= 0 else np.nan for i in fi])
+        torque = np.array([tg[i] if i >= 0 else np.nan for i in ti])
+        region, rprob = -1, float("nan")
+        if heads.n_classes:
+            p = out[s["classes"]]
+            region, rprob = int(np.argmax(p)) + 1, float(np.max(p))
+        if heads.contact:
+            cprob = float(out[s["contact"]][0])
+            contact = cprob > 0.5
+        else:
+            cprob = float("nan")
+            f = force[~np.isnan(force)]
+            contact = bool(f.size and np.sqrt(np.sum(f * f)) > CONTACT_FORCE_N)
+        ood = bool(
+            self.guard.check(
+                u[None, : self.layout.base], tg[None, :], np.asarray(sample.status)[None, :]
+            )[0]
+        )
+        std = out[s["std"]].copy() if heads.uncertainty else None
+        return Estimate(
+            float(sample.host_time),
+            force,
+            torque,
+            region,
+            rprob,
+            contact,
+            cprob,
+            ood,
+            False,
+            tg.copy(),
+            std,
+        )
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | Path) -> Path:
+        """Write the single-file model (.stac): weights, normalisation, features, config."""
+        from spectratac.decode.modelfile import write_model
+
+        return write_model(self, path)
+
+    @classmethod
+    def load(
+        cls,
+        path: str | Path,
+        expect_config: Any = None,
+        expect_unit: str | None = None,
+    ) -> Decoder:
+        """Read a .stac file. Refuses (DecoderConfigError) if `expect_config` (a config
+        dict or a device CONFIG message) differs from the training configuration; warns
+        (DecoderUnitWarning) if `expect_unit` is another unit."""
+        from spectratac.decode.modelfile import read_model
+
+        dec = read_model(path)
+        if expect_config is not None:
+            dec.check_config(expect_config, "the expected configuration")
+        dec.check_unit(expect_unit, "the expected unit")
+        return dec
+
+    def export(self, fmt: str, path: str | Path) -> Path:
+        """Write the stateless part (assembled vector -> outputs) as onnx, numpy,
+        torchscript or c. See spectratac.decode.export."""
+        from spectratac.decode.export import export
+
+        return export(self, fmt, path)
+
+    # ------------------------------------------------------------------ tests and docs
+    @classmethod
+    def untrained(
+        cls,
+        dataset: Any,
+        features: str = "generic",
+        targets: tuple[str, ...] = ("Fz",),
+        arch: tuple[str, int, int] = ("resmlp", 8, 1),
+        seed: int = 0,
+    ) -> Decoder:
+        """A decoder with random weights for `dataset`'s inputs (tests, documentation)."""
+        layout = Layout(tuple(dataset.input_names))
+        fs = build_features(features, layout)
+        heads = Heads(
+            tuple(t for t in targets if t not in ("region", "contact")),
+            n_classes=9 if "region" in targets else 0,
+            contact="contact" in targets,
+        )
+        w = init_weights(arch, fs.n_features, heads.n_out, np.random.default_rng(seed))
+        u, _ = assemble(layout, dataset.inputs)
+        rt = Runtime.create(fs, arch, w, heads, u)
+        guard = Guard.fit(u, np.zeros((u.shape[0], heads.n_reg)))
+        guard.t_lo[:], guard.t_hi[:] = -np.inf, np.inf
+        meta = {
+            "spec": {"features": features, "model": arch[0]},
+            "targets": list(targets),
+            "config": dataset.meta.get("config"),
+            "unit_id": dataset.meta.get("unit_id"),
+        }
+        return cls(rt, layout, guard, meta)

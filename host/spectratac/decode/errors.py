@@ -1,0 +1,29 @@
+"""Errors and warnings of the decoder: what went wrong and what to do about it.
+
+>>> issubclass(DecoderDataError, DecoderError) and issubclass(DecoderConfigError, DecoderError)
+True
+"""
+
+from __future__ import annotations
+
+from spectratac.errors import SpectraTacError
+
+
+class DecoderError(SpectraTacError):
+    """Any decoder problem: bad specification, bad data, bad model file."""
+
+
+class DecoderDataError(DecoderError):
+    """Training or prediction data cannot be used as given (NaN rows, bad labels, shapes)."""
+
+
+class DecoderConfigError(DecoderError):
+    """The data or sensor does not match the configuration the decoder was trained under."""
+
+
+class DecoderFileError(DecoderError):
+    """A model file is unreadable, damaged or of a newer format than this library reads."""
+
+
+class DecoderUnitWarning(UserWarning):
+    """The decoder runs on another unit than it was calibrated on: expect larger errors."""

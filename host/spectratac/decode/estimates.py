@@ -1,0 +1,88 @@
+"""What a decoder returns: `Estimates` for many rows, `Estimate` for one live sample.
+
+Columns a decoder was not trained for are NaN (force, torque, std) or their neutral value
+(region -1 and region_prob NaN without a class head; contact_prob NaN without a contact
+head, contact then derived from the force magnitude when forces are decoded).
+
+>>> e = Estimates.empty(("Fz",), 2)
+>>> e.force.shape, bool(np.isnan(e.force[0, 0])), e.region.tolist()
+((2, 3), True, [-1, -1])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+FORCE = ("Fx", "Fy", "Fz")
+TORQUE = ("Tx", "Ty", "Tz")
+
+
+@dataclass
+class Estimates:
+    target_names: tuple[str, ...]  # regression targets, columns of `targets`
+    targets: F64  # (N, T)
+    region: NDArray[np.int64]  # (N,) 1..K, -1 none
+    region_prob: F64  # (N,) probability of the chosen region
+    contact: NDArray[np.bool_]  # (N,)
+    contact_prob: F64  # (N,)
+    ood: NDArray[np.bool_]  # (N,) out of distribution: beyond training range, saturated, dark
+    invalid: NDArray[np.bool_]  # (N,) NaN/inf inputs or incomplete LED sequence: NaN outputs
+    std: F64 | None = None  # (N, T) calibrated standard deviation, if trained for
+    region_probs: F64 | None = None  # (N, K) all class probabilities
+
+    @classmethod
+    def empty(cls, target_names: tuple[str, ...], n: int) -> Estimates:
+        nan = np.full(n, np.nan)
+        return cls(
+            tuple(target_names),
+            np.full((n, len(target_names)), np.nan),
+            np.full(n, -1, np.int64),
+            nan.copy(),
+            np.zeros(n, bool),
+            nan.copy(),
+            np.zeros(n, bool),
+            np.zeros(n, bool),
+        )
+
+    def __len__(self) -> int:
+        return int(self.targets.shape[0])
+
+    def column(self, name: str) -> F64:
+        """One target's column; NaN if the decoder does not estimate it."""
+        if name in self.target_names:
+            return self.targets[:, self.target_names.index(name)]
+        return np.full(len(self), np.nan)
+
+    def _group(self, names: tuple[str, ...]) -> F64:
+        return np.stack([self.column(n) for n in names], axis=1)
+
+    @property
+    def force(self) -> F64:
+        """(N, 3) Fx, Fy, Fz in N (NaN columns for axes not decoded)."""
+        return self._group(FORCE)
+
+    @property
+    def torque(self) -> F64:
+        """(N, 3) Tx, Ty, Tz in N·m (NaN columns for axes not decoded)."""
+        return self._group(TORQUE)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One live estimate from `Decoder.stream`."""
+
+    time: float  # host time of the sample (s)
+    force: F64  # (3,)
+    torque: F64  # (3,)
+    region: int
+    region_prob: float
+    contact: bool
+    contact_prob: float
+    ood: bool
+    invalid: bool
+    targets: F64  # (T,) every regression target, in target_names order
+    std: F64 | None = None

@@ -1,0 +1,129 @@
+"""Feature sets as data: linear rows plus ratio rows over the assembled input vector.
+
+Every feature set here has the form
+
+    lin = (u - center) @ L.T                      (raw values, sensor differences, deltas)
+    rat = (u @ P.T) / (|u| @ Q.T + EPS)           (clear-normalised chromaticity, fractions)
+    f   = [lin, rat]
+
+so that one small description runs identically in NumPy, torch, ONNX and C. The ratio
+denominators are >= EPS, so dark (all-zero) inputs give finite features.
+
+kinds (per LED step, on the current sample x_t):
+- paper33: the paper's 33 (raw 12, pairwise sensor differences 12, R/C, G/C, B/C 9);
+  needs the 12 SpectraTac inputs s0.R .. s2.C.
+- raw: the C inputs as they are.
+- generic: the C inputs and each as a fraction of their summed magnitude (any sensor).
+Then, whatever the kind: x_t - x_{t-lag} per context lag, and x_t - b_t with a baseline.
+
+>>> from spectratac.decode.layout import Layout
+>>> from spectratac.dataset import SPECTRATAC_INPUTS
+>>> fs = build_features("paper33", Layout(SPECTRATAC_INPUTS))
+>>> fs.n_features, fs.names[12], fs.names[24]
+(33, 's0.R-s1.R', 's0.R/s0.C')
+>>> fs = build_features("generic", Layout(("a", "b"), lags=(1,)))
+>>> fs.names
+['a', 'b', 'a-a[t-1]', 'b-b[t-1]', 'a/sum', 'b/sum']
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.decode.errors import DecoderConfigError
+from spectratac.decode.features import EPS
+from spectratac.decode.layout import Layout
+
+F64 = NDArray[np.float64]
+SPECTRATAC_CHANNELS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")
+
+
+@dataclass(frozen=True)
+class FeatureSet:
+    kind: str
+    L: F64  # (F_lin, D)
+    P: F64  # (F_rat, D)
+    Q: F64  # (F_rat, D)
+    names: list[str]
+
+    @property
+    def n_features(self) -> int:
+        return self.L.shape[0] + self.P.shape[0]
+
+    def apply(self, u: F64, center: F64 | None = None, dtype: Any = np.float64) -> F64:
+        """Features (N, F) of assembled vectors (N, D), computed in `dtype`."""
+        u = np.asarray(u, dtype=dtype)
+        c = np.zeros(u.shape[-1], dtype) if center is None else center.astype(dtype)
+        lin = (u - c) @ self.L.T.astype(dtype)
+        if not self.P.shape[0]:
+            return lin
+        rat = (u @ self.P.T.astype(dtype)) / (np.abs(u) @ self.Q.T.astype(dtype) + dtype(EPS))
+        return np.concatenate([lin, rat], axis=-1)
+
+    def to_arrays(self) -> dict[str, F64]:
+        return {"L": self.L, "P": self.P, "Q": self.Q}
+
+    @classmethod
+    def from_arrays(cls, kind: str, arrays: dict[str, F64], names: list[str]) -> FeatureSet:
+        return cls(kind, arrays["L"], arrays["P"], arrays["Q"], list(names))
+
+
+def build_features(kind: str, layout: Layout) -> FeatureSet:
+    """The feature set `kind` over `layout`'s assembled vector."""
+    d, c, base = layout.size, len(layout.channels), layout.base
+    names_in = layout.names()
+    lin: list[F64] = []
+    lin_names: list[str] = []
+    num: list[F64] = []
+    den: list[F64] = []
+    rat_names: list[str] = []
+
+    def unit(i: int) -> F64:
+        v = np.zeros(d)
+        v[i] = 1.0
+        return v
+
+    if kind == "paper33" and tuple(layout.channels) != SPECTRATAC_CHANNELS:
+        raise DecoderConfigError(
+            f"features='paper33' needs the 12 SpectraTac inputs {', '.join(SPECTRATAC_CHANNELS)}"
+            f" in that order; this data has {', '.join(layout.channels)}: use features="
+            f"'generic' or 'raw'"
+        )
+    if kind not in ("paper33", "raw", "generic"):
+        raise DecoderConfigError(f"unknown feature set {kind!r}: use paper33, raw or generic")
+    for s in range(layout.steps):
+        o = s * c
+        lin += [unit(o + i) for i in range(c)]
+        lin_names += names_in[o : o + c]
+        if kind == "paper33":
+            for i, j in ((0, 1), (1, 2), (2, 0)):
+                for ch in range(4):
+                    lin.append(unit(o + 4 * i + ch) - unit(o + 4 * j + ch))
+                    lin_names.append(f"{names_in[o + 4 * i + ch]}-{names_in[o + 4 * j + ch]}")
+            for i in range(3):
+                for ch in range(3):
+                    num.append(unit(o + 4 * i + ch))
+                    den.append(unit(o + 4 * i + 3))
+                    rat_names.append(f"{names_in[o + 4 * i + ch]}/{names_in[o + 4 * i + 3]}")
+        elif kind == "generic":
+            total = sum(unit(o + i) for i in range(c))
+            for i in range(c):
+                num.append(unit(o + i))
+                den.append(np.asarray(total, dtype=np.float64))
+                rat_names.append(f"{names_in[o + i]}/sum")
+    for k in range(len(layout.lags)):
+        for i in range(base):
+            lin.append(unit(i) - unit((k + 1) * base + i))
+            lin_names.append(f"{names_in[i]}-{names_in[(k + 1) * base + i]}")
+    if layout.drift:
+        for i in range(base):
+            lin.append(unit(i) - unit(d - base + i))
+            lin_names.append(f"{names_in[i]}-{names_in[d - base + i]}")
+    L = np.array(lin).reshape(-1, d)
+    P = np.array(num).reshape(-1, d)
+    Q = np.array(den).reshape(-1, d)
+    return FeatureSet(kind, L, P, Q, lin_names + rat_names)

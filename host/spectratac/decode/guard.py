@@ -1,0 +1,83 @@
+"""Out-of-distribution guard: flags samples a decoder was not trained to handle.
+
+A sample is out of distribution when any current input lies outside the training range
+widened by MARGIN of its span, when a channel is saturated (counts at the 16-bit limit, or
+the device's status says so), when a SpectraTac sensor is dark (Clear below DARK_COUNTS),
+or when a decoded target lies outside its training range widened the same way.
+
+>>> g = Guard.fit(np.array([[0.0, 10.0], [1.0, 20.0]]), np.array([[0.0], [2.0]]))
+>>> g.check(np.array([[0.5, 15.0], [0.5, 40.0]]), np.array([[1.0], [1.0]])).tolist()
+[False, True]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+MARGIN = 0.10
+SATURATION = 65535.0  # VEML3328 16-bit full scale
+DARK_COUNTS = 20.0
+# SENSOR_SATURATED | SENSOR_BUS_FAULT | SENSOR_STALE | SENSOR_ABSENT
+STATUS_BAD = 0x0F
+
+
+@dataclass
+class Guard:
+    in_lo: F64
+    in_hi: F64
+    t_lo: F64
+    t_hi: F64
+    saturation: float | None = None  # inputs at or above this are saturated
+    dark_cols: list[int] = field(default_factory=list)  # columns that must not be dark
+
+    @classmethod
+    def fit(
+        cls, x: F64, y: F64, saturation: float | None = None, dark_cols: list[int] | None = None
+    ) -> Guard:
+        def rng(a: F64) -> tuple[F64, F64]:
+            if a.shape[0] == 0:
+                return np.full(a.shape[1], -np.inf), np.full(a.shape[1], np.inf)
+            lo, hi = np.nanmin(a, axis=0), np.nanmax(a, axis=0)
+            span = np.maximum(hi - lo, 1e-9 * np.maximum(np.abs(hi), 1.0))
+            return lo - MARGIN * span, hi + MARGIN * span
+
+        in_lo, in_hi = rng(np.asarray(x, np.float64))
+        t_lo, t_hi = rng(np.asarray(y, np.float64))
+        return cls(in_lo, in_hi, t_lo, t_hi, saturation, list(dark_cols or []))
+
+    def check(self, x: F64, y: F64 | None = None, status: NDArray[Any] | None = None) -> NDArray:
+        """(N,) True where a row of current inputs x (N, B) or targets y (N, R) is OOD."""
+        with np.errstate(invalid="ignore"):
+            bad = np.any((x < self.in_lo) | (x > self.in_hi), axis=1)
+            if self.saturation is not None:
+                bad |= np.any(x >= self.saturation, axis=1)
+            if self.dark_cols:
+                bad |= np.any(x[:, self.dark_cols] < DARK_COUNTS, axis=1)
+            if y is not None and y.shape[1]:
+                bad |= np.any((y < self.t_lo) | (y > self.t_hi), axis=1)
+        if status is not None:
+            st = np.asarray(status).reshape(x.shape[0], -1)
+            bad |= np.any(st & STATUS_BAD, axis=1)
+        return bad
+
+    def arrays(self) -> dict[str, F64]:
+        return {"in_lo": self.in_lo, "in_hi": self.in_hi, "t_lo": self.t_lo, "t_hi": self.t_hi}
+
+    def header(self) -> dict[str, Any]:
+        return {"saturation": self.saturation, "dark_cols": self.dark_cols}
+
+    @classmethod
+    def from_parts(cls, header: dict[str, Any], arrays: dict[str, F64]) -> Guard:
+        return cls(
+            arrays["in_lo"],
+            arrays["in_hi"],
+            arrays["t_lo"],
+            arrays["t_hi"],
+            header.get("saturation"),
+            list(header.get("dark_cols", [])),
+        )

@@ -1,0 +1,70 @@
+"""The decoder's assembled input vector: what one row of the network's input holds.
+
+A sample lit by LED step s carries only that step's C counts. The assembled vector of a
+sample is the latest sample of every step (S x C, step-major), then the same vector at each
+past lag (temporal context), then the running no-contact baseline (drift compensation):
+
+    u = [x_t, x_{t-lag1}, x_{t-lag2}, ..., b_t]      length D = S*C*(1 + len(lags) + drift)
+
+Everything after assembly (features, normalisation, network) is stateless and is what the
+exports (ONNX, TorchScript, C, NumPy runtime) compute.
+
+>>> lay = Layout(channels=("a", "b"), steps=2, lags=(1,), drift=True)
+>>> lay.base, lay.size
+(4, 12)
+>>> lay.names()[:5]
+['a@0', 'b@0', 'a@1', 'b@1', 'a@0[t-1]']
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Layout:
+    channels: tuple[str, ...]  # per-sample input names (C)
+    steps: int = 1  # LED steps in the sequence (S)
+    lags: tuple[int, ...] = ()  # temporal context lags in samples
+    drift: bool = False  # running baseline appended
+
+    @property
+    def base(self) -> int:
+        """Length of one assembled sample, S*C."""
+        return self.steps * len(self.channels)
+
+    @property
+    def size(self) -> int:
+        return self.base * (1 + len(self.lags) + int(self.drift))
+
+    @property
+    def trivial(self) -> bool:
+        """True when the assembled vector is just the sample (no steps, context or baseline)."""
+        return self.steps == 1 and not self.lags and not self.drift
+
+    def step_names(self) -> list[str]:
+        if self.steps == 1:
+            return list(self.channels)
+        return [f"{c}@{s}" for s in range(self.steps) for c in self.channels]
+
+    def names(self) -> list[str]:
+        cur = self.step_names()
+        out = list(cur)
+        for lag in self.lags:
+            out += [f"{n}[t-{lag}]" for n in cur]
+        if self.drift:
+            out += [f"base:{n}" for n in cur]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "channels": list(self.channels),
+            "steps": self.steps,
+            "lags": list(self.lags),
+            "drift": self.drift,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Layout:
+        return cls(tuple(d["channels"]), int(d["steps"]), tuple(d["lags"]), bool(d["drift"]))

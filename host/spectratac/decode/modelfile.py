@@ -1,0 +1,110 @@
+"""The `.stac` model file: one zip holding ``meta.json`` and ``arrays.npz``.
+
+meta.json: ``format`` ("spectratac.decoder"), ``version`` ("major.minor"), the decoder's
+meta (spec, features, targets, config, unit_id, n_train, train_seconds, history, ...), the
+input layout, the runtime header (feature kind and names, architecture, heads, outputs)
+and the OOD guard's settings. arrays.npz: the runtime's arrays (feature matrices,
+normalisation, weights, scales) and the guard's ranges. A newer major version is refused;
+a newer minor version loads (fields it adds are ignored).
+
+>>> VERSION
+'1.0'
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from spectratac.decode.errors import DecoderFileError
+from spectratac.decode.guard import Guard
+from spectratac.decode.layout import Layout
+from spectratac.decode.runtime import Runtime
+
+FORMAT = "spectratac.decoder"
+VERSION = "1.0"
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return v
+
+
+def write_model(dec: Any, path: str | Path) -> Path:
+    path = Path(path)
+    meta = {
+        "format": FORMAT,
+        "version": VERSION,
+        "decoder": _jsonable(dec.meta),
+        "layout": dec.layout.to_dict(),
+        "runtime": dec.runtime.header(),
+        "guard": dec.guard.header(),
+    }
+    arrays = dict(dec.runtime.arrays())
+    arrays.update({f"guard/{k}": v for k, v in dec.guard.arrays().items()})
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    tmp = path.with_name(path.name + ".tmp")
+    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("meta.json", json.dumps(meta, indent=1, allow_nan=True))
+        z.writestr("arrays.npz", buf.getvalue())
+    tmp.replace(path)  # never leave a half-written model under the real name
+    return path
+
+
+def read_meta(path: str | Path) -> dict[str, Any]:
+    """Only the JSON part of a model file (fast: no arrays)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            meta = json.loads(z.read("meta.json"))
+    except FileNotFoundError:
+        raise DecoderFileError(f"no model file at {path}") from None
+    except (OSError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
+        raise DecoderFileError(
+            f"{path} is not a SpectraTac model file ({exc}); train one with `spectratac train`"
+        ) from None
+    if meta.get("format") != FORMAT:
+        raise DecoderFileError(f"{path} is not a SpectraTac model file (format {FORMAT!r})")
+    try:
+        major = int(str(meta.get("version", "0")).split(".")[0])
+    except ValueError:
+        raise DecoderFileError(f"{path}: unreadable version {meta.get('version')!r}") from None
+    if major > int(VERSION.split(".")[0]):
+        raise DecoderFileError(
+            f"{path} is model format {meta['version']}, newer than this library reads "
+            f"({VERSION}): update spectratac (pip install -U spectratac)"
+        )
+    return meta
+
+
+def read_model(path: str | Path) -> Any:
+    from spectratac.decode.decoder import Decoder
+
+    meta = read_meta(path)
+    try:
+        with zipfile.ZipFile(path) as z:
+            data = z.read("arrays.npz")
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+        runtime = Runtime.from_parts(meta["runtime"], arrays)
+        guard = Guard.from_parts(
+            meta["guard"], {k[6:]: v for k, v in arrays.items() if k.startswith("guard/")}
+        )
+        layout = Layout.from_dict(meta["layout"])
+    except DecoderFileError:
+        raise
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+        raise DecoderFileError(f"{path} is damaged ({exc!r}): retrain or re-copy it") from None
+    return Decoder(runtime, layout, guard, meta["decoder"])

@@ -1,0 +1,126 @@
+"""What to train: features, model, targets, temporal context, drift handling, loss and size.
+
+`TrainSpec.paper()` is the paper's recipe: 33 features, ResMLP (hidden 128, 3 blocks), the
+component-weighted L1 plus masked cross-entropy, One-Cycle AdamW, 30 epochs at batch 1024.
+
+>>> s = TrainSpec.paper()
+>>> s.features, s.model, s.hidden, s.blocks, s.loss
+('paper33', 'resmlp', 128, 3, 'paper')
+>>> TrainSpec.from_dict(s.to_dict()) == s
+True
+>>> TrainSpec(model="cnn")
+Traceback (most recent call last):
+...
+spectratac.decode.errors.DecoderError: TrainSpec.model='cnn': choose one of linear, mlp, ...
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any
+
+from spectratac.decode.errors import DecoderError
+
+FEATURES = ("paper33", "raw", "generic")
+MODELS = ("linear", "mlp", "resmlp", "resmlp-large")
+DRIFT = ("none", "baseline")
+LOSSES = ("paper", "l1", "huber")
+ALL_FT = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "region")
+CLASS_TARGETS = ("region", "contact")
+
+
+@dataclass(frozen=True)
+class TrainSpec:
+    """A decoder recipe. Defaults are the paper's; see the module docstring.
+
+    context: past samples (per session, time order) fed as raw-input deltas x_t - x_{t-lag};
+    lags are 1..context, or powers of two (1, 2, 4, ...) with `context_dilated`.
+    drift: "baseline" adds inputs relative to a running no-contact baseline.
+    uncertainty: a calibrated per-target standard deviation head.
+    val_fraction: share of training rows (contiguous time blocks) held out for calibrating
+    uncertainty and reporting a validation loss; 0 uses all rows for fitting.
+    """
+
+    features: str = "paper33"
+    model: str = "resmlp"
+    targets: tuple[str, ...] = ALL_FT
+    context: int = 0
+    context_dilated: bool = False
+    drift: str = "none"
+    uncertainty: bool = False
+    loss: str = "paper"
+    epochs: int = 30
+    batch_size: int = 1024
+    lr: float = 3e-3
+    weight_decay: float = 1e-4
+    seed: int = 0
+    threads: int = 2
+    hidden: int = 128
+    blocks: int = 3
+    val_fraction: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "targets", tuple(self.targets))
+        for name, allowed in (
+            ("features", FEATURES),
+            ("model", MODELS),
+            ("drift", DRIFT),
+            ("loss", LOSSES),
+        ):
+            if getattr(self, name) not in allowed:
+                raise DecoderError(
+                    f"TrainSpec.{name}={getattr(self, name)!r}: choose one of {', '.join(allowed)}"
+                )
+        if not self.targets or len(set(self.targets)) != len(self.targets):
+            raise DecoderError(f"TrainSpec.targets={self.targets}: give distinct target names")
+        ints = {"context": 0, "epochs": 1, "batch_size": 1, "threads": 1, "hidden": 1}
+        for name, low in ints.items():
+            if int(getattr(self, name)) < low:
+                raise DecoderError(f"TrainSpec.{name}={getattr(self, name)}: must be >= {low}")
+        if self.blocks < 0 or self.seed < 0:
+            raise DecoderError("TrainSpec.blocks and TrainSpec.seed must be >= 0")
+        if not (self.lr > 0 and self.weight_decay >= 0):
+            raise DecoderError("TrainSpec.lr must be > 0 and weight_decay >= 0")
+        if not 0.0 <= self.val_fraction < 0.5:
+            raise DecoderError(f"TrainSpec.val_fraction={self.val_fraction}: use 0 <= f < 0.5")
+        if self.uncertainty and self.val_fraction == 0.0:
+            object.__setattr__(self, "val_fraction", 0.1)  # calibration needs held-out rows
+
+    @classmethod
+    def paper(cls, **overrides: Any) -> TrainSpec:
+        """The paper's recipe; keyword arguments replace single fields (e.g. epochs=5)."""
+        return replace(cls(), **overrides)
+
+    @property
+    def lags(self) -> tuple[int, ...]:
+        """Sample lags of the temporal context, e.g. (1, 2, 3) or dilated (1, 2, 4)."""
+        if self.context_dilated:
+            return tuple(2**i for i in range(self.context))
+        return tuple(range(1, self.context + 1))
+
+    @property
+    def arch(self) -> tuple[str, int, int]:
+        """(architecture, hidden, blocks) actually built; resmlp-large doubles both knobs."""
+        if self.model == "resmlp-large":
+            return ("resmlp", 2 * self.hidden, 2 * self.blocks)
+        if self.model == "mlp" and self.blocks == 0:
+            return ("linear", self.hidden, 0)
+        if self.model == "linear":
+            return ("linear", 0, 0)
+        return (self.model, self.hidden, self.blocks)
+
+    def regression_targets(self) -> tuple[str, ...]:
+        return tuple(t for t in self.targets if t not in CLASS_TARGETS)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["targets"] = list(self.targets)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> TrainSpec:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise DecoderError(f"unknown TrainSpec fields {unknown}: newer spectratac needed?")
+        return cls(**d)

@@ -1,0 +1,117 @@
+"""The decoder networks in torch (training, ONNX and TorchScript export only).
+
+Importing this module imports torch: only `train` and the exporters do. Parameter names
+match `spectratac.decode.model`, whose NumPy forward is the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from spectratac.decode.features import EPS
+from spectratac.decode.model import LN_EPS, Arch
+
+
+class Block(nn.Module):
+    def __init__(self, h: int) -> None:
+        super().__init__()
+        self.norm = nn.LayerNorm(h, eps=LN_EPS)
+        self.fc1 = nn.Linear(h, h)
+        self.fc2 = nn.Linear(h, h)
+        self.act = nn.GELU(approximate="tanh")
+
+    def forward(self, v: torch.Tensor) -> torch.Tensor:
+        return v + self.fc2(self.act(self.fc1(self.norm(v))))
+
+
+class Net(nn.Module):
+    """linear | mlp | resmlp over z-scored features, one fused head."""
+
+    def __init__(self, arch: Arch, n_in: int, n_out: int) -> None:
+        super().__init__()
+        kind, hidden, blocks = arch
+        self.kind = kind
+        self.act = nn.GELU(approximate="tanh")
+        if kind == "mlp":
+            dims = [n_in] + [hidden] * blocks
+            self.layers = nn.ModuleList(nn.Linear(dims[i], dims[i + 1]) for i in range(blocks))
+            self.head = nn.Linear(dims[-1], n_out)
+        elif kind == "resmlp":
+            self.stem = nn.Linear(n_in, hidden)
+            self.blocks = nn.ModuleList(Block(hidden) for _ in range(blocks))
+            self.norm = nn.LayerNorm(hidden, eps=LN_EPS)
+            self.head = nn.Linear(hidden, n_out)
+        else:
+            self.head = nn.Linear(n_in, n_out)
+
+    def forward(self, z: torch.Tensor) -> torch.Tensor:
+        if self.kind == "mlp":
+            for layer in self.layers:
+                z = self.act(layer(z))
+        elif self.kind == "resmlp":
+            z = self.act(self.stem(z))
+            for b in self.blocks:
+                z = b(z)
+            z = self.norm(z)
+        return self.head(z)
+
+
+def numpy_weights(net: nn.Module) -> dict[str, np.ndarray]:
+    return {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()}
+
+
+class Exported(nn.Module):
+    """Assembled vector (N, D) -> physical outputs (N, O): features, normalisation, network
+    and output transform in one graph, built from a `Runtime`."""
+
+    def __init__(self, rt: Any, dtype: torch.dtype = torch.float32) -> None:
+        super().__init__()
+        fs = rt.features
+
+        def buf(name: str, a: np.ndarray) -> None:
+            self.register_buffer(name, torch.as_tensor(np.asarray(a), dtype=dtype))
+
+        buf("center", rt.center)
+        buf("Lt", fs.L.T)
+        buf("Pt", fs.P.T)
+        buf("Qt", fs.Q.T)
+        buf("mean", rt.scaler.mean)
+        buf("inv_std", 1.0 / rt.scaler.std)
+        buf("y_scale", rt.y_scale)
+        buf("std_mul", rt.y_scale * rt.std_scale)
+        self.has_rat = fs.P.shape[0] > 0
+        self.eps = EPS
+        self.net = Net(rt.arch, fs.n_features, rt.heads.n_out).to(dtype)
+        state = {k: torch.as_tensor(v, dtype=dtype) for k, v in rt.weights.items()}
+        self.net.load_state_dict(state)
+        sl = rt.heads.slices()
+        self.r = sl["targets"].stop
+        self.s = (sl["std"].start, sl["std"].stop)
+        self.c = (sl["classes"].start, sl["classes"].stop)
+        self.k = (sl["contact"].start, sl["contact"].stop)
+
+    def forward(self, u: torch.Tensor) -> torch.Tensor:
+        f = (u - self.center) @ self.Lt
+        if self.has_rat:
+            rat = (u @ self.Pt) / (torch.abs(u) @ self.Qt + self.eps)
+            f = torch.cat([f, rat], dim=1)
+        raw = self.net((f - self.mean) * self.inv_std)
+        parts = [raw[:, : self.r] * self.y_scale]
+        if self.s[1] > self.s[0]:
+            parts.append(torch.exp(raw[:, self.s[0] : self.s[1]]) * self.std_mul)
+        if self.c[1] > self.c[0]:
+            parts.append(torch.softmax(raw[:, self.c[0] : self.c[1]], dim=1))
+        if self.k[1] > self.k[0]:
+            parts.append(0.5 * (1.0 + torch.tanh(0.5 * raw[:, self.k[0] : self.k[1]])))
+        return torch.cat(parts, dim=1)
+
+
+def laplace_nll(err: torch.Tensor, log_std: torch.Tensor) -> torch.Tensor:
+    """Laplace negative log-likelihood per element, with std = sqrt(2) b."""
+    log_b = log_std - 0.5 * math.log(2.0)
+    return err.abs() * torch.exp(-log_b) + log_b

@@ -1,0 +1,33 @@
+"""Loading, predicting and streaming must not import torch (it costs ~1.5 s to import)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from spectratac.decode import TrainSpec, train
+
+from tests.decode.conftest import synthetic
+
+
+def test_load_and_predict_without_torch(tmp_path) -> None:
+    ds = synthetic(200)
+    path = tmp_path / "m.stac"
+    train(ds, TrainSpec.paper(epochs=1, hidden=8, blocks=1), progress=False).save(path)
+    ds_path = ds.save(tmp_path / "d.npz")
+    code = (
+        "import sys\n"
+        "import spectratac.decode\n"
+        "from spectratac.dataset import Dataset\n"
+        "from spectratac.decode import Decoder\n"
+        f"dec = Decoder.load({str(path)!r})\n"
+        f"ds = Dataset.load({str(ds_path)!r})\n"
+        "est = dec.predict(ds)\n"
+        "dec.runtime.run1(ds.inputs[0])\n"
+        "dec.export('numpy', " + repr(str(tmp_path / "rt.npz")) + ")\n"
+        "print(len(est), 'torch' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.split() == ["200", "False"]
