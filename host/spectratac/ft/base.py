@@ -48,7 +48,7 @@ class FTSensor:
         self._ended = False  # the source has no more records (end of a CSV file)
         self._error: FTError | None = None
         self._streaming = False
-        self._thread: threading.Thread | None = None
+        self._thread: threading.Thread | None = None  # started by the first start()
         self._on_close: list[Any] = []  # callables run after the driver closed (sim servers)
 
     # ------------------------------------------------------------------ opening and closing
@@ -121,9 +121,10 @@ class FTSensor:
 
     def read(self, n: int, timeout: float | None = None) -> np.ndarray:
         """Up to `n` FT_RECORD rows, waiting up to `timeout` s (default: the open timeout) for
-        all of them; fewer on timeout or at the end of a replay. Starts the stream if needed.
+        all of them; fewer on timeout or at the end of a replay. Starts the stream if it was
+        never started (after stop(), it returns what is left without restarting it).
         Raises the link's error only once everything received before it has been read."""
-        if not self._streaming and not self._closed:
+        if self._thread is None and not self._closed:
             self.start()
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
         with self._cond:

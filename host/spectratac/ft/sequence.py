@@ -47,8 +47,8 @@ class Unwrapper:
         return out
 
     def rebase(self, start: int) -> None:
-        """Forget the counter: its next value unwraps to `start` plus nothing (a new stream)."""
-        self._last_raw = None
+        """A new stream restarts the counter: raw value 0 now unwraps to `start`."""
+        self._last_raw = 0
         self._last = start
 
 
