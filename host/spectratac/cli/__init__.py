@@ -30,6 +30,7 @@ VERB_MODULES: tuple[str, ...] = (
     "protocol_cmd",
     "twin_cmd",
     "record_cmd",
+    "dataset_cmd",
     "evaluate_cmd",
 )
 

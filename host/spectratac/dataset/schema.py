@@ -20,7 +20,12 @@ session        i2 (N,)         index into ``meta["sessions"]``
 press          i4 (N,)         press id within the dataset; -1 between presses
 counts         u2 (N, 3, 5)    SpectraTac only: raw counts (R, G, B, C, IR per sensor)
 status         u1 (N, 3)       SpectraTac only: SENSOR_* status bits per sensor
+sequence       u4 (N,)         recorded only: the device's sample sequence number
+device_time_us i8 (N,)         recorded only: integration end on the device clock (µs)
+ft_count       u4 (N,)         recorded only: F/T samples averaged into the targets
 ============== =============== =========================================================
+
+Optional arrays (counts onwards) that only some datasets have are dropped when joining.
 
 ``meta`` (stored as one JSON string) holds ``format`` ("spectratac.dataset"), ``version``,
 ``kind`` ("spectratac" or "generic"), ``input_names``, ``target_names``, ``unit_id``,
@@ -69,8 +74,11 @@ COLUMNS: dict[str, tuple[str, tuple[int, ...] | None]] = {
     "press": ("<i4", ()),
     "counts": ("<u2", (3, 5)),
     "status": ("|u1", (3,)),
+    "sequence": ("<u4", ()),
+    "device_time_us": ("<i8", ()),
+    "ft_count": ("<u4", ()),
 }
-OPTIONAL = ("counts", "status")
+OPTIONAL = ("counts", "status", "sequence", "device_time_us", "ft_count")
 
 
 class DatasetError(SpectraTacError):
@@ -232,7 +240,11 @@ def concat(datasets: Sequence[Dataset], *, allow_mixed_config: bool = False) -> 
                 f"({first.get('config')} vs {ds.meta.get('config')}); a decoder is valid for "
                 "one configuration: build one dataset per configuration (--split)"
             )
-    arrays: dict[str, list[NDArray[Any]]] = {k: [] for k in datasets[0].arrays}
+    arrays: dict[str, list[NDArray[Any]]] = {
+        k: []
+        for k in datasets[0].arrays
+        if k not in OPTIONAL or all(k in ds.arrays for ds in datasets)
+    }
     sessions: list[Any] = []
     press_base = 0
     for ds in datasets:

@@ -1,0 +1,168 @@
+"""`spectratac dataset build|info`: recorded sessions to a dataset file, and what one holds.
+
+spectratac dataset build s1.mcap s2.mcap -o data.npz [--split] [--max-gap-ms 5]
+spectratac dataset info data.npz [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("dataset", help="build datasets from recordings; describe one")
+    sub = p.add_subparsers(dest="dataset_verb", metavar="<sub-verb>")
+    b = sub.add_parser(
+        "build",
+        help="align recorded sessions (.mcap) into one dataset file (.npz)",
+        description="Decode the frames, align device and F/T clocks to the host, average the "
+        "F/T over each integration window (NaN over dropouts), label regions and presses. "
+        "Sessions under different sensor configurations need --split.",
+    )
+    b.add_argument("recordings", nargs="+", help="session .mcap files")
+    b.add_argument("-o", "--output", required=True, help="the .npz file to write")
+    b.add_argument(
+        "--split",
+        action="store_true",
+        help="one output per configuration (OUTPUT's stem + a configuration tag)",
+    )
+    b.add_argument(
+        "--max-gap-ms",
+        type=float,
+        default=None,
+        help="longest F/T gap a window may straddle (default: 3 F/T sample periods)",
+    )
+    b.add_argument("--json", action="store_true", help="print one JSON object")
+    b.add_argument("--no-progress", action="store_true")
+    b.set_defaults(func=_build)
+    i = sub.add_parser("info", help="describe a dataset file")
+    i.add_argument("dataset", help="a .npz dataset")
+    i.add_argument("--json", action="store_true", help="print one JSON object")
+    i.set_defaults(func=_info)
+    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def _build(args: argparse.Namespace) -> int:
+    from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
+    from spectratac.errors import SpectraTacError
+
+    if args.max_gap_ms is not None and not args.max_gap_ms > 0:
+        raise SpectraTacError("--max-gap-ms must be > 0")
+    bar = None
+    if not (args.no_progress or args.json) and len(args.recordings) > 1:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(args.recordings), desc="sessions", unit="file", file=sys.stderr)
+
+    def progress(path: str) -> None:
+        if bar is not None:
+            bar.set_postfix_str(Path(path).name)
+            bar.update(1)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            datasets = build_datasets(
+                args.recordings,
+                split=args.split,
+                options=BuildOptions(max_gap_ms=args.max_gap_ms),
+                progress=progress,
+            )
+        finally:
+            if bar is not None:
+                bar.close()
+    notes = [str(w.message) for w in caught]
+    for note in notes:
+        if not args.json:
+            print(f"warning: {note}", file=sys.stderr)
+    written = []
+    for ds, path in zip(datasets, split_paths(args.output, datasets), strict=True):
+        ds.save(path)
+        written.append({"path": str(path), **summary(ds)})
+    if args.json:
+        print(json.dumps({"outputs": written, "warnings": notes}))
+    else:
+        for w in written:
+            print(
+                f"wrote {w['path']}: {w['n']} samples from {w['sessions']} session(s), "
+                f"{w['target_valid'] * 100:.1f} % with F/T targets, {w['presses']} presses, "
+                f"labels {w['labels']}"
+            )
+    return 0
+
+
+def summary(ds: Any) -> dict[str, Any]:
+    """The figures `dataset info` shows (JSON-friendly)."""
+    meta = ds.meta
+    regions, counts = np.unique(ds.region, return_counts=True)
+    valid = ds.target_valid
+    t = ds.targets[valid] if valid.any() else np.zeros((0, ds.targets.shape[1]))
+    return {
+        "n": ds.n,
+        "kind": meta.get("kind"),
+        "unit_id": meta.get("unit_id"),
+        "firmware_version": meta.get("firmware_version"),
+        "protocol_version": meta.get("protocol_version"),
+        "definition_hash": meta.get("definition_hash"),
+        "config": meta.get("config"),
+        "labels": meta.get("labels"),
+        "sessions": len(meta.get("sessions", [])),
+        "session_sources": [s.get("path") or s.get("source") for s in meta.get("sessions", [])],
+        "target_valid": float(valid.mean()) if ds.n else 0.0,
+        "in_contact": float(ds.in_contact.mean()) if ds.n else 0.0,
+        "presses": len(np.unique(ds.press[ds.press >= 0])),
+        "regions": {int(r): int(c) for r, c in zip(regions, counts, strict=True)},
+        "duration_s": float(ds.t_end.max() - ds.t_start.min()) if ds.n else 0.0,
+        "target_min": dict(zip(ds.target_names, np.min(t, axis=0).tolist(), strict=True))
+        if len(t)
+        else {},
+        "target_max": dict(zip(ds.target_names, np.max(t, axis=0).tolist(), strict=True))
+        if len(t)
+        else {},
+    }
+
+
+def _info(args: argparse.Namespace) -> int:
+    from spectratac.dataset import Dataset
+
+    ds = Dataset.load(args.dataset)
+    s = summary(ds)
+    if args.json:
+        print(json.dumps({"path": args.dataset, **s}))
+        return 0
+    cfg = s["config"]
+    print(f"{args.dataset}: {s['n']} samples, {s['kind']}, {s['sessions']} session(s)")
+    print(f"  unit             {s['unit_id']}")
+    print(
+        f"  firmware         {s['firmware_version']}, protocol {s['protocol_version']}, "
+        f"definitions {s['definition_hash']}"
+    )
+    if isinstance(cfg, dict):
+        print(
+            f"  configuration    {cfg['integration_ms']} ms, gain x{cfg['gain']:g}, digital "
+            f"x{cfg['digital_gain']}, {cfg['sensitivity']} sensitivity, "
+            f"{len(cfg['leds'])} LED step(s)"
+        )
+    else:
+        print(f"  configuration    {cfg}")
+    print(
+        f"  targets          {s['target_valid'] * 100:.1f} % valid; in contact "
+        f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; span {s['duration_s']:.1f} s"
+    )
+    if s["target_min"]:
+        ranges = ", ".join(
+            f"{k} {s['target_min'][k]:.2f}..{s['target_max'][k]:.2f}" for k in s["target_min"]
+        )
+        print(f"  target ranges    {ranges}")
+    regions = " ".join(f"{r}:{c}" for r, c in s["regions"].items())
+    print(f"  regions          {regions}   (labels: {s['labels']})")
+    for src in s["session_sources"]:
+        print(f"  session          {src}")
+    return 0

@@ -1,0 +1,210 @@
+"""Recorded sessions (MCAP) to datasets: the job behind `spectratac dataset build`.
+
+Per recording: the SAMPLE frames are bulk-decoded; device time goes onto the host clock with
+fit_clock (TIME_SYNC exchanges + frame arrival times), and so does the F/T clock (arrival
+times); the F/T is averaged over each integration window (targets; NaN and target_valid
+False wherever the F/T has a gap, never interpolated); labels come from the scene (sim) or
+the guided protocol (LABELS.md). A session's rows are grouped by configuration; groups with
+different configurations are refused together unless split.
+
+>>> import tempfile
+>>> from spectratac.record import RecordOptions, record_url
+>>> path = tempfile.mkdtemp() + "/s.mcap"
+>>> _ = record_url("sim://?scene=press&speed=5", path, RecordOptions(samples=30))
+>>> [ds] = build_datasets([path])
+>>> ds.n >= 30, ds.meta["labels"], ds.meta["unit_id"] == ds.meta["sessions"][0]["unit_id"]
+(True, 'scene', True)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from spectratac.dataset.align import Windows, device_windows, ft_targets
+from spectratac.dataset.frames import recorded_samples
+from spectratac.dataset.labels import (
+    CONTACT_N,
+    ft_contact,
+    guided_labels,
+    rebuild_scene,
+    scene_labels,
+)
+from spectratac.dataset.schema import (
+    FT_NAMES,
+    SPECTRATAC_INPUTS,
+    Dataset,
+    DatasetError,
+    concat,
+    split_by_config,
+)
+from spectratac.record.reader import Recording, read_recording
+
+
+@dataclass
+class BuildOptions:
+    """max_gap_ms: the longest F/T gap (host clock) a window may straddle; default 3 F/T
+    periods. contact_n: |F| for in_contact in real sessions."""
+
+    max_gap_ms: float | None = None
+    contact_n: float = CONTACT_N
+
+
+def build_datasets(
+    paths: Sequence[str | Path],
+    *,
+    split: bool = False,
+    options: BuildOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[Dataset]:
+    """One dataset of all sessions, or with `split` one per sensor configuration. A
+    truncated file contributes its readable prefix (TruncatedRecordingWarning)."""
+    if not paths:
+        raise DatasetError("no recordings given: name at least one .mcap file")
+    parts: list[Dataset] = []
+    for path in paths:
+        parts += session_datasets(read_recording(path), options)
+        if progress is not None:
+            progress(str(path))  # this file is done
+    if split:
+        return split_by_config(parts)
+    return [concat(parts)]
+
+
+def session_datasets(rec: Recording, options: BuildOptions | None = None) -> list[Dataset]:
+    """One recording as datasets, one per configuration its samples were taken under."""
+    opts = options or BuildOptions()
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    if len(samples) == 0:
+        raise DatasetError(f"{rec.path} holds no samples: was the device streaming?")
+    sim = rec.session.get("sim")
+    paced = bool(sim) and not isinstance(sim.get("speed"), str)
+    scale = float(sim["speed"]) if paced else 1.0
+    if sim and not paced:
+        # speed=max: device time races ahead of the host clock; keep the device (scene) clock
+        windows = Windows(
+            samples["t_start_us"] / 1e6, samples["t_end_us"] / 1e6, {"method": "device clock"}
+        )
+    else:
+        windows = device_windows(samples, rec.time_sync, scale)
+    max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
+    targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
+    force = targets[:, :3]
+    source = rec.session.get("labels", "none")
+    if sim:
+        t_scene = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
+        region, in_contact, press = scene_labels(rebuild_scene(sim), t_scene)
+    elif source == "guided":
+        region, press = guided_labels(rec.labels, (windows.t_start + windows.t_end) / 2, force)
+        in_contact = ft_contact(force, opts.contact_n)
+    else:
+        region = np.full(len(samples), -1, np.int8)
+        press = np.full(len(samples), -1, np.int32)
+        in_contact = ft_contact(force, opts.contact_n)
+    arrays = {
+        "inputs": samples["counts"][:, :, :4].reshape(-1, 12).astype(np.float64),
+        "targets": targets,
+        "target_valid": valid,
+        "region": region,
+        "in_contact": in_contact,
+        "t_start": windows.t_start,
+        "t_end": windows.t_end,
+        "step": samples["step"],
+        "config_id": samples["config_id"],
+        "session": np.zeros(len(samples)),
+        "press": press,
+        "counts": samples["counts"],
+        "status": samples["status"],
+        "sequence": samples["sequence"],
+        "device_time_us": samples["t_end_us"],
+        "ft_count": count,
+    }
+    info = rec.info or {}
+    base = {
+        "kind": "spectratac",
+        "input_names": list(SPECTRATAC_INPUTS),
+        "target_names": list(FT_NAMES),
+        "unit_id": info.get("unit_id"),
+        "firmware_version": info.get("firmware"),
+        "protocol_version": info.get("protocol"),
+        "definition_hash": info.get("definition_hash_hex"),
+        "labels": source,
+    }
+    out = []
+    for cid in np.unique(samples["config_id"]):
+        rows = samples["config_id"] == cid
+        recorded = rec.configs.get(int(cid))
+        session = _session_meta(rec, samples[rows], valid[rows], windows, ft_clock, int(cid))
+        meta = {**base, "config": recorded["config"] if recorded else None, "sessions": [session]}
+        out.append(Dataset({k: v[rows] for k, v in arrays.items()}, meta))
+    return out
+
+
+def _session_meta(
+    rec: Recording,
+    samples: np.ndarray,
+    valid: np.ndarray,
+    windows: Windows,
+    ft_clock: dict[str, Any] | None,
+    config_id: int,
+) -> dict[str, Any]:
+    s = rec.session
+    sim = s.get("sim") or {}
+    seq = samples["sequence"].astype(np.int64)
+    return {
+        "source": "record",
+        "path": str(rec.path),
+        "url": s.get("url"),
+        "ft_url": s.get("ft_url"),
+        "scene": sim.get("scene"),
+        "seed": sim.get("seed"),
+        "speed": sim.get("speed"),
+        "unit_id": (rec.info or {}).get("unit_id"),
+        "started_unix": s.get("started_unix"),
+        "library_version": s.get("library_version"),
+        "n": len(samples),
+        "config_id": config_id,
+        "lost": int(np.sum(np.clip(np.diff(seq) - 1, 0, None))),
+        "ft_samples": 0 if rec.ft is None else len(rec.ft),
+        "target_valid": float(valid.mean()) if len(valid) else 0.0,
+        "labels": s.get("labels", "none"),
+        "label_events": len(rec.labels),
+        "clock": windows.clock,
+        "ft_clock": ft_clock,
+        "truncated": rec.truncated,
+        "stopped_by": (rec.end or {}).get("stopped_by"),
+    }
+
+
+def config_tag(config: dict[str, Any] | None) -> str:
+    """A readable, unique file-name tag for a configuration.
+
+    >>> config_tag({"integration_ms": 50, "gain": 1.0, "digital_gain": 1,
+    ...             "sensitivity": "high", "leds": [[[500] * 3] * 3], "settle_us": 1000})
+    '50ms-g1-dg1-high-1step-...'
+    """
+    if not config:
+        return "unknown-config"
+    digest = hashlib.sha1(json.dumps(config, sort_keys=True).encode()).hexdigest()[:6]
+    steps = len(config.get("leds") or [])
+    return (
+        f"{config['integration_ms']}ms-g{config['gain']:g}-dg{config['digital_gain']}-"
+        f"{config['sensitivity']}-{steps}step-{digest}"
+    )
+
+
+def split_paths(out: str | Path, datasets: Sequence[Dataset]) -> list[Path]:
+    """Output file per dataset: `out` itself for one, else out's stem + config tag."""
+    out = Path(out)
+    if len(datasets) == 1:
+        return [out]
+    suffix = out.suffix or ".npz"
+    return [
+        out.with_name(f"{out.stem}.{config_tag(ds.meta.get('config'))}{suffix}") for ds in datasets
+    ]
