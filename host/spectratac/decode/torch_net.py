@@ -89,6 +89,7 @@ class Exported(nn.Module):
         self.net = Net(rt.arch, fs.n_features, rt.heads.n_out).to(dtype)
         state = {k: torch.as_tensor(v, dtype=dtype) for k, v in rt.weights.items()}
         self.net.load_state_dict(state)
+        self.net.requires_grad_(False)  # an inference graph: no autograd bookkeeping
         sl = rt.heads.slices()
         self.r = sl["targets"].stop
         self.s = (sl["std"].start, sl["std"].stop)

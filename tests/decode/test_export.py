@@ -1,0 +1,123 @@
+"""Exports (NumPy runtime file, ONNX, TorchScript, C) agree with the NumPy reference."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.decode import Decoder, DecoderError, Runtime, TrainSpec, train
+
+HARNESS = Path(__file__).parent / "c" / "harness.c"
+TOL = {"rtol": 1e-5, "atol": 1e-5}
+VARIANTS = {
+    "paper": {},
+    "mlp-contact": {"model": "mlp", "targets": ("Fz", "contact")},
+    "linear-raw-unc": {
+        "model": "linear",
+        "features": "raw",
+        "uncertainty": True,
+        "targets": ("Fx", "Fz", "region"),
+    },
+    "resmlp-context-drift": {"context": 2, "drift": "baseline", "uncertainty": True},
+}
+
+
+@pytest.fixture(scope="module")
+def decoders(twin_ds) -> dict[str, Decoder]:
+    base = {"epochs": 2, "hidden": 16, "blocks": 2, "threads": 1}
+    return {
+        name: train(twin_ds, TrainSpec.paper(**{**base, **kw}), progress=False)
+        for name, kw in VARIANTS.items()
+    }
+
+
+def assembled(dec: Decoder, ds, n: int = 300) -> np.ndarray:
+    from spectratac.decode.assemble import assemble
+
+    u, valid = assemble(dec.layout, ds.inputs, ds.step, ds.session, ds.t_end)
+    return u[valid][:n]
+
+
+def reference(dec: Decoder, u: np.ndarray) -> np.ndarray:
+    return dec.runtime.with_dtype(np.float64).run(u)
+
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_numpy_runtime_file_and_fused_path(decoders, twin_ds, tmp_path, name) -> None:
+    dec = decoders[name]
+    u = assembled(dec, twin_ds)
+    ref = reference(dec, u)
+    rt = Runtime.load(dec.export("numpy", tmp_path / "rt.npz"))
+    np.testing.assert_array_equal(rt.run(u), dec.runtime.run(u))
+    fused = np.stack([rt.run1(v).copy() for v in u])
+    np.testing.assert_allclose(fused, ref, **TOL)
+    np.testing.assert_allclose(dec.runtime.run(u), ref, **TOL)  # float32 vs float64
+
+
+@pytest.mark.parametrize("name", ["paper", "linear-raw-unc"])
+def test_onnx_matches_numpy(decoders, twin_ds, tmp_path, name) -> None:
+    import onnx
+    import onnxruntime as ort
+
+    dec = decoders[name]
+    path = dec.export("onnx", tmp_path / "m.onnx")
+    model = onnx.load(str(path))
+    meta = {p.key for p in model.metadata_props}
+    assert {"inputs", "outputs", "unit_id", "config"} <= meta
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    u = assembled(dec, twin_ds)
+    out = sess.run(None, {"u": u.astype(np.float32)})[0]
+    np.testing.assert_allclose(out, reference(dec, u), **TOL)
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+def test_torchscript_matches_numpy(decoders, twin_ds, tmp_path) -> None:
+    import torch
+
+    dec = decoders["resmlp-context-drift"]
+    module = torch.jit.load(str(dec.export("torchscript", tmp_path / "m.pt")))
+    u = assembled(dec, twin_ds)
+    with torch.no_grad():
+        out = module(torch.as_tensor(u, dtype=torch.float32)).numpy()
+    np.testing.assert_allclose(out, reference(dec, u), **TOL)
+
+
+def run_c(header: Path, rows: np.ndarray, real: str, sanitize: bool, tmp: Path) -> np.ndarray:
+    exe = tmp / f"harness_{real}_{int(sanitize)}"
+    cmd = [
+        "gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O1",
+        f"-DSTAC_REAL={real}", f"-I{header.parent}", str(HARNESS), "-o", str(exe), "-lm",
+    ]  # fmt: skip
+    if sanitize:
+        cmd[1:1] = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+    subprocess.run(cmd, check=True, capture_output=True, text=True)
+    text = "\n".join(" ".join(repr(float(v)) for v in r) for r in rows)
+    out = subprocess.run([str(exe)], input=text, check=True, capture_output=True, text=True)
+    return np.loadtxt(out.stdout.splitlines(), ndmin=2)
+
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_c_header_compiles_and_matches(decoders, twin_ds, tmp_path, name) -> None:
+    dec = decoders[name]
+    header = dec.export("c", tmp_path / "stac_decoder.h")
+    u = assembled(dec, twin_ds, 100)
+    bad = u[:3].copy()
+    bad[0, 1] = np.nan  # invalid
+    bad[1, 0] = 65535.0  # saturated: out of distribution
+    bad[2, :] *= 3.0  # far beyond the training range
+    rows = np.concatenate([u, bad])
+    ref = reference(dec, u)
+    est = dec.predict_assembled(rows)
+    for real, sanitize in (("float", True), ("double", False)):
+        got = run_c(header, rows, real, sanitize, tmp_path)
+        flags = got[:, 0].astype(int)
+        np.testing.assert_allclose(got[:100, 1:], ref, **TOL)
+        assert flags[100] == 1 and (flags[101] & 2) and (flags[102] & 2)
+        np.testing.assert_array_equal((flags & 2) > 0, est.ood)
+
+
+def test_unknown_format_is_refused(decoders, tmp_path) -> None:
+    with pytest.raises(DecoderError, match="onnx, numpy, torchscript, c"):
+        decoders["paper"].export("tflite", tmp_path / "m")
