@@ -1,0 +1,58 @@
+"""sim:// F/T sensors: selected with ft=, refused without wall-clock scene time, stopped on
+close, and reading the same world as the simulated optical sensor."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from spectratac.ft import FTURLError, open_ft
+from spectratac.sim.world import SimWorld
+
+
+def test_speed_max_and_missing_kind_are_refused() -> None:
+    before = set(SimWorld._registry)
+    with pytest.raises(FTURLError, match="speed=max has none"):
+        open_ft("sim://?scene=press&speed=max&ft=netft")
+    with pytest.raises(FTURLError, match="ft=netft or ft=bota"):
+        open_ft("sim://?scene=press&speed=10")
+    with pytest.raises(FTURLError, match="ft_loss"):
+        open_ft("sim://?scene=press&speed=10&ft=bota&ft_loss=2")
+    assert set(SimWorld._registry) == before  # nothing left running
+
+
+@pytest.mark.parametrize("kind", ["netft", "bota"])
+def test_sim_ft_reads_the_scene_on_its_own_clock(kind: str) -> None:
+    url = f"sim://?scene=calibration&seed=3&speed=10&ft={kind}&ft_offset=0.25&ft_drift=2e-4"
+    before = set(SimWorld._registry)
+    with open_ft(url, timeout=3.0) as ft:
+        rows = ft.read(3000, timeout=10.0)
+        (key,) = set(SimWorld._registry) - before
+        scene = SimWorld._registry[key].scene
+    assert set(SimWorld._registry) == before  # closing released the world, stopped the server
+    assert ft.info.extra["sim"] == url
+    # the sensor clock is offset and drifting against scene time, as asked
+    t_scene = (rows["sensor_time"] - 0.25) / (1 + 2e-4)
+    truth = scene.contact(t_scene)
+    fz = rows["wrench"][:, 2]
+    # Fz = -normal load, up to the sensor's noise and slow bias
+    assert np.median(np.abs(fz + truth.normal)) < 0.1
+    assert np.ptp(truth.normal) > 0.5  # the comparison saw a press, not just idle
+    assert ft.stats.lost <= 20
+
+
+def test_optical_and_ft_share_one_world() -> None:
+    from spectratac.device import Sensor
+
+    url = "sim://?scene=press&seed=2&speed=5&ft=bota"
+    before = set(SimWorld._registry)
+    with Sensor.open(url) as sensor, open_ft(url) as ft:
+        (key,) = set(SimWorld._registry) - before  # one world for both devices
+        world = SimWorld._registry[key]
+        rows = ft.read(100, timeout=5.0)
+        assert world._users == 2
+        # the F/T's scene time (from its own clock) matches the world's clock at arrival
+        t_scene = (rows["sensor_time"] - 0.05) / (1 + 1e-4)
+        lag = world.scene_time(rows["host_time"]) - t_scene
+        assert np.all(lag >= -1e-3) and np.median(lag) < 0.5
+        assert sensor.info is not None
+    assert set(SimWorld._registry) == before
