@@ -32,6 +32,7 @@ VERB_MODULES: tuple[str, ...] = (
     "record_cmd",
     "dataset_cmd",
     "evaluate_cmd",
+    "train_cmd",
 )
 
 

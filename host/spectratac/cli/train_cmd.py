@@ -1,0 +1,157 @@
+"""`spectratac train`: train a decoder from dataset files and write a .stac model.
+
+spectratac train data.npz [more.npz ...] -o model.stac [--features F] [--model M]
+    [--targets Fz,region] [--context K] [--drift baseline] [--uncertainty]
+    [--epochs N] [--batch-size B] [--seed S] [--export onnx,c,...] [--json]
+
+Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
+.npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from spectratac.cli import EXIT_OK
+
+EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt", "c": ".h"}
+
+
+def _names(text: str | None) -> list[str] | None:
+    return [t.strip() for t in text.split(",") if t.strip()] if text else None
+
+
+def register(subparsers: Any) -> None:
+    from spectratac.decode.spec import DRIFT, FEATURES, LOSSES, MODELS
+
+    p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
+    p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
+    p.add_argument("-o", "--out", required=True, help="model file to write (.stac)")
+    p.add_argument("--features", choices=FEATURES, help="default: paper33, or generic")
+    p.add_argument("--model", choices=MODELS, default="resmlp")
+    p.add_argument("--targets", help="comma list, e.g. Fz,region (default: all + region)")
+    p.add_argument("--inputs", help="input channel columns of CSV / generic data, in order")
+    p.add_argument("--classes", help="class column of CSV / generic data (default: auto)")
+    p.add_argument("--context", type=int, default=0, help="past samples fed as context")
+    p.add_argument("--dilated", action="store_true", help="context lags 1, 2, 4, ... samples")
+    p.add_argument("--drift", choices=DRIFT, default="none")
+    p.add_argument("--uncertainty", action="store_true", help="calibrated per-target std")
+    p.add_argument("--loss", choices=LOSSES, default="paper")
+    p.add_argument("--epochs", type=int, default=30)
+    p.add_argument("--batch-size", type=int, default=1024)
+    p.add_argument("--lr", type=float, default=3e-3)
+    p.add_argument("--hidden", type=int, default=128)
+    p.add_argument("--blocks", type=int, default=3)
+    p.add_argument("--val-fraction", type=float, default=0.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
+    p.add_argument("--json", action="store_true", help="print one JSON summary")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=_train)
+
+
+def load_datasets(paths: list[str], inputs: Any, targets: Any, classes: Any) -> Any:
+    from spectratac.dataset import concat
+    from spectratac.dataset.generic_io import load_any
+
+    sets = [load_any(p, inputs, targets, classes) for p in paths]
+    return sets[0] if len(sets) == 1 else concat(sets)
+
+
+def _train(args: argparse.Namespace) -> int:
+    from spectratac.decode import DecoderError, TrainSpec, train
+    from spectratac.decode.export import FORMATS
+
+    exports = _names(args.export) or []
+    unknown = [f for f in exports if f not in FORMATS]
+    if unknown:
+        raise DecoderError(f"--export {','.join(unknown)}: choose from {', '.join(FORMATS)}")
+    targets = _names(args.targets)
+    classes = _names(args.classes)
+    ds = load_datasets(args.data, _names(args.inputs), targets, classes)
+    if targets is None:
+        targets = list(ds.target_names)
+        if np.any(ds.region > 0):
+            targets.append(ds.meta.get("region_name", "region"))
+    features = args.features or ("paper33" if ds.meta.get("kind") == "spectratac" else "generic")
+    spec = TrainSpec(
+        features=features,
+        model=args.model,
+        targets=tuple(targets),
+        context=args.context,
+        context_dilated=args.dilated,
+        drift=args.drift,
+        uncertainty=args.uncertainty,
+        loss=args.loss,
+        epochs=args.epochs,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        seed=args.seed,
+        threads=args.threads,
+        hidden=args.hidden,
+        blocks=args.blocks,
+        val_fraction=args.val_fraction,
+    )
+    dec = train(ds, spec, progress=not args.no_progress)
+    out = Path(args.out)
+    dec.save(out)
+    written = {"model": str(out)}
+    for fmt in exports:
+        path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
+        written[fmt] = str(dec.export(fmt, path))
+    summary = _summary(dec, ds, written)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(_human(summary))
+    return EXIT_OK
+
+
+def _summary(dec: Any, ds: Any, written: dict[str, str]) -> dict[str, Any]:
+    est = dec.predict(ds)
+    names = list(ds.target_names)
+    fit: dict[str, float] = {}
+    for i, t in enumerate(dec.target_names):
+        y = ds.targets[:, names.index(t)]
+        ok = ~est.invalid & ds.target_valid
+        fit[t] = float(np.mean(np.abs(est.targets[ok, i] - y[ok]))) if ok.any() else float("nan")
+    lab = ds.region > 0
+    acc = float(np.mean(est.region[lab] == ds.region[lab])) if dec.heads.n_classes else None
+    m = dec.meta
+    return {
+        "written": written,
+        "spec": m["spec"],
+        "n_train": m["n_train"],
+        "train_seconds": round(m["train_seconds"], 2),
+        "final_loss": m["history"][-1],
+        "params": dec.n_params,
+        "flops_per_sample": dec.flops_per_sample,
+        "training_mae": fit,
+        "training_class_accuracy": acc,
+        "unit_id": dec.unit_id,
+    }
+
+
+def _human(s: dict[str, Any]) -> str:
+    spec = s["spec"]
+    lines = [
+        f"trained {spec['model']} on {spec['features']} features "
+        f"(context {spec['context']}, drift {spec['drift']}) for {', '.join(spec['targets'])}",
+        f"  {s['n_train']} rows, {spec['epochs']} epochs in {s['train_seconds']:.1f} s; "
+        f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
+        f"{s['flops_per_sample']:,} FLOPs per sample",
+        "  MAE on the training rows (optimistic; `spectratac evaluate` for held-out numbers):",
+    ]
+    for t, v in s["training_mae"].items():
+        lines.append(f"    {t:<8} {v:.4g}")
+    if s["training_class_accuracy"] is not None:
+        lines.append(f"    classes  {100 * s['training_class_accuracy']:.2f} % correct")
+    for kind, path in s["written"].items():
+        lines.append(f"  wrote {kind}: {path}")
+    return "\n".join(lines)

@@ -1,0 +1,208 @@
+"""Datasets from any sensor: a CSV file or an .npz of named columns -> `Dataset.generic`.
+
+One row per sample, one column per channel or target (see
+host/spectratac/decode/DATA_FORMAT.md). Special column names: ``t`` or ``time`` (s, time
+order), ``session``, ``press``, ``contact`` (0/1). A class column (e.g. ``position``) is
+recognised by a ``:class`` suffix in its name, by being listed in `classes`, by holding
+non-numbers, or by holding only integers with at most MAX_AUTO_CLASSES distinct values; its
+labels become 1..K (meta ``region_labels``; empty, ``-1``, ``nan`` or ``none`` = unlabelled).
+Empty or NaN target cells are dropouts: ``target_valid`` False, never filled in.
+
+>>> import io
+>>> text = "ch0,ch1,Fz,position\\n1,2,0.5,left\\n3,4,,right\\n5,6,1.5,\\n"
+>>> ds = load_table(io.StringIO(text), inputs=["ch0", "ch1"], targets=["Fz", "position"])
+>>> ds.input_names, ds.target_names, ds.region.tolist(), ds.target_valid.tolist()
+(['ch0', 'ch1'], ['Fz'], [1, 2, -1], [True, False, True])
+>>> ds.meta["region_name"], ds.meta["region_labels"]
+('position', ['left', 'right'])
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.dataset.schema import Dataset, DatasetError
+
+SPECIAL = {"t": "t", "time": "t", "session": "session", "press": "press", "contact": "contact"}
+UNLABELLED = {"", "-1", "nan", "none", "null"}
+MAX_AUTO_CLASSES = 20
+CLASS_SUFFIX = ":class"
+
+
+def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
+    """Columns of a CSV (header row) or an .npz of equal-length 1-D arrays, as arrays of
+    strings (CSV) or their stored dtype (npz)."""
+    if isinstance(source, (str, Path)) and str(source).endswith(".npz"):
+        try:
+            with np.load(source, allow_pickle=False) as z:
+                cols = {k: np.asarray(z[k]) for k in z.files}
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+            raise DatasetError(f"cannot read {source}: {exc}") from None
+        bad = [k for k, v in cols.items() if v.ndim != 1]
+        if bad:
+            raise DatasetError(
+                f"{source}: columns {bad} are not 1-D; a generic .npz holds one 1-D array per "
+                f"column (see DATA_FORMAT.md), or use a SpectraTac dataset file"
+            )
+    else:
+        try:
+            if isinstance(source, (str, Path)):
+                with open(source, newline="", encoding="utf-8") as f:
+                    rows = _csv_rows(f)
+            else:
+                rows = _csv_rows(source)
+        except OSError as exc:
+            raise DatasetError(f"cannot read {source}: {exc}") from None
+        if not rows:
+            raise DatasetError(f"{source}: empty file; the first row must name the columns")
+        header = [h.strip() for h in rows[0]]
+        body = [r for r in rows[1:] if any(c.strip() for c in r)]
+        short = [i + 2 for i, r in enumerate(body) if len(r) != len(header)][:5]
+        if short:
+            raise DatasetError(
+                f"{source}: lines {short} have another number of cells than the header "
+                f"({len(header)})"
+            )
+        cols = {h: np.array([r[i].strip() for r in body], dtype=str) for i, h in enumerate(header)}
+    lengths = {len(v) for v in cols.values()}
+    if len(lengths) > 1:
+        raise DatasetError(f"{source}: columns have different lengths {sorted(lengths)}")
+    return cols
+
+
+def _csv_rows(f: Any) -> list[list[str]]:
+    return list(csv.reader(line for line in f if not line.startswith("#")))
+
+
+def _floats(name: str, col: NDArray[Any]) -> NDArray[np.float64]:
+    if col.dtype.kind in "fiub":
+        return col.astype(np.float64)
+    out = np.empty(col.shape[0])
+    for i, v in enumerate(col):
+        s = str(v).strip()
+        try:
+            out[i] = float(s) if s else np.nan
+        except ValueError:
+            raise DatasetError(
+                f"column {name!r}, row {i}: {s!r} is not a number (mark class columns with "
+                f"'{CLASS_SUFFIX}' or --classes)"
+            ) from None
+    return out
+
+
+def _is_class(col: NDArray[Any]) -> bool:
+    vals = [str(v).strip().lower() for v in col]
+    vals = [v for v in vals if v not in UNLABELLED]
+    try:
+        nums = np.array([float(v) for v in vals])
+    except ValueError:
+        return True  # non-numeric labels
+    return bool(nums.size and np.all(nums == np.round(nums)) and len(set(nums)) <= MAX_AUTO_CLASSES)
+
+
+def _labels(col: NDArray[Any]) -> tuple[NDArray[np.int64], list[str]]:
+    txt = [str(v).strip() for v in col]
+    keys = sorted(
+        {v for v in txt if v.lower() not in UNLABELLED},
+        key=lambda v: (0, float(v), v) if _num(v) else (1, 0.0, v),
+    )
+    index = {k: i + 1 for i, k in enumerate(keys)}
+    return np.array([index.get(v, -1) for v in txt], np.int64), keys
+
+
+def _num(v: str) -> bool:
+    try:
+        float(v)
+    except ValueError:
+        return False
+    return True
+
+
+def load_table(
+    source: str | Path | io.TextIOBase,
+    inputs: Sequence[str] | None = None,
+    targets: Sequence[str] | None = None,
+    classes: Sequence[str] | None = None,
+    unit_id: str | None = None,
+) -> Dataset:
+    """A generic Dataset from a CSV or column .npz.
+
+    inputs: channel columns in order (default: every numeric column that is neither a
+    target nor special). targets: target columns, regression and at most one class column
+    (default: none given -> every non-input, non-special column). classes: columns to treat
+    as classes (default: automatic, see the module docstring).
+    """
+    raw = read_columns(source)
+    cols = {k[: -len(CLASS_SUFFIX)] if k.endswith(CLASS_SUFFIX) else k: v for k, v in raw.items()}
+    marked = {k[: -len(CLASS_SUFFIX)] for k in raw if k.endswith(CLASS_SUFFIX)}
+    special = {k: SPECIAL[k.lower()] for k in cols if k.lower() in SPECIAL}
+    missing = [c for c in list(inputs or []) + list(targets or []) if c not in cols]
+    if missing:
+        raise DatasetError(f"{source}: no column(s) {missing}; it has {list(cols)}")
+    if inputs is None:
+        taken = set(targets or []) | set(special) | marked
+        inputs = [k for k in cols if k not in taken and not _is_class(cols[k])]
+    if targets is None:
+        targets = [k for k in cols if k not in set(inputs) | set(special)]
+    if not inputs:
+        raise DatasetError(f"{source}: no input columns; name them (--inputs a,b,c)")
+    forced = set(classes) if classes is not None else set()
+    cls_cols = [
+        t for t in targets
+        if t in marked or t in forced or (classes is None and _is_class(cols[t]))
+    ]  # fmt: skip
+    if len(cls_cols) > 1:
+        raise DatasetError(
+            f"{source}: several class columns {cls_cols}; a decoder has one class head: "
+            f"train on one (--targets)"
+        )
+    reg = [t for t in targets if t not in cls_cols]
+    x = np.stack([_floats(c, cols[c]) for c in inputs], axis=1)
+    n = x.shape[0]
+    y = np.stack([_floats(c, cols[c]) for c in reg], axis=1) if reg else np.zeros((n, 0))
+    region, labels = _labels(cols[cls_cols[0]]) if cls_cols else (None, None)
+    by = {v: k for k, v in special.items()}
+    t = _floats(by["t"], cols[by["t"]]) if "t" in by else None
+    press = _floats(by["press"], cols[by["press"]]).astype(np.int64) if "press" in by else None
+    meta: dict[str, Any] = {
+        "unit_id": unit_id,
+        "sessions": [{"source": str(source) if isinstance(source, (str, Path)) else "stream"}],
+    }
+    if cls_cols:
+        meta.update(region_name=cls_cols[0], region_labels=labels)
+    ds = Dataset.generic(x, y, list(inputs), reg, region=region, t=t, press=press, meta=meta)
+    if "session" in by:
+        ds.arrays["session"] = _floats(by["session"], cols[by["session"]]).astype(np.int16)
+        n_ses = int(ds.arrays["session"].max(initial=0)) + 1
+        ds.meta["sessions"] = ds.meta["sessions"] * max(n_ses, 1)
+    if "contact" in by:
+        ds.arrays["in_contact"] = _floats(by["contact"], cols[by["contact"]]) > 0.5
+    ds.validate()
+    return ds
+
+
+def load_any(
+    path: str | Path,
+    inputs: Sequence[str] | None = None,
+    targets: Sequence[str] | None = None,
+    classes: Sequence[str] | None = None,
+) -> Dataset:
+    """A SpectraTac dataset file as it is, or any other CSV / column .npz via `load_table`."""
+    p = Path(path)
+    if p.suffix == ".npz":
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                is_dataset = "meta" in z.files and "inputs" in z.files
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+            raise DatasetError(f"cannot read {p}: {exc}") from None
+        if is_dataset:
+            return Dataset.load(p)
+    return load_table(p, inputs, targets, classes)
