@@ -117,7 +117,8 @@ class GuidedProtocol:
             go = self._t0 + k * self.period + self.countdown_s
             release = go + self.hold_s
             if now >= release:
-                self._say(k, "release", now)
+                for what in ("ready", "press", "release"):  # in order, even if polled late
+                    self._say(k, what, now)
                 event = {
                     "source": "guided",
                     "index": k,

@@ -71,6 +71,7 @@ def record_url(
             from spectratac.ft import FTSensor
 
             ft = stack.enter_context(FTSensor.open(ft_url))
+            session |= {"ft_url": ft_url, "ft_link": ft.url}  # as given; as the driver opened it
         recorder = Recorder(
             sensor, path, options, ft=ft, session=session, labeler=labeler, guided=guided
         )

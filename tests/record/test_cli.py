@@ -1,0 +1,163 @@
+"""`spectratac record` as users run it: summaries, Ctrl-C, SIGKILL, and no torch."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.dataset.frames import recorded_samples
+from spectratac.record import Recording, RecordingError, TruncatedRecordingWarning, read_recording
+
+TOUR_FT = "sim://?scene=tour&seed=1&speed=10&ft=bota"
+
+
+def spectratac(*args: str) -> list[str]:
+    return [sys.executable, "-m", "spectratac", *args]
+
+
+def wait_for_frames(path: Path, proc: subprocess.Popen[str], n: int) -> Recording:
+    """Read the growing file until it holds `n` frames (bounded: the process must live)."""
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        if path.exists():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", TruncatedRecordingWarning)
+                try:
+                    rec = read_recording(path)
+                except RecordingError:  # not even the first chunk yet
+                    rec = None
+            if rec is not None and len(rec.frames) >= n:
+                return rec
+        time.sleep(0.1)
+    raise AssertionError(f"{path} never reached {n} frames")
+
+
+def test_record_json_summary(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    run = subprocess.run(
+        spectratac(
+            "record",
+            "sim://?scene=press&speed=max",
+            "-o",
+            str(out),
+            "--samples",
+            "25",
+            "--leds",
+            "1000,0,0/0,0,1000",
+            "--integration-ms",
+            "100",
+            "--json",
+        ),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    summary = json.loads(run.stdout)
+    assert summary["samples"] >= 25 and summary["stopped_by"] == "samples"
+    assert summary["path"] == str(out) and summary["file_bytes"] == out.stat().st_size
+    rec = read_recording(out)
+    cfg = rec.configs[summary["config_id"]]["config"]
+    assert cfg["integration_ms"] == 100 and cfg["leds"] == [[[1000, 0, 0]] * 3, [[0, 0, 1000]] * 3]
+
+
+def test_bad_arguments_are_usage_or_clear_errors(tmp_path: Path) -> None:
+    run = subprocess.run(
+        spectratac("record", "sim://?scene=idle", "-o", str(tmp_path / "x.mcap"), "--leds", "2000"),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 3 and "--leds" in run.stderr
+    run = subprocess.run(
+        spectratac(
+            "record",
+            "sim://?scene=idle",
+            "--ft",
+            "netft://",
+            "-o",
+            str(tmp_path / "y.mcap"),
+            "--samples",
+            "3",
+        ),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 3 and "error" in run.stderr
+
+
+def test_sigint_stops_cleanly(tmp_path: Path) -> None:
+    out = tmp_path / "int.mcap"
+    proc = subprocess.Popen(
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    wait_for_frames(out, proc, 50)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 0, stderr
+    assert "stopped by interrupt" in stdout and "F/T samples" in stdout
+    assert "recording" in stderr  # the live progress display
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rec = read_recording(out)  # a finished file: no warning
+    assert rec.end is not None and rec.end["stopped_by"] == "interrupt"
+    assert rec.ft is not None and len(rec.ft) > 0
+
+
+def test_sigkill_keeps_the_flushed_prefix(tmp_path: Path) -> None:
+    out = tmp_path / "killed.mcap"
+    proc = subprocess.Popen(
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120", "--no-progress"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    seen = wait_for_frames(out, proc, 300)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=30)
+    assert proc.returncode == -signal.SIGKILL
+    with pytest.warns(TruncatedRecordingWarning, match="readable prefix"):
+        rec = read_recording(out)
+    assert rec.truncated and rec.end is None
+    assert rec.frames[: len(seen.frames)] == seen.frames  # nothing seen before the kill is lost
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    assert len(samples) >= 250
+    assert samples["sequence"][0] == 0 and np.all(np.diff(samples["sequence"].astype(int)) == 1)
+    assert rec.ft is not None and len(rec.ft) > 1000 and rec.labels
+    # the dataset builder takes the prefix too, and says so
+    run = subprocess.run(
+        spectratac("dataset", "build", str(out), "-o", str(tmp_path / "k.npz")),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "warning:" in run.stderr and "truncated" in run.stderr
+
+
+def test_recording_and_building_never_import_torch(tmp_path: Path) -> None:
+    code = f"""
+import sys
+from spectratac.cli import main
+assert main(["record", "sim://?scene=press&speed=5&ft=bota", "-o", {str(tmp_path / "t.mcap")!r},
+             "--samples", "10", "--no-progress"]) == 0
+assert main(["dataset", "build", {str(tmp_path / "t.mcap")!r}, "-o", {str(tmp_path / "t.npz")!r}]) == 0
+assert main(["dataset", "info", {str(tmp_path / "t.npz")!r}]) == 0
+print("torch" in sys.modules)
+"""
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "False"
