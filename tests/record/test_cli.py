@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -149,13 +148,14 @@ def test_sigkill_keeps_the_flushed_prefix(tmp_path: Path) -> None:
 
 
 def test_recording_and_building_never_import_torch(tmp_path: Path) -> None:
+    t_mcap, t_npz = str(tmp_path / "t.mcap"), str(tmp_path / "t.npz")
     code = f"""
 import sys
 from spectratac.cli import main
-assert main(["record", "sim://?scene=press&speed=5&ft=bota", "-o", {str(tmp_path / "t.mcap")!r},
+assert main(["record", "sim://?scene=press&speed=5&ft=bota", "-o", {t_mcap!r},
              "--samples", "10", "--no-progress"]) == 0
-assert main(["dataset", "build", {str(tmp_path / "t.mcap")!r}, "-o", {str(tmp_path / "t.npz")!r}]) == 0
-assert main(["dataset", "info", {str(tmp_path / "t.npz")!r}]) == 0
+assert main(["dataset", "build", {t_mcap!r}, "-o", {t_npz!r}]) == 0
+assert main(["dataset", "info", {t_npz!r}]) == 0
 print("torch" in sys.modules)
 """
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -116,7 +116,7 @@ def test_bad_files_are_named(tmp_path: Path) -> None:
     with pytest.raises(RecordingError, match="cannot create"):
         RecordingWriter(tmp_path / "no" / "such" / "dir.mcap", {})
     newer = tmp_path / "newer.mcap"
-    with RecordingWriter(newer, {"version": 99}) as w:
+    with RecordingWriter(newer, {"version": 99}):
         pass
     with pytest.raises(RecordingError, match="update spectratac"):
         read_recording(newer)
