@@ -60,7 +60,8 @@ def _build(target: Path, sources: list[Path], flags: list[str]) -> Path:
 
 def build_lib(out: Path = DEFAULT_OUT, build_id: str = "native") -> Path:
     """The core plus the native port as a shared library exporting only the stac_sim_* ABI."""
-    return _build(out / "libstac_sim.so", [*core_sources(), NATIVE / "stac_sim.c"],
+    return _build(out / "libstac_sim.so",
+                  [*core_sources(), NATIVE / "stac_sim.c", NATIVE / "veml_model.c"],
                   ["-O2", "-Wconversion", "-fPIC", "-shared", "-fvisibility=hidden",
                    f'-DSTAC_BUILD_ID="{build_id}"'])
 

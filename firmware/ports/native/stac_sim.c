@@ -4,15 +4,32 @@
 #include <string.h>
 
 #include "stac_app.h"
+#include "veml_model.h"
 
 #ifndef STAC_BUILD_ID
 #define STAC_BUILD_ID "native"
 #endif
 
+_Static_assert(sizeof(stac_sim_window_t) == 56u, "stac_sim_window_t layout is part of the ABI");
+_Static_assert(STAC_SIM_I2C_OK == VEML_MODEL_OK && STAC_SIM_I2C_NACK == VEML_MODEL_NACK &&
+                   STAC_SIM_I2C_BUS_ERROR == VEML_MODEL_BUS_ERROR,
+               "model results are I2C results");
+
+#define SENSORS 3u
+
 struct stac_sim {
     stac_app_t app;
     stac_sim_callbacks_t cb;
     uint32_t now;
+    uint64_t now64; /* unwrapped device clock */
+    /* Sensor models (stac_sim_init_models) and the plan of windows computed ahead. */
+    uint32_t models_on;
+    stac_sim_window_fn window;
+    veml_model_t models[SENSORS];
+    uint32_t plan_n;
+    uint32_t plan_next[SENSORS];
+    uint32_t plan_evaluated;
+    stac_sim_window_t plan[STAC_SIM_PLAN_MAX];
     uint8_t uid[STAC_UID_SIZE];
     uint32_t rx_len; /* bytes waiting in rx; consumed from rx_pos */
     uint32_t rx_pos;
@@ -24,11 +41,47 @@ static uint32_t hal_clock(void *ctx) {
     return sim->cb.clock_us != NULL ? sim->cb.clock_us(sim->cb.user) : sim->now;
 }
 
+/* A 32-bit time within the current step as 64-bit (never before the step's time). */
+static uint64_t to64(const stac_sim_t *sim, uint32_t t32) {
+    return sim->now64 + (uint64_t)((uint32_t)(t32 - (uint32_t)sim->now64) % 0x80000000u);
+}
+
+/* Window counts for a model: from the plan when it holds the entry this sensor is due to read,
+ * else from the caller. */
+static int32_t model_window(void *ctx, uint8_t index, uint64_t t0_us, uint64_t t1_us,
+                            uint16_t conf, uint16_t counts[VEML_MODEL_CHANNELS],
+                            uint8_t *saturated) {
+    stac_sim_t *sim = (stac_sim_t *)ctx;
+    const uint32_t j = sim->plan_next[index];
+    if (j < sim->plan_n && j <= sim->plan_evaluated &&
+        sim->plan_evaluated - j <= STAC_SIM_SHARED_WINDOWS) {
+        const stac_sim_window_t *w = &sim->plan[j];
+        if (w->t0_us == t0_us && w->t1_us == t1_us &&
+            w->conf == (uint16_t)(conf & VEML_MODEL_WINDOW_BITS)) {
+            memcpy(counts, w->counts[index], sizeof w->counts[index]);
+            *saturated = w->saturated[index];
+            sim->plan_next[index] = j + 1u;
+            if (j == sim->plan_evaluated) {
+                sim->plan_evaluated++;
+            }
+            return 0;
+        }
+    }
+    return sim->window(sim->cb.user, index, t0_us, t1_us, conf, counts, saturated);
+}
+
 static int32_t hal_i2c(void *ctx, uint8_t bus, uint8_t addr7, const uint8_t *wr, uint32_t wr_len,
                        uint8_t *rd, uint32_t rd_len, uint32_t timeout_us) {
     stac_sim_t *sim = (stac_sim_t *)ctx;
     if (rd_len > 0u) {
         memset(rd, 0, rd_len); /* a callback that fails half-way leaves no stale bytes */
+    }
+    if (sim->models_on != 0u) {
+        if (bus >= SENSORS || addr7 != 0x10u) {
+            return STAC_SIM_I2C_NACK;
+        }
+        return veml_model_transfer(&sim->models[bus], to64(sim, hal_clock(sim)), wr, wr_len, rd,
+                                   rd_len);
     }
     return sim->cb.i2c_transfer(sim->cb.user, hal_clock(sim), bus, addr7, wr, wr_len, rd, rd_len,
                                 timeout_us);
@@ -36,6 +89,7 @@ static int32_t hal_i2c(void *ctx, uint8_t bus, uint8_t addr7, const uint8_t *wr,
 
 static void hal_pwm(void *ctx, uint8_t led, uint8_t colour, uint16_t duty) {
     stac_sim_t *sim = (stac_sim_t *)ctx;
+    sim->plan_n = 0u; /* windows computed ahead assumed the LEDs as they were */
     sim->cb.pwm_set(sim->cb.user, hal_clock(sim), led, colour, duty);
 }
 
@@ -83,15 +137,10 @@ static void copy_text(char dst[STAC_TEXT_SIZE], const char *src) {
     }
 }
 
-int32_t stac_sim_init(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks, const char *board,
-                      uint32_t capabilities, const uint8_t *uid, uint32_t baud, uint32_t now_us) {
-    if (sim == NULL || callbacks == NULL || callbacks->i2c_transfer == NULL ||
-        callbacks->pwm_set == NULL || callbacks->uart_tx == NULL) {
-        return -1;
-    }
-    memset(sim, 0, sizeof *sim);
-    sim->cb = *callbacks;
+static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
+                     const uint8_t *uid, uint32_t baud, uint32_t now_us) {
     sim->now = now_us;
+    sim->now64 = now_us;
     if (uid != NULL) {
         memcpy(sim->uid, uid, STAC_UID_SIZE);
     }
@@ -110,12 +159,99 @@ int32_t stac_sim_init(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks, co
         .unique_id = hal_uid,
     };
     stac_app_init(&sim->app, &hal, &id, now_us);
+}
+
+int32_t stac_sim_init(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks, const char *board,
+                      uint32_t capabilities, const uint8_t *uid, uint32_t baud, uint32_t now_us) {
+    if (sim == NULL || callbacks == NULL || callbacks->i2c_transfer == NULL ||
+        callbacks->pwm_set == NULL || callbacks->uart_tx == NULL) {
+        return -1;
+    }
+    memset(sim, 0, sizeof *sim);
+    sim->cb = *callbacks;
+    init_app(sim, board, capabilities, uid, baud, now_us);
     return 0;
 }
 
+int32_t stac_sim_init_models(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks,
+                             stac_sim_window_fn window, uint32_t present_mask, const char *board,
+                             uint32_t capabilities, const uint8_t *uid, uint32_t baud,
+                             uint32_t now_us) {
+    if (sim == NULL || callbacks == NULL || window == NULL || callbacks->pwm_set == NULL ||
+        callbacks->uart_tx == NULL) {
+        return -1;
+    }
+    memset(sim, 0, sizeof *sim);
+    sim->cb = *callbacks;
+    sim->models_on = 1u;
+    sim->window = window;
+    for (uint32_t k = 0u; k < SENSORS; k++) {
+        veml_model_init(&sim->models[k], (uint8_t)k, (uint8_t)((present_mask >> k) & 1u),
+                        model_window, sim);
+    }
+    init_app(sim, board, capabilities, uid, baud, now_us);
+    return 0;
+}
+
+void stac_sim_step64(stac_sim_t *sim, uint64_t now_us) {
+    sim->now64 = now_us;
+    sim->now = (uint32_t)now_us;
+    stac_app_step(&sim->app, sim->now);
+}
+
 void stac_sim_step(stac_sim_t *sim, uint32_t now_us) {
-    sim->now = now_us;
-    stac_app_step(&sim->app, now_us);
+    stac_sim_step64(sim, sim->now64 + (uint32_t)(now_us - (uint32_t)sim->now64));
+}
+
+uint64_t stac_sim_now64(const stac_sim_t *sim) {
+    return sim->now64;
+}
+
+uint32_t stac_sim_run(stac_sim_t *sim, uint32_t max_steps) {
+    uint32_t steps = 0u;
+    while (steps < max_steps && sim->app.streaming && sim->rx_len == sim->rx_pos) {
+        stac_sim_step64(sim, to64(sim, stac_sim_next_wake_us(sim)));
+        steps++;
+    }
+    return steps;
+}
+
+uint32_t stac_sim_plan(stac_sim_t *sim, const stac_sim_window_t *windows, uint32_t n,
+                       const uint32_t next[3], uint32_t evaluated) {
+    if (sim->models_on == 0u) {
+        return 0u;
+    }
+    if (n > STAC_SIM_PLAN_MAX) {
+        n = STAC_SIM_PLAN_MAX;
+    }
+    if (n > 0u) {
+        memcpy(sim->plan, windows, n * sizeof *windows);
+    }
+    sim->plan_n = n;
+    for (uint32_t k = 0u; k < SENSORS; k++) {
+        sim->plan_next[k] = next[k];
+    }
+    sim->plan_evaluated = evaluated;
+    return n;
+}
+
+void stac_sim_plan_progress(const stac_sim_t *sim, uint32_t next[3], uint32_t *evaluated) {
+    for (uint32_t k = 0u; k < SENSORS; k++) {
+        next[k] = sim->plan_next[k];
+    }
+    *evaluated = sim->plan_evaluated;
+}
+
+int32_t stac_sim_sensor_transfer(stac_sim_t *sim, uint8_t bus, uint64_t now_us,
+                                 const uint8_t *wr, uint32_t wr_len, uint8_t *rd,
+                                 uint32_t rd_len) {
+    if (sim->models_on == 0u || bus >= SENSORS) {
+        return -1;
+    }
+    if (rd_len > 0u) {
+        memset(rd, 0, rd_len);
+    }
+    return veml_model_transfer(&sim->models[bus], now_us, wr, wr_len, rd, rd_len);
 }
 
 uint32_t stac_sim_rx_feed(stac_sim_t *sim, const uint8_t *data, uint32_t len) {

@@ -104,6 +104,65 @@ STAC_SIM_API uint32_t stac_sim_next_wake_us(const stac_sim_t *sim);
 /* 1 while streaming SAMPLEs, else 0. */
 STAC_SIM_API uint32_t stac_sim_streaming(const stac_sim_t *sim);
 
+/* ---- Additions within ABI 1 (existing entry points unchanged) ----------------------------
+ *
+ * 64-bit time: the instance keeps an unwrapped microsecond clock (stac_sim_step unwraps its
+ * 32-bit argument forwards); stac_sim_step64 sets it directly. A 32-bit time t inside a step
+ * maps to now64 + ((t - now64) mod 2^32) mod 2^31. */
+STAC_SIM_API void stac_sim_step64(stac_sim_t *sim, uint64_t now_us);
+STAC_SIM_API uint64_t stac_sim_now64(const stac_sim_t *sim);
+
+/* Free-running: while streaming and no fed bytes wait, step at each next wake-up time (what a
+ * caller running "as fast as possible" does), at most max_steps times; returns the steps run. */
+STAC_SIM_API uint32_t stac_sim_run(stac_sim_t *sim, uint32_t max_steps);
+
+/* Sensor models inside the library (a test double of the three VEML3328s, veml_model.h):
+ * register reads and writes are answered in C, and the caller is asked only for the counts of
+ * each completed integration window. The caller may hand over counts it computed ahead for
+ * windows it expects (a plan); a window that matches the plan entry a sensor is due to read
+ * (same start, end and CONF window bits) is answered from it without a callback. */
+#define STAC_SIM_PLAN_MAX 256u
+/* A plan entry already read by one sensor is shared with another sensor only while it is among
+ * the last this many windows evaluated (the twin's cache of window optics). */
+#define STAC_SIM_SHARED_WINDOWS 8u
+
+/* Counts (R, G, B, C, IR) for sensor's window [t0, t1) under CONF `conf`; return 0, or nonzero
+ * if they cannot be computed (the firmware then sees a bus error). `user` as in callbacks. */
+typedef int32_t (*stac_sim_window_fn)(void *user, uint8_t sensor, uint64_t t0_us, uint64_t t1_us,
+                                      uint16_t conf, uint16_t *counts, uint8_t *saturated);
+
+typedef struct stac_sim_window {
+    uint64_t t0_us;
+    uint64_t t1_us;
+    uint16_t conf; /* CONF bits the counts depend on: IT, SENS, gain, DG, SD_ALS (0x7C70) */
+    uint16_t counts[3][5]; /* per sensor: R, G, B, C, IR */
+    uint8_t saturated[3];
+    uint8_t reserved[5];
+} stac_sim_window_t; /* 56 bytes, no implicit padding */
+
+/* Like stac_sim_init, with the sensor models on buses 0..2 (bit k of present_mask: a sensor
+ * answers on bus k). callbacks->i2c_transfer is not used and may be NULL. */
+STAC_SIM_API int32_t stac_sim_init_models(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks,
+                                          stac_sim_window_fn window, uint32_t present_mask,
+                                          const char *board, uint32_t capabilities,
+                                          const uint8_t *uid, uint32_t baud, uint32_t now_us);
+
+/* Replace the plan with n (<= STAC_SIM_PLAN_MAX) windows copied from `windows`. next[k]: the
+ * entry sensor k reads next; evaluated: entries already evaluated (read by some sensor). Any
+ * LED change drops the plan. Returns n taken (0 if the instance has no models). */
+STAC_SIM_API uint32_t stac_sim_plan(stac_sim_t *sim, const stac_sim_window_t *windows, uint32_t n,
+                                    const uint32_t next[3], uint32_t evaluated);
+
+/* How far the sensors got in the plan (also after it was dropped). */
+STAC_SIM_API void stac_sim_plan_progress(const stac_sim_t *sim, uint32_t next[3],
+                                         uint32_t *evaluated);
+
+/* One transfer straight to sensor model `bus` at time now_us (tests): a STAC_SIM_I2C_* code,
+ * or -1 without models. */
+STAC_SIM_API int32_t stac_sim_sensor_transfer(stac_sim_t *sim, uint8_t bus, uint64_t now_us,
+                                              const uint8_t *wr, uint32_t wr_len, uint8_t *rd,
+                                              uint32_t rd_len);
+
 #ifdef __cplusplus
 }
 #endif

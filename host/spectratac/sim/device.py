@@ -1,9 +1,16 @@
 """`SimDevice`: the firmware core (native build) with the twin answering on its buses.
 
-The core runs unmodified: its I2C transfers reach the twin's register-level VEML3328 models,
-its LED PWM settings drive the twin's LED timeline, and its UART frames go to `on_tx`. Time is
-whatever the caller says it is (`step(now_us)`), so the device can run in real time or as
-fast as the host can go.
+The core runs unmodified: its I2C transfers reach register-level VEML3328 models, its LED PWM
+settings drive the twin's LED timeline, and its UART frames go to `on_tx`. Time is whatever
+the caller says it is (`step(now_us)`), so the device can run in real time or as fast as the
+host can go (`run()`).
+
+Register models: by default the native library's (firmware/ports/native/veml_model.c, a C
+mirror of the twin's `Veml3328`) answer the register reads, and the twin is asked only for
+the counts of each completed window (`TwinRig.read_window`); windows the twin evaluated ahead
+(its lookahead plan) are handed to the library, which answers them without calling back.
+`registers="python"` routes every transfer to the twin's own `Veml3328` instead; both give
+the same frames for the same seed (tests/device/test_sim_models.py).
 
 >>> from spectratac.sim.scenes import make_scene
 >>> frames = []
@@ -20,12 +27,14 @@ from __future__ import annotations
 import ctypes
 import logging
 from collections.abc import Callable, Iterable
+from typing import Literal
 
 import numpy as np
 
 from spectratac.sim import native
+from spectratac.twin.electronics import SD_ALS, SensorConfig
 from spectratac.twin.errors import I2CNack
-from spectratac.twin.rig import TwinRig
+from spectratac.twin.rig import TwinRig, WindowPlan
 from spectratac.twin.scene import Scene
 from spectratac.twin.unit import UnitParams
 
@@ -45,34 +54,61 @@ class SimDevice:
         board: str = "native-sim",
         uid: bytes | None = None,
         baud: int = 0,
+        registers: Literal["native", "python"] = "native",
+        lookahead: bool = True,
     ) -> None:
+        if registers not in ("native", "python"):
+            raise ValueError(f"registers={registers!r}: choose 'native' or 'python'")
         self.lib = native.load()
-        self.rig = TwinRig(scene, unit, seed)
+        self.rig = TwinRig(scene, unit, seed, lookahead=lookahead)
         self.absent = frozenset(absent)
+        self.registers = registers
         self.on_tx = on_tx
         self.now_us = 0  # 64-bit device time of the current step
         self.i2c_errors = 0  # exceptions inside the twin, reported as bus errors
         self._duties = np.zeros((3, 3))
         self._duties_dirty_at: int | None = None
+        self._confs: dict[int, tuple[SensorConfig, bool]] = {}
+        self._pushed: WindowPlan | None = None  # the plan the library holds
+        self._plan_rows: tuple[WindowPlan, np.ndarray] | None = None
+        self._next = (ctypes.c_uint32 * 3)()
+        self._evaluated = ctypes.c_uint32()
         self._mem = (ctypes.c_uint64 * ((self.lib.stac_sim_sizeof() + 7) // 8))()
         self._ptr = ctypes.cast(self._mem, ctypes.c_void_p)
         # keep the callback objects alive as long as the instance
+        python_regs = registers == "python"
         self._cb = native.Callbacks(
             None,
-            native.I2C_FN(self._i2c),
+            native.I2C_FN(self._i2c) if python_regs else native.I2C_FN(),
             native.PWM_FN(self._pwm),
             native.TX_FN(self._tx),
             native.CLOCK_FN(),
         )
+        self._window_cb = native.WINDOW_FN(self._window)
         uid = (
             uid
             if uid is not None
             else bytes(np.random.default_rng(seed).integers(0, 256, 12, dtype=np.uint8))
         )
         caps = self.lib.stac_sim_default_capabilities()
-        err = self.lib.stac_sim_init(
-            self._ptr, ctypes.byref(self._cb), board.encode("ascii"), caps, uid, baud, 0
-        )
+        name = board.encode("ascii")
+        if python_regs:
+            err = self.lib.stac_sim_init(
+                self._ptr, ctypes.byref(self._cb), name, caps, uid, baud, 0
+            )
+        else:
+            present = sum(1 << k for k in range(3) if k not in self.absent)
+            err = self.lib.stac_sim_init_models(
+                self._ptr,
+                ctypes.byref(self._cb),
+                self._window_cb,
+                present,
+                name,
+                caps,
+                uid,
+                baud,
+                0,
+            )
         if err != 0:
             raise native.NativeBuildError(f"stac_sim_init failed ({err})")
 
@@ -80,8 +116,16 @@ class SimDevice:
     def step(self, now_us: int) -> None:
         """Run one superloop pass at device time `now_us` (64-bit µs, never decreasing)."""
         self.now_us = max(now_us, self.now_us)
-        self.lib.stac_sim_step(self._ptr, self.now_us & 0xFFFF_FFFF)
+        self.lib.stac_sim_step64(self._ptr, self.now_us)
         self._flush_duties()
+
+    def run(self, max_steps: int) -> int:
+        """While streaming (and no fed bytes wait), step at each next wake-up time, at most
+        `max_steps` times: `step(next_wake_us())` in a loop, run inside the library."""
+        steps = int(self.lib.stac_sim_run(self._ptr, max_steps))
+        self.now_us = int(self.lib.stac_sim_now64(self._ptr))
+        self._flush_duties()
+        return steps
 
     def feed(self, data: bytes) -> None:
         """Bytes from the host; steps the core at the current time if its buffer fills."""
@@ -123,11 +167,62 @@ class SimDevice:
             log.exception("twin raised inside an I2C transfer")
             return native.I2C_BUS_ERROR
 
+    def _window(self, _user, sensor, t0, t1, conf, counts, saturated):  # type: ignore[no-untyped-def]
+        """Counts of a completed window for the native models (the plan did not have it)."""
+        try:
+            self._flush_duties()
+            self._sync_plan()
+            cfg = self._confs.get(conf)
+            if cfg is None:
+                cfg = self._confs[conf] = (SensorConfig.from_conf(conf), bool(conf & SD_ALS))
+            values, sat = self.rig.read_window(sensor, t0, t1, cfg[0], sd_als=cfg[1])
+            for i, v in enumerate(values.tolist()):
+                counts[i] = v
+            saturated[0] = sat
+            return 0
+        except Exception:  # a twin bug must not crash the firmware: report it as a bus error
+            self.i2c_errors += 1
+            log.exception("twin raised computing a window's counts")
+            return 1
+        finally:
+            self._push_plan()
+
+    def _sync_plan(self) -> None:
+        """Tell the twin which plan entries the library handed out since the last push."""
+        if self._pushed is not None and self._pushed is self.rig.plan:
+            self.lib.stac_sim_plan_progress(self._ptr, self._next, ctypes.byref(self._evaluated))
+            self.rig.plan_progress(list(self._next), self._evaluated.value)
+
+    def _push_plan(self) -> None:
+        plan = self.rig.plan
+        if plan is None and self._pushed is None:
+            return
+        self._pushed = plan
+        if plan is None:
+            self.lib.stac_sim_plan(self._ptr, None, 0, self._next, 0)
+            return
+        if self._plan_rows is None or self._plan_rows[0] is not plan:
+            rows = np.zeros(plan.n, native.WINDOW_DTYPE)
+            rows["t0_us"] = [k[0] for k in plan.keys]
+            rows["t1_us"] = [k[1] for k in plan.keys]
+            rows["conf"] = (plan.cfg.to_conf() | (SD_ALS if plan.sd_als else 0)) & (
+                native.WINDOW_BITS
+            )
+            rows["counts"] = plan.counts
+            rows["saturated"] = plan.saturated
+            self._plan_rows = (plan, rows)
+        rows = self._plan_rows[1]
+        self._next[:] = plan.next
+        self.lib.stac_sim_plan(self._ptr, rows.ctypes.data, plan.n, self._next, plan.evaluated)
+
     def _pwm(self, _user, now32, led, colour, duty):  # type: ignore[no-untyped-def]
         try:
+            now = self._t64(now32)
+            if self._duties_dirty_at is not None and now != self._duties_dirty_at:
+                self._flush_duties()  # an earlier batch: its duties held from its own time
             self._duties[led, colour] = duty / 1000.0
             if self._duties_dirty_at is None:
-                self._duties_dirty_at = self._t64(now32)
+                self._duties_dirty_at = now
         except Exception:
             log.exception("bad PWM call from the firmware")
 

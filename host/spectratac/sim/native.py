@@ -9,9 +9,11 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import threading
-from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_void_p
+from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_uint64, c_void_p
 from pathlib import Path
 from types import ModuleType
+
+import numpy as np
 
 from spectratac.errors import SpectraTacError
 
@@ -36,6 +38,24 @@ I2C_FN = ctypes.CFUNCTYPE(
 PWM_FN = ctypes.CFUNCTYPE(None, c_void_p, c_uint32, c_uint8, c_uint8, c_uint16)
 TX_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p, c_uint32, POINTER(c_uint8), c_uint32)
 CLOCK_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p)
+WINDOW_FN = ctypes.CFUNCTYPE(
+    c_int32, c_void_p, c_uint8, c_uint64, c_uint64, c_uint16, POINTER(c_uint16), POINTER(c_uint8)
+)
+PLAN_MAX = 256  # STAC_SIM_PLAN_MAX
+SHARED_WINDOWS = 8  # STAC_SIM_SHARED_WINDOWS
+WINDOW_BITS = 0x7C70  # CONF bits a window's counts depend on (IT, SENS, gain, DG, SD_ALS)
+#: stac_sim_window_t: one window computed ahead, as the library stores it
+WINDOW_DTYPE = np.dtype(
+    [
+        ("t0_us", "<u8"),
+        ("t1_us", "<u8"),
+        ("conf", "<u2"),
+        ("counts", "<u2", (3, 5)),
+        ("saturated", "u1", (3,)),
+        ("reserved", "u1", (5,)),
+    ]
+)
+assert WINDOW_DTYPE.itemsize == 56
 
 
 class Callbacks(ctypes.Structure):
@@ -86,12 +106,16 @@ def build() -> Path:
 
 
 def load() -> ctypes.CDLL:
-    """The loaded library with argument types declared (built on first use)."""
+    """The loaded library with argument types declared (built on first use).
+
+    Loaded as a PyDLL: calls keep the GIL. A CDLL call releases it and every Python callback
+    takes it back, so with another thread waiting (the host reading the stream) each of a
+    step's callbacks became a thread switch; a step is microseconds of C, holding is cheaper."""
     global _lib
     with _lock:
         if _lib is not None:
             return _lib
-        lib = declare(ctypes.CDLL(str(build())))
+        lib = declare(ctypes.PyDLL(str(build())))
         if lib.stac_sim_abi_version() != ABI_VERSION:
             raise NativeBuildError(
                 f"native firmware ABI {lib.stac_sim_abi_version()} != {ABI_VERSION} expected by "
@@ -124,4 +148,37 @@ def declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.stac_sim_next_wake_us.argtypes = [c_void_p]
     lib.stac_sim_streaming.restype = c_uint32
     lib.stac_sim_streaming.argtypes = [c_void_p]
+    # Additions within ABI 1: 64-bit time, free-running, native sensor models with a plan.
+    lib.stac_sim_step64.restype = None
+    lib.stac_sim_step64.argtypes = [c_void_p, c_uint64]
+    lib.stac_sim_now64.restype = c_uint64
+    lib.stac_sim_now64.argtypes = [c_void_p]
+    lib.stac_sim_run.restype = c_uint32
+    lib.stac_sim_run.argtypes = [c_void_p, c_uint32]
+    lib.stac_sim_init_models.restype = c_int32
+    lib.stac_sim_init_models.argtypes = [
+        c_void_p,
+        POINTER(Callbacks),
+        WINDOW_FN,
+        c_uint32,
+        ctypes.c_char_p,
+        c_uint32,
+        c_void_p,
+        c_uint32,
+        c_uint32,
+    ]
+    lib.stac_sim_plan.restype = c_uint32
+    lib.stac_sim_plan.argtypes = [c_void_p, c_void_p, c_uint32, POINTER(c_uint32), c_uint32]
+    lib.stac_sim_plan_progress.restype = None
+    lib.stac_sim_plan_progress.argtypes = [c_void_p, POINTER(c_uint32), POINTER(c_uint32)]
+    lib.stac_sim_sensor_transfer.restype = c_int32
+    lib.stac_sim_sensor_transfer.argtypes = [
+        c_void_p,
+        c_uint8,
+        c_uint64,
+        ctypes.c_char_p,
+        c_uint32,
+        c_void_p,
+        c_uint32,
+    ]
     return lib

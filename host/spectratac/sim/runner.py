@@ -15,6 +15,9 @@ import time
 from spectratac.sim.device import SimDevice
 
 MAX = "max"
+#: Steps per library call at speed="max": host bytes are looked at between calls, so this
+#: bounds command latency (a step is ~30 µs of simulated device work).
+RUN_STEPS = 32
 
 
 class DeviceRunner:
@@ -77,11 +80,11 @@ class DeviceRunner:
             if data:
                 dev.feed(data)
                 dev.step(dev.now_us)  # answer commands without waiting for the next wake
-            wake = dev.next_wake_us()
             if fast and dev.streaming:
-                dev.step(wake)
+                dev.run(RUN_STEPS)  # step(next_wake_us()) RUN_STEPS times, inside the library
                 wall0, dev0 = time.monotonic(), dev.now_us  # paced time resumes from here
                 continue
+            wake = dev.next_wake_us()
             now = dev0 + int((time.monotonic() - wall0) * 1e6 * rate)
             if wake <= now:
                 dev.step(now)

@@ -100,9 +100,18 @@ def digitise(
 
     Returns counts (same shape, uint16) and a saturation flag per sensor (last axis reduced).
     """
+    return digitise_noise(analog, rng.standard_normal(np.shape(analog)), cfg, unit)
+
+
+def digitise_noise(
+    analog: F64, noise: F64, cfg: SensorConfig, unit: UnitParams
+) -> tuple[NDArray[np.uint16], NDArray[np.bool_]]:
+    """`digitise` with its standard-normal draws given (same shape as `analog`), so that
+    draws made in bulk ahead of time give the same counts as draws made one window at a time.
+    """
     mean = np.maximum(np.nan_to_num(analog, nan=0.0, posinf=1e12), 0.0)
     var = mean * (cfg.gain / unit.electrons_per_count) + unit.read_noise_counts**2
-    noisy = mean + np.sqrt(var) * rng.standard_normal(mean.shape)
+    noisy = mean + np.sqrt(var) * noise
     digital = np.rint(np.clip(noisy, 0.0, 1e9)) * cfg.dg
     clipped = np.minimum(digital, FULL_SCALE)
     saturated = np.any(digital >= FULL_SCALE, axis=-1)
