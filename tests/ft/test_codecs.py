@@ -81,7 +81,7 @@ def test_bota_frames_round_trip(frames: tuple) -> None:
 damage_kind = st.sampled_from(["flip", "burst", "insert", "delete", "garbage_between"])
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(
     n=st.integers(2, 60),
     damage=st.lists(

@@ -36,6 +36,7 @@ from spectratac.sim.ft_source import FTSource
 
 SINC_CLOCK_HZ = 51200.0
 TEMPERATURE_C = 31.5
+PATIENCE_S = 0.5  # how long a write waits for a host that has been reading
 
 
 class BotaServer:
@@ -62,6 +63,7 @@ class BotaServer:
         self.dropped = 0  # frames lost on purpose (loss) or because nobody read them
         self.corrupted = 0
         self._stop = threading.Event()
+        self._host_reading = False
         self._write(b"App Init\r\n")
         self._thread = threading.Thread(target=self._run, name="sim-bota", daemon=True)
         self._thread.start()
@@ -165,9 +167,23 @@ class BotaServer:
             self.dropped += n - len(vanish)
 
     def _write(self, data: bytes) -> bool:
-        """Write what the pty takes now; a host that does not read loses the rest."""
-        try:
-            written = os.write(self._fd, data)
-        except (BlockingIOError, OSError):
-            return False
-        return written == len(data)
+        """Write to the pty. While a host keeps up, wait (bounded) for it to drain the pty:
+        at speed > 1 the simulated link is far faster than a real UART, and a host thread
+        that is briefly descheduled should not see losses a real sensor would not cause.
+        A host that stops reading loses what does not fit, like behind a real adapter."""
+        view = memoryview(data)
+        deadline = time.monotonic() + (PATIENCE_S if self._host_reading else 0.0)
+        while view:
+            try:
+                view = view[os.write(self._fd, view) :]
+                continue
+            except BlockingIOError:
+                pass
+            except OSError:
+                break
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            select.select([], [self._fd], [], min(remaining, 0.02))
+        self._host_reading = not view
+        return not view
