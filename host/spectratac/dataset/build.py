@@ -97,11 +97,12 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
-    if sim:
+    if source == "scene" and sim:
         t_scene = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
         region, in_contact, press = scene_labels(rebuild_scene(sim), t_scene)
     elif source == "guided":
-        region, press = guided_labels(rec.labels, (windows.t_start + windows.t_end) / 2, force)
+        events = [e for e in rec.labels if e.get("source") == "guided"]
+        region, press = guided_labels(events, (windows.t_start + windows.t_end) / 2, force)
         in_contact = ft_contact(force, opts.contact_n)
     else:
         region = np.full(len(samples), -1, np.int8)

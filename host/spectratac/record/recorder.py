@@ -160,7 +160,8 @@ class Recorder:
             "url": self.sensor.url,
             "ft_url": getattr(self.ft, "url", None),
             "request": asdict(opts) | {"leds": _listify(opts.leds)},
-            "labels": "scene" if self.labeler else "guided" if self.guided else "none",
+            # what the dataset's labels come from; a sim session may still be guided
+            "labels": "guided" if self.guided else "scene" if self.labeler else "none",
             **self.session,
         }
         writer = RecordingWriter(self.path, session, ft_dtype=ft_dtype, flush_s=opts.flush_s)

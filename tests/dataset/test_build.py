@@ -1,0 +1,311 @@
+"""Recorded sessions to datasets: targets against the scene's truth, labels, metadata,
+F/T dropouts (NaN, flagged, never interpolated), configurations, truncated files, the CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from spectratac.dataset import Dataset, DatasetError
+from spectratac.dataset.align import ft_host_times
+from spectratac.dataset.build import BuildOptions, build_datasets, session_datasets
+from spectratac.dataset.frames import recorded_samples, unwrap_us
+from spectratac.dataset.labels import guided_labels, rebuild_scene
+from spectratac.protocol import messages as m
+from spectratac.protocol.framing import decode_frame, encode_frame
+from spectratac.record import (
+    GuidedProtocol,
+    RecordOptions,
+    TruncatedRecordingWarning,
+    read_recording,
+    record_url,
+)
+
+
+def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "spectratac", *args], capture_output=True, text=True, timeout=120
+    )
+
+
+@pytest.fixture(scope="module")
+def tour(tour_mcap: Path) -> Dataset:
+    [ds] = build_datasets([tour_mcap])
+    return ds
+
+
+def scene_windows(ds: Dataset, speed: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+    """Integration windows in scene time (= the simulated device clock)."""
+    t1 = ds.device_time_us / 1e6
+    return t1 - (ds.t_end - ds.t_start) * speed, t1
+
+
+def window_truth(ds: Dataset, scene_name_seed: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Mean normal load over each window, and the region at its centre."""
+    scene = rebuild_scene(scene_name_seed)
+    t0, t1 = scene_windows(ds)
+    sub = t0[:, None] + (t1 - t0)[:, None] * (np.arange(16) + 0.5) / 16
+    normal = scene.contact(sub).normal.mean(axis=1)
+    return normal, scene.contact((t0 + t1) / 2).region
+
+
+def test_targets_follow_the_scene(tour: Dataset, tour_mcap: Path) -> None:
+    sim = tour.meta["sessions"][0]
+    normal, _ = window_truth(tour, {"scene": sim["scene"], "seed": sim["seed"]})
+    ok = tour.target_valid
+    assert ok.mean() > 0.95
+    fz = tour.targets[ok, 2]
+    assert np.corrcoef(fz, -normal[ok])[0, 1] > 0.98
+    assert np.sqrt(np.mean((fz + normal[ok]) ** 2)) < 0.3  # N, noise + edge timing
+    pressed = ok & (normal > 2.0)
+    assert pressed.sum() > 100 and np.all(tour.targets[pressed, 2] < -1.0)  # Fz < 0 in presses
+    free = ok & (normal == 0.0)
+    assert free.sum() > 20 and np.all(np.abs(tour.targets[free, 2]) < 0.3)
+
+
+def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) -> None:
+    """A paced simulation's truth: host = epoch + device / speed. The simulated device stamps
+    TIME_SYNC replies with the time of its last step (~0.5 ms host late at speed 10), so the
+    bound is a few ms; real hardware answers at once."""
+    sim = read_recording(tour_mcap).session["sim"]
+    truth = sim["epoch"] + tour.device_time_us / 1e6 / sim["speed"]
+    err = tour.t_end - truth
+    assert abs(np.median(err)) < 2e-3 and np.ptp(err) < 1e-3
+    assert np.all(tour.t_end > tour.t_start) and np.all(np.diff(tour.t_start) > 0)
+
+
+def test_labels_and_presses_match_the_scene(tour: Dataset, tour_mcap: Path) -> None:
+    rec = read_recording(tour_mcap)
+    sim = rec.session["sim"]
+    _, region = window_truth(tour, sim)
+    np.testing.assert_array_equal(tour.region, region)
+    assert set(np.unique(tour.region)) == {-1, *range(1, 10)}
+    events = {e["index"]: e for e in rec.labels}
+    t0, t1 = scene_windows(tour)
+    t_mid = (t0 + t1) / 2
+    for p in np.unique(tour.press[tour.press >= 0]):
+        rows = tour.press == p
+        e = events[int(p)]
+        assert np.all(
+            (t_mid[rows] >= e["scene_start"] - 1e-3) & (t_mid[rows] < e["scene_end"] + 1e-3)
+        )
+        firm = rows & (tour.region > 0)
+        assert firm.any() and set(tour.region[firm]) == {e["region"]}
+    assert np.all(tour.region[tour.press < 0] == -1)
+    assert tour.in_contact[tour.region > 0].all()
+
+
+def test_metadata_names_unit_versions_configuration(
+    tour: Dataset, tour_mcap: Path, tmp_path: Path
+) -> None:
+    rec = read_recording(tour_mcap)
+    meta = tour.meta
+    assert meta["kind"] == "spectratac" and meta["labels"] == "scene"
+    assert meta["unit_id"] == rec.info["unit_id"] and len(meta["unit_id"]) == 24  # type: ignore[index]
+    assert (
+        meta["firmware_version"] == "0.1.0"
+        and meta["protocol_version"] == f"{m.PROTOCOL_MAJOR}.{m.PROTOCOL_MINOR}"
+    )
+    assert meta["definition_hash"] == f"0x{m.DEFINITION_HASH:08X}"
+    assert meta["config"] == next(iter(rec.configs.values()))["config"]
+    [session] = meta["sessions"]
+    assert session["scene"] == "tour" and session["ft_url"] == session["url"]
+    assert session["n"] == tour.n and session["lost"] == 0 and not session["truncated"]
+    assert session["clock"]["scale"] == 10.0 and session["ft_clock"]["method"] == "envelope"
+    assert (
+        np.all(np.diff(tour.sequence.astype(int)) == 1)
+        and tour.ft_count[tour.target_valid].min() > 10
+    )
+    back = Dataset.load(tour.save(tmp_path / "t.npz"))
+    assert back.meta == meta and set(back.arrays) == set(tour.arrays)
+
+
+def test_an_ft_dropout_leaves_nan_targets_never_interpolated(
+    tour_mcap: Path, tour: Dataset
+) -> None:
+    rec = read_recording(tour_mcap)
+    assert rec.ft is not None
+    arrival = rec.ft["host_time"]
+    g0 = arrival[0] + 0.4 * np.ptp(arrival)
+    g1 = g0 + 0.3  # host seconds without F/T: 3 scene seconds at speed 10
+    cut = dataclasses.replace(rec, ft=rec.ft[(arrival < g0) | (arrival >= g1)])
+    [ds] = session_datasets(cut)
+    inside = (ds.t_start > g0 + 0.03) & (ds.t_end < g1 - 0.03)
+    outside = (ds.t_end < g0 - 0.03) | (ds.t_start > g1 + 0.03)
+    assert inside.sum() > 30
+    assert not ds.target_valid[inside].any() and np.isnan(ds.targets[inside]).all()
+    assert ds.target_valid[outside].mean() == tour.target_valid[outside].mean()
+    np.testing.assert_allclose(
+        ds.targets[outside & tour.target_valid],
+        tour.targets[outside & tour.target_valid],
+        atol=0.05,
+    )
+    # every invalid row is NaN in every column, every valid row finite
+    assert np.isnan(ds.targets[~ds.target_valid]).all()
+    assert np.isfinite(ds.targets[ds.target_valid]).all()
+
+
+def test_lost_ft_samples_invalidate_exactly_the_windows_with_gaps(tmp_path: Path) -> None:
+    path = tmp_path / "lossy.mcap"
+    record_url(
+        "sim://?scene=tour&seed=2&speed=10&ft=bota&ft_loss=0.2", path, RecordOptions(duration_s=1.5)
+    )
+    rec = read_recording(path)
+    [ds] = session_datasets(rec)
+    assert 0.05 < ds.target_valid.mean() < 0.95  # bursts of >= 3 losses are common at 20 %
+    t, _ = ft_host_times(rec.ft, 10.0)  # type: ignore[arg-type]
+    period = np.median(np.diff(t))
+    big = np.flatnonzero(np.diff(t) > 3 * period)  # gaps wider than the default max gap
+    for i in np.flatnonzero(~ds.target_valid & (ds.t_start > t[0]) & (ds.t_end < t[-1])):
+        near = big[(t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i])]
+        assert len(near), "a window flagged invalid must straddle a real gap"
+    for i in np.flatnonzero(ds.target_valid):
+        assert not np.any((t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i]))
+    # a generous --max-gap-ms accepts the same windows: averages over what remains
+    [loose] = session_datasets(rec, BuildOptions(max_gap_ms=50.0))
+    assert loose.target_valid.mean() > 0.99
+
+
+def test_no_reference_sensor_gives_flagged_nan_targets(quick_mcaps: dict[str, Path]) -> None:
+    [ds] = build_datasets([quick_mcaps["a50"]])
+    assert ds.n >= 40 and not ds.target_valid.any() and np.isnan(ds.targets).all()
+    assert ds.meta["labels"] == "scene" and ds.in_contact.any()  # scene truth still labels
+
+
+def test_mixed_configurations_are_refused_unless_split(
+    quick_mcaps: dict[str, Path], tmp_path: Path
+) -> None:
+    paths = [quick_mcaps["a50"], quick_mcaps["c100"], quick_mcaps["b50"]]
+    with pytest.raises(DatasetError, match="--split"):
+        build_datasets(paths)
+    groups = build_datasets(paths, split=True)
+    assert sorted(len(g.meta["sessions"]) for g in groups) == [1, 2]
+    assert sorted(g.meta["config"]["integration_ms"] for g in groups) == [50, 100]
+    run = spectratac("dataset", "build", *map(str, paths), "-o", str(tmp_path / "d.npz"))
+    assert run.returncode == 3 and "--split" in run.stderr
+    run = spectratac(
+        "dataset", "build", *map(str, paths), "-o", str(tmp_path / "d.npz"), "--split", "--json"
+    )
+    assert run.returncode == 0, run.stderr
+    outputs = json.loads(run.stdout)["outputs"]
+    names = sorted(Path(o["path"]).name for o in outputs)
+    assert len(names) == 2 and names[0].startswith("d.100ms-g1-dg1-high-1step-")
+    assert names[1].startswith("d.50ms-g1-dg1-high-1step-")
+    assert {Dataset.load(o["path"]).n for o in outputs} == {o["n"] for o in outputs}
+
+
+def test_a_truncated_recording_builds_its_prefix(tour_mcap: Path, tmp_path: Path) -> None:
+    data = tour_mcap.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.warns(TruncatedRecordingWarning):
+        [ds] = build_datasets([cut])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        [full] = build_datasets([tour_mcap])
+    assert 0 < ds.n < full.n and ds.meta["sessions"][0]["truncated"]
+    np.testing.assert_array_equal(ds.sequence, full.sequence[: ds.n])
+    np.testing.assert_array_equal(ds.counts, full.counts[: ds.n])
+
+
+def test_guided_labels_need_a_firm_contact() -> None:
+    events = [
+        {"index": 0, "region": 7, "t_start": 0.0, "t_end": 1.0},
+        {"index": 1, "region": 3, "t_start": 2.0, "t_end": 3.0},
+    ]
+    t = np.array([-0.5, 0.2, 0.6, 1.5, 2.5, 2.7])
+    force = np.array(
+        [[0, 0, -3.0], [0, 0, -3.0], [np.nan] * 3, [0, 0, -3.0], [0.5, 0, -0.6], [0, 0, -0.2]]
+    )
+    region, press = guided_labels(events, t, force)
+    assert region.tolist() == [-1, 7, -1, -1, -1, -1] and press.tolist() == [-1, 0, 0, -1, 1, 1]
+
+
+def test_a_guided_session_labels_from_the_prompts(tmp_path: Path) -> None:
+    """A guided session on the simulated tour: prompted regions where the F/T is firm."""
+    import io
+
+    path = tmp_path / "guided.mcap"
+    guided = GuidedProtocol(
+        2, regions=[4, 8], countdown_s=0, hold_s=0.6, rest_s=0.2, out=io.StringIO()
+    )
+    record_url(
+        "sim://?scene=tour&seed=1&speed=10&ft=bota",
+        path,
+        RecordOptions(duration_s=10),
+        guided=guided,
+    )
+    [ds] = build_datasets([path])
+    assert ds.meta["labels"] == "guided"
+    assert set(np.unique(ds.press)) == {-1, 0, 1}
+    firm = np.linalg.norm(ds.targets[:, :3], axis=1) >= 1.0
+    np.testing.assert_array_equal(ds.region[(ds.press == 0) & firm], 4)
+    np.testing.assert_array_equal(ds.region[(ds.press == 1) & firm], 8)
+    assert np.all(ds.region[(ds.press < 0) | ~firm] == -1)
+    assert ((ds.press == 0) & firm).any()
+
+
+def test_info_command(tour: Dataset, tmp_path: Path) -> None:
+    path = tour.save(tmp_path / "tour.npz")
+    run = spectratac("dataset", "info", str(path))
+    assert run.returncode == 0, run.stderr
+    out = run.stdout
+    assert f"{tour.n} samples" in out and tour.meta["unit_id"] in out
+    assert "50 ms, gain x1" in out and "regions" in out and "Fz -" in out
+    info = json.loads(spectratac("dataset", "info", str(path), "--json").stdout)
+    assert info["n"] == tour.n and info["presses"] == len(np.unique(tour.press[tour.press >= 0]))
+    assert info["regions"]["5"] == int(np.sum(tour.region == 5))
+    bad = spectratac("dataset", "info", str(tmp_path / "missing.npz"))
+    assert bad.returncode == 3 and "cannot read" in bad.stderr
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    steps=st.lists(st.integers(0, (1 << 31) - 1), min_size=1, max_size=50),
+    start=st.integers(0, (1 << 32) - 1),
+)
+def test_unwrap_recovers_a_64_bit_clock(steps: list[int], start: int) -> None:
+    t = start + np.cumsum(np.array([0, *steps], dtype=np.int64))
+    np.testing.assert_array_equal(
+        unwrap_us((t % (1 << 32)).astype(np.uint32)), t - (start // (1 << 32) << 32)
+    )
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    kinds=st.lists(st.sampled_from(["sample", "ack", "log"]), max_size=30),
+    seed=st.integers(0, 1000),
+)
+def test_recorded_samples_picks_every_sample_frame(kinds: list[str], seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    raws, expect = [], []
+    for i, kind in enumerate(kinds):
+        if kind == "sample":
+            counts = rng.integers(0, 65536, (3, 5))
+            msg: m.Message = m.Sample(
+                sample_seq=len(expect),
+                t_start_us=100 * i,
+                t_end_us=100 * i + 50,
+                led_step=i % 3,
+                config_id=7,
+                counts=tuple(tuple(int(v) for v in row) for row in counts),
+            )
+            expect.append((i, counts))
+        elif kind == "ack":
+            msg = m.Ack(acked_type=2, acked_seq=i, config_id=7)
+        else:
+            msg = m.Log(level=1, text="hello")
+        raws.append(decode_frame(encode_frame(msg, seq=i)[:-1]).raw)
+    table = recorded_samples(raws, np.arange(len(raws), dtype=float))
+    assert len(table) == len(expect)
+    for row, (i, counts) in zip(table, expect, strict=True):
+        assert row["host_time"] == i and row["t_end_us"] - row["t_start_us"] == 50
+        np.testing.assert_array_equal(row["counts"], counts)
