@@ -29,6 +29,7 @@ VERB_MODULES: tuple[str, ...] = (
     "demo_cmd",
     "protocol_cmd",
     "twin_cmd",
+    "ft_cmd",
     "record_cmd",
     "dataset_cmd",
     "evaluate_cmd",

@@ -1,0 +1,196 @@
+"""`spectratac ft info|stream URL` and `spectratac sim ft --netft|--bota`: reference F/T
+sensors from the shell, and simulated ones served to other programs.
+
+    spectratac ft info netft://192.168.1.1 --json
+    spectratac ft stream bota:///dev/ttyUSB0 --count 1000 --format csv > ft.csv
+    spectratac sim ft --netft --port 49152 --scene calibration --speed 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from spectratac.cli.output import Table
+
+URL_HELP = "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, or sim://?…&ft=netft|bota"
+COLUMNS = ("sensor_time", "host_time", "sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("ft", help="reference force/torque sensors (Net F/T, Bota, CSV)")
+    verbs = p.add_subparsers(dest="ft_verb", metavar="<ft verb>", required=True)
+    info = verbs.add_parser("info", help="identity, scaling and rate of an F/T sensor")
+    info.add_argument("url", help=URL_HELP)
+    info.add_argument("--samples", type=int, default=200, help="records to read for a check")
+    info.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for it")
+    info.add_argument("--json", action="store_true", help="machine-readable output")
+    info.set_defaults(func=_info)
+    stream = verbs.add_parser("stream", help="print F/T records")
+    stream.add_argument("url", help=URL_HELP)
+    stream.add_argument("--count", type=int, default=20, help="records to print (0: forever)")
+    stream.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
+    stream.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for data")
+    stream.set_defaults(func=_stream)
+    _register_sim_ft(subparsers)
+
+
+def _register_sim_ft(subparsers: argparse._SubParsersAction) -> None:
+    """Add `ft` under the `sim` verb (registered by sim_cmd, listed earlier)."""
+    sim = subparsers.choices.get("sim")
+    actions = [a for a in sim._actions if isinstance(a, argparse._SubParsersAction)] if sim else []
+    if not actions:
+        return
+    p = actions[0].add_parser("ft", help="serve a simulated reference F/T sensor")
+    kind = p.add_mutually_exclusive_group(required=True)
+    kind.add_argument("--netft", action="store_true", help="ATI Net F/T: RDT on UDP + HTTP")
+    kind.add_argument("--bota", action="store_true", help="Bota serial sensor on a pty")
+    p.add_argument("--port", type=int, default=49152, help="netft: UDP port (0: any free)")
+    p.add_argument("--link", type=Path, help="bota: keep a symlink to the pty here")
+    p.add_argument("--scene", default="calibration", help="idle, press, tour, calibration, …")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--speed", default="1", help="time scale (a number: F/T needs a clock)")
+    p.add_argument("--rate", type=float, default=1000.0, help="samples per scene second")
+    p.add_argument("--loss", type=float, default=0.001, help="fraction of samples lost")
+    p.add_argument("--offset", type=float, default=0.05, help="sensor clock offset, s")
+    p.add_argument("--drift", type=float, default=1e-4, help="sensor clock drift (ratio - 1)")
+    p.add_argument("--json", action="store_true", help="announce the address as JSON")
+    p.set_defaults(func=_serve)
+
+
+# ------------------------------------------------------------------ ft info / stream
+def _info(args: argparse.Namespace) -> int:
+    from spectratac.ft import open_ft
+
+    with open_ft(args.url, timeout=args.timeout) as ft:
+        rows = ft.read(max(args.samples, 0), timeout=args.timeout) if args.samples else None
+        report: dict[str, Any] = {"url": args.url, "info": ft.info.as_dict()}
+        if rows is not None:
+            report |= _check(rows)
+        report["stats"] = ft.stats.as_dict()
+    if args.json:
+        print(json.dumps(report, default=str))
+        return 0
+    info = report["info"]
+    print(f"{args.url}: {info['model']} ({info['kind']}) {info['serial']}".rstrip())
+    print(f"  rate             {info['rate_hz']:g} Hz")
+    print(f"  counts per unit  {info['counts_per_force']:g} /N, {info['counts_per_torque']:g} /N·m")
+    for key, value in info["extra"].items():
+        print(f"  {key:<16} {value}")
+    if rows is not None:
+        mean = " ".join(f"{v:+.3f}" for v in report["mean_wrench"])
+        print(
+            f"  read             {report['records']} records, {report['measured_rate_hz']:.1f} Hz"
+        )
+        print(f"  mean wrench      {mean}  (N, N·m)")
+        print(f"  status words     {report['status_nonzero']} non-zero")
+    print("  link             " + ", ".join(f"{k} {v}" for k, v in report["stats"].items()))
+    return 0
+
+
+def _check(rows: np.ndarray) -> dict[str, Any]:
+    rate = 0.0
+    if len(rows) > 1 and np.ptp(rows["sensor_time"]) > 0:
+        rate = (len(rows) - 1) / float(np.ptp(rows["sensor_time"]))
+    mean = rows["wrench"].mean(axis=0).tolist() if len(rows) else [float("nan")] * 6
+    return {
+        "records": len(rows),
+        "measured_rate_hz": rate,
+        "mean_wrench": mean,
+        "status_nonzero": int(np.count_nonzero(rows["status"])),
+    }
+
+
+def _stream(args: argparse.Namespace) -> int:
+    from spectratac.ft import FTTimeoutError, open_ft
+
+    printed = 0
+    with open_ft(args.url, timeout=args.timeout) as ft:
+        table = Table(COLUMNS, width=10)
+        if args.format == "csv":
+            print(",".join(COLUMNS))
+        try:
+            while args.count == 0 or printed < args.count:
+                want = 256 if args.count == 0 else min(256, args.count - printed)
+                rows = ft.read(want, timeout=args.timeout)
+                if len(rows) == 0:
+                    if printed == 0:
+                        raise FTTimeoutError(
+                            f"no F/T records from {args.url} within {args.timeout:.1f} s"
+                        )
+                    break
+                for r in rows:
+                    _emit(r, args.format, table)
+                printed += len(rows)
+                sys.stdout.flush()
+        except BrokenPipeError:  # `| head`: the reader is gone, which is fine
+            sys.stderr.close()
+            return 0
+        stats = ft.stats.as_dict()
+    print(f"{printed} records; " + ", ".join(f"{k} {v}" for k, v in stats.items()), file=sys.stderr)
+    return 0 if args.count == 0 or printed >= args.count else 1
+
+
+def _emit(r: np.void, fmt: str, table: Table) -> None:
+    values = [
+        float(r["sensor_time"]),
+        float(r["host_time"]),
+        int(r["sequence"]),
+        *map(float, r["wrench"]),
+        int(r["status"]),
+    ]
+    if fmt == "jsonl":
+        print(json.dumps(dict(zip(COLUMNS, values, strict=True))))
+    elif fmt == "csv":
+        print(",".join(repr(v) for v in values))
+    else:
+        table.row([f"{v:.4f}" if isinstance(v, float) else v for v in values])
+
+
+# ------------------------------------------------------------------ sim ft
+def _serve(args: argparse.Namespace) -> int:
+    from spectratac.errors import SpectraTacError
+    from spectratac.sim.ft_serve import start_server
+    from spectratac.sim.url import parse_sim_url
+    from spectratac.sim.world import SimWorld
+
+    kind = "netft" if args.netft else "bota"
+    url = (
+        f"sim://?scene={args.scene}&seed={args.seed}&speed={args.speed}&ft={kind}"
+        f"&ft_rate={args.rate}&ft_loss={args.loss}&ft_offset={args.offset}&ft_drift={args.drift}"
+    )
+    try:
+        opts = parse_sim_url(url)
+    except ValueError as exc:
+        raise SpectraTacError(str(exc)) from None
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    world = SimWorld.join(opts)
+    try:
+        try:
+            server = start_server(world, opts, kind, port=args.port, link=args.link)
+        except OSError as exc:
+            raise SpectraTacError(
+                f"cannot serve a simulated F/T: {exc}; pick another --port (0: any free)"
+            ) from None
+        try:
+            if args.json:
+                print(json.dumps({"url": server.url, "kind": kind, "sim": url}), flush=True)
+            else:
+                print(f"serving simulated {kind} at {server.url} (Ctrl-C to stop)", flush=True)
+            stop.wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            server.stop()
+    finally:
+        world.release()
+    return 0
