@@ -5,9 +5,10 @@ One implementation serves training, `Decoder.predict` (a loop over rows) and
 
 Baseline (drift compensation): a per-channel running mean of the assembled sample that moves
 only while the sample stays close to it (RMS relative deviation below GATE: no contact), with
-time constant TAU samples, plus a much slower ungated pull (SLOW_TAU) so that a session that
-starts under contact still converges. Time constants are in samples, not seconds, so that
-the result does not depend on clocks.
+time constant TAU samples. If no sample has passed the gate for STUCK samples (a session
+that started under contact, or a step change of the light), it follows the samples anyway
+until they pass again. Time constants are in samples, not seconds, so that the result does
+not depend on clocks.
 
 >>> lay = Layout(channels=("a",), steps=2)
 >>> asm = Assembler(lay)
@@ -29,8 +30,8 @@ from spectratac.decode.layout import Layout
 F64 = NDArray[np.float64]
 
 TAU = 600.0  # 30 s at 20 Hz: far slower than a press, faster than thermal drift
-SLOW_TAU = 12000.0  # 10 min: recovers a baseline that started under contact
-GATE = 0.02  # RMS relative deviation below which a sample counts as no-contact
+GATE = 0.03  # RMS relative deviation below which a sample counts as no-contact
+STUCK = 2400  # 2 min at 20 Hz without a no-contact sample: the baseline is wrong, follow
 
 
 class Assembler:
@@ -44,6 +45,7 @@ class Assembler:
         self._seen = np.zeros(layout.steps, bool)
         self._hist: deque[F64] = deque(maxlen=max(layout.lags, default=0) + 1)
         self._base: F64 | None = None
+        self._out_of_gate = 0
         self._out = np.empty(layout.size)
 
     def reset(self) -> None:
@@ -51,6 +53,7 @@ class Assembler:
         self._seen[:] = False
         self._hist.clear()
         self._base = None
+        self._out_of_gate = 0
 
     def push(self, step: int, x: F64) -> tuple[F64, bool]:
         """Feed one sample (its step, its C inputs); return (assembled vector, valid).
@@ -86,8 +89,9 @@ class Assembler:
         base = self._base.copy()  # the sample is judged against the baseline before it
         scale = np.abs(base) + 1e-6 + 0.01 * float(np.mean(np.abs(base)))
         rel = float(np.sqrt(np.mean(((cur - base) / scale) ** 2)))
-        alpha = 1.0 / TAU if rel < GATE else 1.0 / SLOW_TAU
-        self._base += alpha * (cur - self._base)
+        self._out_of_gate = 0 if rel < GATE else self._out_of_gate + 1
+        if self._out_of_gate == 0 or self._out_of_gate > STUCK:
+            self._base += (cur - self._base) / TAU
         return base
 
 
