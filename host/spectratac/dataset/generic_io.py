@@ -4,8 +4,9 @@ One row per sample, one column per channel or target (see
 host/spectratac/decode/DATA_FORMAT.md). Special column names: ``t`` or ``time`` (s, time
 order), ``session``, ``press``, ``contact`` (0/1). A class column (e.g. ``position``) is
 recognised by a ``:class`` suffix in its name, by being listed in `classes`, by holding
-non-numbers, or by holding only integers with at most MAX_AUTO_CLASSES distinct values; its
-labels become 1..K (meta ``region_labels``; empty, ``-1``, ``nan`` or ``none`` = unlabelled).
+non-numbers, or (a target) by holding only integers with at most MAX_AUTO_CLASSES distinct
+values; its labels become 1..K (meta ``region_labels``; empty, ``-1``, ``nan`` or ``none``:
+unlabelled). Pass classes=[] to treat no column as a class.
 Empty or NaN target cells are dropouts: ``target_valid`` False, never filled in.
 
 >>> import io
@@ -34,6 +35,7 @@ from spectratac.dataset.schema import Dataset, DatasetError
 SPECIAL = {"t": "t", "time": "t", "session": "session", "press": "press", "contact": "contact"}
 UNLABELLED = {"", "-1", "nan", "none", "null"}
 MAX_AUTO_CLASSES = 20
+KNOWN_TARGETS = {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "Mx", "My", "Mz"}
 CLASS_SUFFIX = ":class"
 
 
@@ -98,6 +100,11 @@ def _floats(name: str, col: NDArray[Any]) -> NDArray[np.float64]:
     return out
 
 
+def _is_text(col: NDArray[Any]) -> bool:
+    """Holds a non-number other than an unlabelled marker."""
+    return any(not _num(str(v).strip()) for v in col if str(v).strip().lower() not in UNLABELLED)
+
+
 def _is_class(col: NDArray[Any]) -> bool:
     vals = [str(v).strip().lower() for v in col]
     vals = [v for v in vals if v not in UNLABELLED]
@@ -137,8 +144,9 @@ def load_table(
 
     inputs: channel columns in order (default: every numeric column that is neither a
     target nor special). targets: target columns, regression and at most one class column
-    (default: none given -> every non-input, non-special column). classes: columns to treat
-    as classes (default: automatic, see the module docstring).
+    (default: every non-input, non-special column; with inputs not given either, the F/T
+    names Fx..Tz, Mx..Mz and the class columns). classes: columns to treat as classes
+    (default: automatic, see the module docstring).
     """
     raw = read_columns(source)
     cols = {k[: -len(CLASS_SUFFIX)] if k.endswith(CLASS_SUFFIX) else k: v for k, v in raw.items()}
@@ -147,14 +155,19 @@ def load_table(
     missing = [c for c in list(inputs or []) + list(targets or []) if c not in cols]
     if missing:
         raise DatasetError(f"{source}: no column(s) {missing}; it has {list(cols)}")
+    forced = set(classes) if classes is not None else set()
+    if targets is None and inputs is None:  # known F/T names and class columns are targets
+        targets = [
+            k for k in cols
+            if k in KNOWN_TARGETS or k in marked or k in forced or _is_text(cols[k])
+        ]  # fmt: skip
     if inputs is None:
-        taken = set(targets or []) | set(special) | marked
-        inputs = [k for k in cols if k not in taken and not _is_class(cols[k])]
+        taken = set(targets or []) | set(special) | marked | forced
+        inputs = [k for k in cols if k not in taken and not _is_text(cols[k])]
     if targets is None:
         targets = [k for k in cols if k not in set(inputs) | set(special)]
     if not inputs:
         raise DatasetError(f"{source}: no input columns; name them (--inputs a,b,c)")
-    forced = set(classes) if classes is not None else set()
     cls_cols = [
         t for t in targets
         if t in marked or t in forced or (classes is None and _is_class(cols[t]))
