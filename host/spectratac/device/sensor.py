@@ -11,14 +11,18 @@
     >>> bool((batch["config_id"] == config_id).all())
     True
 
-A background thread reads the link, decodes frames and puts samples into a bounded buffer;
-replies to commands are matched by the command's sequence number. Every public method is
-thread-safe.
+The link is read in the background: serial ports, ptys and sockets by the process's one
+shared I/O thread (spectratac.device.iohub, a selector over every link), other links (sim://,
+rfc2217://, wrapped transports) by a thread of their own. Frames are decoded and samples put
+into a bounded buffer; replies to commands are matched by the command's sequence number.
+Every public method is thread-safe.
 """
 
 from __future__ import annotations
 
 import collections
+import contextlib
+import functools
 import logging
 import threading
 import time
@@ -36,6 +40,7 @@ from spectratac.device.errors import (
     DisconnectedError,
     ProtocolMismatchError,
 )
+from spectratac.device.iohub import Link, shared_hub
 from spectratac.device.records import Sample, Unwrapper, to_array
 from spectratac.device.transport import Transport, open_transport
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
@@ -151,8 +156,13 @@ class Sensor:
         self.info: m.Info = m.Info()
         self.config_id = 0
         self._listeners: list[FrameListener] = []
-        self._thread = threading.Thread(target=self._reader, name="spectratac-reader", daemon=True)
-        self._thread.start()
+        # Reader state; _link_lock orders link changes (reconnect) against close().
+        self._link_lock = threading.Lock()
+        self._link: Link | None = None  # on the shared I/O thread
+        self._thread: threading.Thread | None = None  # a reader of its own
+        self._reconnector: threading.Thread | None = None
+        self._closing = threading.Event()
+        self._start_reader()
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -215,15 +225,23 @@ class Sensor:
         self.info = info
 
     def close(self) -> None:
-        """Stop the reader and close the link. Safe to call more than once."""
+        """Stop reading and close the link. Safe to call more than once."""
         with self._cond:
             if self._closed:
                 return
             self._closed = True
             self._cond.notify_all()
-        self._transport.close()
-        if threading.current_thread() is not self._thread:
-            self._thread.join(timeout=2.0)
+        self._closing.set()
+        with self._link_lock:
+            link, self._link = self._link, None
+            transport = self._transport
+            threads = (self._thread, self._reconnector)
+        if link is not None:
+            link.close()  # no callback of it runs after this (unless we are inside one)
+        transport.close()
+        for thread in threads:
+            if thread is not None and thread is not threading.current_thread():
+                thread.join(timeout=2.0)
         for waiter in self._take_waiters():
             waiter.event.set()
 
@@ -234,9 +252,10 @@ class Sensor:
         self.close()
 
     def add_listener(self, listener: FrameListener) -> None:
-        """Call `listener(frame, host_time)` from the reader thread for every accepted frame,
-        before it is parsed into samples or replies (a recorder stores `frame.raw` verbatim).
-        Keep it fast: it runs on the reader thread. Exceptions it raises are logged and
+        """Call `listener(frame, host_time)` from the reader for every accepted frame, before
+        it is parsed into samples or replies (a recorder stores `frame.raw` verbatim).
+        Keep it fast: it runs on the thread that reads the link (for serial ports and sockets
+        the I/O thread all sensors of the process share). Exceptions it raises are logged and
         the listener is removed, so a broken recorder never stops the stream."""
         self._listeners = [*self._listeners, listener]
 
@@ -490,18 +509,36 @@ class Sensor:
     def _unwrap_like(self, t32: int) -> int:
         return self._unwrap(t32)
 
-    def _reader(self) -> None:
+    def _start_reader(self) -> None:
+        """Read the current transport: from the shared I/O thread when it has a descriptor,
+        else from a thread of its own. Called at construction and after a reconnect."""
+        transport = self._transport
+        fileno = getattr(transport, "fileno", None)
+        fd = fileno() if callable(fileno) else None
+        if fd is not None:
+            lost = functools.partial(self._link_lost, transport)
+            self._link = shared_hub().add(fd, self._dispatch, lost, self.url)
+        else:
+            self._thread = threading.Thread(
+                target=self._reader, args=(transport,), name="spectratac-reader", daemon=True
+            )
+            self._thread.start()
+
+    def _reader(self, transport: Transport) -> None:
         while not self._closed:
             try:
-                data = self._transport.read(0.05)
+                data = transport.read(0.05)
             except DisconnectedError as exc:
-                if self._closed:
-                    return
-                if not self._handle_loss(exc):
-                    return
-                continue
+                if not self._closed:
+                    self._handle_loss(exc, transport)
+                return
             if data:
                 self._dispatch(data, time.monotonic())
+
+    def _link_lost(self, transport: Transport, exc: OSError) -> None:
+        """The I/O thread saw EOF or a read error on our descriptor (it dropped the link)."""
+        if not self._closed:
+            self._handle_loss(DisconnectedError(f"lost the link to {self.url}: {exc}"), transport)
 
     def _dispatch(self, data: bytes, now: float) -> None:
         frames = self._decoder.feed(data)
@@ -599,29 +636,47 @@ class Sensor:
         for waiter in self._take_waiters():
             waiter.event.set()
 
-    def _handle_loss(self, exc: DisconnectedError) -> bool:
-        """Record the loss; with reconnect=True, reopen and resume. False ends the reader."""
+    def _handle_loss(self, exc: DisconnectedError, transport: Transport) -> None:
+        """Record the loss (readers see it once the buffer is drained); with reconnect=True
+        keep reopening the link from another thread until it is back or the sensor closed."""
         with self._cond:
             self._lost = exc
             self._cond.notify_all()
         for waiter in self._take_waiters():
             waiter.event.set()
         if not self._reconnect:
-            return False
+            return
+        with self._link_lock:
+            if self._closed:
+                return
+            self._link = None
+            self._reconnector = threading.Thread(
+                target=self._reconnect_loop, args=(transport,), name="spectratac-reconnect"
+            )
+            self._reconnector.daemon = True
+            self._reconnector.start()
+
+    def _reconnect_loop(self, lost: Transport) -> None:
+        with contextlib.suppress(Exception):
+            lost.close()  # release the dead link's descriptor
         delay = 0.05
-        while not self._closed:
-            time.sleep(delay)
+        while not self._closing.wait(delay):
             delay = min(delay * 2, 1.0)
             try:
-                self._transport = open_transport(self.url)
+                transport = open_transport(self.url)
             except Exception:  # the device is still away: keep trying until close()
                 continue
-            self._decoder.reset()
-            self._lost = None
-            self.stats.reconnects += 1
-            threading.Thread(target=self._resume, daemon=True).start()
-            return True
-        return False
+            with self._link_lock:
+                if self._closed:
+                    transport.close()
+                    return
+                self._transport = transport
+                self._decoder.reset()
+                self._lost = None
+                self.stats.reconnects += 1
+                self._start_reader()
+            self._resume()
+            return
 
     def _resume(self) -> None:
         """After a reconnect: handshake again and restore configuration and streaming."""

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import os
 from typing import Protocol
 from urllib.parse import urlsplit
 
 import serial
 import serial.tools.list_ports
+from serial.urlhandler import protocol_socket
 
 from spectratac.device.errors import (
     DeviceError,
@@ -25,7 +27,11 @@ DEFAULT_BAUD = 921_600
 
 
 class Transport(Protocol):
-    """What Sensor needs from a link."""
+    """What Sensor needs from a link.
+
+    A transport may also have `fileno() -> int | None`: a non-blocking descriptor that
+    os.read() drains. Sensor then reads it from the process's shared I/O thread
+    (spectratac.device.iohub) instead of calling read() from a thread of its own."""
 
     url: str
 
@@ -61,6 +67,18 @@ class SerialTransport:
             raise _open_error(url, exc) from None
         except ValueError as exc:
             raise DeviceError(f"cannot open {url!r}: {exc}") from None
+
+    def fileno(self) -> int | None:
+        """The descriptor of a POSIX serial port or pty, or of a socket:// link; None for
+        links a selector cannot watch (rfc2217://, loop://, spy://, non-POSIX systems)."""
+        port = self._port
+        if os.name != "posix" or not port.is_open:
+            return None
+        if type(port) is serial.Serial:  # serialposix: opened O_NONBLOCK
+            return int(port.fd)
+        if type(port) is protocol_socket.Serial:  # its socket is non-blocking
+            return int(port._socket.fileno())
+        return None
 
     def read(self, timeout: float) -> bytes:
         port = self._port
