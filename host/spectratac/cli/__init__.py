@@ -33,6 +33,7 @@ VERB_MODULES: tuple[str, ...] = (
     "record_cmd",
     "dataset_cmd",
     "evaluate_cmd",
+    "bench_cmd",
     "train_cmd",
 )
 

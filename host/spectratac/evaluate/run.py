@@ -139,20 +139,20 @@ def evaluate_model(
         sections[name] = sec
         if m is None:
             continue
-        tick(f"{name}: decoder")
         sec.decoder = score(dataset, rows, predict(m, dataset, rows))
+        tick(f"{name}: decoder")
         sec.history = _history(m)
         sec.model_info = model_info(m)
         if baseline is not None:
-            tick(f"{name}: baseline")
             sec.baseline, sec.baseline_note = _score_baseline(baseline, dataset, rows)
+            tick(f"{name}: baseline")
         if oracle_samples > 0:
-            tick(f"{name}: oracle")
             o_rows, o_pred, sec.oracle_note = oracle_predictions(
                 dataset, rows, scene, oracle_samples, seed
             )
             if o_pred is not None:
                 sec.oracle = score(dataset, o_rows, o_pred)
+            tick(f"{name}: oracle")
     return Evaluation(sections, notes)
 
 

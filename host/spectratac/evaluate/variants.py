@@ -1,0 +1,166 @@
+"""Beyond the paper, measured side by side with the paper's recipe: the same dataset, the
+same splits, the same training budget, one change at a time, then the combination.
+
+Each variant is `TrainSpec.paper(**changes)`; every variant is trained on each split's
+training rows and scored on its test rows (`evaluate.protocol.fit_and_evaluate`). The
+table reports MAE per force axis with the change in % against the paper's recipe, mean and
+minimum R², region and contact accuracy, interval coverage (uncertainty), and inference cost
+(flops per sample, and single-sample latency measured side by side).
+
+The issue's target: the best decoder has >= 25 % lower MAE than the paper's recipe on the
+blocked split on every force axis, at no more than its inference cost (flops per sample).
+
+>>> sorted(VARIANTS)[:3], VARIANTS["contact"]["targets"][-1]
+(['baseline', 'combined', 'contact'], 'contact')
+>>> target_check([{"name": "paper", "blocked": {"mae": {"Fx": 1.0}}, "flops": 10},
+...               {"name": "x", "blocked": {"mae": {"Fx": 0.7}}, "flops": 9}], ["Fx"])["met"]
+True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from spectratac.evaluate.metrics import improvement
+
+FT6 = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+FORCES = ("Fx", "Fy", "Fz")
+TARGET_IMPROVEMENT_PCT = 25.0
+REFERENCE = "paper"
+
+# Temporal context: the elastomer creeps with time constants of ~0.5 s and ~8 s (twin
+# MODEL.md), i.e. 10 and 160 samples at 20 Hz; dilated lags 1, 2, 4, ..., 32 reach 1.6 s.
+CONTEXT = {"context": 6, "context_dilated": True}
+VARIANTS: dict[str, dict[str, Any]] = {
+    "paper": {},
+    "context": dict(CONTEXT),
+    "baseline": {"drift": "baseline"},
+    "contact": {"targets": (*FT6, "region", "contact")},
+    "uncertainty": {"uncertainty": True},
+    # Everything at once, with the backbone narrowed (128 -> 120) so that the wider input
+    # does not cost more flops per sample than the paper's recipe.
+    "combined": {
+        **CONTEXT,
+        "drift": "baseline",
+        "targets": (*FT6, "region", "contact"),
+        "uncertainty": True,
+        "hidden": 120,
+    },
+}
+DESCRIPTIONS = {
+    "paper": "the paper's recipe (33 features, ResMLP 128x3, weighted L1 + masked CE)",
+    "context": "temporal context: raw-input deltas at dilated lags 1..32 samples",
+    "baseline": "drift compensation: inputs relative to a running no-contact baseline",
+    "contact": "a contact/no-contact head (otherwise contact = |F| > 0.3 N)",
+    "uncertainty": "a calibrated per-target standard deviation head",
+    "combined": "context + baseline + contact head + uncertainty, ResMLP 120x3 (cost-matched)",
+}
+
+
+def row_of(name: str, fit: Any, seconds: dict[str, float]) -> dict[str, Any]:
+    """One table row (JSON-ready) from a `FitResult` of one variant."""
+    row: dict[str, Any] = {"name": name, "description": DESCRIPTIONS.get(name, name)}
+    for kind, sec in fit.sections.items():
+        if sec.decoder is None:
+            continue
+        s = sec.decoder.scores
+        comp = s["components"]
+        r2 = [m["r2"] for m in comp.values() if np.isfinite(m["r2"])]
+        d: dict[str, Any] = {
+            "n_test": s["n"],
+            "mae": {k: m["mae"] for k, m in comp.items()},
+            "r2_mean": float(np.mean(r2)) if r2 else float("nan"),
+            "r2_min": float(np.min(r2)) if r2 else float("nan"),
+            "region_accuracy": s.get("region", {}).get("accuracy", float("nan")),
+            "contact_accuracy": s.get("contact", {}).get("accuracy", float("nan")),
+            "contact_source": s.get("contact", {}).get("source", ""),
+            "n_unpredicted": s.get("n_unpredicted", 0),
+            "train_s": seconds.get(kind, float("nan")),
+        }
+        if "coverage" in s:
+            cov = s["coverage"]
+            d["coverage"] = {
+                lv: float(np.mean([c[lv] for c in cov.values() if c.get(lv) is not None]))
+                for lv in ("0.68", "0.95")
+            }
+        row[kind] = d
+    model = fit.models.get("blocked") or next(iter(fit.models.values()))
+    row["flops"] = int(getattr(model, "flops_per_sample", 0))
+    row["params"] = int(getattr(model, "n_params", 0))
+    return row
+
+
+def add_improvements(rows: list[dict[str, Any]], axes: Sequence[str] = FORCES) -> None:
+    """Per split and axis: % MAE reduction against the reference (paper) row, in place."""
+    ref = next((r for r in rows if r["name"] == REFERENCE), None)
+    if ref is None:
+        return
+    for r in rows:
+        for kind in ("random", "blocked"):
+            if kind in r and kind in ref:
+                r[kind]["improvement_pct"] = {
+                    a: improvement(ref[kind]["mae"][a], r[kind]["mae"][a])
+                    for a in axes
+                    if a in r[kind]["mae"] and a in ref[kind]["mae"]
+                }
+
+
+def target_check(rows: list[dict[str, Any]], axes: Sequence[str] = FORCES) -> dict[str, Any]:
+    """Is there a variant with >= 25 % lower blocked-split MAE on every force axis at no
+    more flops per sample than the paper's recipe? Names the best candidate either way."""
+    ref = next((r for r in rows if r["name"] == REFERENCE), None)
+    if ref is None or "blocked" not in ref:
+        return {"met": False, "reason": "no paper-recipe row on the blocked split"}
+    best, best_score = None, -np.inf
+    for r in rows:
+        if r["name"] == REFERENCE or "blocked" not in r:
+            continue
+        imp = [improvement(ref["blocked"]["mae"][a], r["blocked"]["mae"][a]) for a in axes]
+        worst = float(np.nanmin(imp)) if np.isfinite(imp).any() else -np.inf
+        ok_cost = r["flops"] <= ref["flops"]
+        score = worst if ok_cost else worst - 1e6
+        if score > best_score:
+            best, best_score = (r, imp, ok_cost), score
+    if best is None:
+        return {"met": False, "reason": "no variant besides the paper's recipe"}
+    r, imp, ok_cost = best
+    met = ok_cost and all(np.isfinite(i) and i >= TARGET_IMPROVEMENT_PCT for i in imp)
+    return {
+        "met": bool(met),
+        "best": r["name"],
+        "improvement_pct": dict(zip(axes, imp, strict=True)),
+        "flops": r["flops"],
+        "paper_flops": ref["flops"],
+        "within_cost": bool(ok_cost),
+        "target_pct": TARGET_IMPROVEMENT_PCT,
+    }
+
+
+def run_variants(
+    dataset: Any,
+    names: Sequence[str],
+    base: dict[str, Any],
+    *,
+    seed: int = 0,
+    kinds: Sequence[str] = ("random", "blocked"),
+    on_done: Callable[[str], None] | None = None,
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """Train and score each variant (spec = paper + `base` + the variant's changes) on the
+    same splits. Returns the table rows and the trained models (by variant, blocked split)."""
+    from spectratac.decode import TrainSpec
+    from spectratac.evaluate.protocol import fit_and_evaluate
+
+    rows: list[dict[str, Any]] = []
+    models: dict[str, Any] = {}
+    for name in names:
+        spec = TrainSpec.paper(**{**base, **VARIANTS[name]})
+        fit = fit_and_evaluate(dataset, spec, kinds, seed=seed, oracle_samples=0)
+        rows.append(row_of(name, fit, fit.train_seconds))
+        models[name] = fit.models.get("blocked") or next(iter(fit.models.values()))
+        if on_done is not None:
+            on_done(name)
+    add_improvements(rows)
+    return rows, models

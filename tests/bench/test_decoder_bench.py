@@ -1,0 +1,53 @@
+"""The decoder benchmarks run end to end on a tiny scale (no timing is asserted)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+
+def _run(repo: Path, script: str, out: Path, *extra: str) -> list[dict]:
+    res = subprocess.run(
+        [sys.executable, f"tools/bench/{script}", "--quick", "--out", str(out), "--json", *extra],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    )
+    return [json.loads(line) for line in res.stdout.splitlines()]
+
+
+def test_speed_bench_quick(repo: Path, tmp_path: Path) -> None:
+    figs = _run(repo, "decoder.py", tmp_path)
+    names = {f["name"] for f in figs}
+    # quick grid: 2 integration times x 2 LED sequences x 2 models, latency + training each
+    assert len(figs) == 2 * 2 * 2 * 2
+    ref = next(f for f in figs if f["name"] == "50ms-white/resmlp latency")
+    assert ref["ratio"] == 1.0 and "200ms-rgb/linear latency" in names
+    slow = next(f for f in figs if f["name"] == "200ms-rgb/linear latency")["extra"]
+    assert abs(slow["observations_per_s"] - 1000 / 600) < 1e-9
+    assert any(f["extra"].get("pareto") for f in figs if f["name"].endswith("latency"))
+    result = json.loads((tmp_path / "decoder_speed.json").read_text())
+    assert len(result["rows"]) == 8 and result["config"]["epochs"] == 2
+    md = (tmp_path / "decoder_speed.md").read_text()
+    assert "| 200 | rgb | linear |" in md
+    assert (tmp_path / "decoder_speed_pareto.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_variants_bench_quick(repo: Path, tmp_path: Path) -> None:
+    figs = _run(repo, "decoder_variants.py", tmp_path, "--only", "contact", "combined")
+    by = {f["name"]: f for f in figs}
+    assert by["paper blocked Fx MAE"]["ratio"] == 1.0
+    assert {"contact blocked Fz MAE", "combined random Fy MAE", "combined latency"} <= set(by)
+    target = by["target: worst force-axis MAE reduction of the best variant"]["extra"]
+    assert isinstance(target["met"], bool) and target["target_pct"] == 25.0
+    result = json.loads((tmp_path / "decoder_variants.json").read_text())
+    rows = {r["name"]: r for r in result["rows"]}
+    assert rows["combined"]["flops"] <= rows["paper"]["flops"]  # cost-matched by design
+    assert rows["contact"]["blocked"]["contact_source"] == "head"
+    assert rows["paper"]["blocked"]["contact_source"] == "derived from |F|"
+    assert set(rows["combined"]["blocked"]["coverage"]) == {"0.68", "0.95"}
+    assert "Oracle floor" in (tmp_path / "decoder_variants.md").read_text()
