@@ -309,3 +309,34 @@ def test_recorded_samples_picks_every_sample_frame(kinds: list[str], seed: int) 
     for row, (i, counts) in zip(table, expect, strict=True):
         assert row["host_time"] == i and row["t_end_us"] - row["t_start_us"] == 50
         np.testing.assert_array_equal(row["counts"], counts)
+
+
+def test_a_synthetic_twin_recording_builds_to_the_twin_dataset(tmp_path: Path) -> None:
+    """The whole chain (frames, two clock fits, window averages, scene labels) against the
+    twin's own dataset of the same session: equal, window for window. Arrivals lag 5 µs here:
+    an F/T clock fitted to arrival times alone absorbs the smallest transport latency, which
+    would move F/T samples that sit exactly on a window edge across it."""
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.record.synthetic import write_twin_recording
+    from spectratac.twin import generate_session, scenes
+
+    scene = scenes.calibration_session(3, 60.0)
+    session = generate_session(scene, seed=3, ft_rate_hz=500)
+    path = write_twin_recording(
+        tmp_path / "twin.mcap",
+        session,
+        scene,
+        "calibration",
+        scene_params={"duration": "60"},
+        speed=4.0,
+        latency_s=5e-6,
+    )
+    [ds] = build_datasets([path])
+    ref = from_twin_session(session, scene)
+    assert ds.n == ref.n and ds.target_valid[1:-1].all()  # F/T covers all but the edges
+    ok = ds.target_valid
+    np.testing.assert_allclose(ds.targets[ok], ref.targets[ok], atol=1e-9)
+    for key in ("inputs", "region", "in_contact", "press", "step", "counts"):
+        np.testing.assert_array_equal(ds.arrays[key], ref.arrays[key])
+    np.testing.assert_allclose(ds.t_start, 1000.0 + session.t_start / 4.0, atol=2e-6)
+    assert ds.meta["config"] == ref.meta["config"]
