@@ -118,6 +118,10 @@ def evaluate_model(
     tick = progress or (lambda stage: None)
     h = resolve(getattr(model, "meta", {}) or {}, dataset)
     notes = [h.note]
+    m_unit = (getattr(model, "meta", {}) or {}).get("unit_id")
+    d_unit = dataset.meta.get("unit_id")
+    if m_unit and d_unit and m_unit != d_unit:
+        notes.append(f"the model was trained on unit {m_unit!r}; this data comes from {d_unit!r}")
     plan: list[tuple[str, Any, NDArray[np.int64], str]] = []
     if h.split is None:
         plan.append(("all", model, np.arange(dataset.n), h.note))

@@ -1,0 +1,141 @@
+"""`spectratac evaluate` and `spectratac bench decoder` on tiny data (real training)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.cli import main
+from spectratac.dataset import Dataset
+from spectratac.dataset.from_twin import from_twin_session
+from spectratac.decode import Decoder, DecoderUnitWarning, TrainSpec
+from spectratac.evaluate.protocol import fit_and_evaluate, save_models
+from spectratac.twin import generate_session, scenes
+
+TINY = TrainSpec.paper(epochs=2, hidden=16, blocks=1)
+
+
+def _twin(seed: int, duration: float = 60.0) -> Dataset:
+    sc = scenes.calibration_session(seed=seed, duration_s=duration)
+    return from_twin_session(generate_session(sc, seed=seed), sc)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Dataset]:
+    d = tmp_path_factory.mktemp("models")
+    ds = _twin(5)
+    data = ds.save(d / "cal.npz")
+    res = fit_and_evaluate(ds, TINY, oracle_samples=0)
+    files = save_models(res, d / "model.stac")
+    return files["blocked"], data, ds
+
+
+def _json(capsys: pytest.CaptureFixture[str], argv: list[str]) -> dict:
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_fit_and_evaluate_records_its_split(trained) -> None:
+    model, _, ds = trained
+    dec = Decoder.load(model)
+    rec = dec.meta["holdout"]
+    assert rec["split"]["kind"] == "blocked" and rec["companions"] == {
+        "random": "model.random.stac"
+    }
+    assert rec["n_train"] + rec["n_test"] <= ds.n
+
+
+def test_evaluate_both_splits_on_the_training_dataset(trained, tmp_path, capsys) -> None:
+    model, data, _ = trained
+    rep = _json(
+        capsys,
+        [
+            "evaluate",
+            str(model),
+            str(data),
+            "--report",
+            str(tmp_path),
+            "--json",
+            "--no-progress",
+            "--oracle-samples",
+            "15",
+        ],
+    )
+    assert [k for k, s in rep["sections"].items() if s["available"]] == ["random", "blocked"]
+    blocked = rep["sections"]["blocked"]
+    assert blocked["decoder"]["n"] == Decoder.load(model).meta["holdout"]["n_test"]
+    assert blocked["oracle"]["n"] == 15 and "Fz" in blocked["decoder"]["components"]
+    assert (tmp_path / "report.md").exists() and (tmp_path / "blocked_confusion.png").exists()
+    # Human output names the splits and where the report is.
+    assert (
+        main(
+            [
+                "evaluate",
+                str(model),
+                str(data),
+                "--report",
+                str(tmp_path / "h"),
+                "--split",
+                "blocked",
+                "--no-progress",
+                "--oracle-samples",
+                "0",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "blocked split" in out and "report:" in out and "random:" not in out
+
+
+def test_evaluate_on_another_dataset_scores_every_row(trained, tmp_path, capsys) -> None:
+    model, _, _ = trained
+    other = _twin(6, 30.0)
+    path = other.save(tmp_path / "other.npz")
+    argv = ["evaluate", str(model), str(path), "--report", str(tmp_path / "r"), "--json"]
+    argv += ["--no-progress", "--oracle-samples", "0", "--baseline", str(model)]
+    with pytest.warns(DecoderUnitWarning, match="twin-6"):
+        rep = _json(capsys, argv)
+    sec = rep["sections"]["all"]
+    assert sec["n_rows"] == other.n and "another dataset" in rep["notes"][0]
+    assert "unit 'twin-5'" in rep["notes"][1]
+    assert sec["baseline"]["components"]["Fz"]["mae"] == pytest.approx(
+        sec["decoder"]["components"]["Fz"]["mae"]
+    )
+
+
+def test_evaluate_errors_exit_3(trained, tmp_path, capsys) -> None:
+    model, data, _ = trained
+    assert main(["evaluate", str(model), str(tmp_path / "none.npz"), "--report", "x"]) == 3
+    assert "cannot read dataset" in capsys.readouterr().err
+    assert main(["evaluate", str(model), str(data), "--report", "x", "--oracle-samples", "-1"]) == 3
+    generic = Dataset.generic(np.ones((10, 2)), np.zeros(10), ["a", "b"], ["Fz"])
+    g = generic.save(tmp_path / "g.npz")
+    assert main(["evaluate", str(model), str(g), "--report", str(tmp_path / "g")]) == 3
+    assert "inputs" in capsys.readouterr().err
+
+
+def test_bench_decoder_cli(tmp_path, capsys) -> None:
+    argv = [
+        "bench",
+        "decoder",
+        "--quick",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--models",
+        "linear",
+        "--integration",
+        "100",
+        "--sequences",
+        "per-led",
+        "--json",
+    ]
+    res = _json(capsys, argv)
+    (row,) = res["rows"]
+    assert row["sequence"] == "per-led" and row["steps"] == 3 and row["latency_ratio"] == 1.0
+    assert main(["bench", "decoder", "--quick", "--models", "cnn"]) == 3
+    assert main(["bench", "decoder", "--quick", "--integration", "75"]) == 3
+    assert "choose one of" in capsys.readouterr().err
