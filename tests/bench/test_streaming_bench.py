@@ -21,6 +21,8 @@ def test_streaming_bench_json(repo: Path) -> None:
             "2",
             "--seconds",
             "1",
+            "--rounds",
+            "1",
             "--json",
         ],
         cwd=repo,
@@ -34,3 +36,5 @@ def test_streaming_bench_json(repo: Path) -> None:
     assert figures["samples/s at speed=max"]["extra"]["lost"] == 0
     cpu = figures["CPU, 2 devices at 20 Hz"]
     assert cpu["extra"]["samples"] >= 0.8 * cpu["extra"]["expected"]
+    assert cpu["reference_name"] == "raw reads, one selector thread"
+    assert cpu["extra"]["raw_bytes"] > 0  # the reference really read the devices' streams
