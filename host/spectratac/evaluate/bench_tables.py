@@ -4,7 +4,7 @@
 ...          "blocked": {"mae": {"Fx": 0.2, "Fy": 0.2, "Fz": 0.4}, "r2_mean": 0.9,
 ...                      "r2_min": 0.8, "region_accuracy": 0.99, "contact_accuracy": 0.9,
 ...                      "improvement_pct": {"Fx": 0.0, "Fy": 0.0, "Fz": 0.0}}}]
->>> print(variants_markdown(rows, "blocked").splitlines()[2][:36])
+>>> print(variants_markdown(rows, "blocked").splitlines()[2][:37])
 | paper | 0.2 (+0.0 %) | 0.2 (+0.0 %)
 """
 
