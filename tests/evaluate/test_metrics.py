@@ -84,3 +84,8 @@ def test_coverage_flags_overconfidence() -> None:
 @given(st.floats(0.01, 10), st.floats(0, 10))
 def test_improvement_sign(ref, val) -> None:
     assert (improvement(ref, val) > 0) == (val < ref) or val == ref
+
+
+def test_confusion_grows_for_sensors_with_more_classes() -> None:
+    r = region_scores(np.array([12, 3, -1]), np.array([12, 4, 1]))
+    assert np.array(r["confusion"]).shape == (12, 12) and r["accuracy"] == 0.5

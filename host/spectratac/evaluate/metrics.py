@@ -73,14 +73,18 @@ def regression_scores(
     return out
 
 
-def region_scores(labels: ArrayLike, predicted: ArrayLike) -> dict[str, Any]:
-    """Accuracy over labelled rows (label 1..9; -1 ignored) and the confusion matrix
-    (row: true region, column: predicted region; counts, as nested lists)."""
+def region_scores(
+    labels: ArrayLike, predicted: ArrayLike, n_classes: int = N_REGIONS
+) -> dict[str, Any]:
+    """Accuracy over labelled rows (label >= 1; -1 ignored) and the confusion matrix (row: true
+    class, column: predicted; counts as nested lists). The matrix has `n_classes` rows, or
+    more if a label or prediction is larger (other sensors may have other class counts)."""
     lab = np.asarray(labels).astype(np.int64)
     pred = np.asarray(predicted).astype(np.int64)
-    ok = (lab >= 1) & (lab <= N_REGIONS)
-    conf = np.zeros((N_REGIONS, N_REGIONS), np.int64)
-    inside = ok & (pred >= 1) & (pred <= N_REGIONS)
+    ok = lab >= 1
+    k = int(max(n_classes, lab.max(initial=0), pred.max(initial=0)))
+    conf = np.zeros((k, k), np.int64)
+    inside = ok & (pred >= 1)
     np.add.at(conf, (lab[inside] - 1, pred[inside] - 1), 1)
     return {
         "n": int(ok.sum()),
