@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.featureset import FeatureSet
 from spectratac.decode.heads import Heads, postprocess
-from spectratac.decode.model import LN_EPS, SQRT_2_OVER_PI, Arch, Weights, forward
+from spectratac.decode.model import Arch, Weights, forward
 from spectratac.decode.scaling import Standardizer
 
 F64 = NDArray[np.float64]
@@ -105,7 +105,9 @@ class Runtime:
         The returned array is reused by the next call: copy it to keep it.
         """
         if self._plan is None:
-            self._plan = _Plan(self)
+            from spectratac.decode.fused import compile_single
+
+            self._plan = compile_single(self)
         return self._plan(u)
 
     # ------------------------------------------------------------------ files
@@ -176,145 +178,3 @@ class Runtime:
         if "header" not in arrays:
             raise DecoderFileError(f"{path} is not a SpectraTac runtime file (no header)")
         return cls.from_parts(json.loads(str(arrays.pop("header"))), arrays)
-
-
-class _Plan:
-    """Fused single-sample evaluation with preallocated float32 buffers."""
-
-    def __init__(self, rt: Runtime) -> None:
-        f32 = np.float32
-        fs, w, heads = rt.features, rt.weights, rt.heads
-        kind, hidden, blocks = rt.arch
-        n_lin = fs.L.shape[0]
-        inv = 1.0 / rt.scaler.std
-        first = "head" if kind == "linear" else ("layers.0" if kind == "mlp" else "stem")
-        w0 = w[first + ".weight"].astype(np.float64) * inv[None, :]
-        b0 = w[first + ".bias"].astype(np.float64) - w0[:, :n_lin] @ rt.scaler.mean[:n_lin]
-        self.center = rt.center.astype(f32)
-        self.wa_t = np.ascontiguousarray((w0[:, :n_lin] @ fs.L).T, f32)  # (D, H0)
-        self.has_rat = fs.P.shape[0] > 0
-        self.p_t = np.ascontiguousarray(fs.P.T, f32)
-        self.q_t = np.ascontiguousarray(fs.Q.T, f32)
-        self.rat_mean = rt.scaler.mean[n_lin:].astype(f32)
-        self.wr_t = np.ascontiguousarray(w0[:, n_lin:].T, f32)
-        self.b0 = b0.astype(f32)
-        self.kind, self.blocks = kind, blocks
-        self.uc = np.empty(self.center.shape[0], f32)
-        self.au = np.empty_like(self.uc)
-        n_rat = fs.P.shape[0]
-        self.num = np.empty(n_rat, f32)
-        self.den = np.empty(n_rat, f32)
-        h0 = w0.shape[0]
-        self.h = np.empty(h0, f32)
-        self.t = np.empty(max(hidden, h0), f32)
-        self.eps = f32(1e-5)
-        self.layers: list[tuple[F32, F32]] = []  # weight (in, out) and bias, affines folded
-        if kind == "mlp":
-            for i in range(1, blocks):
-                self.layers.append(self._lin(w, f"layers.{i}", half=True))
-            self.head = self._lin(w, "head", half=blocks > 0)
-        elif kind == "resmlp":
-            for i in range(blocks):
-                p = f"blocks.{i}."
-                self.layers.append(self._lin(w, p + "fc1", norm=p + "norm"))
-                self.layers.append(self._lin(w, p + "fc2", half=True))
-            self.head = self._lin(w, "head", norm="norm")
-        else:
-            self.head = (np.zeros((0, 0), f32), np.zeros(0, f32))
-        self.hid = np.empty(hidden, f32)
-        self.out_raw = np.empty(heads.n_out, f32)
-        self.heads = heads
-        self.y_scale = rt.y_scale.astype(f32)
-        self.std_mul = (rt.y_scale * rt.std_scale).astype(f32)
-        self.sl = heads.slices()
-        self.out = np.empty(heads.n_out, f32)
-
-    @staticmethod
-    def _lin(w: Weights, name: str, half: bool = False, norm: str | None = None):
-        wt = w[name + ".weight"].astype(np.float64)
-        b = w[name + ".bias"].astype(np.float64)
-        if norm is not None:  # W (g * n + beta) + b = (W g) n + (W beta + b)
-            b = b + wt @ w[norm + ".bias"].astype(np.float64)
-            wt = wt * w[norm + ".weight"].astype(np.float64)[None, :]
-        if half:  # the previous GELU leaves out its factor 1/2
-            wt = wt * 0.5
-        return np.ascontiguousarray(wt.T, np.float32), b.astype(np.float32)
-
-    def _gelu2(self, x: F32, t: F32) -> None:
-        """x <- 2 GELU(x) in place (tanh form)."""
-        np.multiply(x, x, out=t)
-        t *= np.float32(0.044715 * SQRT_2_OVER_PI)
-        t += np.float32(SQRT_2_OVER_PI)
-        t *= x
-        np.tanh(t, out=t)
-        t += np.float32(1.0)
-        x *= t
-
-    def _norm(self, h: F32, out: F32) -> None:
-        np.subtract(h, h.mean(), out=out)
-        var = np.dot(out, out) / np.float32(out.shape[0])
-        out *= np.float32(1.0) / np.sqrt(var + np.float32(LN_EPS))
-
-    def __call__(self, u: F64) -> F32:
-        f32 = np.float32
-        uc, h = self.uc, self.h
-        np.subtract(np.asarray(u, f32), self.center, out=uc)
-        np.dot(uc, self.wa_t, out=h)
-        h += self.b0
-        if self.has_rat:
-            ua = np.asarray(u, f32)
-            np.dot(ua, self.p_t, out=self.num)
-            np.abs(ua, out=self.au)
-            np.dot(self.au, self.q_t, out=self.den)
-            self.den += self.eps
-            self.num /= self.den
-            self.num -= self.rat_mean
-            h += np.dot(self.num, self.wr_t)
-        raw = self.out_raw
-        if self.kind == "linear":
-            raw[:] = h
-        elif self.kind == "mlp":
-            t = self.t[: h.shape[0]]
-            self._gelu2(h, t)
-            for wt, b in self.layers:
-                x = np.dot(h, wt) + b
-                h = x
-                self._gelu2(h, self.t[: h.shape[0]])
-            if self.blocks:
-                np.dot(h, self.head[0], out=raw)
-                raw += self.head[1]
-            else:
-                raw[:] = h
-        else:
-            t = self.t
-            self._gelu2(h, t)
-            h *= f32(0.5)
-            n, hid = self.hid, self.t
-            for i in range(self.blocks):
-                (w1, b1), (w2, b2) = self.layers[2 * i], self.layers[2 * i + 1]
-                self._norm(h, n)
-                np.dot(n, w1, out=hid)
-                hid += b1
-                self._gelu2(hid, n)
-                h += np.dot(hid, w2)
-                h += b2
-            self._norm(h, n)
-            np.dot(n, self.head[0], out=raw)
-            raw += self.head[1]
-        return self._post(raw)
-
-    def _post(self, raw: F32) -> F32:
-        out, sl, heads = self.out, self.sl, self.heads
-        np.multiply(raw[sl["targets"]], self.y_scale, out=out[sl["targets"]])
-        if heads.uncertainty:
-            np.exp(raw[sl["std"]], out=out[sl["std"]])
-            out[sl["std"]] *= self.std_mul
-        if heads.n_classes:
-            c = out[sl["classes"]]
-            np.subtract(raw[sl["classes"]], raw[sl["classes"]].max(), out=c)
-            np.exp(c, out=c)
-            c /= c.sum()
-        if heads.contact:
-            k = sl["contact"]
-            out[k] = np.float32(0.5) * (np.float32(1.0) + np.tanh(np.float32(0.5) * raw[k]))
-        return out
