@@ -91,10 +91,6 @@ class FTSensor:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def __del__(self) -> None:
-        if getattr(self, "_closed", True) is False and self._thread is None:
-            self._close_link()
-
     # ------------------------------------------------------------------ streaming
     def start(self) -> None:
         """Ask the sensor to stream (idempotent); records then arrive in the buffer."""

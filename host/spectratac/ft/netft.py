@@ -86,11 +86,16 @@ class NetFTSensor(FTSensor):
         except socket.gaierror as exc:
             raise FTNotFoundError(f"{url}: cannot resolve host {parts.hostname!r}: {exc}") from None
         address = infos[0][4]
+        # Probe from a socket of its own: late answers to retried probes then go to a closed
+        # port instead of posing as the first records of the stream.
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            probe.connect(address)  # only the sensor's packets, and ICMP errors surface
+            status = _probe(probe, url, timeout, deadline)
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-            sock.connect(address)  # only the sensor's packets, and ICMP errors surface
-            status = _probe(sock, url, timeout, deadline)
+            sock.connect(address)
+            sock.setblocking(False)
             config: dict[str, str] = {}
             if cpf is None or cpt is None or rate is None:
                 config = _config(
@@ -166,7 +171,7 @@ class NetFTSensor(FTSensor):
         self._sock.close()
 
     def _drain(self) -> None:
-        """Discard late answers to the probe so they do not pose as the new stream's start."""
+        """Discard what a previous stream left in flight, so it does not pose as the new one."""
         self._sock.setblocking(False)
         try:
             while True:

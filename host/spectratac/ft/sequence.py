@@ -40,6 +40,14 @@ class Unwrapper:
             return values
         if self._last_raw is None:
             self._last_raw, self._last = int(values[0]), int(values[0])
+        if values.size <= 16:  # a poll's worth of packets: plain ints beat NumPy's overhead
+            raw, last, out_list = self._last_raw, self._last, []
+            for v in values.tolist():
+                last += (v - raw + self._half) % self._mod - self._half
+                raw = v
+                out_list.append(last)
+            self._last_raw, self._last = raw, last
+            return np.array(out_list, dtype=np.int64)
         steps = np.diff(values, prepend=self._last_raw)
         steps = (steps + self._half) % self._mod - self._half
         out = self._last + np.cumsum(steps)
