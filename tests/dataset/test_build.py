@@ -187,7 +187,7 @@ def test_mixed_configurations_are_refused_unless_split(
     paths = [quick_mcaps["a50"], quick_mcaps["c100"], quick_mcaps["b50"]]
     with pytest.raises(DatasetError, match="--split"):
         build_datasets(paths)
-    groups = build_datasets(paths, split=True)
+    groups = build_datasets(paths, split=True)  # one simulated unit (seed 0): no warning
     assert sorted(len(g.meta["sessions"]) for g in groups) == [1, 2]
     assert sorted(g.meta["config"]["integration_ms"] for g in groups) == [50, 100]
     run = spectratac("dataset", "build", *map(str, paths), "-o", str(tmp_path / "d.npz"))
@@ -201,6 +201,16 @@ def test_mixed_configurations_are_refused_unless_split(
     assert len(names) == 2 and names[0].startswith("d.100ms-g1-dg1-high-1step-")
     assert names[1].startswith("d.50ms-g1-dg1-high-1step-")
     assert {Dataset.load(o["path"]).n for o in outputs} == {o["n"] for o in outputs}
+
+
+def test_sessions_of_different_units_are_flagged(
+    tour_mcap: Path, quick_mcaps: dict[str, Path]
+) -> None:
+    from spectratac.dataset.build import MixedUnitsWarning
+
+    with pytest.warns(MixedUnitsWarning, match="2 units"):
+        [ds] = build_datasets([tour_mcap, quick_mcaps["a50"]])  # seeds 1 and 0
+    assert len({s["unit_id"] for s in ds.meta["sessions"]}) == 2
 
 
 def test_a_truncated_recording_builds_its_prefix(tour_mcap: Path, tmp_path: Path) -> None:
@@ -341,3 +351,40 @@ def test_a_synthetic_twin_recording_builds_to_the_twin_dataset(tmp_path: Path) -
         np.testing.assert_array_equal(ds.arrays[key], ref.arrays[key])
     np.testing.assert_allclose(ds.t_start, 1000.0 + session.t_start / 4.0, atol=2e-6)
     assert ds.meta["config"] == ref.meta["config"]
+
+
+def test_a_hardware_style_session_over_a_pty(tmp_path: Path) -> None:
+    """The path real devices take: a serial port (a pty served by `spectratac sim serve`, in
+    real time), a separate F/T sensor, no scene: clocks fitted with scale 1, no labels,
+    in_contact from the F/T."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "spectratac", "sim", "serve", "--pty", "--json", "--scene", "idle"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        port = json.loads(proc.stdout.readline())["url"]
+        path = tmp_path / "hw.mcap"
+        summary = record_url(
+            port,
+            path,
+            RecordOptions(duration_s=1.5, sync_every_s=0.5),
+            ft_url="sim://?scene=idle&speed=1&ft=netft",
+        )
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    assert summary.samples >= 20 and summary.lost == 0
+    [ds] = build_datasets([path])
+    [session] = ds.meta["sessions"]
+    assert session["url"] == port and session["scene"] is None and ds.meta["labels"] == "none"
+    assert session["clock"]["scale"] == 1.0 and session["clock"]["method"] == "envelope+exchanges"
+    assert abs(session["clock"]["drift"]) < 1e-3  # one host, one clock: no drift to speak of
+    assert ds.target_valid[1:-1].all() and not ds.in_contact.any()  # idle: nothing touches
+    assert np.all(ds.region == -1) and np.all(ds.press == -1)
+    # windows end before their frames arrive, by less than the link's latency
+    rec = read_recording(path)
+    arrival = recorded_samples(rec.frames, rec.frame_host_times)["host_time"]
+    lag = arrival - ds.t_end
+    assert np.all(lag > -1e-3) and np.median(lag) < 0.02

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +48,10 @@ from spectratac.dataset.schema import (
 from spectratac.record.reader import Recording, read_recording
 
 
+class MixedUnitsWarning(UserWarning):
+    """The sessions joined into one dataset were recorded on different sensor units."""
+
+
 @dataclass
 class BuildOptions:
     """max_gap_ms: the longest F/T gap (host clock) a window may straddle; default 3 F/T
@@ -72,6 +77,14 @@ def build_datasets(
         parts += session_datasets(read_recording(path), options)
         if progress is not None:
             progress(str(path))  # this file is done
+    units = sorted({str(p.meta.get("unit_id")) for p in parts})
+    if len(units) > 1:
+        warnings.warn(
+            f"the sessions come from {len(units)} units ({', '.join(units)}); a decoder is "
+            f"calibrated per unit: build one dataset per unit unless you mean to mix them",
+            MixedUnitsWarning,
+            stacklevel=2,
+        )
     if split:
         return split_by_config(parts)
     return [concat(parts)]
