@@ -167,3 +167,16 @@ def test_options_are_checked() -> None:
         RecordOptions(samples=0).validate()
     with pytest.raises(RecordingError, match="at least one prompt"):
         GuidedProtocol(0)
+
+
+def test_a_simulated_session_ends_with_its_scene(tmp_path: Path) -> None:
+    from spectratac.record import record_url
+
+    path = tmp_path / "press.mcap"
+    summary = record_url("sim://?scene=press&speed=10", path, RecordOptions())
+    rec = read_recording(path)
+    duration = rec.session["sim"]["duration_s"]
+    assert summary.stopped_by == "scene_end"
+    last = recorded_samples(rec.frames, rec.frame_host_times)["t_end_us"][-1] / 1e6
+    assert duration <= last < duration + 2.0  # within a loop pass (20 ms x speed) or so
+    assert [e["index"] for e in rec.labels] == [0]  # the scene's one press

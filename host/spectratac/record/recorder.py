@@ -39,7 +39,7 @@ from spectratac.record.guided import GuidedProtocol
 from spectratac.record.labels import SceneLabeler
 from spectratac.record.writer import RecordingWriter
 
-StopReason = Literal["duration", "samples", "guided", "interrupt", "error"]
+StopReason = Literal["duration", "samples", "scene_end", "guided", "interrupt", "error"]
 
 
 @dataclass
@@ -119,10 +119,13 @@ class Recorder:
         labeler: SceneLabeler | None = None,
         guided: GuidedProtocol | None = None,
         clock: Callable[[], float] = time.monotonic,
+        scene_end_s: float | None = None,
     ) -> None:
         """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
         message (URLs, sim scene). `labeler`: scene labels (simulated sessions). `guided`:
-        the guided labelling protocol (real sessions). `clock` drives guided prompts."""
+        the guided labelling protocol (real sessions). `clock` drives guided prompts.
+        `scene_end_s`: a simulated scene's length; the session stops when the device clock
+        (= scene clock) passes it."""
         self.sensor = sensor
         self.path = Path(path)
         self.options = options or RecordOptions()
@@ -132,6 +135,7 @@ class Recorder:
         self.labeler = labeler
         self.guided = guided
         self.clock = clock
+        self.scene_end_s = scene_end_s
         self._frames: collections.deque[tuple[bytes, float]] = collections.deque()
         self._samples = 0
         self._ft_rows = 0
@@ -269,6 +273,8 @@ class Recorder:
                 return "duration", None
             if self.guided is not None and self.guided.done(self.clock()):
                 return "guided", None
+            if self.scene_end_s is not None and self._scene_now >= self.scene_end_s:
+                return "scene_end", None
             stop.wait(opts.poll_s)
 
     def _finish(self, writer: RecordingWriter, stopped_by: StopReason, error: str | None) -> None:

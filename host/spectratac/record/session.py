@@ -1,8 +1,9 @@
 """`record_url`: open a device (and its reference F/T sensor) by URL and record a session.
 
 For a sim:// URL the session message names the scene, seed and speed, region labels come
-from the scene (`SceneLabeler`), and if the URL says ``ft=bota`` or ``ft=netft`` the
-simulated reference sensor of the same world is opened when no F/T URL is given.
+from the scene (`SceneLabeler`), the session ends with the scene at the latest, and if the
+URL says ``ft=bota`` or ``ft=netft`` the simulated reference sensor of the same world is
+opened when no F/T URL is given.
 
 >>> import tempfile
 >>> path = tempfile.mkdtemp() + "/press.mcap"
@@ -64,8 +65,10 @@ def record_url(
     with contextlib.ExitStack() as stack:
         sensor = stack.enter_context(Sensor.open(url, **(sensor_options or {})))
         labeler = None
+        scene_end = None
         if urlsplit(url).scheme == "sim":
             labeler, session["sim"] = _sim_world(url, stack)
+            scene_end = session["sim"]["duration_s"]  # a scene that ends ends the session
         ft = None
         if ft_url is not None:
             from spectratac.ft import FTSensor
@@ -73,7 +76,14 @@ def record_url(
             ft = stack.enter_context(FTSensor.open(ft_url))
             session |= {"ft_url": ft_url, "ft_link": ft.url}  # as given; as the driver opened it
         recorder = Recorder(
-            sensor, path, options, ft=ft, session=session, labeler=labeler, guided=guided
+            sensor,
+            path,
+            options,
+            ft=ft,
+            session=session,
+            labeler=labeler,
+            guided=guided,
+            scene_end_s=scene_end,
         )
         return recorder.run(stop, progress)
 
