@@ -124,3 +124,21 @@ def test_unknown_training_rows_score_the_whole_dataset(twin_ds: Dataset) -> None
     ev = evaluate_model(Noisy(0.1), twin_ds, oracle_samples=0)
     assert list(ev.sections) == ["all"] and ev.sections["all"].rows.size == twin_ds.n
     assert "every row" in ev.notes[0]
+
+
+def test_other_sensors_get_no_paper_column(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    ds = Dataset.generic(
+        rng.normal(size=(200, 4)),
+        rng.normal(size=200),
+        list("abcd"),
+        ["Fz"],
+        region=rng.integers(1, 5, 200),
+        press=np.repeat(np.arange(20), 10),
+    )
+    m = Noisy(0.1)
+    mark(m, ds, split_dataset(ds, SplitSpec("blocked")))
+    write_report(evaluate_model(m, ds, oracle_samples=0), tmp_path, {"path": "g"}, None, ds)
+    md = (tmp_path / "report.md").read_text()
+    assert "paper" not in md.lower().replace("paper's protocol", "")
+    assert "| Fz |" in md and "(oracle" not in md
