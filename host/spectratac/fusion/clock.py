@@ -117,8 +117,8 @@ def fit_clock(
         raise ClockFitError(f"{s.size} sensor times but {h.size} host times: pair them up")
     ok = np.isfinite(s) & np.isfinite(h)
     s, h = s[ok], h[ok]
-    sync = _exchange_points(exchanges or ())
     have_arrivals = s.size >= _MIN_POINTS and np.ptp(s) > 0
+    sync = _exchange_points(exchanges or ())
     if not have_arrivals and sync is None:
         raise ClockFitError(
             "need at least two samples with distinct sensor times, or time-sync exchanges"
@@ -131,6 +131,8 @@ def fit_clock(
     slope, intercept = _envelope_line(x, y)
     method = "envelope"
     local = None
+    if exchanges:
+        sync = _exchange_points(exchanges, 1.0 + slope)
     if sync is not None:
         local = (sync[0] - s_ref, (sync[1] - h_ref) - (sync[0] - s_ref), sync[2])
         intercept = _weighted_median(local[1] - slope * local[0], local[2])
@@ -242,16 +244,19 @@ def _piecewise(
 
 
 # ---------------------------------------------------------------------------- exchanges
-def _exchange_points(exchanges: Sequence[Exchange]) -> tuple[F64, F64, F64] | None:
+def _exchange_points(
+    exchanges: Sequence[Exchange], ratio: float = 1.0
+) -> tuple[F64, F64, F64] | None:
     """(device mid s, host mid s, weight) of the usable round trips: those within 1.5x the
-    shortest round trip (long ones carry more asymmetry)."""
+    shortest round trip (long ones carry more asymmetry). `ratio` converts the device's
+    turnaround to host seconds (host s per device s, from the arrivals when known)."""
     if not exchanges:
         return None
     host_sent = np.array([e.host_sent for e in exchanges], dtype=np.float64)
     host_recv = np.array([e.host_received for e in exchanges], dtype=np.float64)
     rx = np.array([e.device_rx_us for e in exchanges], dtype=np.float64)
     tx = np.array([e.device_tx_us for e in exchanges], dtype=np.float64)
-    rtt = (host_recv - host_sent) - (tx - rx) * 1e-6  # minus the device's turnaround
+    rtt = (host_recv - host_sent) - (tx - rx) * 1e-6 * ratio  # minus the device's turnaround
     ok = np.isfinite(rtt) & (rtt >= 0)
     if not ok.any():
         raise ClockFitError("no time-sync exchange has a non-negative round trip")
