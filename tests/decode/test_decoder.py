@@ -180,3 +180,10 @@ def test_baseline_recovers_when_a_session_starts_under_contact() -> None:
     for _ in range(STUCK + 5 * 600):
         u, _ = asm.push(0, np.array([1000.0]))
     assert abs(u[1] / 1000.0 - 1.0) < GATE
+
+
+def test_moving_average_context_sees_only_the_past() -> None:
+    lay = Layout(("a",), emas=(2.0,))
+    u, valid = assemble(lay, np.array([[0.0], [4.0], [4.0], [4.0]]))
+    assert valid.all() and u[:, 1].tolist() == [0.0, 0.0, 2.0, 3.0]
+    assert lay.names() == ["a", "ema2:a"]

@@ -39,6 +39,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--classes", help="class column of CSV / generic data (default: auto)")
     p.add_argument("--context", type=int, default=0, help="past samples fed as context")
     p.add_argument("--dilated", action="store_true", help="context lags 1, 2, 4, ... samples")
+    p.add_argument("--ema", help="moving-average context time constants in samples, e.g. 10,40")
     p.add_argument("--drift", choices=DRIFT, default="none")
     p.add_argument("--uncertainty", action="store_true", help="calibrated per-target std")
     p.add_argument("--loss", choices=LOSSES, default="paper")
@@ -86,6 +87,7 @@ def _train(args: argparse.Namespace) -> int:
         targets=tuple(targets),
         context=args.context,
         context_dilated=args.dilated,
+        context_ema=tuple(float(v) for v in _names(args.ema) or ()),
         drift=args.drift,
         uncertainty=args.uncertainty,
         loss=args.loss,

@@ -45,6 +45,8 @@ class Assembler:
         self._seen = np.zeros(layout.steps, bool)
         self._hist: deque[F64] = deque(maxlen=max(layout.lags, default=0) + 1)
         self._base: F64 | None = None
+        self._ema: F64 | None = None  # (len(emas), base)
+        self._alpha = 1.0 / np.asarray(layout.emas, dtype=np.float64)[:, None]
         self._out_of_gate = 0
         self._out = np.empty(layout.size)
 
@@ -53,6 +55,7 @@ class Assembler:
         self._seen[:] = False
         self._hist.clear()
         self._base = None
+        self._ema = None
         self._out_of_gate = 0
 
     def push(self, step: int, x: F64) -> tuple[F64, bool]:
@@ -78,6 +81,12 @@ class Assembler:
         n = len(self._hist)
         for i, lag in enumerate(lay.lags):
             out[(i + 1) * b : (i + 2) * b] = self._hist[max(n - 1 - lag, 0)]
+        if lay.emas:
+            if self._ema is None:
+                self._ema = np.tile(cur, (len(lay.emas), 1))
+            k = 1 + len(lay.lags)
+            out[k * b : (k + len(lay.emas)) * b] = self._ema.reshape(-1)  # the past only
+            self._ema += self._alpha * (cur - self._ema)
         if lay.drift:
             out[-b:] = self._baseline(cur)
         return out, True

@@ -14,7 +14,8 @@ kinds (per LED step, on the current sample x_t):
   needs the 12 SpectraTac inputs s0.R .. s2.C.
 - raw: the C inputs as they are.
 - generic: the C inputs and each as a fraction of their summed magnitude (any sensor).
-Then, whatever the kind: x_t - x_{t-lag} per context lag, and x_t - b_t with a baseline.
+Then, whatever the kind: x_t - x_{t-lag} per context lag, x_t - ema_tau per moving average,
+and x_t - b_t with a baseline.
 
 >>> from spectratac.decode.layout import Layout
 >>> from spectratac.dataset import SPECTRATAC_INPUTS
@@ -119,6 +120,12 @@ def build_features(kind: str, layout: Layout) -> FeatureSet:
         for i in range(base):
             lin.append(unit(i) - unit((k + 1) * base + i))
             lin_names.append(f"{names_in[i]}-{names_in[(k + 1) * base + i]}")
+    k0 = 1 + len(layout.lags)
+    for k in range(len(layout.emas)):
+        for i in range(base):
+            j = (k0 + k) * base + i
+            lin.append(unit(i) - unit(j))
+            lin_names.append(f"{names_in[i]}-{names_in[j]}")
     if layout.drift:
         for i in range(base):
             lin.append(unit(i) - unit(d - base + i))

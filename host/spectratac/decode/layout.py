@@ -2,9 +2,11 @@
 
 A sample lit by LED step s carries only that step's C counts. The assembled vector of a
 sample is the latest sample of every step (S x C, step-major), then the same vector at each
-past lag (temporal context), then the running no-contact baseline (drift compensation):
+past lag (temporal context), then exponential moving averages of it with time constants
+`emas` (samples; slow context such as elastomer creep), then the running no-contact
+baseline (drift compensation):
 
-    u = [x_t, x_{t-lag1}, x_{t-lag2}, ..., b_t]      length D = S*C*(1 + len(lags) + drift)
+    u = [x_t, x_{t-lag1}, ..., ema_tau1, ..., b_t]   length D = S*C*(1 + lags + emas + drift)
 
 Everything after assembly (features, normalisation, network) is stateless and is what the
 exports (ONNX, TorchScript, C, NumPy runtime) compute.
@@ -28,6 +30,7 @@ class Layout:
     steps: int = 1  # LED steps in the sequence (S)
     lags: tuple[int, ...] = ()  # temporal context lags in samples
     drift: bool = False  # running baseline appended
+    emas: tuple[float, ...] = ()  # time constants (samples) of moving averages appended
 
     @property
     def base(self) -> int:
@@ -36,12 +39,12 @@ class Layout:
 
     @property
     def size(self) -> int:
-        return self.base * (1 + len(self.lags) + int(self.drift))
+        return self.base * (1 + len(self.lags) + len(self.emas) + int(self.drift))
 
     @property
     def trivial(self) -> bool:
         """True when the assembled vector is just the sample (no steps, context or baseline)."""
-        return self.steps == 1 and not self.lags and not self.drift
+        return self.steps == 1 and not self.lags and not self.emas and not self.drift
 
     def step_names(self) -> list[str]:
         if self.steps == 1:
@@ -53,6 +56,8 @@ class Layout:
         out = list(cur)
         for lag in self.lags:
             out += [f"{n}[t-{lag}]" for n in cur]
+        for tau in self.emas:
+            out += [f"ema{tau:g}:{n}" for n in cur]
         if self.drift:
             out += [f"base:{n}" for n in cur]
         return out
@@ -63,8 +68,15 @@ class Layout:
             "steps": self.steps,
             "lags": list(self.lags),
             "drift": self.drift,
+            "emas": list(self.emas),
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Layout:
-        return cls(tuple(d["channels"]), int(d["steps"]), tuple(d["lags"]), bool(d["drift"]))
+        return cls(
+            tuple(d["channels"]),
+            int(d["steps"]),
+            tuple(d["lags"]),
+            bool(d["drift"]),
+            tuple(float(t) for t in d.get("emas", ())),
+        )

@@ -35,6 +35,8 @@ class TrainSpec:
 
     context: past samples (per session, time order) fed as raw-input deltas x_t - x_{t-lag};
     lags are 1..context, or powers of two (1, 2, 4, ...) with `context_dilated`.
+    context_ema: time constants (samples) of input moving averages fed as x_t - ema, for
+    slow history such as elastomer creep (e.g. (10, 40, 160) = 0.5, 2, 8 s at 20 Hz).
     drift: "baseline" adds inputs relative to a running no-contact baseline.
     uncertainty: a calibrated per-target standard deviation head.
     val_fraction: share of training rows (contiguous time blocks) held out for calibrating
@@ -46,6 +48,7 @@ class TrainSpec:
     targets: tuple[str, ...] = ALL_FT
     context: int = 0
     context_dilated: bool = False
+    context_ema: tuple[float, ...] = ()
     drift: str = "none"
     uncertainty: bool = False
     loss: str = "paper"
@@ -61,6 +64,9 @@ class TrainSpec:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
+        object.__setattr__(self, "context_ema", tuple(float(t) for t in self.context_ema))
+        if any(t < 1 for t in self.context_ema):
+            raise DecoderError(f"TrainSpec.context_ema={self.context_ema}: time constants >= 1")
         for name, allowed in (
             ("features", FEATURES),
             ("model", MODELS),
@@ -115,6 +121,7 @@ class TrainSpec:
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["targets"] = list(self.targets)
+        d["context_ema"] = list(self.context_ema)
         return d
 
     @classmethod

@@ -93,7 +93,9 @@ def plan(dataset: Any, spec: TrainSpec) -> Plan:
     steps = sensor_config.n_steps(dataset.meta.get("config"))
     if steps > 1 and int(np.max(dataset.step, initial=0)) >= steps:
         raise DecoderConfigError(f"rows have LED step >= {steps}, the configuration's steps")
-    layout = Layout(tuple(dataset.input_names), steps, spec.lags, spec.drift == "baseline")
+    layout = Layout(
+        tuple(dataset.input_names), steps, spec.lags, spec.drift == "baseline", spec.context_ema
+    )
     heads = Heads(
         tuple(reg),
         uncertainty=spec.uncertainty and bool(reg),
