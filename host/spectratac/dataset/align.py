@@ -18,6 +18,7 @@ from spectratac.device.sensor import TimeSyncExchange
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
 
 _WRAP = 1 << 32
+CAUSALITY_TOLERANCE_S = 0.5e-3  # how far before a window's end its frame may seem to arrive
 
 
 @dataclass
@@ -51,12 +52,28 @@ def sync_exchanges(
 
 
 def device_windows(samples: np.ndarray, exchanges: list[dict[str, Any]], scale: float) -> Windows:
-    """Host-clock windows of RECORDED_SAMPLE rows."""
+    """Host-clock windows of RECORDED_SAMPLE rows.
+
+    The exchanges set the offset (they remove the transport's minimum latency), unless they
+    contradict causality: a window cannot end after its frame arrived. A device that stamps
+    its TIME_SYNC replies late (the simulator answers with the time of its last step) would
+    otherwise shift every window; then the arrival envelope alone is used, and the clock
+    record says why."""
     end_s = samples["t_end_us"] / 1e6 / scale
     start_s = samples["t_start_us"] / 1e6 / scale
-    sync = sync_exchanges(exchanges, samples["t_end_us"], samples["host_time"], scale)
-    model = fit_clock(end_s, samples["host_time"], exchanges=sync or None)
-    return Windows(model.to_host(start_s), model.to_host(end_s), _describe(model, scale))
+    arrival = samples["host_time"]
+    sync = sync_exchanges(exchanges, samples["t_end_us"], arrival, scale)
+    model = fit_clock(end_s, arrival, exchanges=sync or None)
+    note: dict[str, Any] = {}
+    if sync:
+        early = float(np.quantile(arrival - model.to_host(end_s), 0.01))
+        if early < -CAUSALITY_TOLERANCE_S:
+            model = fit_clock(end_s, arrival)
+            note = {
+                "exchanges_rejected": f"windows would end {-early * 1e3:.2f} ms after their "
+                "frames arrived: the device's TIME_SYNC stamps are late"
+            }
+    return Windows(model.to_host(start_s), model.to_host(end_s), _describe(model, scale) | note)
 
 
 def ft_host_times(ft: np.ndarray, scale: float) -> tuple[np.ndarray, dict[str, Any]]:
