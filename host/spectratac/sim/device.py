@@ -111,6 +111,7 @@ class SimDevice:
             )
         if err != 0:
             raise native.NativeBuildError(f"stac_sim_init failed ({err})")
+        self._flush_duties()  # the firmware switched the LEDs off while booting
 
     # --- time and bytes --------------------------------------------------------------------
     def step(self, now_us: int) -> None:
@@ -140,6 +141,22 @@ class SimDevice:
         """64-bit device time by which the core wants its next step."""
         wake32 = self.lib.stac_sim_next_wake_us(self._ptr)
         return self.now_us + ((wake32 - self.now_us) & 0xFFFF_FFFF) % 0x8000_0000
+
+    def sensor_transfer(self, bus: int, now_us: int, write: bytes, read_len: int) -> bytes:
+        """One transfer straight to the register model of sensor `bus` (tests, debugging), as
+        the firmware's I2C would make it; raises I2CNack if the model does not acknowledge."""
+        self._flush_duties()
+        if self.registers == "python":
+            return self.rig.sensors[bus].transfer(now_us, write, read_len)
+        out = ctypes.create_string_buffer(max(read_len, 1))
+        rc = self.lib.stac_sim_sensor_transfer(
+            self._ptr, bus, now_us, write, len(write), out, read_len
+        )
+        if rc == native.I2C_NACK:
+            raise I2CNack(f"sensor model {bus} did not acknowledge {write.hex()}")
+        if rc != native.I2C_OK:
+            raise native.NativeBuildError(f"sensor model {bus}: transfer failed ({rc})")
+        return out.raw[:read_len]
 
     @property
     def streaming(self) -> bool:

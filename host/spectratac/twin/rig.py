@@ -132,7 +132,8 @@ class TwinRig:
         self._timeline_arrays: tuple[int, I64, F64, F64] | None = None
         self._paths: dict[bytes, F64] = {}
         self._rates_cache: dict[tuple[int, int, int], Window] = {}
-        self._last_eval: tuple[int, int, int] | None = None
+        self._last_eval: tuple[int, int, int] | None = None  # the latest window evaluated
+        self._last_period: int | None = None  # its distance from the one before
         self.plan: WindowPlan | None = None
         seconds = int(np.ceil(scene.duration_s)) + 3600
         a = np.exp(-1.0 / self.unit.ft_bias_tau_s)
@@ -328,15 +329,18 @@ class TwinRig:
         if len(self._rates_cache) >= SHARED_WINDOWS:
             self._rates_cache.pop(next(iter(self._rates_cache)))
         self._rates_cache[key] = window
+        prev = self._last_eval
+        same = prev is not None and prev[2] == key[2] and prev[1] - prev[0] == key[1] - key[0]
+        self._last_period = key[0] - prev[0] if prev is not None and same else None
         self._last_eval = key
 
     def _stable(self, key: tuple[int, int, int]) -> bool:
-        """Windows come at a steady period under an unchanged LED timeline."""
+        """This window is the third at one steady period, duration and LED timeline."""
         prev = self._last_eval
         if not self.lookahead or prev is None or prev[2] != key[2]:
             return False
         period, it = key[0] - prev[0], key[1] - key[0]
-        return it == prev[1] - prev[0] and period >= it > 0
+        return it == prev[1] - prev[0] and period == self._last_period and period >= it > 0
 
     def _make_plan(
         self, key: tuple[int, int, int], n: int, cfg: SensorConfig, sd_als: bool
