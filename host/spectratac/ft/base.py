@@ -78,9 +78,11 @@ class FTSensor:
                 self._send_stop()
         except (OSError, FTError):
             pass  # the link may already be gone; closing must still succeed
-        self._close_link()
+        # the reader polls in short steps: let it finish before its descriptor is closed
+        # (a closed descriptor's number can be reused by another file at once)
         if self._thread is not None and threading.current_thread() is not self._thread:
             self._thread.join(timeout=2.0)
+        self._close_link()
         for hook in self._on_close:
             hook()
         self._on_close.clear()
