@@ -180,3 +180,18 @@ def test_a_simulated_session_ends_with_its_scene(tmp_path: Path) -> None:
     last = recorded_samples(rec.frames, rec.frame_host_times)["t_end_us"][-1] / 1e6
     assert duration <= last < duration + 2.0  # within a loop pass (20 ms x speed) or so
     assert [e["index"] for e in rec.labels] == [0]  # the scene's one press
+
+
+def test_a_lost_device_keeps_the_ft_rows_too(tmp_path: Path) -> None:
+    from spectratac.ft import FTSensor
+
+    url = "sim://?scene=tour&seed=3&speed=10&ft=netft"
+    path = tmp_path / "lost_ft.mcap"
+    transport = CuttingTransport(SimTransport(url), 12_000)
+    with Sensor.attach(transport) as sensor, FTSensor.open(url) as ft:
+        summary = Recorder(sensor, path, RecordOptions(duration_s=60), ft=ft).run()
+    assert summary.stopped_by == "error"
+    rec = read_recording(path)
+    assert rec.ft is not None and len(rec.ft) == summary.ft_samples > 1000
+    last_frame = rec.frame_host_times[-1]
+    assert rec.ft["host_time"][-1] > last_frame - 0.1  # F/T written up to the loss

@@ -282,10 +282,13 @@ class Recorder:
         try:
             for action in (self.sensor.stop, lambda: self._sync(writer), self._stop_ft):
                 # a lost link cannot be stopped; what arrived is still written
-                with contextlib.suppress(SpectraTacError):
+                with contextlib.suppress(SpectraTacError, OSError):
                     action()
+            # each on its own: a lost link on one side must not cost the other its data
             with contextlib.suppress(SpectraTacError):
-                self._move(writer)
+                self._move_ft(writer)
+            with contextlib.suppress(SpectraTacError):
+                self._count_samples()
             self.sensor.remove_listener(self._on_frame)
             self._move_frames(writer)
             if self.labeler is not None:
@@ -319,18 +322,25 @@ class Recorder:
             writer.frames([q.popleft() for _ in range(n)])
 
     def _move(self, writer: RecordingWriter) -> None:
-        """Frames and F/T rows that arrived since the last call into the file."""
+        """Frames and F/T rows that arrived since the last call into the file; then count
+        the samples (counting may raise a lost link: everything is written by then)."""
         self._move_frames(writer)
-        batch = self.sensor.read(1 << 30, timeout=0)  # keeps the sensor's buffer empty
-        if len(batch):
-            self._samples += len(batch)
-            self._scene_now = float(batch["device_time_us"][-1]) / 1e6
+        self._move_ft(writer)
+        self._count_samples()
+
+    def _move_ft(self, writer: RecordingWriter) -> None:
         if self.ft is not None:
             rows = self.ft.read_available()
             if len(rows):
                 writer.ft(rows)
                 self._ft_rows += len(rows)
                 self._ft_window.append((time.monotonic(), self._ft_rows))
+
+    def _count_samples(self) -> None:
+        batch = self.sensor.read(1 << 30, timeout=0)  # keeps the sensor's buffer empty
+        if len(batch):
+            self._samples += len(batch)
+            self._scene_now = float(batch["device_time_us"][-1]) / 1e6
 
     def _sync(self, writer: RecordingWriter) -> None:
         self.sensor.sync_clock(self.options.sync_exchanges)
