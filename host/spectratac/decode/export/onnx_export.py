@@ -7,6 +7,7 @@ float32 (N, O) physical outputs named in the model's metadata ("outputs").
 from __future__ import annotations
 
 import json
+import logging
 import warnings
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,9 @@ def export_onnx(dec: Any, path: Path) -> Path:
     module = Exported(dec.runtime).eval()
     example = torch.zeros((2, dec.runtime.n_inputs), dtype=torch.float32)
     batch = torch.export.Dim("batch", min=1)
+    quiet = logging.getLogger("torch.onnx")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)  # "torchvision is not installed" notes are noise here
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         program = torch.onnx.export(
@@ -35,6 +39,7 @@ def export_onnx(dec: Any, path: Path) -> Path:
             dynamo=True,
             verbose=False,
         )
+    quiet.setLevel(level)
     model = program.model_proto
     info = {
         "inputs": dec.layout.names(),

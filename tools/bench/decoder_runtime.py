@@ -1,0 +1,186 @@
+"""Benchmark: decoder runtime and training cost, each beside a reference measured in the same
+run (this machine is shared: read the ratios, not the absolute times).
+
+    .venv/bin/python tools/bench/decoder_runtime.py [--json] [--samples 60000] [--epochs 30]
+
+1. Single-sample latency (p50, p99) of the paper's decoder (ResMLP 128 x 3 on 33 features,
+   six axes + nine regions) through the fused NumPy runtime, torch not imported, against one
+   128 x 128 float32 matrix-vector product; calls of the two alternate in small batches so
+   that load spikes hit both. Optionally (--onnx) the same model in ONNX Runtime.
+2. Training time of the paper's recipe on --samples twin calibration samples for --epochs,
+   against plain GEMMs of the same shapes and total FLOPs (forward + backward ~ 3x forward):
+   the ratio is the training loop's overhead over raw matrix arithmetic.
+Targets (issue 7): p99 <= 100 us; the paper recipe on 60,000 samples in <= 60 s. A p99
+far above the p50 means the process was preempted (see load_average_1min in --json).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
+
+import benchlib
+from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
+from spectratac.decode import Decoder
+
+BATCH = 50  # calls per alternation
+
+
+def latencies(fn, args: list, start: int, calls: int) -> np.ndarray:
+    out = np.empty(calls)
+    clock = time.perf_counter_ns
+    n = len(args)
+    for i in range(calls):
+        a = args[(start + i) % n]
+        t0 = clock()
+        fn(a)
+        out[i] = clock() - t0
+    return out / 1000.0
+
+
+def interleaved(subject, s_args: list, reference, r_args: list, calls: int):
+    """Latencies (us) of subject and reference, alternating batches of BATCH calls."""
+    s, r = [], []
+    for k in range(max(1, calls // BATCH)):
+        s.append(latencies(subject, s_args, k * BATCH, BATCH))
+        r.append(latencies(reference, r_args, k * BATCH, BATCH))
+    return np.concatenate(s), np.concatenate(r)
+
+
+def paper_decoder(n: int = 500) -> tuple[Decoder, np.ndarray]:
+    """The paper's architecture with random weights (latency does not depend on them)."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(8000, 28000, (n, 12))
+    ds = Dataset.generic(x, np.zeros((n, 6)), SPECTRATAC_INPUTS, FT_NAMES)
+    dec = Decoder.untrained(ds, "paper33", (*FT_NAMES, "region"), ("resmlp", 128, 3))
+    return dec, x
+
+
+def latency_figures(calls: int, onnx: bool) -> list[benchlib.Figure]:
+    dec, x = paper_decoder()
+    rows = [v.astype(np.float32) for v in x]
+    run1 = dec.runtime.run1
+    w = np.random.default_rng(1).random((128, 128)).astype(np.float32)
+    v = np.random.default_rng(2).random(128).astype(np.float32)
+
+    def matvec(_: np.ndarray) -> None:
+        np.dot(v, w)
+
+    for r in rows[:200]:
+        run1(r)
+    torch_loaded = "torch" in sys.modules
+    s, r = interleaved(run1, rows, matvec, rows, calls)
+    figs = []
+    for q in (50, 99):
+        figs.append(
+            benchlib.Figure(
+                f"paper decoder single sample p{q} (NumPy)",
+                float(np.percentile(s, q)),
+                "us",
+                f"128x128 matvec p{q}",
+                float(np.percentile(r, q)),
+                float(np.percentile(s, q) / np.percentile(r, q)),
+                {
+                    "calls": int(s.size),
+                    "torch_imported": torch_loaded,
+                    "load_average_1min": os.getloadavg()[0],
+                    "target_p99_us": 100,
+                    "params": dec.n_params,
+                    "flops": dec.flops_per_sample,
+                },
+            )
+        )
+    if onnx:
+        figs += onnx_figures(dec, rows, calls, s)
+    return figs
+
+
+def onnx_figures(dec: Decoder, rows: list, calls: int, numpy_lat: np.ndarray) -> list:
+    import tempfile
+
+    import onnxruntime as ort
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = dec.export("onnx", Path(tmp) / "m.onnx")
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = 1
+        sess = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+    feed = [{"u": r[None, :]} for r in rows]
+    run = sess.run
+    o, _ = interleaved(lambda f: run(None, f), feed, dec.runtime.run1, rows, calls)
+    return [
+        benchlib.Figure(
+            f"paper decoder single sample p{q} (ONNX Runtime)",
+            float(np.percentile(o, q)),
+            "us",
+            f"NumPy runtime p{q}",
+            float(np.percentile(numpy_lat, q)),
+            float(np.percentile(o, q) / np.percentile(numpy_lat, q)),
+            {"calls": int(o.size)},
+        )
+        for q in (50, 99)
+    ]
+
+
+def training_figure(samples: int, epochs: int) -> benchlib.Figure:
+    import torch
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.decode import TrainSpec, train
+    from spectratac.twin import generate_session, scenes
+
+    scene = scenes.calibration_session(seed=0, duration_s=samples / 20.0)
+    ds = from_twin_session(generate_session(scene, seed=0), scene)
+    spec = TrainSpec.paper(epochs=epochs)
+    t0 = time.perf_counter()
+    dec = train(ds, spec, progress=False)
+    train_s = time.perf_counter() - t0
+    # plain GEMMs of the model's shapes, same total FLOPs (forward + backward = 3x forward)
+    torch.set_num_threads(spec.threads)
+    a = torch.randn(spec.batch_size, 128)
+    b = torch.randn(128, 128)
+    per = 2 * spec.batch_size * 128 * 128
+    total = 3 * dec.flops_per_sample * ds.n * epochs
+    reps = max(1, int(total / per))
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        torch.mm(a, b)
+    gemm_s = time.perf_counter() - t0
+    return benchlib.Figure(
+        f"paper recipe training, {ds.n} samples x {epochs} epochs",
+        train_s,
+        "s",
+        "same FLOPs as 1024x128x128 GEMMs",
+        gemm_s,
+        train_s / gemm_s,
+        {
+            "samples": ds.n,
+            "epochs": epochs,
+            "target_s_scaled": 60.0 * ds.n * epochs / 1.8e6,
+            "final_loss": dec.meta["history"][-1],
+        },
+    )
+
+
+def main() -> None:
+    p = benchlib.parser(__doc__.splitlines()[0])
+    p.add_argument("--calls", type=int, default=20000, help="latency calls per subject")
+    p.add_argument("--samples", type=int, default=60000)
+    p.add_argument("--epochs", type=int, default=30)
+    p.add_argument("--onnx", action="store_true", help="also time ONNX Runtime")
+    p.add_argument("--no-train", action="store_true", help="latency figures only")
+    args = p.parse_args()
+    figs = latency_figures(args.calls, args.onnx)
+    if not args.no_train:
+        figs.append(training_figure(args.samples, args.epochs))
+    benchlib.report(figs, args.json)
+
+
+if __name__ == "__main__":
+    main()
