@@ -36,7 +36,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--model", choices=MODELS, default="resmlp")
     p.add_argument("--targets", help="comma list, e.g. Fz,region (default: all + region)")
     p.add_argument("--inputs", help="input channel columns of CSV / generic data, in order")
-    p.add_argument("--classes", help="class column of CSV / generic data (default: auto)")
+    p.add_argument("--classes", help="class column of CSV / generic data (default: auto; '' none)")
     p.add_argument("--context", type=int, default=0, help="past samples fed as context")
     p.add_argument("--dilated", action="store_true", help="context lags 1, 2, 4, ... samples")
     p.add_argument("--ema", help="moving-average context time constants in samples, e.g. 10,40")
@@ -74,7 +74,7 @@ def _train(args: argparse.Namespace) -> int:
     if unknown:
         raise DecoderError(f"--export {','.join(unknown)}: choose from {', '.join(FORMATS)}")
     targets = _names(args.targets)
-    classes = _names(args.classes)
+    classes = None if args.classes is None else (_names(args.classes) or [])
     ds = load_datasets(args.data, _names(args.inputs), targets, classes)
     if targets is None:
         targets = list(ds.target_names)
