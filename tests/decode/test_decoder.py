@@ -187,3 +187,20 @@ def test_moving_average_context_sees_only_the_past() -> None:
     u, valid = assemble(lay, np.array([[0.0], [4.0], [4.0], [4.0]]))
     assert valid.all() and u[:, 1].tolist() == [0.0, 0.0, 2.0, 3.0]
     assert lay.names() == ["a", "ema2:a"]
+
+
+def test_led_sequence_decoder_end_to_end() -> None:
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.twin import generate_session, scenes
+
+    steps = np.zeros((3, 3, 3))
+    for c in range(3):
+        steps[c, :, c] = 0.6  # step c lights every LED in colour c (R, G, B)
+    scene = scenes.calibration_session(seed=1, duration_s=40.0)
+    ds = from_twin_session(generate_session(scene, seed=1, led_steps=steps), scene)
+    assert len(ds.meta["config"]["leds"]) == 3
+    dec = train(ds, TrainSpec.paper(**TINY), progress=False)
+    assert dec.layout.steps == 3 and dec.runtime.features.n_features == 99
+    est = dec.predict(ds)
+    assert est.invalid.tolist()[:3] == [True, True, False] and est.invalid.sum() == 2
+    assert np.isfinite(est.targets[2:]).all()

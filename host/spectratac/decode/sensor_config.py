@@ -12,7 +12,10 @@ Only the fields that change the counts are compared (settle time is not).
 
 from __future__ import annotations
 
+import json
 from typing import Any
+
+from spectratac.decode.errors import DecoderConfigError
 
 COMPARED = ("integration_ms", "gain", "digital_gain", "sensitivity", "leds")
 _GAIN = {0: 1.0, 1: 2.0, 2: 4.0, 3: 0.5}
@@ -33,9 +36,17 @@ def from_message(msg: Any) -> dict[str, Any]:
 
 
 def normalise(config: Any) -> dict[str, Any] | None:
-    """A dict, a CONFIG message or None, as a configuration dict (or None)."""
+    """A dict, a CONFIG message, a list of identical dicts or None, as a dict (or None)."""
     if config is None or isinstance(config, dict):
         return config
+    if isinstance(config, list):  # a dataset joined across configurations
+        distinct = {json.dumps(c, sort_keys=True) for c in config}
+        if len(distinct) == 1:
+            return normalise(config[0])
+        raise DecoderConfigError(
+            "the data mixes several sensor configurations; a decoder serves one: split it "
+            "with spectratac.dataset.split_by_config"
+        )
     if hasattr(config, "led_step_count"):
         return from_message(config)
     raise TypeError(f"expected a configuration dict or CONFIG message, got {type(config)}")

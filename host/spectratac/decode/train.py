@@ -90,7 +90,7 @@ def plan(dataset: Any, spec: TrainSpec) -> Plan:
         n_classes = 9
     else:
         n_classes = len(labels) if labels else int(region.max(initial=0))
-    steps = sensor_config.n_steps(dataset.meta.get("config"))
+    steps = sensor_config.n_steps(sensor_config.normalise(dataset.meta.get("config")))
     if steps > 1 and int(np.max(dataset.step, initial=0)) >= steps:
         raise DecoderConfigError(f"rows have LED step >= {steps}, the configuration's steps")
     layout = Layout(
@@ -244,7 +244,7 @@ def train(
         "class_labels": p.class_labels,
         "input_names": list(dataset.input_names),
         "kind": dataset.meta.get("kind"),
-        "config": dataset.meta.get("config"),
+        "config": sensor_config.normalise(dataset.meta.get("config")),
         "unit_id": dataset.meta.get("unit_id"),
         "n_train": int(fit_rows.size),
         "n_val": int(val_rows.size),
