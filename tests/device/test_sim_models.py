@@ -15,9 +15,10 @@ from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol import messages as m
 from spectratac.sim.device import SimDevice
 from spectratac.sim.scenes import make_scene
-from spectratac.twin import I2CNack
+from spectratac.twin import I2CNack, scenes
 
 SCENE = make_scene("tour")
+PRESS = scenes.single_press(6, 6.0, start_s=0.3, hold_s=2.0)  # short: cheap rigs per example
 
 # One register transfer: (bus, time step µs, bytes written, bytes read).
 _settings = st.builds(  # IT, gain, DG (0b11 reserved), SENS, SD_ALS
@@ -52,8 +53,8 @@ _op = st.tuples(st.integers(0, 2), _dt, _write, st.sampled_from([2, 2, 0, 1, 4])
 
 
 def _pair() -> tuple[SimDevice, SimDevice]:
-    native = SimDevice(SCENE, 5, registers="native")
-    python = SimDevice(SCENE, 5, registers="python")
+    native = SimDevice(PRESS, 5, registers="native")
+    python = SimDevice(PRESS, 5, registers="python")
     for dev in (native, python):
         dev.rig.set_led_duties(0, np.full((3, 3), 0.4))
     return native, python

@@ -66,6 +66,15 @@ def build_lib(out: Path = DEFAULT_OUT, build_id: str = "native") -> Path:
                    f'-DSTAC_BUILD_ID="{build_id}"'])
 
 
+def build_lib_sanitized(out: Path = DEFAULT_OUT) -> Path:
+    """The shared library with AddressSanitizer and UBSan, for host tests of the port and its
+    sensor models (load it with libasan preloaded: tests/device/test_sim_sanitizers.py)."""
+    return _build(out / "libstac_sim_asan.so",
+                  [*core_sources(), NATIVE / "stac_sim.c", NATIVE / "veml_model.c"],
+                  [*SANITIZE, "-fPIC", "-shared", "-fvisibility=hidden",
+                   '-DSTAC_BUILD_ID="native"'])
+
+
 def build_unit(out: Path = DEFAULT_OUT) -> Path:
     """The C unit tests against the fake board, with ASan and UBSan."""
     tests = sorted(p for p in CTESTS.glob("*.c") if p.name not in {"vector_check.c"})
@@ -81,8 +90,8 @@ def build_bench(out: Path = DEFAULT_OUT) -> Path:
     return _build(out / "stac_bench", [*core_sources(), NATIVE / "bench" / "stac_bench.c"], ["-O2"])
 
 
-BUILDERS = {"lib": build_lib, "unit": build_unit, "vectors": build_vector_check,
-            "bench": build_bench}
+BUILDERS = {"lib": build_lib, "lib-asan": build_lib_sanitized, "unit": build_unit,
+            "vectors": build_vector_check, "bench": build_bench}
 
 
 def main() -> int:

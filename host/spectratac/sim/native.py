@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import os
 import threading
 from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_uint64, c_void_p
 from pathlib import Path
@@ -20,6 +21,8 @@ from spectratac.errors import SpectraTacError
 REPO = Path(__file__).resolve().parents[3]
 FIRMWARE = REPO / "firmware"
 ABI_VERSION = 1
+#: Use this prebuilt library instead of building one (e.g. the sanitizer build in tests).
+LIB_ENV = "SPECTRATAC_SIM_LIB"
 
 I2C_OK, I2C_NACK, I2C_TIMEOUT, I2C_BUS_ERROR = 0, 1, 2, 3
 
@@ -115,7 +118,8 @@ def load() -> ctypes.CDLL:
     with _lock:
         if _lib is not None:
             return _lib
-        lib = declare(ctypes.PyDLL(str(build())))
+        path = os.environ.get(LIB_ENV) or str(build())
+        lib = declare(ctypes.PyDLL(path))
         if lib.stac_sim_abi_version() != ABI_VERSION:
             raise NativeBuildError(
                 f"native firmware ABI {lib.stac_sim_abi_version()} != {ABI_VERSION} expected by "
