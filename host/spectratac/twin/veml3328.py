@@ -17,6 +17,10 @@ register pointer, and a following read returns that register (bytes past the sec
 0xFF: the device has released the bus). An absent device, an unknown register, a write to a
 read-only register or a malformed write is not acknowledged (`I2CNack`).
 
+This is the reference model. The simulated device normally runs its C mirror
+(firmware/ports/native/veml_model.c), which asks the rig only for each window's counts;
+tests/device/test_sim_models.py checks the two transfer by transfer. Change both together.
+
 >>> from spectratac.twin import scenes
 >>> from spectratac.twin.rig import TwinRig
 >>> rig = TwinRig(scenes.idle(1.0), seed=0)
