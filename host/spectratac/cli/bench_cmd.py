@@ -48,6 +48,9 @@ def add_options(d: argparse.ArgumentParser) -> None:
     d.add_argument("--sequences", nargs="+", help="subset of white rgb per-led")
     d.add_argument("--models", nargs="+", help="subset of linear mlp resmlp resmlp-large")
     d.add_argument("--only", nargs="+", metavar="VARIANT", help="variants besides 'paper'")
+    d.add_argument(
+        "--full-grid", action="store_true", help="train resmlp-large on every LED sequence too"
+    )
 
 
 def config(args: argparse.Namespace) -> Any:
@@ -58,7 +61,7 @@ def config(args: argparse.Namespace) -> Any:
     from spectratac.evaluate.variants import VARIANTS
 
     cfg = BenchConfig.quick() if args.quick else BenchConfig()
-    changes: dict[str, Any] = {"seed": args.seed}
+    changes: dict[str, Any] = {"seed": args.seed, "full_grid": args.full_grid}
     if args.duration is not None:
         if args.duration < 20:
             raise SpectraTacError("--duration must be >= 20 s (a few presses per split)")
@@ -88,6 +91,19 @@ def config(args: argparse.Namespace) -> Any:
     return replace(cfg, **changes)
 
 
+def planned_points(cfg: Any) -> list[tuple[int, str, str]]:
+    """(integration, sequence, model) triples the speed bench will train."""
+    from spectratac.evaluate.speed import HEAVY
+
+    return [
+        (i, s, m)
+        for i in cfg.integrations
+        for s in cfg.sequences
+        for m in cfg.models
+        if cfg.full_grid or m not in HEAVY or s == "white"
+    ]
+
+
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -95,10 +111,8 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = config(args)
     out = Path(args.out)
-    if args.variants:
-        total = len({"paper", *cfg.variants}) + 1
-    else:
-        total = len(cfg.integrations) * len(cfg.sequences) * len(cfg.models) + 1
+    points = len({"paper", *cfg.variants}) if args.variants else len(planned_points(cfg))
+    total = points + 1  # + latency / oracle stage
     bar = tqdm(
         total=total,
         desc="bench decoder",
