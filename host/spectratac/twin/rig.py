@@ -1,20 +1,22 @@
 """The twin on a bench: one scene, one unit, an LED duty timeline, three VEML3328 models and
 the reference F/T sensor, all answering at arbitrary (microsecond) times.
 
-The simulated device runs the real firmware against `rig.sensors[k]` (register level) and
-sets LED duties through `set_led_duties`; a window's counts average the optics over the
-window and the LED duties over the exact timeline inside it (the transport is averaged over
-10 ms sub-samples and multiplied by the time-weighted mean duty; the correlation between a
-duty change and a contact change within one window is neglected). A window's optics (count
-rates, temperature, one draw of LED flicker) are evaluated once and shared by the three
-sensors triggered together (kept for the last `SHARED_WINDOWS` windows evaluated).
+The simulated device runs the real firmware against register-level sensor models (the
+native mirror of `rig.sensors[k]`, which asks `read_window` for each completed window's
+counts) and sets LED duties through `set_led_duties`; a window's counts average the optics
+over the window and the LED duties over the exact timeline inside it (the transport is
+averaged over 10 ms sub-samples and multiplied by the time-weighted mean duty; the
+correlation between a duty change and a contact change within one window is neglected).
+A window's optics (count rates, temperature, one draw of LED flicker) are evaluated once
+and shared by the three sensors triggered together (kept for the last `SHARED_WINDOWS`
+windows evaluated).
 
 Lookahead: when windows repeat with a constant period under an unchanged LED timeline (a
 device streaming one LED step), the rig evaluates the next windows in one vectorised batch
 (a plan) and hands them out as they are asked for. Every random draw comes from per-stream
 buffers in the order one-window-at-a-time evaluation would use (PCG64 gives the same values
 drawn in blocks), and a plan entry is used only while it is exactly what the per-window path
-would compute, so the counts are identical with and without lookahead (`lookahead=0`).
+would compute, so the counts are identical with and without it (`lookahead=False`).
 
 >>> from spectratac.twin import scenes
 >>> rig = TwinRig(scenes.single_press(6, 5.0), seed=1)
