@@ -82,6 +82,7 @@ def pareto_plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
     latency (right); colour = model, marker = LED sequence, label = integration time; the
     rate/error Pareto front as a line."""
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -107,10 +108,14 @@ def pareto_plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
     front = sorted((pts[i] for i in pareto_front(pts)), key=lambda p: p[0])
     if front:
         axes[0].plot(*zip(*front, strict=True), "k--", lw=1, label="Pareto front")
-    axes[0].set_xscale("log")
+    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(plain)
+        ax.xaxis.set_minor_formatter(plain)
+        ax.tick_params(axis="x", which="minor", labelsize=6)
     axes[0].set_xlabel("full observations per second (log)")
     axes[0].set_ylabel("mean force MAE, blocked split (N)")
-    axes[1].set_xscale("log")
     axes[1].set_xlabel("single-sample inference latency (µs, log)")
     for m in models:
         axes[1].scatter([], [], color=colours[m], marker="o", label=m)
