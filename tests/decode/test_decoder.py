@@ -204,3 +204,30 @@ def test_led_sequence_decoder_end_to_end() -> None:
     est = dec.predict(ds)
     assert est.invalid.tolist()[:3] == [True, True, False] and est.invalid.sum() == 2
     assert np.isfinite(est.targets[2:]).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    steps=st.lists(st.integers(-1, 2), min_size=1, max_size=60),
+    nan_rows=st.sets(st.integers(0, 59), max_size=5),
+    lags=st.sets(st.integers(1, 5), max_size=3),
+    emas=st.sets(st.sampled_from([2.0, 5.0]), max_size=2),
+    drift=st.booleans(),
+)
+def test_batch_assembly_equals_streaming_push(steps, nan_rows, lags, emas, drift) -> None:
+    lay = Layout(("a", "b"), steps=3, lags=tuple(sorted(lags)), drift=drift,
+                 emas=tuple(sorted(emas)))  # fmt: skip
+    rng = np.random.default_rng(len(steps))
+    x = (
+        rng.uniform(900, 1100, (len(steps), 2))
+        * np.where(rng.random(len(steps)) < 0.3, 0.6, 1)[:, None]
+    )
+    for r in nan_rows:
+        if r < len(steps):
+            x[r, 1] = np.nan
+    u, valid = assemble(lay, x, np.array(steps))
+    asm = Assembler(lay)
+    for i, s in enumerate(steps):
+        vec, ok = asm.push(s, x[i])
+        assert ok == valid[i]
+        np.testing.assert_array_equal(vec, u[i])

@@ -20,6 +20,7 @@ not depend on clocks.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import numpy as np
@@ -34,29 +35,69 @@ GATE = 0.03  # RMS relative deviation below which a sample counts as no-contact
 STUCK = 2400  # 2 min at 20 Hz without a no-contact sample: the baseline is wrong, follow
 
 
+class _Ema:
+    """Moving averages of the assembled sample; `step` returns them before the update."""
+
+    def __init__(self, taus: tuple[float, ...]) -> None:
+        self.alpha = 1.0 / np.asarray(taus, dtype=np.float64)[:, None]
+        self.value: F64 | None = None  # (len(taus), base)
+
+    def step(self, cur: F64, out: F64) -> None:
+        """Write the averages before this sample into `out` (len(taus) * base,)."""
+        if self.value is None:
+            self.value = np.tile(cur, (self.alpha.shape[0], 1))
+        out[:] = self.value.reshape(-1)  # the past only
+        self.value += self.alpha * (cur - self.value)
+
+
+class _Baseline:
+    """Gated running no-contact baseline; `step` writes it as it was before the sample."""
+
+    def __init__(self) -> None:
+        self.value: F64 | None = None
+        self.out_of_gate = 0
+
+    def step(self, cur: F64, out: F64) -> None:
+        base = self.value
+        if base is None:
+            self.value = cur.copy()
+            out[:] = cur
+            return
+        out[:] = base  # the sample is judged against the baseline before it
+        ab = np.abs(base)
+        scale = ab + (1e-6 + 0.01 * float(ab.sum()) / ab.shape[0])
+        diff = cur - base
+        dev = diff / scale
+        rel = math.sqrt(float(np.dot(dev, dev)) / dev.shape[0])
+        self.out_of_gate = 0 if rel < GATE else self.out_of_gate + 1
+        if self.out_of_gate == 0 or self.out_of_gate > STUCK:
+            diff /= TAU
+            base += diff
+
+
 class Assembler:
-    """Streaming state of one session: latest sample per step, history, baseline."""
+    """Streaming state of one session: latest sample per step, history, EMAs, baseline.
+
+    This is the reference implementation; `assemble` computes the same vectors for whole
+    sessions at once (tests check they agree bit for bit).
+    """
 
     def __init__(self, layout: Layout) -> None:
         self.layout = layout
-        c = len(layout.channels)
-        self._c = c
+        self._c = len(layout.channels)
         self._latest = np.zeros(layout.base)
         self._seen = np.zeros(layout.steps, bool)
         self._hist: deque[F64] = deque(maxlen=max(layout.lags, default=0) + 1)
-        self._base: F64 | None = None
-        self._ema: F64 | None = None  # (len(emas), base)
-        self._alpha = 1.0 / np.asarray(layout.emas, dtype=np.float64)[:, None]
-        self._out_of_gate = 0
+        self._ema = _Ema(layout.emas)
+        self._base = _Baseline()
         self._out = np.empty(layout.size)
 
     def reset(self) -> None:
         self._latest[:] = 0.0
         self._seen[:] = False
         self._hist.clear()
-        self._base = None
-        self._ema = None
-        self._out_of_gate = 0
+        self._ema = _Ema(self.layout.emas)
+        self._base = _Baseline()
 
     def push(self, step: int, x: F64) -> tuple[F64, bool]:
         """Feed one sample (its step, its C inputs); return (assembled vector, valid).
@@ -82,26 +123,44 @@ class Assembler:
         for i, lag in enumerate(lay.lags):
             out[(i + 1) * b : (i + 2) * b] = self._hist[max(n - 1 - lag, 0)]
         if lay.emas:
-            if self._ema is None:
-                self._ema = np.tile(cur, (len(lay.emas), 1))
             k = 1 + len(lay.lags)
-            out[k * b : (k + len(lay.emas)) * b] = self._ema.reshape(-1)  # the past only
-            self._ema += self._alpha * (cur - self._ema)
+            self._ema.step(cur, out[k * b : (k + len(lay.emas)) * b])
         if lay.drift:
-            out[-b:] = self._baseline(cur)
+            self._base.step(cur, out[-b:])
         return out, True
 
-    def _baseline(self, cur: F64) -> F64:
-        if self._base is None:
-            self._base = cur.copy()
-            return self._base
-        base = self._base.copy()  # the sample is judged against the baseline before it
-        scale = np.abs(base) + 1e-6 + 0.01 * float(np.mean(np.abs(base)))
-        rel = float(np.sqrt(np.mean(((cur - base) / scale) ** 2)))
-        self._out_of_gate = 0 if rel < GATE else self._out_of_gate + 1
-        if self._out_of_gate == 0 or self._out_of_gate > STUCK:
-            self._base += (cur - self._base) / TAU
-        return base
+
+def assemble_session(layout: Layout, x: F64, step: NDArray[np.integer]) -> tuple[F64, NDArray]:
+    """What `Assembler.push` gives for each row of one time-ordered session, vectorised
+    (forward fill per step, lag indexing) except for the recursive EMAs and baseline."""
+    m, b = x.shape[0], layout.base
+    ok = np.all(np.isfinite(x), axis=1) & (step >= 0) & (step < layout.steps)
+    idx = np.arange(m)
+    last = [np.maximum.accumulate(np.where(ok & (step == s), idx, -1)) for s in range(layout.steps)]
+    valid = ok & np.all(np.stack(last) >= 0, axis=0)
+    u = np.full((m, layout.size), np.nan)
+    rows = np.flatnonzero(valid)
+    if not rows.size:
+        return u, valid
+    cur = np.concatenate([x[np.clip(li[rows], 0, None)] for li in last], axis=1)
+    u[rows, :b] = cur
+    pos = np.arange(rows.size)
+    for i, lag in enumerate(layout.lags):
+        u[rows, (i + 1) * b : (i + 2) * b] = cur[np.maximum(pos - lag, 0)]
+    k = 1 + len(layout.lags)
+    if layout.emas:
+        ema = _Ema(layout.emas)
+        block = np.empty((rows.size, len(layout.emas) * b))
+        for p in range(rows.size):
+            ema.step(cur[p], block[p])
+        u[rows, k * b : (k + len(layout.emas)) * b] = block
+    if layout.drift:
+        base = _Baseline()
+        block = np.empty((rows.size, b))
+        for p in range(rows.size):
+            base.step(cur[p], block[p])
+        u[rows, -b:] = block
+    return u, valid
 
 
 def session_order(session: NDArray[np.integer], t: F64) -> list[NDArray[np.intp]]:
@@ -137,12 +196,6 @@ def assemble(
     tt = np.arange(n, dtype=np.float64) if t is None else np.asarray(t, np.float64)
     u = np.full((n, layout.size), np.nan)
     valid = np.zeros(n, bool)
-    asm = Assembler(layout)
     for rows in session_order(ses, tt):
-        asm.reset()
-        for r in rows:
-            vec, ok = asm.push(int(st[r]), x[r])
-            if ok:
-                u[r] = vec
-                valid[r] = True
+        u[rows], valid[rows] = assemble_session(layout, x[rows], st[rows])
     return u, valid
