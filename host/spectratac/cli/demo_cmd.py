@@ -1,11 +1,14 @@
-"""`spectratac demo`: the built-in simulated sensor, streamed live while a scene presses each of
-the nine regions in turn (the firmware core runs natively on the digital twin)."""
+"""`spectratac demo`: the full job on the built-in simulated sensor (record a calibration
+session with a simulated reference F/T sensor, build the dataset, train and evaluate the
+decoders; see spectratac.apps.calibration_demo). `spectratac demo --live` instead streams the
+simulated sensor live while a scene presses each of the nine regions in turn."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -14,13 +17,49 @@ from spectratac.cli.output import Table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("demo", help="stream the simulated sensor while it is pressed")
-    p.add_argument("--seconds", type=float, default=10.0, help="how long to stream")
-    p.add_argument("--speed", default="1", help="time scale of the simulation, or 'max'")
-    p.add_argument("--seed", type=int, default=3)
-    p.add_argument("--every", type=int, default=4, help="print every Nth sample")
+    p = subparsers.add_parser(
+        "demo", help="record, build, train and evaluate on the simulated sensor (or --live)"
+    )
+    p.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder")
+    p.add_argument("--scene-seconds", type=float, default=900.0, help="calibration length")
+    p.add_argument("--speed", default=None, help="time scale (default 15; --live: 1 or 'max')")
+    p.add_argument("--epochs", type=int, default=30, help="training epochs per decoder")
+    p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")
+    p.add_argument("--live", action="store_true", help="only stream live (the first demo)")
+    p.add_argument("--seconds", type=float, default=10.0, help="--live: how long to stream")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--every", type=int, default=4, help="--live: print every Nth sample")
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="only a JSON summary at the end")
-    p.set_defaults(func=_demo)
+    p.set_defaults(func=_dispatch)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    if args.live:
+        args.speed = args.speed or "1"
+        args.seed = 3 if args.seed is None else args.seed
+        return _demo(args)
+    from spectratac.apps.calibration_demo import DemoOptions, run_demo
+
+    opts = DemoOptions(
+        out=args.out,
+        scene_s=args.scene_seconds,
+        speed=float(args.speed or 15.0),
+        seed=0 if args.seed is None else args.seed,
+        epochs=args.epochs,
+        oracle_samples=args.oracle_samples,
+        progress=not (args.no_progress or args.json),
+    )
+    summary = run_demo(opts, say=(lambda _: None) if args.json else print)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        t = summary["timings_s"]
+        print(
+            f"done in {t['total_s']:.0f} s (record {t['record_s']:.0f} s, dataset "
+            f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s)"
+        )
+    return EXIT_OK
 
 
 def _demo(args: argparse.Namespace) -> int:

@@ -1,0 +1,227 @@
+"""The full job on the built-in simulated sensor, as a user would run it on hardware:
+
+1. record a shortened, accelerated calibration session from the simulated optical sensor and
+   a simulated Bota F/T sensor of the same scene (both over their real wire protocols);
+2. build the aligned dataset from the recording;
+3. train the paper's recipe and our best decoder, each under the random and the blocked split;
+4. evaluate them beside the paper's figures and the twin oracle's floor, with the Fig. 3
+   panels written to a folder.
+
+Every figure it prints is measured in this run. Torch is imported only in step 3.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from spectratac.evaluate.paper import paper_mae
+
+FORCES = ("Fx", "Fy", "Fz")
+COMPONENTS = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+Say = Callable[[str], None]
+
+
+def best_spec(epochs: int, seed: int) -> Any:
+    """Our best decoder at the paper's inference cost: the same ResMLP, fed temporal context
+    (input deltas over dilated lags, for the elastomer's hysteresis) and inputs relative to a
+    running no-contact baseline (drift), trained with a plain L1 loss."""
+    from spectratac.decode import TrainSpec
+
+    return TrainSpec(
+        context=3, context_dilated=True, drift="baseline", loss="l1", epochs=epochs, seed=seed
+    )
+
+
+@dataclass
+class DemoOptions:
+    out: Path = Path("demo-output")
+    scene_s: float = 900.0  # scene seconds of the calibration protocol
+    speed: float = 15.0  # scene seconds per wall second while recording
+    seed: int = 0
+    ft: str = "bota"
+    ft_rate: int = 500
+    epochs: int = 30
+    oracle_samples: int = 300
+    progress: bool = True
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def url(self) -> str:
+        return (
+            f"sim://?scene=calibration&duration={self.scene_s:g}&seed={self.seed}"
+            f"&speed={self.speed:g}&ft={self.ft}&ft_rate={self.ft_rate}"
+        )
+
+
+def run_demo(opts: DemoOptions, say: Say = print) -> dict[str, Any]:
+    """Run the four stages into `opts.out`; return the JSON-ready summary."""
+    opts.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    rec = _record(opts, say)
+    opts.timings["record_s"] = time.monotonic() - t0
+    t1 = time.monotonic()
+    dataset = _build(opts, say)
+    opts.timings["dataset_s"] = time.monotonic() - t1
+    t2 = time.monotonic()
+    results = _train_and_evaluate(opts, dataset, say)
+    opts.timings["train_evaluate_s"] = time.monotonic() - t2
+    opts.timings["total_s"] = time.monotonic() - t0
+    return {
+        "url": opts.url,
+        "recording": rec,
+        "dataset": {"path": str(opts.out / "data.npz"), "samples": dataset.n},
+        "results": results,
+        "timings_s": {k: round(v, 1) for k, v in opts.timings.items()},
+        "out": str(opts.out),
+    }
+
+
+def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
+    from spectratac.record import RecordOptions, record_url
+
+    path = opts.out / "session.mcap"
+    say(
+        f"[1/4] recording {opts.scene_s:g} s of the calibration protocol at {opts.speed:g}x: "
+        f"simulated sensor (real firmware core on the twin) + simulated Bota F/T at "
+        f"{opts.ft_rate} Hz\n      {opts.url}"
+    )
+    bar = _bar(opts, total=opts.scene_s, unit="scene s", desc="recording")
+    done = 0.0
+
+    def progress(status: Any) -> None:
+        nonlocal done
+        scene_now = min(status.elapsed_s * opts.speed, opts.scene_s)
+        if bar is not None:
+            bar.update(scene_now - done)
+            bar.set_postfix_str(
+                f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, "
+                f"lost {status.lost}+{status.ft_lost}"
+            )
+        done = scene_now
+
+    try:
+        summary = record_url(opts.url, path, RecordOptions(), progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    s = summary.as_dict()
+    say(
+        f"      {s['samples']} samples ({s['lost']} lost), {s['ft_samples']} F/T samples "
+        f"({s['ft_lost']} lost), {s['labels']} labels -> {path} ({s['file_bytes'] / 1e6:.1f} MB)"
+    )
+    return {
+        k: s[k]
+        for k in ("path", "samples", "lost", "ft_samples", "ft_lost", "labels", "stopped_by")
+    }
+
+
+def _build(opts: DemoOptions, say: Say) -> Any:
+    from spectratac.dataset.build import build_datasets
+
+    say("[2/4] building the dataset: clocks aligned, F/T averaged over each integration window")
+    (dataset,) = build_datasets([opts.out / "session.mcap"])
+    dataset.save(opts.out / "data.npz")
+    valid = float(dataset.target_valid.mean()) * 100
+    presses = int(dataset.press.max(initial=-1)) + 1
+    say(f"      {dataset.n} samples, {valid:.1f} % with F/T targets, {presses} presses")
+    return dataset
+
+
+def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, Any]:
+    from spectratac.decode import TrainSpec
+    from spectratac.evaluate import write_report
+    from spectratac.evaluate.protocol import fit_and_evaluate, save_models
+
+    out: dict[str, Any] = {}
+    specs = {
+        "paper": TrainSpec.paper(epochs=opts.epochs, seed=opts.seed),
+        "best": best_spec(opts.epochs, opts.seed),
+    }
+    for i, (name, spec) in enumerate(specs.items()):
+        label = "the paper's recipe" if name == "paper" else "our best decoder"
+        say(f"[3/4] training {label} under the random and the blocked split ({i + 1}/2)")
+        res = fit_and_evaluate(
+            dataset,
+            spec,
+            seed=opts.seed,
+            oracle_samples=opts.oracle_samples if name == "paper" else 0,
+            progress=opts.progress,
+        )
+        files = save_models(res, opts.out / f"{name}.stac")
+        write_report(
+            res.evaluation,
+            opts.out / f"report-{name}",
+            {"path": str(opts.out / "data.npz"), "samples": dataset.n},
+            {"path": str(files[next(iter(files))])},
+            dataset,
+        )
+        out[name] = {kind: _scores(section) for kind, section in res.sections.items()} | {
+            "train_seconds": {k: round(v, 1) for k, v in res.train_seconds.items()}
+        }
+    say("[4/4] results (MAE in N and N·m; held-out rows only)")
+    for line in results_table(out):
+        say("      " + line)
+    say(f"      reports and Fig. 3 panels: {opts.out}/report-paper, {opts.out}/report-best")
+    return out
+
+
+def _scores(section: Any) -> dict[str, Any]:
+    dec = section.decoder.scores if section.decoder is not None else {}
+    ora = section.oracle.scores if section.oracle is not None else None
+    return {
+        "mae": {c: dec["components"][c]["mae"] for c in COMPONENTS if c in dec["components"]},
+        "r2": {c: dec["components"][c]["r2"] for c in COMPONENTS if c in dec["components"]},
+        "region_accuracy": (dec.get("region") or {}).get("accuracy"),
+        "oracle_mae": (
+            {c: ora["components"][c]["mae"] for c in COMPONENTS if c in ora["components"]}
+            if ora
+            else None
+        ),
+        "oracle_note": section.oracle_note,
+        "test_rows": len(section.rows),
+    }
+
+
+def results_table(results: dict[str, Any]) -> list[str]:
+    """Paper's figure | paper recipe random / blocked | best random / blocked | gain | oracle."""
+    p, b = results["paper"], results["best"]
+    head = (
+        f"{'':8}{'paper':>9}{'recipe':>9}{'recipe':>9}{'best':>9}{'best':>9}"
+        f"{'gain':>8}{'oracle':>9}"
+    )
+    sub = (
+        f"{'':8}{'reported':>9}{'random':>9}{'blocked':>9}{'random':>9}{'blocked':>9}"
+        f"{'blocked':>8}{'blocked':>9}"
+    )
+    lines = [head, sub]
+    oracle = p["blocked"]["oracle_mae"] or {}
+    for c in COMPONENTS:
+        pb, bb = p["blocked"]["mae"][c], b["blocked"]["mae"][c]
+        gain = f"{100 * (1 - bb / pb):+.0f}%" if pb > 0 else "–"
+        ora = f"{oracle[c]:.3g}" if c in oracle else "–"
+        lines.append(
+            f"{c:8}{paper_mae(c).replace('<= ', '≤'):>9}{p['random']['mae'][c]:>9.3g}"
+            f"{pb:>9.3g}{b['random']['mae'][c]:>9.3g}{bb:>9.3g}{gain:>8}{ora:>9}"
+        )
+
+    def acc(r: dict[str, Any]) -> str:
+        a = r["region_accuracy"]
+        return "–" if a is None else f"{100 * a:.1f}%"
+
+    lines.append(
+        f"{'region':8}{'99.9%':>9}{acc(p['random']):>9}{acc(p['blocked']):>9}"
+        f"{acc(b['random']):>9}{acc(b['blocked']):>9}"
+    )
+    return lines
+
+
+def _bar(opts: DemoOptions, total: float, unit: str, desc: str) -> Any:
+    if not opts.progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit=unit, desc="      " + desc, leave=False)
