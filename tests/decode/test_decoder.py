@@ -231,3 +231,17 @@ def test_batch_assembly_equals_streaming_push(steps, nan_rows, lags, emas, drift
         vec, ok = asm.push(s, x[i])
         assert ok == valid[i]
         np.testing.assert_array_equal(vec, u[i])
+
+
+def test_training_only_regularisers(synth_ds) -> None:
+    plain = train(synth_ds, TrainSpec.paper(**TINY), progress=False)
+    spec = TrainSpec.paper(dropout=0.1, input_noise=0.1, best_val=True, **TINY)
+    assert spec.val_fraction == 0.1
+    reg = train(synth_ds, spec, progress=False)
+    assert len(reg.meta["val_history"]) == TINY["epochs"] and reg.meta["n_val"] > 0
+    assert not np.array_equal(
+        plain.runtime.weights["head.weight"], reg.runtime.weights["head.weight"]
+    )
+    assert np.isfinite(reg.predict(synth_ds).targets).all()
+    with pytest.raises(DecoderError, match="dropout"):
+        TrainSpec(dropout=1.0)

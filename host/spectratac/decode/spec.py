@@ -41,6 +41,9 @@ class TrainSpec:
     uncertainty: a calibrated per-target standard deviation head.
     val_fraction: share of training rows (contiguous time blocks) held out for calibrating
     uncertainty and reporting a validation loss; 0 uses all rows for fitting.
+    dropout, input_noise (std of Gaussian noise added to the z-scored features), best_val
+    (keep the epoch with the lowest validation loss): training-only regularisation, free
+    at inference.
     """
 
     features: str = "paper33"
@@ -61,6 +64,9 @@ class TrainSpec:
     hidden: int = 128
     blocks: int = 3
     val_fraction: float = 0.0
+    dropout: float = 0.0
+    input_noise: float = 0.0
+    best_val: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
@@ -87,6 +93,10 @@ class TrainSpec:
             raise DecoderError("TrainSpec.blocks and TrainSpec.seed must be >= 0")
         if not (self.lr > 0 and self.weight_decay >= 0):
             raise DecoderError("TrainSpec.lr must be > 0 and weight_decay >= 0")
+        if not (0.0 <= self.dropout < 1.0 and self.input_noise >= 0.0):
+            raise DecoderError("TrainSpec.dropout must lie in [0, 1) and input_noise be >= 0")
+        if self.best_val and self.val_fraction == 0.0:
+            object.__setattr__(self, "val_fraction", 0.1)  # best_val needs held-out rows
         if not 0.0 <= self.val_fraction < 0.5:
             raise DecoderError(f"TrainSpec.val_fraction={self.val_fraction}: use 0 <= f < 0.5")
         if self.uncertainty and self.val_fraction == 0.0:

@@ -18,21 +18,22 @@ from spectratac.decode.model import LN_EPS, Arch
 
 
 class Block(nn.Module):
-    def __init__(self, h: int) -> None:
+    def __init__(self, h: int, dropout: float = 0.0) -> None:
         super().__init__()
         self.norm = nn.LayerNorm(h, eps=LN_EPS)
         self.fc1 = nn.Linear(h, h)
         self.fc2 = nn.Linear(h, h)
         self.act = nn.GELU(approximate="tanh")
+        self.drop = nn.Dropout(dropout)  # training only; identity in eval and export
 
     def forward(self, v: torch.Tensor) -> torch.Tensor:
-        return v + self.fc2(self.act(self.fc1(self.norm(v))))
+        return v + self.fc2(self.drop(self.act(self.fc1(self.norm(v)))))
 
 
 class Net(nn.Module):
     """linear | mlp | resmlp over z-scored features, one fused head."""
 
-    def __init__(self, arch: Arch, n_in: int, n_out: int) -> None:
+    def __init__(self, arch: Arch, n_in: int, n_out: int, dropout: float = 0.0) -> None:
         super().__init__()
         kind, hidden, blocks = arch
         self.kind = kind
@@ -43,7 +44,7 @@ class Net(nn.Module):
             self.head = nn.Linear(dims[-1], n_out)
         elif kind == "resmlp":
             self.stem = nn.Linear(n_in, hidden)
-            self.blocks = nn.ModuleList(Block(hidden) for _ in range(blocks))
+            self.blocks = nn.ModuleList(Block(hidden, dropout) for _ in range(blocks))
             self.norm = nn.LayerNorm(hidden, eps=LN_EPS)
             self.head = nn.Linear(hidden, n_out)
         else:

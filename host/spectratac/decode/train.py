@@ -290,7 +290,7 @@ def _fit(
     gen = torch.Generator().manual_seed(spec.seed)
     heads = p.heads
     sl = heads.slices()
-    net = Net(spec.arch, p.features.n_features, heads.n_out)
+    net = Net(spec.arch, p.features.n_features, heads.n_out, spec.dropout)
 
     def tensors(idx: NDArray[np.intp]) -> dict[str, torch.Tensor]:
         return {
@@ -348,6 +348,7 @@ def _fit(
         bar = tqdm(total=spec.epochs, desc="train", unit="epoch", file=sys.stderr, leave=False)
     history: list[float] = []
     val_history: list[float] = []
+    best: dict[str, Any] | None = None
     try:
         for epoch in range(spec.epochs):
             perm = torch.randperm(n, generator=gen)
@@ -356,7 +357,10 @@ def _fit(
             for s in range(steps):
                 idx = perm[s * bs : (s + 1) * bs]
                 batch = {k: v[idx] for k, v in tr.items()}
-                loss = loss_of(net(batch["z"]), batch)
+                z = batch["z"]
+                if spec.input_noise > 0:  # regularises against press-specific detail
+                    z = z + spec.input_noise * torch.randn(z.shape, generator=gen)
+                loss = loss_of(net(z), batch)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
@@ -367,6 +371,8 @@ def _fit(
                 net.eval()
                 with torch.no_grad():
                     val_history.append(float(loss_of(net(va["z"]), va)))
+                if spec.best_val and val_history[-1] <= min(val_history):
+                    best = numpy_weights(net)
             if bar is not None:
                 bar.set_postfix(loss=f"{history[-1]:.4f}")
                 bar.update(1)
@@ -375,4 +381,4 @@ def _fit(
     finally:
         if bar is not None:
             bar.close()
-    return numpy_weights(net), history, val_history
+    return (best if best is not None else numpy_weights(net)), history, val_history
