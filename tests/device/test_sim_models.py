@@ -5,6 +5,8 @@ frames as one whose every register transfer goes to Python."""
 from __future__ import annotations
 
 import random
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,9 +15,10 @@ from hypothesis import strategies as st
 from spectratac.device import Sensor
 from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol import messages as m
+from spectratac.sim import native
 from spectratac.sim.device import SimDevice
 from spectratac.sim.scenes import make_scene
-from spectratac.twin import I2CNack, scenes
+from spectratac.twin import I2CNack, rig, scenes
 
 SCENE = make_scene("tour")
 PRESS = scenes.single_press(6, 6.0, start_s=0.3, hold_s=2.0)  # short: cheap rigs per example
@@ -220,3 +223,18 @@ def test_speed_max_through_sensor_loses_nothing(count: int) -> None:
     assert stats.sample_gaps == stats.buffer_overflows == stats.crc_errors == 0
     assert (np.diff(batch["device_time_us"].astype(np.int64)) == 50_000).all()
     assert (batch["status"] == 0).all() and batch["counts"].min() > 0
+
+
+def test_constants_shared_with_the_native_port_agree() -> None:
+    header = (Path(native.FIRMWARE) / "ports" / "native" / "stac_sim.h").read_text()
+    model = (Path(native.FIRMWARE) / "ports" / "native" / "veml_model.h").read_text()
+
+    def define(text: str, name: str) -> int:
+        found = re.search(rf"#define {name} (0x[0-9A-Fa-f]+|\d+)u?", text)
+        assert found, name
+        return int(found.group(1), 0)
+
+    assert define(header, "STAC_SIM_PLAN_MAX") == native.PLAN_MAX == rig.PLAN_MAX
+    assert define(header, "STAC_SIM_SHARED_WINDOWS") == native.SHARED_WINDOWS
+    assert native.SHARED_WINDOWS == rig.SHARED_WINDOWS
+    assert define(model, "VEML_MODEL_WINDOW_BITS") == native.WINDOW_BITS
