@@ -58,12 +58,14 @@ def _row(name: str, mae: tuple[float, float, float], flops: int) -> dict:
 def test_target_check_needs_every_axis_and_the_cost() -> None:
     paper = _row("paper", (0.2, 0.2, 0.4), 100)
     ok = _row("good", (0.14, 0.15, 0.3), 100)
-    costly = _row("costly", (0.1, 0.1, 0.2), 101)
+    costly = _row("costly", (0.1, 0.1, 0.2), 103)  # beyond the 2 % tolerance
+    head = _row("head", (0.14, 0.15, 0.3), 101)  # one more output: within it
     one_axis = _row("fz_only", (0.2, 0.19, 0.1), 90)
-    assert target_check([paper, ok])["met"]
+    assert target_check([paper, ok])["met"] and target_check([paper, head])["met"]
     assert not target_check([paper, one_axis])["met"]
     chk = target_check([paper, costly, one_axis])
     assert not chk["met"] and chk["best"] == "fz_only" and chk["within_cost"]
+    assert chk["best_overall"] == "costly"
     assert not target_check([paper, costly])["within_cost"]
     rows = [paper, ok]
     add_improvements(rows)

@@ -58,7 +58,7 @@ def figures(result: dict) -> list[benchlib.Figure]:
             )
         )
     chk = result["target"]
-    best = chk.get("improvement_pct", {})
+    best = chk.get("improvement_pct") or chk.get("best_overall_improvement_pct", {})
     worst = min(best.values()) if best else float("nan")
     out.append(
         benchlib.Figure(
