@@ -15,6 +15,7 @@ from spectratac.device import (
 )
 from spectratac.protocol import Frame, decode_frame
 from spectratac.protocol import messages as m
+from spectratac.sim.url import parse_sim_url
 
 FAST = "sim://?scene=tour&seed=3&speed=max"
 
@@ -149,3 +150,21 @@ def test_frame_listener_sees_raw_frames_and_a_failing_one_is_dropped() -> None:
     # the raw bytes are the frame as sent: they decode to the same sample
     first = decode_frame(cobs.encode(raw_samples[0])).message
     assert isinstance(first, m.Sample) and first.sample_seq == samples["sequence"][0]
+
+
+def test_time_sync_replies_are_stamped_when_answered() -> None:
+    # In a paced world device time is (host - epoch) * speed, so every exchange's device
+    # stamps must fall inside its own host send/receive bracket (an answer stamped with the
+    # time of the device's previous step would fall before host_sent).
+    from spectratac.sim.world import SimWorld
+
+    url = "sim://?scene=idle&seed=7&speed=1"
+    with Sensor.open(url) as sensor:
+        world = SimWorld.join(parse_sim_url(url))
+        try:
+            sync = sensor.sync_clock(8)
+        finally:
+            world.release()
+    for ex in sync.exchanges:
+        assert ex.host_sent - 1e-4 <= world.epoch + ex.device_rx_us / 1e6
+        assert world.epoch + ex.device_tx_us / 1e6 <= ex.host_received + 1e-4

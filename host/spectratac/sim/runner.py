@@ -79,7 +79,10 @@ class DeviceRunner:
                 self._inbound.clear()
             if data:
                 dev.feed(data)
-                dev.step(dev.now_us)  # answer commands without waiting for the next wake
+                # Answer at once, stamped with the current time: a TIME_SYNC reply stamped
+                # with the last step's time would skew every clock fit built on it.
+                paced_now = dev0 + int((time.monotonic() - wall0) * 1e6 * rate)
+                dev.step(dev.now_us if fast else paced_now)
             if fast and dev.streaming:
                 dev.run(RUN_STEPS)  # step(next_wake_us()) RUN_STEPS times, inside the library
                 wall0, dev0 = time.monotonic(), dev.now_us  # paced time resumes from here
