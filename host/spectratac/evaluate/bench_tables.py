@@ -17,6 +17,8 @@ from typing import Any
 
 from spectratac.evaluate.speed import pareto_front
 
+LATENCY_TOL = 0.10  # latencies within 10 % are treated as equal on the latency front
+
 
 def _f(v: Any, digits: int = 3) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
@@ -60,9 +62,10 @@ def grid_markdown(rows: Sequence[dict[str, Any]]) -> str:
     """Speed-versus-error table, one row per (acquisition, model)."""
     head = (
         "| IT ms | LEDs | model | obs/s | params | latency µs (p99) | x ref | train s (x ref) | "
-        "Fx MAE | Fy MAE | Fz MAE | R² mean | region acc | Pareto |"
+        "Fx MAE | Fy MAE | Fz MAE | R² mean | region acc | Pareto rate / latency |"
     )
     front = set(pareto_front([(r["observations_per_s"], r["force_mae_mean"]) for r in rows]))
+    fast = set(latency_front(rows))
     lines = [head, "|" + "---|" * 14]
     for i, r in enumerate(rows):
         lat = r.get("latency_us")
@@ -72,9 +75,36 @@ def grid_markdown(rows: Sequence[dict[str, Any]]) -> str:
             f"{r['observations_per_s']:.3g} | {r['params']:,} | {lat_s} | "
             f"{_f(r.get('latency_ratio'))} | {_f(r['train_s'])} ({_f(r.get('train_ratio'))}) | "
             f"{_f(r['mae'].get('Fx'))} | {_f(r['mae'].get('Fy'))} | {_f(r['mae'].get('Fz'))} | "
-            f"{_f(r['r2_mean'])} | {_pct(r['region_accuracy'])} | {'*' if i in front else ''} |"
+            f"{_f(r['r2_mean'])} | {_pct(r['region_accuracy'])} | "
+            f"{'*' if i in front else ''} / {'*' if i in fast else ''} |"
         )
     return "\n".join(lines)
+
+
+def latency_front(rows: Sequence[dict[str, Any]], tol: float = LATENCY_TOL) -> list[int]:
+    """Rows no other row beats on latency and error, where latencies within `tol` (relative)
+    count as equal: timing noise between equal-sized models must not pick the front.
+
+    >>> latency_front([{"latency_us": 10.0, "force_mae_mean": 1.0},
+    ...                {"latency_us": 10.5, "force_mae_mean": 0.5},
+    ...                {"latency_us": 30.0, "force_mae_mean": 0.4}])
+    [1, 2]
+    """
+    out = []
+    for i, r in enumerate(rows):
+        li, ei = r.get("latency_us") or math.inf, r["force_mae_mean"]
+        beaten = False
+        for j, q in enumerate(rows):
+            lj, ej = q.get("latency_us") or math.inf, q["force_mae_mean"]
+            if j == i:
+                continue
+            no_slower = lj <= li * (1 + tol)
+            if (no_slower and ej < ei) or (lj * (1 + tol) < li and ej <= ei):
+                beaten = True
+                break
+        if not beaten and math.isfinite(ei):
+            out.append(i)
+    return out
 
 
 def pareto_plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
@@ -105,9 +135,21 @@ def pareto_plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
         if r.get("latency_us"):
             axes[1].scatter(r["latency_us"], r["force_mae_mean"], **kw)
     pts = [(r["observations_per_s"], r["force_mae_mean"]) for r in rows]
-    front = sorted((pts[i] for i in pareto_front(pts)), key=lambda p: p[0])
-    if front:
-        axes[0].plot(*zip(*front, strict=True), "k--", lw=1, label="Pareto front")
+    lat = [(r.get("latency_us") or float("nan"), r["force_mae_mean"]) for r in rows]
+    for ax, xy, idx in (
+        (axes[0], pts, pareto_front(pts)),
+        (axes[1], lat, latency_front(rows)),
+    ):
+        front = sorted((xy[i] for i in idx), key=lambda p: p[0])
+        if front:
+            ax.plot(*zip(*front, strict=True), "k--", lw=1)
+            ax.scatter(
+                *zip(*front, strict=True),
+                s=90,
+                facecolors="none",
+                edgecolors="k",
+                label="Pareto front",
+            )
     plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
     for ax in axes:
         ax.set_xscale("log")
