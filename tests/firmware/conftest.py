@@ -53,6 +53,10 @@ def qemu_port(image: Path) -> Iterator[int]:
             "-nographic",
             "-monitor",
             "none",
+            # Virtual time counts instructions (about 8 ns each, the board's order of speed),
+            # not host time: the guest's rates then do not depend on how loaded the host is.
+            "-icount",
+            "shift=3,align=off,sleep=off",
             "-kernel",
             str(image),
             "-serial",

@@ -3,7 +3,8 @@
 QEMU models no VEML3328 (every sensor is absent, which the suite accepts when flagged) and no
 clock controller: the firmware falls back to its 16 MHz internal clock while QEMU's SysTick runs
 at 168 MHz, so device time runs about 10x faster than wall time. Checks that compare device
-time with host time (time sync) therefore cannot pass there; every other check must.
+time with host time (time sync) therefore cannot pass there; every other check must. QEMU
+runs with -icount (see conftest.py), so device-clock rates do not depend on the host's load.
 """
 
 from __future__ import annotations
