@@ -34,4 +34,6 @@ def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:
             assert all(np.isfinite(v) and v > 0 for v in res[kind]["mae"].values())
     table = results_table(summary["results"])
     assert table[2].startswith("Fx") and "0.161" in table[2]
+    oracle = summary["results"]["paper"]["blocked"]["oracle_mae"]
+    assert oracle is not None and set(oracle) == {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz"}
     assert any("[4/4]" in line for line in said)
