@@ -235,7 +235,7 @@ def test_batch_assembly_equals_streaming_push(steps, nan_rows, lags, emas, drift
 
 def test_training_only_regularisers(synth_ds) -> None:
     plain = train(synth_ds, TrainSpec.paper(**TINY), progress=False)
-    spec = TrainSpec.paper(dropout=0.1, input_noise=0.1, best_val=True, **TINY)
+    spec = TrainSpec.paper(dropout=0.1, input_noise=0.1, best_val=True, weight_average=0.9, **TINY)
     assert spec.val_fraction == 0.1
     reg = train(synth_ds, spec, progress=False)
     assert len(reg.meta["val_history"]) == TINY["epochs"] and reg.meta["n_val"] > 0
@@ -245,3 +245,14 @@ def test_training_only_regularisers(synth_ds) -> None:
     assert np.isfinite(reg.predict(synth_ds).targets).all()
     with pytest.raises(DecoderError, match="dropout"):
         TrainSpec(dropout=1.0)
+    with pytest.raises(DecoderError, match="weight_average"):
+        TrainSpec(weight_average=1.0)
+
+
+def test_best_spec_costs_no_more_than_the_paper(twin_ds) -> None:
+    small = {"epochs": 1, "threads": 1}
+    paper = train(twin_ds, TrainSpec.paper(**small), progress=False)
+    best = train(twin_ds, TrainSpec.best(**small), progress=False)
+    assert best.flops_per_sample <= paper.flops_per_sample
+    assert best.n_params <= paper.n_params
+    assert best.layout.drift and best.layout.lags == tuple(range(1, 9))

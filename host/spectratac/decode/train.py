@@ -349,6 +349,11 @@ def _fit(
     history: list[float] = []
     val_history: list[float] = []
     best: dict[str, Any] | None = None
+    avg = None
+    if spec.weight_average > 0:  # an exponential moving average of the weights, per step
+        from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+        avg = AveragedModel(net, multi_avg_fn=get_ema_multi_avg_fn(spec.weight_average))
     try:
         for epoch in range(spec.epochs):
             perm = torch.randperm(n, generator=gen)
@@ -365,14 +370,17 @@ def _fit(
                 loss.backward()
                 opt.step()
                 sched.step()
+                if avg is not None:
+                    avg.update_parameters(net)
                 total += float(loss.detach()) * idx.shape[0]
             history.append(total / n)
             if va["z"].shape[0]:
-                net.eval()
+                model = avg.module if avg is not None else net
+                model.eval()
                 with torch.no_grad():
-                    val_history.append(float(loss_of(net(va["z"]), va)))
+                    val_history.append(float(loss_of(model(va["z"]), va)))
                 if spec.best_val and val_history[-1] <= min(val_history):
-                    best = numpy_weights(net)
+                    best = numpy_weights(model)
             if bar is not None:
                 bar.set_postfix(loss=f"{history[-1]:.4f}")
                 bar.update(1)
@@ -381,4 +389,5 @@ def _fit(
     finally:
         if bar is not None:
             bar.close()
-    return (best if best is not None else numpy_weights(net)), history, val_history
+    final = avg.module if avg is not None else net
+    return (best if best is not None else numpy_weights(final)), history, val_history
