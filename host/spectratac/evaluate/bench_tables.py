@@ -30,6 +30,14 @@ def _pct(v: Any) -> str:
     return "–" if v is None or not math.isfinite(v) else f"{100 * v:.2f} %"
 
 
+def _mae_cell(d: dict[str, Any], axis: str) -> str:
+    """MAE (± its spread over training seeds) (change against the paper)."""
+    sd = d.get("mae_std", {}) if d.get("seeds", 1) > 1 else {}
+    imp = d.get("improvement_pct", {})
+    v = _f(d["mae"].get(axis)) + (f" ± {sd[axis]:.2g}" if axis in sd else "")
+    return f"{v} ({imp[axis]:+.1f} %)" if axis in imp else v
+
+
 def variants_markdown(rows: Sequence[dict[str, Any]], kind: str) -> str:
     """One split's side-by-side table; MAE cells carry the change against the paper."""
     head = (
@@ -41,11 +49,7 @@ def variants_markdown(rows: Sequence[dict[str, Any]], kind: str) -> str:
         d = r.get(kind)
         if d is None:
             continue
-        imp = d.get("improvement_pct", {})
-        cells = [
-            f"{_f(d['mae'].get(a))} ({imp[a]:+.1f} %)" if a in imp else _f(d["mae"].get(a))
-            for a in ("Fx", "Fy", "Fz")
-        ]
+        cells = [_mae_cell(d, a) for a in ("Fx", "Fy", "Fz")]
         cov = d.get("coverage")
         cov_s = f"{_pct(cov['0.68'])} / {_pct(cov['0.95'])}" if cov else "–"
         lat = r.get("latency_us")
