@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from spectratac.evaluate.acquisition import Acquisition, AcquisitionError, grid
 from spectratac.evaluate.latency import side_by_side_latency
 from spectratac.evaluate.speed import batch_for, pareto_front
-from spectratac.evaluate.variants import add_improvements, target_check
+from spectratac.evaluate.variants import add_improvements, merge_seeds, target_check
 from spectratac.twin import generate_session, scenes
 
 
@@ -77,3 +77,17 @@ def test_latency_is_measured_for_every_function() -> None:
     x = np.ones((3, 4))
     r = side_by_side_latency({"sum": np.sum, "copy": np.copy}, x, calls=20, rounds=2)
     assert r["sum"]["calls"] == 40 and r["copy"]["p99_us"] >= r["copy"]["median_us"] > 0
+
+
+def test_seeds_are_merged_into_means_with_spread() -> None:
+    a = _row("x", (0.2, 0.2, 0.4), 100)
+    b = _row("x", (0.4, 0.2, 0.4), 100)
+    for r in (a, b):
+        for k in ("r2_mean", "r2_min", "region_accuracy", "contact_accuracy", "train_s"):
+            r["blocked"][k] = r["random"][k] = 1.0
+    del b["random"]  # extra seeds run the blocked split only
+    m = merge_seeds([a, b])
+    assert m["blocked"]["mae"]["Fx"] == pytest.approx(0.3) and m["blocked"]["seeds"] == 2
+    assert m["blocked"]["mae_std"]["Fx"] == pytest.approx(np.std([0.2, 0.4], ddof=1))
+    assert m["blocked"]["mae_std"]["Fy"] == 0.0
+    assert m["random"]["seeds"] == 1 and m["random"]["mae"] == a["random"]["mae"]
