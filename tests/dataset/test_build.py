@@ -99,7 +99,10 @@ def test_labels_and_presses_match_the_scene(tour: Dataset, tour_mcap: Path) -> N
             (t_mid[rows] >= e["scene_start"] - 1e-3) & (t_mid[rows] < e["scene_end"] + 1e-3)
         )
         firm = rows & (tour.region > 0)
-        assert firm.any() and set(tour.region[firm]) == {e["region"]}
+        # a press the recording cut off (at its start or end) may never have become firm
+        complete = e["scene_start"] >= t0.min() and e["scene_end"] <= t1.max()
+        assert firm.any() or not complete
+        assert set(tour.region[firm].tolist()) <= {e["region"]}
     assert np.all(tour.region[tour.press < 0] == -1)
     assert tour.in_contact[tour.region > 0].all()
 
