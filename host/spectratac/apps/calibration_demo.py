@@ -42,7 +42,7 @@ class DemoOptions:
     seed: int = 0
     ft: str = "bota"
     ft_rate: int = 500
-    epochs: int = 25
+    epochs: int = 40
     oracle_samples: int = 300
     progress: bool = True
     timings: dict[str, float] = field(default_factory=dict)

@@ -23,7 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder")
     p.add_argument("--scene-seconds", type=float, default=600.0, help="calibration length")
     p.add_argument("--speed", default=None, help="time scale (default 15; --live: 1 or 'max')")
-    p.add_argument("--epochs", type=int, default=25, help="training epochs per decoder")
+    p.add_argument("--epochs", type=int, default=40, help="training epochs per decoder")
     p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")
     p.add_argument("--live", action="store_true", help="only stream live (the first demo)")
     p.add_argument("--seconds", type=float, default=10.0, help="--live: how long to stream")
