@@ -18,6 +18,7 @@ from __future__ import annotations
 import collections
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from typing import Any, ClassVar
 
@@ -27,7 +28,7 @@ from spectratac.ft.errors import FTDisconnectedError, FTError
 from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
 
 
-class FTSensor:
+class FTSensor(ABC):
     """Base class of the F/T drivers. Open one with FTSensor.open(url)."""
 
     #: Subclasses set their URL scheme.
@@ -164,17 +165,20 @@ class FTSensor:
     # ------------------------------------------------------------------ for drivers
     def _send_start(self) -> None:
         """Tell the device to stream (drivers override)."""
+        return None  # optional hook: a source without this step does nothing
 
     def _send_stop(self) -> None:
         """Tell the device to stop (drivers override)."""
+        return None  # optional hook: a source without this step does nothing
 
     def _close_link(self) -> None:
         """Close the socket, port or file (drivers override)."""
+        return None  # optional hook: a source without this step does nothing
 
+    @abstractmethod
     def _poll(self, timeout: float) -> np.ndarray | None:
         """Wait up to `timeout` s for data; return the FT_RECORD rows it held (possibly none),
         or None at the end of the source. Raise FTDisconnectedError when the link is lost."""
-        raise NotImplementedError
 
     def _reader(self) -> None:
         while not self._closed:
