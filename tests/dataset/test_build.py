@@ -72,10 +72,10 @@ def test_targets_follow_the_scene(tour: Dataset, tour_mcap: Path) -> None:
 
 
 def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) -> None:
-    """A paced simulation's truth: host = epoch + device / speed. The simulated device stamps
-    TIME_SYNC replies with the time of its last step (~0.5 ms host late at speed 10, more on
-    a loaded machine), so the bound is a few ms; real hardware answers at once. The exact
-    check of the chain is test_a_synthetic_twin_recording_builds_to_the_twin_dataset."""
+    """A paced simulation's truth: host = epoch + device / speed. The simulated device answers
+    TIME_SYNC at the current paced time, so what remains is the host's scheduling latency of
+    the exchanges (sub-ms, more on a loaded machine): the bound is a few ms. The exact check
+    of the chain is test_a_synthetic_twin_recording_builds_to_the_twin_dataset."""
     sim = read_recording(tour_mcap).session["sim"]
     truth = sim["epoch"] + tour.device_time_us / 1e6 / sim["speed"]
     err = tour.t_end - truth

@@ -116,3 +116,21 @@ def test_cli_trains_a_spectratac_dataset(twin_ds, tmp_path, capsys) -> None:
     assert rc == 0 and "paper33 features (context 2, drift baseline)" in text
     dec = Decoder.load(tmp_path / "m.stac")
     assert dec.layout.lags == (1, 2) and dec.layout.drift and dec.heads.contact
+
+
+def test_cli_recipe_best_with_a_blocked_holdout(twin_ds, tmp_path, capsys) -> None:
+    from spectratac.evaluate.holdout import resolve
+
+    path = twin_ds.save(tmp_path / "d.npz")
+    rc = main(["train", str(path), "-o", str(tmp_path / "m.stac"), "--recipe", "best",
+               "--epochs", "2", "--hidden", "16", "--holdout", "blocked", "--json",
+               "--no-progress"])  # fmt: skip
+    assert rc == 0
+    summary = json.loads(capsys.readouterr().out)
+    spec = summary["spec"]
+    # best()'s fields survive unless an option replaces them
+    assert (spec["context"], spec["blocks"], spec["hidden"], spec["epochs"]) == (8, 2, 16, 2)
+    assert summary["mae_rows"] == "held-out" and summary["holdout"]["kind"] == "blocked"
+    assert 0 < summary["n_test"] < twin_ds.n and summary["n_train"] < twin_ds.n - summary["n_test"]
+    held = resolve(Decoder.load(tmp_path / "m.stac").meta, twin_ds)
+    assert held.status == "split" and held.split.n_test == summary["n_test"]

@@ -1,8 +1,14 @@
 """`spectratac train`: train a decoder from dataset files and write a .stac model.
 
-spectratac train data.npz [more.npz ...] -o model.stac [--features F] [--model M]
-    [--targets Fz,region] [--context K] [--drift baseline] [--uncertainty]
-    [--epochs N] [--batch-size B] [--seed S] [--export onnx,c,...] [--json]
+spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best]
+    [--features F] [--model M] [--targets Fz,region] [--context K] [--drift baseline]
+    [--uncertainty] [--epochs N] [--batch-size B] [--seed S] [--holdout blocked|random]
+    [--export onnx,c,...] [--json]
+
+--recipe picks the starting point (the paper's recipe, or `TrainSpec.best()`); any other
+option given replaces that one field. --holdout trains on the training rows of that split
+only and records it in the model, so that `spectratac evaluate model.stac data.npz` scores
+exactly the held-out rows; without it every row trains and the printed MAE is optimistic.
 
 Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
 .npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
@@ -19,6 +25,22 @@ import numpy as np
 
 from spectratac.cli import EXIT_OK
 
+RECIPES = ("paper", "best")
+# CLI option -> TrainSpec field, for the options that replace one field of the recipe.
+SPEC_OPTIONS = {
+    "model": "model",
+    "context": "context",
+    "drift": "drift",
+    "loss": "loss",
+    "epochs": "epochs",
+    "batch_size": "batch_size",
+    "lr": "lr",
+    "hidden": "hidden",
+    "blocks": "blocks",
+    "val_fraction": "val_fraction",
+    "seed": "seed",
+    "threads": "threads",
+}
 EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt", "c": ".h"}
 
 
@@ -28,29 +50,33 @@ def _names(text: str | None) -> list[str] | None:
 
 def register(subparsers: Any) -> None:
     from spectratac.decode.spec import DRIFT, FEATURES, LOSSES, MODELS
+    from spectratac.evaluate.splits import KINDS as SPLIT_KINDS
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
     p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
     p.add_argument("-o", "--out", required=True, help="model file to write (.stac)")
+    p.add_argument("--recipe", choices=RECIPES, default="paper", help="starting spec")
     p.add_argument("--features", choices=FEATURES, help="default: paper33, or generic")
-    p.add_argument("--model", choices=MODELS, default="resmlp")
+    p.add_argument("--model", choices=MODELS)
     p.add_argument("--targets", help="comma list, e.g. Fz,region (default: all + region)")
     p.add_argument("--inputs", help="input channel columns of CSV / generic data, in order")
     p.add_argument("--classes", help="class column of CSV / generic data (default: auto; '' none)")
-    p.add_argument("--context", type=int, default=0, help="past samples fed as context")
+    p.add_argument("--context", type=int, help="past samples fed as context")
     p.add_argument("--dilated", action="store_true", help="context lags 1, 2, 4, ... samples")
     p.add_argument("--ema", help="moving-average context time constants in samples, e.g. 10,40")
-    p.add_argument("--drift", choices=DRIFT, default="none")
+    p.add_argument("--drift", choices=DRIFT)
     p.add_argument("--uncertainty", action="store_true", help="calibrated per-target std")
-    p.add_argument("--loss", choices=LOSSES, default="paper")
-    p.add_argument("--epochs", type=int, default=30)
-    p.add_argument("--batch-size", type=int, default=1024)
-    p.add_argument("--lr", type=float, default=3e-3)
-    p.add_argument("--hidden", type=int, default=128)
-    p.add_argument("--blocks", type=int, default=3)
-    p.add_argument("--val-fraction", type=float, default=0.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--loss", choices=LOSSES)
+    p.add_argument("--epochs", type=int)
+    p.add_argument("--batch-size", type=int)
+    p.add_argument("--lr", type=float)
+    p.add_argument("--hidden", type=int)
+    p.add_argument("--blocks", type=int)
+    p.add_argument("--val-fraction", type=float)
+    p.add_argument("--seed", type=int)
+    p.add_argument("--threads", type=int)
+    p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
+    p.add_argument("--split-seed", type=int, default=0, help="seed of the --holdout split")
     p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
     p.add_argument("--json", action="store_true", help="print one JSON summary")
     p.add_argument("--no-progress", action="store_true")
@@ -81,33 +107,35 @@ def _train(args: argparse.Namespace) -> int:
         if np.any(ds.region > 0):
             targets.append(ds.meta.get("region_name", "region"))
     features = args.features or ("paper33" if ds.meta.get("kind") == "spectratac" else "generic")
-    spec = TrainSpec(
-        features=features,
-        model=args.model,
-        targets=tuple(targets),
-        context=args.context,
-        context_dilated=args.dilated,
-        context_ema=tuple(float(v) for v in _names(args.ema) or ()),
-        drift=args.drift,
-        uncertainty=args.uncertainty,
-        loss=args.loss,
-        epochs=args.epochs,
-        batch_size=args.batch_size,
-        lr=args.lr,
-        seed=args.seed,
-        threads=args.threads,
-        hidden=args.hidden,
-        blocks=args.blocks,
-        val_fraction=args.val_fraction,
+    changes: dict[str, Any] = {"features": features, "targets": tuple(targets)}
+    changes.update(
+        {f: getattr(args, o) for o, f in SPEC_OPTIONS.items() if getattr(args, o) is not None}
     )
-    dec = train(ds, spec, progress=not args.no_progress)
+    if args.dilated:
+        changes["context_dilated"] = True
+    if args.ema:
+        changes["context_ema"] = tuple(float(v) for v in _names(args.ema) or ())
+    if args.uncertainty:
+        changes["uncertainty"] = True
+    spec = getattr(TrainSpec, args.recipe)(**changes)
+    rows, split = None, None
+    if args.holdout:
+        from spectratac.evaluate.splits import SplitSpec, split_dataset
+
+        split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
+        rows = split.train
+    dec = train(ds, spec, rows=rows, progress=not args.no_progress)
+    if split is not None:
+        from spectratac.evaluate.holdout import mark
+
+        mark(dec, ds, split)
     out = Path(args.out)
     dec.save(out)
     written = {"model": str(out)}
     for fmt in exports:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
         written[fmt] = str(dec.export(fmt, path))
-    summary = _summary(dec, ds, written)
+    summary = _summary(dec, ds, written, None if split is None else split.test)
     if args.json:
         print(json.dumps(summary))
     else:
@@ -115,18 +143,26 @@ def _train(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _summary(dec: Any, ds: Any, written: dict[str, str]) -> dict[str, Any]:
-    est = dec.predict(ds)
+def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:
+    """Training summary with the MAE on the held-out rows `test`, or on every row (training
+    rows included: optimistic) when there is no holdout."""
+    rows = np.arange(ds.n) if test is None else np.asarray(test)
+    est = dec.predict(ds, rows)
     names = list(ds.target_names)
     fit: dict[str, float] = {}
     for i, t in enumerate(dec.target_names):
-        y = ds.targets[:, names.index(t)]
-        ok = ~est.invalid & ds.target_valid
+        y = ds.targets[rows, names.index(t)]
+        ok = ~est.invalid & ds.target_valid[rows]
         fit[t] = float(np.mean(np.abs(est.targets[ok, i] - y[ok]))) if ok.any() else float("nan")
-    lab = ds.region > 0
-    acc = float(np.mean(est.region[lab] == ds.region[lab])) if dec.heads.n_classes else None
+    region = ds.region[rows]
+    lab = region > 0
+    acc = float(np.mean(est.region[lab] == region[lab])) if dec.heads.n_classes else None
     m = dec.meta
+    held = m.get("holdout")
     return {
+        "mae_rows": "held-out" if test is not None else "all (training rows included)",
+        "holdout": held["split"] if held else None,
+        "n_test": int(rows.size) if test is not None else 0,
         "written": written,
         "spec": m["spec"],
         "n_train": m["n_train"],
@@ -134,8 +170,8 @@ def _summary(dec: Any, ds: Any, written: dict[str, str]) -> dict[str, Any]:
         "final_loss": m["history"][-1],
         "params": dec.n_params,
         "flops_per_sample": dec.flops_per_sample,
-        "training_mae": fit,
-        "training_class_accuracy": acc,
+        "mae": fit,
+        "class_accuracy": acc,
         "unit_id": dec.unit_id,
     }
 
@@ -148,12 +184,21 @@ def _human(s: dict[str, Any]) -> str:
         f"  {s['n_train']} rows, {spec['epochs']} epochs in {s['train_seconds']:.1f} s; "
         f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
         f"{s['flops_per_sample']:,} FLOPs per sample",
-        "  MAE on the training rows (optimistic; `spectratac evaluate` for held-out numbers):",
     ]
-    for t, v in s["training_mae"].items():
+    if s["holdout"]:
+        lines.append(
+            f"  MAE on the {s['n_test']} held-out rows of the {s['holdout']['kind']} split "
+            "(`spectratac evaluate` for the full report):"
+        )
+    else:
+        lines.append(
+            "  MAE on every row, training rows included (optimistic; train with --holdout "
+            "blocked for held-out numbers):"
+        )
+    for t, v in s["mae"].items():
         lines.append(f"    {t:<8} {v:.4g}")
-    if s["training_class_accuracy"] is not None:
-        lines.append(f"    classes  {100 * s['training_class_accuracy']:.2f} % correct")
+    if s["class_accuracy"] is not None:
+        lines.append(f"    classes  {100 * s['class_accuracy']:.2f} % correct")
     for kind, path in s["written"].items():
         lines.append(f"  wrote {kind}: {path}")
     return "\n".join(lines)

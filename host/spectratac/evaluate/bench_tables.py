@@ -54,9 +54,8 @@ def variants_markdown(rows: Sequence[dict[str, Any]], kind: str) -> str:
         cov_s = f"{_pct(cov['0.68'])} / {_pct(cov['0.95'])}" if cov else "–"
         lat = r.get("latency_us")
         lat_s = f"{lat:.0f} ({r.get('latency_ratio', float('nan')):.2f})" if lat else "–"
-        mark = " †" if d.get("tiny_last_batch") else ""
         lines.append(
-            f"| {r['name']}{mark} | {' | '.join(cells)} | {_f(d['r2_mean'])} / {_f(d['r2_min'])} | "
+            f"| {r['name']} | {' | '.join(cells)} | {_f(d['r2_mean'])} / {_f(d['r2_min'])} | "
             f"{_pct(d['region_accuracy'])} | {_pct(d['contact_accuracy'])} | {cov_s} | "
             f"{r['flops']:,} | {lat_s} | {_f(d.get('train_s'))} |"
         )

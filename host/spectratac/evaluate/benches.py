@@ -192,14 +192,6 @@ def variants_report(result: dict[str, Any]) -> str:
         ("random", "Random split (the paper's protocol)"),
     ):
         lines += [f"## {title}", "", variants_markdown(result["rows"], kind), ""]
-        if any(r.get(kind, {}).get("tiny_last_batch") for r in result["rows"]):
-            lines += [
-                "† trained with a final batch of fewer than 8 rows (training rows modulo the "
-                "batch size): the decoder's trainer takes one full-rate optimiser step on it "
-                "every epoch, which alone costs ~50 % MAE here; those rows understate the "
-                "variant.",
-                "",
-            ]
         orc = result["oracle"].get(kind)
         if orc:
             m = orc["mae"]

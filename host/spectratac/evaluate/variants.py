@@ -87,9 +87,6 @@ DESCRIPTIONS = {
     "best": "the decoder's TrainSpec.best(): "
     + ", ".join(f"{k}={v}" for k, v in best_changes().items()),
 }
-#: A final training batch this small makes one wild optimiser step per epoch (decoder
-#: training runs the remainder as a batch); rows trained so are flagged in the tables.
-TINY_LAST_BATCH = 8
 
 
 def row_of(name: str, fit: Any, seconds: dict[str, float]) -> dict[str, Any]:
@@ -119,14 +116,6 @@ def row_of(name: str, fit: Any, seconds: dict[str, float]) -> dict[str, Any]:
                 for lv in ("0.68", "0.95")
             }
         row[kind] = d
-    for kind, m in fit.models.items():
-        meta = getattr(m, "meta", {}) or {}
-        bs = int((meta.get("spec") or {}).get("batch_size", 0) or 0)
-        n = int(meta.get("n_train", 0) or 0)
-        if kind in row and bs and n:
-            last = n % bs
-            row[kind]["last_batch_rows"] = last
-            row[kind]["tiny_last_batch"] = bool(0 < last < TINY_LAST_BATCH)
     model = fit.models.get("blocked") or next(iter(fit.models.values()))
     row["flops"] = int(getattr(model, "flops_per_sample", 0))
     row["params"] = int(getattr(model, "n_params", 0))
@@ -205,7 +194,6 @@ def merge_seeds(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         }
         for key in ("r2_mean", "r2_min", "region_accuracy", "contact_accuracy", "train_s"):
             d[key] = float(np.mean([r[key] for r in runs]))
-        d["tiny_last_batch"] = any(r.get("tiny_last_batch") for r in runs)
         if "coverage" in d:
             d["coverage"] = {
                 lv: float(np.mean([r["coverage"][lv] for r in runs])) for lv in d["coverage"]
