@@ -163,6 +163,12 @@ def test_spec_validation() -> None:
     assert TrainSpec(context=4, context_dilated=True).lags == (1, 2, 4, 8)
     assert TrainSpec(model="resmlp-large").arch == ("resmlp", 256, 6)
     assert TrainSpec(uncertainty=True).val_fraction == 0.1
+    with pytest.raises(DecoderError, match=r"loss_weights names \['Mz'\]"):
+        TrainSpec(loss_weights=(("Mz", 1.0),))
+    with pytest.raises(DecoderError, match="finite and >= 0"):
+        TrainSpec(loss_weights=(("Fz", -1.0),))
+    with pytest.raises(DecoderError, match="augment='spin'"):
+        TrainSpec(augment="spin")
 
 
 def test_flops_and_params_of_the_paper_model(synth_ds) -> None:
@@ -256,3 +262,7 @@ def test_best_spec_costs_no_more_than_the_paper(twin_ds) -> None:
     assert best.flops_per_sample <= paper.flops_per_sample
     assert best.n_params <= paper.n_params
     assert best.layout.drift and best.layout.lags == tuple(range(1, 9))
+    assert best.meta["n_augmented"] == 5 * best.meta["n_train"]  # rotated and mirrored presses
+    # the Fz loss weight follows the targets asked for
+    assert TrainSpec.best(targets=("Fx", "region")).loss_weights == ()
+    assert TrainSpec.best().loss_weights == (("Fz", 2.0),)

@@ -2,7 +2,8 @@
 
 spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best]
     [--features F] [--model M] [--targets Fz,region] [--context K] [--drift baseline]
-    [--uncertainty] [--epochs N] [--batch-size B] [--seed S] [--holdout blocked|random]
+    [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
+    [--seed S] [--holdout blocked|random]
     [--export onnx,c,...] [--json]
 
 --recipe picks the starting point (the paper's recipe, or `TrainSpec.best()`); any other
@@ -31,6 +32,7 @@ SPEC_OPTIONS = {
     "model": "model",
     "context": "context",
     "drift": "drift",
+    "augment": "augment",
     "loss": "loss",
     "epochs": "epochs",
     "batch_size": "batch_size",
@@ -49,7 +51,7 @@ def _names(text: str | None) -> list[str] | None:
 
 
 def register(subparsers: Any) -> None:
-    from spectratac.decode.spec import DRIFT, FEATURES, LOSSES, MODELS
+    from spectratac.decode.spec import AUGMENTS, DRIFT, FEATURES, LOSSES, MODELS
     from spectratac.evaluate.splits import KINDS as SPLIT_KINDS
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
@@ -65,6 +67,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--dilated", action="store_true", help="context lags 1, 2, 4, ... samples")
     p.add_argument("--ema", help="moving-average context time constants in samples, e.g. 10,40")
     p.add_argument("--drift", choices=DRIFT)
+    p.add_argument(
+        "--augment", choices=AUGMENTS, help="train on rotated (and mirrored) presses too"
+    )
     p.add_argument("--uncertainty", action="store_true", help="calibrated per-target std")
     p.add_argument("--loss", choices=LOSSES)
     p.add_argument("--epochs", type=int)

@@ -15,7 +15,7 @@ kinds (per LED step, on the current sample x_t):
 - raw: the C inputs as they are.
 - generic: the C inputs and each as a fraction of their summed magnitude (any sensor).
 Then, whatever the kind: x_t - x_{t-lag} per context lag, x_t - ema_tau per moving average,
-and x_t - b_t with a baseline.
+and x_t - b_t and x_t / b_t with a baseline.
 
 >>> from spectratac.decode.layout import Layout
 >>> from spectratac.dataset import SPECTRATAC_INPUTS
@@ -130,6 +130,10 @@ def build_features(kind: str, layout: Layout) -> FeatureSet:
         for i in range(base):
             lin.append(unit(i) - unit(d - base + i))
             lin_names.append(f"{names_in[i]}-{names_in[d - base + i]}")
+        for i in range(base):  # relative change: cancels per-channel gain and LED drift
+            num.append(unit(i))
+            den.append(unit(d - base + i))
+            rat_names.append(f"{names_in[i]}/{names_in[d - base + i]}")
     L = np.array(lin).reshape(-1, d)
     P = np.array(num).reshape(-1, d)
     Q = np.array(den).reshape(-1, d)

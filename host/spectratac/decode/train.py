@@ -94,7 +94,11 @@ def plan(dataset: Any, spec: TrainSpec) -> Plan:
     if steps > 1 and int(np.max(dataset.step, initial=0)) >= steps:
         raise DecoderConfigError(f"rows have LED step >= {steps}, the configuration's steps")
     layout = Layout(
-        tuple(dataset.input_names), steps, spec.lags, spec.drift == "baseline", spec.context_ema
+        tuple(dataset.input_names),
+        steps,
+        spec.lags,
+        spec.drift == "baseline",
+        spec.context_ema,
     )
     heads = Heads(
         tuple(reg),
@@ -222,7 +226,10 @@ def train(
         "label": np.asarray(dataset.region).astype(np.int64),
         "contact": np.asarray(dataset.in_contact, bool),
     }
-    weights, history, val_history = _fit(spec, p, data, fit_rows, val_rows, progress)
+    net_rows = fit_rows
+    if spec.augment != "none":
+        data, net_rows = _augmented(dataset, p, rt, data, u, y_scale, fit_rows)
+    weights, history, val_history = _fit(spec, p, data, net_rows, val_rows, progress)
     rt.weights = weights
     rt._plan = None
     if p.heads.uncertainty and val_rows.size:
@@ -247,6 +254,7 @@ def train(
         "config": sensor_config.normalise(dataset.meta.get("config")),
         "unit_id": dataset.meta.get("unit_id"),
         "n_train": int(fit_rows.size),
+        "n_augmented": int(net_rows.size - fit_rows.size),
         "n_val": int(val_rows.size),
         "train_seconds": time.perf_counter() - t0,
         "history": history,
@@ -254,6 +262,42 @@ def train(
         "std_scale": rt.std_scale.tolist(),
     }
     return Decoder(rt, p.layout, guard, meta)
+
+
+def _augmented(
+    dataset: Any,
+    p: Plan,
+    rt: Runtime,
+    data: dict[str, Any],
+    u: F64,
+    y_scale: F64,
+    fit_rows: NDArray[np.intp],
+) -> tuple[dict[str, Any], NDArray[np.intp]]:
+    """`data` with the training rows' symmetric copies appended (decode/symmetry.py), and
+    the training row indices extended to them. Normalisation stays that of the real rows."""
+    from spectratac.decode import symmetry
+
+    symmetry.check_symmetric(
+        dataset.input_names, sensor_config.normalise(dataset.meta.get("config"))
+    )
+    names = list(dataset.target_names)
+    y_full = np.asarray(dataset.targets, np.float64)[fit_rows]
+    extra: dict[str, list[Any]] = {k: [] for k in data}
+    for turns, mirror in symmetry.transforms(p.spec.augment):
+        y_t = symmetry.rotate_targets(y_full, names, turns, mirror)[:, p.reg_cols]
+        ok = data["y_ok"][fit_rows] & np.all(np.isfinite(y_t), axis=1)
+        extra["z"].append(
+            rt.with_dtype(np.float64).normalised(
+                symmetry.permute_assembled(u[fit_rows], turns, mirror)
+            )
+        )
+        extra["y"].append(np.where(ok[:, None], y_t, 0.0) / y_scale)
+        extra["y_ok"].append(ok)
+        extra["label"].append(symmetry.transform_labels(data["label"][fit_rows], turns, mirror))
+        extra["contact"].append(data["contact"][fit_rows])
+    n = data["z"].shape[0]
+    out = {k: np.concatenate([data[k], *extra[k]]) for k in data}
+    return out, np.concatenate([fit_rows, np.arange(n, out["z"].shape[0])])
 
 
 def _safe_std(y: F64) -> F64:
@@ -271,6 +315,17 @@ def _calibrate(rt: Runtime, u: F64, y: F64, ok: NDArray[np.bool_]) -> F64:
         return np.ones(rt.heads.n_reg)
     # Laplace: E|e| = b = std / sqrt(2); scale std so that mean(|e| / std) = 1/sqrt(2)
     return np.sqrt(2.0) * np.mean(err / np.maximum(std, 1e-12), axis=0)
+
+
+def loss_weights(spec: TrainSpec, targets: tuple[str, ...]) -> list[float]:
+    """Regression loss weight per target: the loss's own, then spec.loss_weights.
+
+    >>> loss_weights(TrainSpec.paper(loss_weights=(("Fz", 2.0),)), ("Fx", "Fz", "Tz"))
+    [1.0, 2.0, 0.2]
+    """
+    own = [paper_weight(t) if spec.loss == "paper" else 1.0 for t in targets]
+    given = dict(spec.loss_weights)
+    return [given.get(t, w) for t, w in zip(targets, own, strict=True)]
 
 
 def batch_sizes(n: int, batch_size: int) -> list[int]:
@@ -327,10 +382,7 @@ def _fit(
         }
 
     tr, va = tensors(fit_rows), tensors(val_rows)
-    if spec.loss == "paper":
-        w = torch.tensor([paper_weight(t) for t in heads.regression], dtype=torch.float32)
-    else:
-        w = torch.ones(heads.n_reg)
+    w = torch.tensor(loss_weights(spec, heads.regression), dtype=torch.float32)
     ce = torch.nn.CrossEntropyLoss(ignore_index=-100, reduction="sum")
     bce = torch.nn.BCEWithLogitsLoss()
 

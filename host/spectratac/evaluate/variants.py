@@ -49,6 +49,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "contact": {"targets": (*FT6, "region", "contact")},
     "uncertainty": {"uncertainty": True},
     "regularised": dict(REGULARISED),
+    # The sensor's three-fold symmetry: every training press also rotated and mirrored.
+    "symmetry": {"augment": "rotate+mirror"},
     # Everything at once, with the backbone narrowed (128 -> 120) so that the wider input
     # does not cost more flops per sample than the paper's recipe.
     "combined": {
@@ -83,6 +85,7 @@ DESCRIPTIONS = {
     "contact": "a contact/no-contact head (otherwise contact = |F| > 0.3 N)",
     "uncertainty": "a calibrated per-target standard deviation head",
     "regularised": "dropout 0.1, input noise 0.1, best validation epoch (training only)",
+    "symmetry": "every training press also rotated by 120/240° and mirrored (training only)",
     "combined": "context + baseline + contact + uncertainty + regularised, ResMLP 120x3",
     "best": "the decoder's TrainSpec.best(): "
     + ", ".join(f"{k}={v}" for k, v in best_changes().items()),
