@@ -3,26 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 
-def _run(repo: Path, script: str, out: Path, *extra: str) -> list[dict]:
-    res = subprocess.run(
-        [sys.executable, f"tools/bench/{script}", "--quick", "--out", str(out), "--json", *extra],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=600,
-    )
-    return [json.loads(line) for line in res.stdout.splitlines()]
-
-
-def test_speed_bench_quick(repo: Path, tmp_path: Path) -> None:
-    figs = _run(repo, "decoder.py", tmp_path)
-    names = {f["name"] for f in figs}
+def test_speed_bench_quick(run_bench, tmp_path: Path) -> None:
+    by = run_bench("decoder.py", "--quick", "--out", str(tmp_path))
+    figs, names = list(by.values()), set(by)
     # quick grid: 2 integration times x 2 LED sequences x 2 models, latency + training each
     assert len(figs) == 2 * 2 * 2 * 2
     ref = next(f for f in figs if f["name"] == "50ms-white/resmlp latency")
@@ -37,9 +23,9 @@ def test_speed_bench_quick(repo: Path, tmp_path: Path) -> None:
     assert (tmp_path / "decoder_speed_pareto.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_variants_bench_quick(repo: Path, tmp_path: Path) -> None:
-    figs = _run(repo, "decoder_variants.py", tmp_path, "--only", "contact", "combined")
-    by = {f["name"]: f for f in figs}
+def test_variants_bench_quick(run_bench, tmp_path: Path) -> None:
+    by = run_bench("decoder_variants.py", "--quick", "--out", str(tmp_path), "--only", "contact",
+                   "combined")  # fmt: skip
     assert by["paper blocked Fx MAE"]["ratio"] == 1.0
     assert {"contact blocked Fz MAE", "combined random Fy MAE", "combined latency"} <= set(by)
     target = by["target: worst force-axis MAE reduction of the best variant"]["extra"]

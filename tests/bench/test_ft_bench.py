@@ -2,32 +2,9 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
 
-
-def test_ft_bench_json(repo: Path) -> None:
-    out = subprocess.run(
-        [
-            sys.executable,
-            "tools/bench/ft.py",
-            "--records",
-            "2000",
-            "--seconds",
-            "0.3",
-            "--rounds",
-            "1",
-            "--json",
-        ],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=300,
-    ).stdout
-    figures = {f["name"]: f for f in map(json.loads, out.splitlines())}
+def test_ft_bench_json(run_bench) -> None:
+    figures = run_bench("ft.py", "--records", "2000", "--seconds", "0.3", "--rounds", "1")
     assert {"bota driver parse", "bota driver over pty", "netft driver parse"} <= set(figures)
     assert {n for n in figures if n.startswith("sim ")} == {
         f"sim {k}+driver CPU, speed {s}" for k in ("netft", "bota") for s in ("1", "10")

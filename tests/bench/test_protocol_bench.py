@@ -2,29 +2,9 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
 
-
-def test_protocol_bench_json(repo: Path) -> None:
-    out = subprocess.run(
-        [
-            sys.executable,
-            "tools/bench/protocol.py",
-            "--frames",
-            "3000",
-            "--corrupt",
-            "20000",
-            "--json",
-        ],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    figures = {f["name"]: f for f in map(json.loads, out.splitlines())}
+def test_protocol_bench_json(run_bench) -> None:
+    figures = run_bench("protocol.py", "--frames", "3000", "--corrupt", "20000")
     assert set(figures) >= {"incremental decoder", "bulk decoder", "false accepts"}
     assert figures["false accepts"]["value"] == 0
     assert figures["false accepts"]["extra"]["decoder"]["dropped"] >= 20000

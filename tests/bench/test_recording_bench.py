@@ -2,34 +2,19 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
 
-
-def test_recording_bench_json(repo: Path) -> None:
-    out = subprocess.run(
-        [
-            sys.executable,
-            "tools/bench/recording.py",
-            "--samples",
-            "2000",
-            "--ft-rate",
-            "100",
-            "--rounds",
-            "1",
-            "--live-samples",
-            "100",
-            "--json",
-        ],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=300,
-    ).stdout
-    figures = {f["name"]: f for f in map(json.loads, out.splitlines())}
+def test_recording_bench_json(run_bench) -> None:
+    figures = run_bench(
+        "recording.py",
+        "--samples",
+        "2000",
+        "--ft-rate",
+        "100",
+        "--rounds",
+        "1",
+        "--live-samples",
+        "100",
+    )
     assert set(figures) == {"recorder write", "dataset build", "live record, speed=max"}
     build = figures["dataset build"]
     assert build["extra"]["samples"] == 2000 and build["extra"]["ft_samples"] >= 100 * 99

@@ -51,7 +51,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "regularised": dict(REGULARISED),
     # The sensor's three-fold symmetry: every training press also rotated and mirrored.
     "symmetry": {"augment": "rotate+mirror"},
-    # Everything at once, with the backbone narrowed (128 -> 120) so that the wider input
+    # Everything at once, with the backbone narrowed (128 -> 116) so that the wider input
     # does not cost more flops per sample than the paper's recipe.
     "combined": {
         **CONTEXT,
@@ -59,7 +59,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
         "drift": "baseline",
         "targets": (*FT6, "region", "contact"),
         "uncertainty": True,
-        "hidden": 120,
+        "hidden": 116,
     },
 }
 
@@ -86,7 +86,7 @@ DESCRIPTIONS = {
     "uncertainty": "a calibrated per-target standard deviation head",
     "regularised": "dropout 0.1, input noise 0.1, best validation epoch (training only)",
     "symmetry": "every training press also rotated by 120/240° and mirrored (training only)",
-    "combined": "context + baseline + contact + uncertainty + regularised, ResMLP 120x3",
+    "combined": "context + baseline + contact + uncertainty + regularised, ResMLP 116x3",
     "best": "the decoder's TrainSpec.best(): "
     + ", ".join(f"{k}={v}" for k, v in best_changes().items()),
 }

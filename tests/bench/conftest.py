@@ -1,0 +1,32 @@
+"""Running a benchmark script of tools/bench/ as a user would, with --json."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+Figures = dict[str, dict[str, Any]]
+
+
+@pytest.fixture()
+def run_bench(repo: Path) -> Callable[..., Figures]:
+    """run_bench("ft.py", "--records", "2000") -> its --json figures by name."""
+
+    def run(script: str, *args: str) -> Figures:
+        out = subprocess.run(
+            [sys.executable, f"tools/bench/{script}", *args, "--json"],
+            cwd=repo,
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=600,
+        ).stdout
+        return {f["name"]: f for f in map(json.loads, out.splitlines())}
+
+    return run
