@@ -174,7 +174,7 @@ def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, 
             res.evaluation,
             opts.out / f"report-{name}",
             {"path": str(opts.out / "data.npz"), "samples": dataset.n},
-            {"path": str(files[next(iter(files))])},
+            {"path": ", ".join(f"{f} ({kind} split)" for kind, f in files.items())},
             dataset,
         )
         out[name] = {kind: _scores(section) for kind, section in res.sections.items()} | {

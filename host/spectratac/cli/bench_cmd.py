@@ -104,33 +104,36 @@ def planned_points(cfg: Any) -> list[tuple[int, str, str]]:
     ]
 
 
-def run(args: argparse.Namespace) -> int:
+def run_with_progress(cfg: Any, out: Path, variants: bool, show: bool = True) -> dict:
+    """Run the speed (or, with `variants`, the variants) benchmark with a progress bar on
+    stderr, one step per trained model; shared by this command and tools/bench/."""
     from tqdm import tqdm
 
     from spectratac.evaluate.benches import speed_bench, variants_bench
 
-    cfg = config(args)
-    out = Path(args.out)
-    points = len({"paper", *cfg.variants}) if args.variants else len(planned_points(cfg))
-    total = points + 1  # + latency / oracle stage
+    points = len({"paper", *cfg.variants}) if variants else len(planned_points(cfg))
     bar = tqdm(
-        total=total,
+        total=points + 1,  # + the latency / oracle stage
         desc="bench decoder",
         unit="model",
         file=sys.stderr,
         leave=False,
-        disable=args.no_progress,
+        disable=not show,
     )
 
     def tick(stage: str) -> None:
         bar.set_postfix_str(stage)
         bar.update(1)
 
-    bench = variants_bench if args.variants else speed_bench
     try:
-        res = bench(cfg, out, tick)
+        return (variants_bench if variants else speed_bench)(cfg, out, tick)
     finally:
         bar.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    res = run_with_progress(config(args), out, args.variants, show=not args.no_progress)
     name = "decoder_variants" if args.variants else "decoder_speed"
     if args.json:
         print(json.dumps(res))
