@@ -21,7 +21,16 @@ VARIANTS = {
         "targets": ("Fx", "Fz", "region"),
     },
     "resmlp-context-drift": {"context": 2, "drift": "baseline", "uncertainty": True},
+    "mlp-dilated-ema-drift": {
+        "model": "mlp",
+        "context": 3,
+        "context_dilated": True,
+        "context_ema": (10.0, 40.0),
+        "drift": "baseline",
+        "targets": ("Fx", "Fy", "Fz", "region", "contact"),
+    },
 }
+STREAM_HARNESS = Path(__file__).parent / "c" / "stream_harness.c"
 
 
 @pytest.fixture(scope="module")
@@ -84,11 +93,13 @@ def test_torchscript_matches_numpy(decoders, twin_ds, tmp_path) -> None:
     np.testing.assert_allclose(out, reference(dec, u), **TOL)
 
 
-def run_c(header: Path, rows: np.ndarray, real: str, sanitize: bool, tmp: Path) -> np.ndarray:
-    exe = tmp / f"harness_{real}_{int(sanitize)}"
+def run_c(
+    header: Path, rows: np.ndarray, real: str, sanitize: bool, tmp: Path, harness: Path = HARNESS
+) -> np.ndarray:
+    exe = tmp / f"{harness.stem}_{real}_{int(sanitize)}"
     cmd = [
         "gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O1",
-        f"-DSTAC_REAL={real}", f"-I{header.parent}", str(HARNESS), "-o", str(exe), "-lm",
+        f"-DSTAC_REAL={real}", f"-I{header.parent}", str(harness), "-o", str(exe), "-lm",
     ]  # fmt: skip
     if sanitize:
         cmd[1:1] = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
@@ -116,6 +127,61 @@ def test_c_header_compiles_and_matches(decoders, twin_ds, tmp_path, name) -> Non
         np.testing.assert_allclose(got[:100, 1:], ref, **TOL)
         assert flags[100] == 1 and (flags[101] & 2) and (flags[102] & 2)
         np.testing.assert_array_equal((flags & 2) > 0, est.ood)
+
+
+def session_rows(ds) -> tuple[np.ndarray, np.ndarray]:
+    """Steps and inputs of the first session in time order, with faults the live path must
+    survive without losing its state: a NaN sample, an unknown LED step, an infinite count."""
+    rows = np.flatnonzero(ds.session == ds.session[0])
+    rows = rows[np.argsort(ds.t_end[rows], kind="stable")]
+    step, x = ds.step[rows].astype(np.int64), ds.inputs[rows].astype(np.float64)
+    for at, bad_step, bad in ((5, None, np.nan), (200, 7, None), (900, None, np.inf)):
+        xb = x[at].copy()
+        if bad is not None:
+            xb[3] = bad
+        step = np.insert(step, at, step[at] if bad_step is None else bad_step)
+        x = np.insert(x, at, xb, axis=0)
+    return step, x
+
+
+@pytest.fixture(scope="module")
+def led_sequence_decoder() -> tuple[Decoder, object]:
+    """Context, moving averages and baseline over a three-step (R, G, B) LED sequence."""
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.twin import generate_session, scenes
+
+    steps = np.zeros((3, 3, 3))
+    for c in range(3):
+        steps[c, :, c] = 0.6
+    scene = scenes.calibration_session(seed=4, duration_s=60.0)
+    ds = from_twin_session(generate_session(scene, seed=4, led_steps=steps), scene)
+    spec = TrainSpec.paper(
+        epochs=2, hidden=16, blocks=1, threads=1, context=2, context_ema=(20.0,), drift="baseline"
+    )
+    return train(ds, spec, progress=False), ds
+
+
+@pytest.mark.parametrize("name", ["resmlp-context-drift", "mlp-dilated-ema-drift", "rgb-steps"])
+def test_c_live_assembly_matches_python(
+    decoders, twin_ds, led_sequence_decoder, tmp_path, name
+) -> None:
+    """stac_push (assembly + decode in C, one sample at a time) gives what the Python
+    assembler and runtime give for the same session, faults included."""
+    from spectratac.decode.assemble import assemble
+
+    dec, ds = led_sequence_decoder if name == "rgb-steps" else (decoders[name], twin_ds)
+    header = dec.export("c", tmp_path / "stac_decoder.h")
+    step, x = session_rows(ds)
+    u, valid = assemble(dec.layout, x, step)
+    est = dec.predict_assembled(u[valid])
+    rows = np.column_stack([step, x])
+    for real, sanitize in (("float", True), ("double", False)):
+        got = run_c(header, rows, real, sanitize, tmp_path, STREAM_HARNESS)
+        flags = got[:, 0].astype(int)
+        assert (flags[~valid] == 1).all() and (flags[valid] & 1 == 0).all()
+        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **TOL)
+        np.testing.assert_array_equal((flags[valid] & 2) > 0, est.ood)
+    assert (~valid).sum() == 3 + dec.layout.steps - 1  # the faults and the first steps
 
 
 def test_unknown_format_is_refused(decoders, tmp_path) -> None:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.decode.assemble import GATE, STUCK, TAU
 from spectratac.decode.export.c_template import TEMPLATE
 from spectratac.decode.guard import DARK_COUNTS
 
@@ -47,6 +48,10 @@ def _nested(a: np.ndarray) -> str:
     return "{" + ",\n  ".join(_nested(x) for x in a) + "}"
 
 
+def _ints(values: Iterable[int]) -> str:
+    return ", ".join(str(int(v)) for v in values)
+
+
 def _comment(text: str) -> str:
     return text.replace("*/", "* /").replace("\n", " ")
 
@@ -55,6 +60,7 @@ def render(dec: Any) -> str:
     rt = dec.runtime
     fs, w, heads, guard = rt.features, rt.weights, rt.heads, dec.guard
     kind, hidden, blocks = rt.arch
+    lay = dec.layout
     n_lin, n_rat = fs.L.shape[0], fs.P.shape[0]
     defines = {
         "STAC_N_IN": rt.n_inputs,
@@ -74,6 +80,16 @@ def render(dec: Any) -> str:
         "STAC_SATURATION": int(guard.saturation) if guard.saturation else 0,
         "STAC_N_DARK": len(guard.dark_cols),
         "STAC_DARK_COUNTS": f"{DARK_COUNTS:.1f}",
+        # assembly of live samples (decode/assemble.py)
+        "STAC_N_CH": len(lay.channels),
+        "STAC_STEPS": lay.steps,
+        "STAC_N_LAGS": len(lay.lags),
+        "STAC_HIST": max(lay.lags, default=0) + 1,
+        "STAC_N_EMA": len(lay.emas),
+        "STAC_DRIFT": int(lay.drift),
+        "STAC_BASE_TAU": repr(float(TAU)),
+        "STAC_BASE_GATE": repr(float(GATE)),
+        "STAC_BASE_STUCK": f"{int(STUCK)}L",
     }
     data = [_array("stac_center", rt.center)]
     if n_lin:
@@ -121,8 +137,13 @@ def render(dec: Any) -> str:
         data.append(_array("stac_std_mul", rt.y_scale * rt.std_scale))
     data += [_array("stac_in_lo", guard.in_lo), _array("stac_in_hi", guard.in_hi)]
     if guard.dark_cols:
-        cols = ", ".join(str(int(c)) for c in guard.dark_cols)
+        cols = _ints(guard.dark_cols)
         data.append(f"static const int stac_dark_cols[{len(guard.dark_cols)}] = {{{cols}}};")
+    if lay.lags:
+        data.append(f"static const int stac_lags[{len(lay.lags)}] = {{{_ints(lay.lags)}}};")
+    if lay.emas:
+        alpha = fmt_values(1.0 / np.asarray(lay.emas, dtype=np.float64))
+        data.append(f"static const double stac_ema_alpha[{len(lay.emas)}] = {{{alpha}}};")
     banner = (
         f"decoder {dec.meta.get('spec', {}).get('model', '?')} on features "
         f"{fs.kind}; unit {dec.unit_id}; config {json.dumps(dec.config)}"
