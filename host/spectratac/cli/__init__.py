@@ -35,6 +35,7 @@ VERB_MODULES: tuple[str, ...] = (
     "evaluate_cmd",
     "bench_cmd",
     "train_cmd",
+    "decode_cmd",
 )
 
 

@@ -1,0 +1,68 @@
+"""`spectratac decode MODEL URL`: a trained decoder run live on the simulated sensor."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.cli import main
+from spectratac.decode import Decoder, TrainSpec, train
+
+from tests.decode.conftest import synthetic
+
+TOUR = "sim://?scene=tour&seed=1&speed=max"
+
+
+@pytest.fixture(scope="module")
+def model(twin_ds, tmp_path_factory) -> Path:
+    spec = TrainSpec.paper(epochs=2, hidden=16, blocks=1, threads=1, context=2, drift="baseline")
+    return train(twin_ds, spec, progress=False).save(tmp_path_factory.mktemp("m") / "m.stac")
+
+
+def test_streams_estimates_as_jsonl(model, capsys) -> None:
+    assert main(["decode", str(model), TOUR, "--count", "15", "--format", "jsonl"]) == 0
+    out, err = capsys.readouterr()
+    rows = [json.loads(line) for line in out.splitlines()]
+    assert len(rows) == 15 and "15 estimates" in err
+    t = np.array([r["t_s"] for r in rows])
+    assert t[0] == 0.0 and (np.diff(t) >= 0).all()
+    for r in rows:
+        assert len(r["force"]) == 3 and len(r["torque"]) == 3 and not r["invalid"]
+        assert all(isinstance(v, float) for v in r["force"])
+        assert 1 <= r["region"] <= 9 and 0.0 < r["region_prob"] <= 1.0
+
+
+def test_table_and_csv_have_one_row_per_estimate(model, capsys) -> None:
+    assert main(["decode", str(model), TOUR, "--count", "4", "--format", "csv"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("t_s,Fx,Fy,Fz") and len(lines) == 5
+    assert main(["decode", str(model), TOUR, "--count", "4"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[:2] == ["t_s", "Fx"] and len(lines) == 5
+
+
+def test_configures_the_sensor_as_trained_or_refuses_its_own(model, tmp_path, capsys) -> None:
+    dec = Decoder.load(model)
+    dec.meta["config"] = dict(dec.config, integration_ms=100)
+    other = dec.save(tmp_path / "100ms.stac")
+    # Configured as trained (100 ms): decodes.
+    assert main(["decode", str(other), TOUR, "--count", "3", "--format", "jsonl"]) == 0
+    assert len(capsys.readouterr().out.splitlines()) == 3
+    # The device's own configuration (50 ms) is not the model's: refused, exit 3, reason given.
+    assert main(["decode", str(other), TOUR, "--count", "3", "--keep-config"]) == 3
+    err = capsys.readouterr().err
+    assert "integration_ms: trained 100, got 50" in err
+
+
+def test_bad_arguments_and_models_without_a_configuration(tmp_path, capsys) -> None:
+    ds = synthetic()
+    ds.meta["config"] = None
+    dec = train(ds, TrainSpec.paper(epochs=1, hidden=8, blocks=1, threads=1), progress=False)
+    path = dec.save(tmp_path / "noconfig.stac")
+    assert main(["decode", str(path), TOUR, "--count", "2"]) == 3
+    assert "--keep-config" in capsys.readouterr().err
+    assert main(["decode", str(path), TOUR, "--count", "-1"]) == 3
+    assert "--count" in capsys.readouterr().err
+    assert main(["decode", str(tmp_path / "missing.stac"), TOUR]) == 3
