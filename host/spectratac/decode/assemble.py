@@ -21,7 +21,6 @@ not depend on clocks.
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,13 +40,18 @@ class _Ema:
     def __init__(self, taus: tuple[float, ...]) -> None:
         self.alpha = 1.0 / np.asarray(taus, dtype=np.float64)[:, None]
         self.value: F64 | None = None  # (len(taus), base)
+        self._tmp: F64 | None = None
 
     def step(self, cur: F64, out: F64) -> None:
         """Write the averages before this sample into `out` (len(taus) * base,)."""
         if self.value is None:
             self.value = np.tile(cur, (self.alpha.shape[0], 1))
+            self._tmp = np.empty_like(self.value)
         out[:] = self.value.reshape(-1)  # the past only
-        self.value += self.alpha * (cur - self.value)
+        tmp = self._tmp
+        np.subtract(cur, self.value, out=tmp)
+        tmp *= self.alpha
+        self.value += tmp
 
 
 class _Baseline:
@@ -56,19 +60,24 @@ class _Baseline:
     def __init__(self) -> None:
         self.value: F64 | None = None
         self.out_of_gate = 0
+        self._diff: F64 | None = None
+        self._dev: F64 | None = None
 
     def step(self, cur: F64, out: F64) -> None:
         base = self.value
         if base is None:
             self.value = cur.copy()
+            self._diff, self._dev = np.empty_like(cur), np.empty_like(cur)
             out[:] = cur
             return
         out[:] = base  # the sample is judged against the baseline before it
-        ab = np.abs(base)
-        scale = ab + (1e-6 + 0.01 * float(ab.sum()) / ab.shape[0])
-        diff = cur - base
-        dev = diff / scale
-        rel = math.sqrt(float(np.dot(dev, dev)) / dev.shape[0])
+        n = base.shape[0]
+        dev, diff = self._dev, self._diff
+        np.abs(base, out=dev)
+        dev += 1e-6 + 0.01 * float(dev.sum()) / n  # scale: |base| + a floor
+        np.subtract(cur, base, out=diff)
+        np.divide(diff, dev, out=dev)  # relative deviation
+        rel = math.sqrt(float(np.dot(dev, dev)) / n)
         self.out_of_gate = 0 if rel < GATE else self.out_of_gate + 1
         if self.out_of_gate == 0 or self.out_of_gate > STUCK:
             diff /= TAU
@@ -79,55 +88,74 @@ class Assembler:
     """Streaming state of one session: latest sample per step, history, EMAs, baseline.
 
     This is the reference implementation; `assemble` computes the same vectors for whole
-    sessions at once (tests check they agree bit for bit).
+    sessions at once (tests check they agree bit for bit). It runs once per live sample, so
+    it keeps its NumPy calls few: past samples sit in a shift register (newest first,
+    filled with the first sample so that early lags repeat the oldest one there is). With
+    lags 1..L the register is the head of the output itself; other lags are gathered from
+    it in one `take`.
     """
 
     def __init__(self, layout: Layout) -> None:
         self.layout = layout
         self._c = len(layout.channels)
-        self._latest = np.zeros(layout.base)
-        self._seen = np.zeros(layout.steps, bool)
-        self._hist: deque[F64] = deque(maxlen=max(layout.lags, default=0) + 1)
-        self._ema = _Ema(layout.emas)
-        self._base = _Baseline()
+        b, lags = layout.base, layout.lags
         self._out = np.empty(layout.size)
+        k = 1 + len(lags)
+        contiguous = lags == tuple(range(1, len(lags) + 1))
+        # [x_t, x_t-1, ..., x_t-max]
+        self._reg = self._out[: k * b] if contiguous else np.zeros((max(lags) + 1) * b)
+        self._lag_idx = (np.asarray(lags, np.intp)[:, None] * b + np.arange(b)).ravel()
+        self._gather = not contiguous
+        self._lag_out = self._out[b : k * b]
+        self._ema_out = self._out[k * b : (k + len(layout.emas)) * b]
+        self._base_out = self._out[self._out.size - b :]
+        self.reset()
 
     def reset(self) -> None:
-        self._latest[:] = 0.0
-        self._seen[:] = False
-        self._hist.clear()
+        self._latest = np.zeros(self.layout.base)
+        self._seen = np.zeros(self.layout.steps, bool)
+        self._n_seen = 0
+        self._started = False
         self._ema = _Ema(self.layout.emas)
         self._base = _Baseline()
 
     def push(self, step: int, x: F64) -> tuple[F64, bool]:
         """Feed one sample (its step, its C inputs); return (assembled vector, valid).
 
-        The returned array is reused by the next call: copy it to keep it. Invalid results
-        (non-finite input, not every step seen yet, bad step) do not change the state.
+        A valid result's array is reused by the next call: copy it to keep it. Invalid results
+        (non-finite input, not every step seen yet, bad step; all NaN) leave the state as it
+        was.
         """
         lay = self.layout
-        if not (0 <= step < lay.steps) or not np.all(np.isfinite(x)):
-            self._out[:] = np.nan
-            return self._out, False
+        if not (0 <= step < lay.steps) or not np.isfinite(x).all():
+            return self._invalid()
         c = self._c
         self._latest[step * c : (step + 1) * c] = x
-        self._seen[step] = True
-        if not self._seen.all():
-            self._out[:] = np.nan
-            return self._out, False
-        cur = self._latest.copy()
-        self._hist.append(cur)
-        out, b = self._out, lay.base
-        out[:b] = cur
-        n = len(self._hist)
-        for i, lag in enumerate(lay.lags):
-            out[(i + 1) * b : (i + 2) * b] = self._hist[max(n - 1 - lag, 0)]
+        if not self._seen[step]:
+            self._seen[step] = True
+            self._n_seen += 1
+        if self._n_seen < lay.steps:
+            return self._invalid()
+        reg, out, b = self._reg, self._out, lay.base
+        if self._started:
+            reg[b:] = reg[:-b]  # every past sample one lag older
+        else:
+            reg.reshape(-1, b)[:] = self._latest
+            self._started = True
+        reg[:b] = self._latest
+        if self._gather:
+            np.take(reg, self._lag_idx, out=self._lag_out)
+            out[:b] = self._latest
+        cur = reg[:b]
         if lay.emas:
-            k = 1 + len(lay.lags)
-            self._ema.step(cur, out[k * b : (k + len(lay.emas)) * b])
+            self._ema.step(cur, self._ema_out)
         if lay.drift:
-            self._base.step(cur, out[-b:])
+            self._base.step(cur, self._base_out)
         return out, True
+
+    def _invalid(self) -> tuple[F64, bool]:
+        # A new array: the output's head may hold the history (the shift register).
+        return np.full(self.layout.size, np.nan), False
 
 
 def assemble_session(layout: Layout, x: F64, step: NDArray[np.integer]) -> tuple[F64, NDArray]:

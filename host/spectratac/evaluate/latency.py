@@ -1,9 +1,9 @@
 """Single-sample inference latency of decoders, measured side by side (alternating rounds,
 so that load spikes on this shared machine hit every decoder alike), without torch.
 
-A decoder is timed on its stateless part (assembled vector -> outputs, `Runtime.run1`, what
-a live stream calls per sample); the assembly itself is a few copies and is the same for
-every model with the same layout.
+A decoder is timed on its live path, what `Decoder.stream` does per sample: the assembly
+(latest sample of each LED step, context lags, moving averages, baseline; its cost grows
+with the temporal context) and then the stateless network (`Runtime.run1`).
 
 >>> import numpy as np
 >>> fns = {"a": lambda u: u * 2, "b": lambda u: u + 1}
@@ -25,16 +25,22 @@ F64 = NDArray[np.float64]
 
 
 def single_sample_fn(decoder: Any, dataset: Any) -> tuple[Callable[[F64], Any], F64]:
-    """(per-sample function, assembled input vectors of valid rows) for a `Decoder`."""
-    from spectratac.decode.assemble import assemble
+    """(per-sample live function, its inputs) for a `Decoder`: the inputs are rows
+    ``[step, channels...]`` of the dataset's first session in time order, and the function
+    assembles one row and runs the network on it."""
+    from spectratac.decode.assemble import Assembler, session_order
 
     a = dataset.arrays
-    u, valid = assemble(decoder.layout, a["inputs"], a["step"], a["session"], a["t_end"])
-    u = u[valid]
-    run1 = getattr(decoder.runtime, "run1", None)
-    if run1 is None:  # older runtime: the batch path on one row
-        return (lambda v: decoder.runtime.run(v[None, :])), u
-    return run1, u
+    order = session_order(a["session"], a["t_end"])[0]
+    feed = np.column_stack([a["step"][order], a["inputs"][order]]).astype(np.float64)
+    feed = feed[np.all(np.isfinite(feed), axis=1)]
+    push = Assembler(decoder.layout).push
+    run1 = decoder.runtime.run1
+
+    def live(row: F64) -> Any:
+        return run1(push(int(row[0]), row[1:])[0])
+
+    return live, feed
 
 
 def side_by_side_latency(
