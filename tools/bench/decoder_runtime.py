@@ -6,7 +6,8 @@ run (this machine is shared: read the ratios, not the absolute times).
 1. Single-sample latency (p50, p99) of the paper's decoder (ResMLP 128 x 3 on 33 features,
    six axes + nine regions) through the fused NumPy runtime, torch not imported, against one
    128 x 128 float32 matrix-vector product; calls of the two alternate in small batches so
-   that load spikes hit both. Optionally (--onnx) the same model in ONNX Runtime.
+   that load spikes hit both. Then the live path (assembly + network, what Decoder.stream
+   does per sample) against the network alone. Optionally (--onnx) ONNX Runtime.
 2. Training time of the paper's recipe on --samples twin calibration samples for --epochs,
    against plain GEMMs of the same shapes and total FLOPs (forward + backward ~ 3x forward):
    the ratio is the training loop's overhead over raw matrix arithmetic.
@@ -97,9 +98,35 @@ def latency_figures(calls: int, onnx: bool) -> list[benchlib.Figure]:
                 },
             )
         )
+    figs += live_figures(dec, x, calls, s)
     if onnx:
         figs += onnx_figures(dec, rows, calls, s)
     return figs
+
+
+def live_figures(dec: Decoder, x: np.ndarray, calls: int, net_lat: np.ndarray) -> list:
+    """What Decoder.stream does per sample: assembly, then the network (torch not imported)."""
+    from spectratac.decode.assemble import Assembler
+
+    push, run1 = Assembler(dec.layout).push, dec.runtime.run1
+
+    def live(v: np.ndarray) -> None:
+        run1(push(0, v)[0])
+
+    rows = list(x)
+    lv, _ = interleaved(live, rows, run1, [r.astype(np.float32) for r in rows], calls)
+    return [
+        benchlib.Figure(
+            f"paper decoder live sample p{q} (assembly + network)",
+            float(np.percentile(lv, q)),
+            "us",
+            f"network alone p{q}",
+            float(np.percentile(net_lat, q)),
+            float(np.percentile(lv, q) / np.percentile(net_lat, q)),
+            {"calls": int(lv.size), "torch_imported": "torch" in sys.modules},
+        )
+        for q in (50, 99)
+    ]
 
 
 def onnx_figures(dec: Decoder, rows: list, calls: int, numpy_lat: np.ndarray) -> list:
