@@ -78,26 +78,16 @@ def latency_figures(calls: int, onnx: bool) -> list[benchlib.Figure]:
         run1(r)
     torch_loaded = "torch" in sys.modules
     s, r = interleaved(run1, rows, matvec, rows, calls)
-    figs = []
-    for q in (50, 99):
-        figs.append(
-            benchlib.Figure(
-                f"paper decoder single sample p{q} (NumPy)",
-                float(np.percentile(s, q)),
-                "us",
-                f"128x128 matvec p{q}",
-                float(np.percentile(r, q)),
-                float(np.percentile(s, q) / np.percentile(r, q)),
-                {
-                    "calls": int(s.size),
-                    "torch_imported": torch_loaded,
-                    "load_average_1min": os.getloadavg()[0],
-                    "target_p99_us": 100,
-                    "params": dec.n_params,
-                    "flops": dec.flops_per_sample,
-                },
-            )
-        )
+    extra = {
+        "torch_imported": torch_loaded,
+        "load_average_1min": os.getloadavg()[0],
+        "target_p99_us": 100,
+        "params": dec.n_params,
+        "flops": dec.flops_per_sample,
+    }
+    figs = percentile_figures(
+        "paper decoder single sample {} (NumPy)", s, "128x128 matvec", r, extra
+    )
     figs += live_figures(dec, x, calls, s)
     if onnx:
         figs += onnx_figures(dec, rows, calls, s)
@@ -115,18 +105,10 @@ def live_figures(dec: Decoder, x: np.ndarray, calls: int, net_lat: np.ndarray) -
 
     rows = list(x)
     lv, _ = interleaved(live, rows, run1, [r.astype(np.float32) for r in rows], calls)
-    return [
-        benchlib.Figure(
-            f"paper decoder live sample p{q} (assembly + network)",
-            float(np.percentile(lv, q)),
-            "us",
-            f"network alone p{q}",
-            float(np.percentile(net_lat, q)),
-            float(np.percentile(lv, q) / np.percentile(net_lat, q)),
-            {"calls": int(lv.size), "torch_imported": "torch" in sys.modules},
-        )
-        for q in (50, 99)
-    ]
+    name = "paper decoder live sample {} (assembly + network)"
+    return percentile_figures(
+        name, lv, "network alone", net_lat, {"torch_imported": "torch" in sys.modules}
+    )
 
 
 def onnx_figures(dec: Decoder, rows: list, calls: int, numpy_lat: np.ndarray) -> list:
@@ -142,15 +124,24 @@ def onnx_figures(dec: Decoder, rows: list, calls: int, numpy_lat: np.ndarray) ->
     feed = [{"u": r[None, :]} for r in rows]
     run = sess.run
     o, _ = interleaved(lambda f: run(None, f), feed, dec.runtime.run1, rows, calls)
+    return percentile_figures(
+        "paper decoder single sample {} (ONNX Runtime)", o, "NumPy runtime", numpy_lat, {}
+    )
+
+
+def percentile_figures(
+    name: str, lat: np.ndarray, ref_name: str, ref: np.ndarray, extra: dict
+) -> list[benchlib.Figure]:
+    """p50 and p99 of `lat` (us) against the same percentile of `ref`; `name` has a {} for pNN."""
     return [
         benchlib.Figure(
-            f"paper decoder single sample p{q} (ONNX Runtime)",
-            float(np.percentile(o, q)),
+            name.format(f"p{q}"),
+            float(np.percentile(lat, q)),
             "us",
-            f"NumPy runtime p{q}",
-            float(np.percentile(numpy_lat, q)),
-            float(np.percentile(o, q) / np.percentile(numpy_lat, q)),
-            {"calls": int(o.size)},
+            f"{ref_name} p{q}",
+            float(np.percentile(ref, q)),
+            float(np.percentile(lat, q) / np.percentile(ref, q)),
+            {"calls": int(lat.size), **extra},
         )
         for q in (50, 99)
     ]
