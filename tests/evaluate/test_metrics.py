@@ -4,6 +4,7 @@ matrix counts every labelled row once, coverage measures calibration."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -74,11 +75,30 @@ def test_contact_scores() -> None:
 
 def test_coverage_flags_overconfidence() -> None:
     rng = np.random.default_rng(1)
-    y = rng.normal(0, 2.0, (5000, 1))
+    y = rng.laplace(0, 2.0 / np.sqrt(2.0), (5000, 1))  # Laplace errors of std 2
     right = interval_coverage(y, np.zeros_like(y), np.full_like(y, 2.0), ["Fz"])["Fz"]
     over = interval_coverage(y, np.zeros_like(y), np.full_like(y, 0.5), ["Fz"])["Fz"]
     assert abs(right["0.68"] - 0.68) < 0.03 and abs(right["0.95"] - 0.95) < 0.015
-    assert over["0.95"] < 0.5
+    assert over["0.95"] < 0.6
+    # Gaussian errors of the same std are lighter-tailed: the 68 % interval over-covers.
+    g = rng.normal(0, 2.0, (5000, 1))
+    gauss = interval_coverage(g, np.zeros_like(g), np.full_like(g, 2.0), ["Fz"])["Fz"]
+    assert gauss["0.68"] < 0.62 and gauss["0.95"] > 0.95
+
+
+def test_estimate_intervals_follow_the_coverage_levels() -> None:
+    from spectratac.decode import Estimates
+
+    est = Estimates.empty(("Fz",), 3)
+    est.targets[:] = [[1.0], [2.0], [3.0]]
+    est.std = np.array([[1.0], [0.0], [2.0]])
+    lo, hi = est.interval(0.95)
+    np.testing.assert_allclose(hi - lo, 2 * 2.1182 * est.std, atol=1e-3)
+    np.testing.assert_allclose((lo + hi) / 2, est.targets)
+    est.std = None
+    assert np.isnan(est.interval(0.68)[0]).all()
+    with pytest.raises(ValueError, match="probability"):
+        Estimates.empty(("Fz",), 1).interval(1.0)
 
 
 @given(st.floats(0.01, 10), st.floats(0, 10))

@@ -19,18 +19,18 @@ which rows count (finite target, target_valid) and adds what the paper's Fig. 3 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from statistics import NormalDist
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from spectratac.decode.estimates import interval_factor
 from spectratac.decode.metrics import region_accuracy, regression_metrics
 
 F64 = NDArray[np.float64]
 PERCENTILES = (50, 90, 95, 99)
 N_REGIONS = 9
-#: Two-sided Gaussian interval levels reported for calibrated uncertainty.
+#: Central interval levels reported for calibrated uncertainty.
 COVERAGE_LEVELS = (0.68, 0.95)
 
 
@@ -120,11 +120,12 @@ def interval_coverage(
     valid: ArrayLike | None = None,
     levels: Sequence[float] = COVERAGE_LEVELS,
 ) -> dict[str, dict[str, float]]:
-    """Fraction of valid targets inside the central Gaussian interval mean ± z·std per level
-    (a calibrated 68 % interval holds ~68 % of them), plus the mean predicted std.
+    """Fraction of valid targets inside the decoder's central interval mean ± k·std per
+    level (`decode.estimates.interval_factor`: the uncertainty head's errors are Laplace),
+    so that a calibrated 68 % interval holds ~68 % of them; plus the mean predicted std.
 
     >>> import numpy as np
-    >>> y = np.random.default_rng(0).normal(size=(4000, 1))
+    >>> y = np.random.default_rng(0).laplace(scale=1 / np.sqrt(2), size=(4000, 1))
     >>> c = interval_coverage(y, np.zeros_like(y), np.ones_like(y), ["Fz"])["Fz"]
     >>> abs(c["0.68"] - 0.68) < 0.03, abs(c["0.95"] - 0.95) < 0.02
     (True, True)
@@ -139,7 +140,7 @@ def interval_coverage(
         z = np.abs(y[rows, j] - mu[rows, j]) / np.maximum(sd[rows, j], 1e-12)
         d: dict[str, float] = {"n": int(rows.sum())}
         for lv in levels:
-            k = NormalDist().inv_cdf(0.5 + lv / 2)
+            k = interval_factor(lv)
             d[f"{lv:g}"] = float(np.mean(z <= k)) if rows.any() else float("nan")
         d["mean_std"] = float(np.mean(sd[rows, j])) if rows.any() else float("nan")
         out[name] = d
