@@ -1,13 +1,13 @@
 #include "veml3328.h"
 
 int32_t veml3328_it_code(uint16_t integration_ms) {
-    switch (integration_ms) {
-    case 50u: return 0;
-    case 100u: return 1;
-    case 200u: return 2;
-    case 400u: return 3;
-    default: return -1;
+    static const uint16_t k_it_ms[VEML3328_CONF_IT_COUNT] = VEML3328_CONF_IT_VALUES;
+    for (uint32_t code = 0u; code < VEML3328_CONF_IT_COUNT; code++) {
+        if (k_it_ms[code] == integration_ms) {
+            return (int32_t)code;
+        }
     }
+    return -1;
 }
 
 uint16_t veml3328_conf_word(const veml3328_settings_t *s, bool trigger) {

@@ -9,25 +9,9 @@
 
 #include "stac_hal.h"
 
-#define VEML3328_ADDR 0x10u
-
-#define VEML3328_REG_CONF 0x00u
-#define VEML3328_REG_C 0x04u
-#define VEML3328_REG_R 0x05u
-#define VEML3328_REG_G 0x06u
-#define VEML3328_REG_B 0x07u
-#define VEML3328_REG_IR 0x08u
-#define VEML3328_REG_ID 0x0Cu
-#define VEML3328_ID_LOW 0x28u /* low byte of the ID register */
-
-/* CONF bits. Both shutdown bits (15 and 0) must be clear for the sensor to run. */
-#define VEML3328_CONF_SD 0x8001u
-#define VEML3328_CONF_DG_SHIFT 12u   /* 0 ×1, 1 ×2, 2 ×4 */
-#define VEML3328_CONF_GAIN_SHIFT 10u /* 0 ×1, 1 ×2, 2 ×4, 3 ×1/2 */
-#define VEML3328_CONF_SENS 0x0040u   /* low sensitivity (1/3) */
-#define VEML3328_CONF_IT_SHIFT 4u    /* 0 50 ms, 1 100 ms, 2 200 ms, 3 400 ms */
-#define VEML3328_CONF_AF 0x0008u     /* active force mode: one measurement per trigger */
-#define VEML3328_CONF_TRIG 0x0004u   /* start one measurement; the sensor clears it when done */
+/* Register map and CONF bit fields (VEML3328_REG_*, VEML3328_CONF_*), generated from
+ * hardware/parts/veml3328.toml. */
+#include "generated/veml3328_regs.h"
 
 /* Channel order of a reading, as in SAMPLE.counts. */
 enum { VEML3328_CH_R = 0, VEML3328_CH_G, VEML3328_CH_B, VEML3328_CH_C, VEML3328_CH_IR,
@@ -40,7 +24,7 @@ enum { VEML3328_CH_R = 0, VEML3328_CH_G, VEML3328_CH_B, VEML3328_CH_C, VEML3328_
 #define VEML3328_TIMEOUT_US 2000u
 
 typedef struct veml3328_settings {
-    uint8_t it_code;   /* 0..3: 50/100/200/400 ms */
+    uint8_t it_code;   /* index into VEML3328_CONF_IT_VALUES (ms) */
     uint8_t gain;      /* 0..3 */
     uint8_t dg;        /* 0..2 */
     uint8_t sens_low;  /* 0 high, 1 low */
@@ -55,7 +39,7 @@ uint16_t veml3328_conf_word(const veml3328_settings_t *s, bool trigger);
 int32_t veml3328_read_reg(const stac_hal_t *hal, uint8_t bus, uint8_t reg, uint16_t *value);
 int32_t veml3328_write_reg(const stac_hal_t *hal, uint8_t bus, uint8_t reg, uint16_t value);
 
-/* Read the ID register; STAC_I2C_OK only if its low byte is 0x28. */
+/* Read the ID register; STAC_I2C_OK only if its low byte is VEML3328_ID_LOW. */
 int32_t veml3328_probe(const stac_hal_t *hal, uint8_t bus);
 
 /* Power up in active force mode with the settings, without starting a measurement. */

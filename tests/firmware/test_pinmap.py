@@ -1,6 +1,9 @@
-"""The STM32 port's pin table (firmware/ports/stm32f411/board.h) matches pinmap.toml, the single
-source of truth the KiCad board is also checked against: same MCU pin, alternate function,
-peripheral instance and timer channel for every connector signal and the host link."""
+"""The STM32 port's pin table (firmware/ports/stm32f411/board.h, generated from pinmap.toml by
+tools/codegen) matches pinmap.toml, the single source of truth the KiCad board is also checked
+against: same MCU pin, alternate function, peripheral instance and timer channel for every
+connector signal and the host link, in the order the port's drivers index. The drift test in
+tests/protocol/test_codegen.py checks that board.h is what the generator writes; this one checks
+that what it writes means what pinmap.toml says."""
 
 from __future__ import annotations
 
@@ -17,7 +20,7 @@ ROW = re.compile(
     r"(?P<unit>\d+), (?P<channel>\d+)\}"
 )
 FUNCTION = re.compile(
-    r"(?P<periph>I2C|TIM)(?P<unit>\d)_(?P<what>SCL|SDA|CH(?P<ch>\d)) AF(?P<af>\d+)"
+    r"(?P<periph>I2C|TIM|USART)(?P<unit>\d)_(?P<what>SCL|SDA|TX|RX|CH(?P<ch>\d)) AF(?P<af>\d+)"
 )
 
 
@@ -28,24 +31,16 @@ def port_table() -> dict[str, dict[str, str]]:
 def expected() -> dict[str, tuple[str, int, int, int, int]]:
     """signal -> (port, pin, af, unit, channel) from pinmap.toml."""
     data = tomllib.loads(PINMAP.read_text())
+    link = data["host_link"]
+    rows = [(pad["signal"], pad["mcu"], pad["function"]) for pad in data["connector"]["pads"]]
+    rows += [(name.upper(), link[name]["mcu"], link[name]["function"]) for name in ("tx", "rx")]
     out: dict[str, tuple[str, int, int, int, int]] = {}
-    for pad in data["connector"]["pads"]:
-        mcu = pad["mcu"]
+    for signal, mcu, function in rows:
         if not re.fullmatch(r"P[AB]\d+", mcu):
             continue  # supplies and ground
-        fn = FUNCTION.search(pad["function"])
-        assert fn, f"pad {pad['pad']}: cannot read function {pad['function']!r}"
-        out[pad["signal"]] = (
-            mcu[1],
-            int(mcu[2:]),
-            int(fn["af"]),
-            int(fn["unit"]),
-            int(fn["ch"] or 0),
-        )
-    link = data["host_link"]
-    # USART1 is AF7 on PA9/PA10 (datasheet table 9); pinmap.toml names the pins.
-    out["TX"] = (link["tx"][1], int(link["tx"][2:]), 7, 1, 0)
-    out["RX"] = (link["rx"][1], int(link["rx"][2:]), 7, 1, 0)
+        fn = FUNCTION.search(function)
+        assert fn, f"{signal}: cannot read function {function!r}"
+        out[signal] = (mcu[1], int(mcu[2:]), int(fn["af"]), int(fn["unit"]), int(fn["ch"] or 0))
     return out
 
 
@@ -82,3 +77,12 @@ def test_led_order_matches_driver_indexing() -> None:
     assert names[first : first + 9] == leds
     # Sensor k's bus pins sit at 2k (SCL) and 2k+1 (SDA) for the bus-clear code in i2c.c.
     assert names[:6] == ["SCL1", "SDA1", "SCL2", "SDA2", "SCL3", "SDA3"]
+
+
+def test_board_constants_come_from_pinmap() -> None:
+    data = tomllib.loads(PINMAP.read_text())
+    text = BOARD_H.read_text()
+    assert f'#define BOARD_NAME "{data["board"]["name"]}"' in text
+    assert f"#define BOARD_BAUD {data['host_link']['baud']}u" in text
+    assert f"#define BOARD_HSE_HZ {data['board']['hse_hz']}u" in text
+    assert f"#define BOARD_PWM_HZ {data['board']['pwm_hz']}u" in text

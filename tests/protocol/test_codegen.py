@@ -1,12 +1,23 @@
-"""Generated code is committed; regenerating it from protocol/messages.toml must change nothing."""
+"""Generated code is committed; regenerating it from its definitions must change nothing.
+
+Definitions: protocol/messages.toml (the protocol), hardware/parts/veml3328.toml (the sensor
+chip), firmware/ports/stm32f411/pinmap.toml (board.h) and hardware/params.toml (the geometry).
+"""
 
 from __future__ import annotations
 
+import doctest
+import importlib
+import shutil
 import subprocess
 import sys
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
+from types import ModuleType
 
+import pytest
+from spectratac.hardware import board, veml3328
 from spectratac.protocol import messages
 
 GENERATED = [
@@ -14,7 +25,30 @@ GENERATED = [
     "firmware/core/generated/stac_messages.c",
     "host/spectratac/protocol/messages.py",
     "protocol/MESSAGES.md",
+    "firmware/core/generated/veml3328_regs.h",
+    "host/spectratac/hardware/veml3328.py",
+    "firmware/ports/stm32f411/board.h",
+    "host/spectratac/hardware/board.py",
 ]
+
+
+@pytest.fixture
+def codegen(repo: Path) -> Iterator[dict[str, ModuleType]]:
+    """The generator's modules (tools/codegen is not a package)."""
+    sys.path.insert(0, str(repo / "tools" / "codegen"))
+    try:
+        yield {name: importlib.import_module(name) for name in ("definition", "part")}
+    finally:
+        sys.path.pop(0)
+
+
+def _definition_copy(repo: Path, tmp_path: Path, text: str) -> Path:
+    """messages.toml with `text`, placed so that its relative [parts] paths still resolve."""
+    shutil.copytree(repo / "hardware" / "parts", tmp_path / "hardware" / "parts")
+    path = tmp_path / "protocol" / "messages.toml"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(text, "utf-8")
+    return path
 
 
 def test_generated_code_has_not_drifted(repo: Path, tmp_path: Path) -> None:
@@ -43,37 +77,126 @@ def test_python_module_matches_definition(repo: Path) -> None:
         assert len(cls().pack()) == cls.PAYLOAD_SIZE <= messages.MAX_PAYLOAD
 
 
-def test_hash_ignores_docs_but_not_wire_changes(repo: Path, tmp_path: Path) -> None:
-    sys.path.insert(0, str(repo / "tools" / "codegen"))
-    try:
-        from definition import load  # type: ignore[import-not-found]
-    finally:
-        sys.path.pop(0)
+def test_hash_ignores_docs_but_not_wire_changes(
+    repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
+) -> None:
+    load = codegen["definition"].load
     text = (repo / "protocol/messages.toml").read_text(encoding="utf-8")
     assert load(repo / "protocol/messages.toml").hash == messages.DEFINITION_HASH
-    doc_edit = tmp_path / "doc.toml"
-    doc_edit.write_text(text.replace("Echo of the request", "Copy of the request"), "utf-8")
+    doc_edit = _definition_copy(repo, tmp_path / "doc", text.replace("Echo of the", "Copy of the"))
     assert load(doc_edit).hash == messages.DEFINITION_HASH
-    wire_edit = tmp_path / "wire.toml"
-    wire_edit.write_text(text.replace("max = 10000", "max = 20000"), "utf-8")
+    wire_edit = _definition_copy(
+        repo, tmp_path / "wire", text.replace("max = 10000", "max = 20000")
+    )
     assert load(wire_edit).hash != messages.DEFINITION_HASH
 
 
-def test_generated_c_compiles_warning_free(repo: Path, tmp_path: Path) -> None:
-    result = subprocess.run(
-        [
-            "gcc",
-            "-std=c11",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-pedantic",
-            "-c",
-            str(repo / GENERATED[1]),
-            "-o",
-            str(tmp_path / "m.o"),
-        ],
-        capture_output=True,
-        text=True,
+def test_a_part_change_reaches_the_protocol(
+    repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
+) -> None:
+    """CONFIGURE's integration times are the chip's: editing the part changes the wire hash."""
+    text = (repo / "protocol/messages.toml").read_text(encoding="utf-8")
+    path = _definition_copy(repo, tmp_path, text)
+    part_file = tmp_path / "hardware" / "parts" / "veml3328.toml"
+    part_text = part_file.read_text(encoding="utf-8")
+    part_file.write_text(part_text.replace("[50, 100, 200, 400]", "[25, 50, 100, 200]"), "utf-8")
+    d = codegen["definition"].load(path)
+    field = next(f for m in d.messages if m.name == "CONFIGURE" for f in m.fields)
+    assert field.allowed == (25, 50, 100, 200)
+    errors = {v.name: v for v in d.enums["error"][1]}
+    assert errors["BAD_INTEGRATION_TIME"].action == "Choose one of 25, 50, 100, 200 ms."
+    assert d.hash != messages.DEFINITION_HASH
+
+
+def test_protocol_takes_integration_times_from_the_chip() -> None:
+    assert messages.Configure.FIELDS[0].allowed == veml3328.INTEGRATION_MS
+    assert (
+        "Choose one of 50, 100, 200, 400 ms."
+        in messages.ERROR_TEXT[messages.Error.BAD_INTEGRATION_TIME]
     )
-    assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize(
+    ("reference", "message"),
+    [
+        ('allowed = "veml3328.IT"', None),
+        ('allowed = "chip.IT"', "unknown part 'chip'"),
+        ('allowed = "veml3328.SPEED"', "no CONF field 'SPEED'"),
+        ('allowed = "veml3328.SENS"', "lists no values"),
+        ('allowed = "50 or 100"', "give a list or a 'part.FIELD' reference"),
+    ],
+)
+def test_bad_part_references_are_named(
+    repo: Path,
+    tmp_path: Path,
+    codegen: dict[str, ModuleType],
+    reference: str,
+    message: str | None,
+) -> None:
+    text = (repo / "protocol/messages.toml").read_text(encoding="utf-8")
+    assert 'allowed = "veml3328.IT"' in text
+    path = _definition_copy(repo, tmp_path, text.replace('allowed = "veml3328.IT"', reference))
+    if message is None:
+        assert codegen["definition"].load(path).hash == messages.DEFINITION_HASH
+        return
+    with pytest.raises(codegen["definition"].DefinitionError, match=message):
+        codegen["definition"].load(path)
+
+
+def test_part_definition_matches_generated_python(
+    repo: Path, codegen: dict[str, ModuleType]
+) -> None:
+    part = codegen["part"]
+    chip = part.load(repo / "hardware/parts/veml3328.toml")
+    assert doctest.testmod(part).failed == 0
+    assert {f"REG_{r.name}": r.address for r in chip.registers} == {
+        name: value for name, value in vars(veml3328).items() if name.startswith("REG_")
+    }
+    assert (chip.defined_bits, chip.window_bits) == (veml3328.CONF_DEFINED, veml3328.CONF_WINDOW)
+
+
+def test_overlapping_conf_fields_are_refused(
+    repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
+) -> None:
+    text = (repo / "hardware/parts/veml3328.toml").read_text(encoding="utf-8")
+    bad = tmp_path / "veml3328.toml"
+    bad.write_text(text.replace("bit = 6\n", "bit = 5\n"), "utf-8")
+    with pytest.raises(codegen["part"].PartError, match=r"CONF\.SENS: bits 0x0020 overlap"):
+        codegen["part"].load(bad)
+
+
+def test_board_geometry_matches_params(repo: Path) -> None:
+    params = tomllib.loads((repo / "hardware/params.toml").read_text(encoding="utf-8"))
+    for table, values in params.items():
+        for key, value in values.items():
+            got = getattr(board, f"{table.upper()}_{key.upper()}")
+            assert got == (tuple(value) if isinstance(value, list) else value), (table, key)
+
+
+def test_generated_c_compiles_warning_free(repo: Path, tmp_path: Path) -> None:
+    probe = tmp_path / "probe.c"
+    probe.write_text(
+        '#include "veml3328_regs.h"\n'
+        "static const unsigned k_it[VEML3328_CONF_IT_COUNT] = VEML3328_CONF_IT_VALUES;\n"
+        "unsigned probe(unsigned code) { return k_it[code & 3u] + VEML3328_REG_ID; }\n",
+        "utf-8",
+    )
+    for source in (repo / GENERATED[1], probe):
+        result = subprocess.run(
+            [
+                "gcc",
+                "-std=c11",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-pedantic",
+                f"-I{repo / 'firmware/core/generated'}",
+                "-c",
+                str(source),
+                "-o",
+                str(tmp_path / "m.o"),
+            ],
+            capture_output=True,
+            text=True,
+        )
+        assert result.returncode == 0, result.stderr

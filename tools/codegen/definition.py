@@ -2,6 +2,10 @@
 
 The hash covers only what affects bytes on the wire (names, ids, types, shapes, constraints,
 enum values), not documentation, so that a doc fix does not make host and firmware disagree.
+
+Facts of a part on the board are not repeated here: messages.toml names part definitions in
+`[parts]` (paths relative to it) and refers to a CONF field's values as `allowed = "part.FIELD"`
+in a field, or as `{part.FIELD}` (the values joined by ", ") in any text.
 """
 
 from __future__ import annotations
@@ -9,10 +13,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import part as part_definition
 
 SCALARS: dict[str, tuple[str, str, int, bool]] = {
     # type: (C type, struct code, size, signed)
@@ -122,8 +129,43 @@ def _values(raw: dict[str, Any], key: str) -> tuple[EnumValue, ...]:
     )
 
 
+REFERENCE = re.compile(r"\{(\w+)\.(\w+)\}")
+
+
+def _resolve(raw: Any, parts: dict[str, part_definition.Part], key: str = "") -> Any:
+    """Replace references to part facts by their values (see the module docstring)."""
+
+    def values(part: str, name: str) -> tuple[int | float, ...]:
+        if part not in parts:
+            raise DefinitionError(
+                f"unknown part {part!r} in a reference; [parts] has {sorted(parts)}"
+            )
+        try:
+            return part_definition.reference(parts[part], name)
+        except part_definition.PartError as e:
+            raise DefinitionError(str(e)) from None
+
+    if isinstance(raw, dict):
+        return {k: _resolve(v, parts, k) for k, v in raw.items()}
+    if isinstance(raw, list):
+        return [_resolve(v, parts, key) for v in raw]
+    if isinstance(raw, str) and key == "allowed":
+        match = REFERENCE.fullmatch("{" + raw + "}")
+        if match is None:
+            raise DefinitionError(f"allowed = {raw!r}: give a list or a 'part.FIELD' reference")
+        return list(values(match[1], match[2]))
+    if isinstance(raw, str):
+        return REFERENCE.sub(lambda m: ", ".join(str(v) for v in values(m[1], m[2])), raw)
+    return raw
+
+
 def load(path: Path) -> Definition:
     raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    parts = {
+        name: part_definition.load((path.parent / rel).resolve())
+        for name, rel in raw.pop("parts", {}).items()
+    }
+    raw = _resolve(raw, parts)
     enums = {n: (e.get("doc", ""), _values(e, "value")) for n, e in raw.get("enums", {}).items()}
     flags = {n: (e.get("doc", ""), _values(e, "bit")) for n, e in raw.get("flags", {}).items()}
     by_name: dict[str, Message] = {}

@@ -31,7 +31,7 @@ typedef enum stac_error {
     STAC_UNKNOWN_TYPE = 1, /* The message type is not known to this firmware. */
     STAC_WRONG_DIRECTION = 2, /* A device-to-host message was sent to the device. */
     STAC_VERSION_MISMATCH = 3, /* The frame's protocol major version differs from the device's. */
-    STAC_BAD_INTEGRATION_TIME = 4, /* integration_ms is not 50, 100, 200 or 400. */
+    STAC_BAD_INTEGRATION_TIME = 4, /* integration_ms is not one of 50, 100, 200, 400. */
     STAC_BAD_GAIN = 5, /* gain code is not 0..3. */
     STAC_BAD_DIGITAL_GAIN = 6, /* digital_gain code is not 0..2. */
     STAC_BAD_SENSITIVITY = 7, /* sensitivity code is not 0..1. */
@@ -171,7 +171,7 @@ typedef struct stac_info {
     uint32_t capabilities; /* CAP_* bits. */
     uint8_t max_led_steps; /* Largest led_step_count accepted. */
     uint16_t duty_full_scale; /* Duty value meaning 100 % (1000). [‰] */
-    uint8_t integration_times_mask; /* Bit 0..3 set when 50/100/200/400 ms are supported. */
+    uint8_t integration_times_mask; /* Bit k set when the k-th of the integration times 50, 100, 200, 400 ms is supported. */
     uint16_t max_frame; /* Largest encoded frame the device sends or accepts, delimiter included. [B] */
     uint32_t baud; /* UART rate (0 when not a UART). [bit/s] */
 } stac_info_t;

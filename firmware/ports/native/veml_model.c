@@ -3,14 +3,14 @@
 
 #include <string.h>
 
-#define REG_CONF 0x00u
-#define REG_C 0x04u
-#define REG_R 0x05u
-#define REG_G 0x06u
-#define REG_B 0x07u
-#define REG_IR 0x08u
-#define REG_ID 0x0Cu
-#define DEVICE_ID 0x0028u
+#define REG_CONF VEML3328_REG_CONF
+#define REG_C VEML3328_REG_C
+#define REG_R VEML3328_REG_R
+#define REG_G VEML3328_REG_G
+#define REG_B VEML3328_REG_B
+#define REG_IR VEML3328_REG_IR
+#define REG_ID VEML3328_REG_ID
+#define DEVICE_ID VEML3328_ID_LOW /* ID register: part ID low, address option 0 high */
 #define POWER_ON_CONF (VEML_MODEL_SD1 | VEML_MODEL_SD0)
 
 void veml_model_init(veml_model_t *m, uint8_t index, uint8_t present, veml_model_window_fn window,
@@ -30,8 +30,8 @@ static int powered(const veml_model_t *m) {
 }
 
 static uint64_t integration_us(uint16_t conf) {
-    static const uint64_t k_it[4] = {50000u, 100000u, 200000u, 400000u};
-    return k_it[(conf >> 4) & 3u];
+    static const uint64_t k_it_ms[VEML3328_CONF_IT_COUNT] = VEML3328_CONF_IT_VALUES;
+    return k_it_ms[(conf & VEML3328_CONF_IT_MASK) >> VEML3328_CONF_IT_SHIFT] * 1000u;
 }
 
 static int readable(uint8_t reg) {

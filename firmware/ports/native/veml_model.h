@@ -12,21 +12,23 @@
 
 #include <stdint.h>
 
+#include "generated/veml3328_regs.h"
+
 #define VEML_MODEL_CHANNELS 5u /* R, G, B, C, IR: the twin's channel order */
 #define VEML_MODEL_OK 0
 #define VEML_MODEL_NACK 1
 #define VEML_MODEL_BUS_ERROR 3
 
-/* CONF bits (VEML3328 datasheet). */
-#define VEML_MODEL_SD0 0x0001u
-#define VEML_MODEL_TRIG 0x0004u
-#define VEML_MODEL_AF 0x0008u
-#define VEML_MODEL_SENS 0x0040u
-#define VEML_MODEL_SD_ALS 0x4000u
-#define VEML_MODEL_SD1 0x8000u
-#define VEML_MODEL_CONF_MASK 0xFC7Du /* bits that exist; reserved ones read back 0 */
+/* CONF bits (hardware/parts/veml3328.toml). */
+#define VEML_MODEL_SD0 VEML3328_CONF_SD0
+#define VEML_MODEL_TRIG VEML3328_CONF_TRIG
+#define VEML_MODEL_AF VEML3328_CONF_AF
+#define VEML_MODEL_SENS VEML3328_CONF_SENS
+#define VEML_MODEL_SD_ALS VEML3328_CONF_SD_ALS
+#define VEML_MODEL_SD1 VEML3328_CONF_SD1
+#define VEML_MODEL_CONF_MASK VEML3328_CONF_DEFINED /* bits that exist; reserved ones read back 0 */
 /* CONF bits that shape a window's counts: IT, SENS, gain, DG, SD_ALS. */
-#define VEML_MODEL_WINDOW_BITS 0x7C70u
+#define VEML_MODEL_WINDOW_BITS VEML3328_CONF_WINDOW
 
 /* Counts (R, G, B, C, IR) of sensor `index` for the window [t0, t1) under CONF `conf`;
  * return 0, or nonzero when the twin failed (the transfer then reports a bus error). */

@@ -35,7 +35,7 @@ class Error(IntEnum):
     UNKNOWN_TYPE = 1  # The message type is not known to this firmware.
     WRONG_DIRECTION = 2  # A device-to-host message was sent to the device.
     VERSION_MISMATCH = 3  # The frame's protocol major version differs from the device's.
-    BAD_INTEGRATION_TIME = 4  # integration_ms is not 50, 100, 200 or 400.
+    BAD_INTEGRATION_TIME = 4  # integration_ms is not one of 50, 100, 200, 400.
     BAD_GAIN = 5  # gain code is not 0..3.
     BAD_DIGITAL_GAIN = 6  # digital_gain code is not 0..2.
     BAD_SENSITIVITY = 7  # sensitivity code is not 0..1.
@@ -126,7 +126,7 @@ ERROR_TEXT: dict[Error, tuple[str, str]] = {
         "Use a host library with the device's protocol major version.",
     ),
     Error.BAD_INTEGRATION_TIME: (
-        "integration_ms is not 50, 100, 200 or 400.",
+        "integration_ms is not one of 50, 100, 200, 400.",
         "Choose one of 50, 100, 200, 400 ms.",
     ),
     Error.BAD_GAIN: ("gain code is not 0..3.", "Use GAIN_X1, GAIN_X2, GAIN_X4 or GAIN_X0_5."),
@@ -516,7 +516,7 @@ class Info(Message):
             "u8",
             (),
             "",
-            "Bit 0..3 set when 50/100/200/400 ms are supported.",
+            "Bit k set when the k-th of the integration times 50, 100, 200, 400 ms is supported.",
         ),
         FieldSpec(
             "max_frame",

@@ -20,24 +20,26 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware import veml3328 as chip
 from spectratac.twin.errors import TwinError
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
 
-FULL_SCALE = 65535
-INTEGRATION_MS = (50, 100, 200, 400)  # IT bits 5:4 = 0..3
-GAIN_BITS = {0: 1.0, 1: 2.0, 2: 4.0, 3: 0.5}  # gain bits 11:10 (0b11 = x1/2)
-DG_BITS = {0: 1, 1: 2, 2: 4}  # DG bits 13:12 (0b11 reserved, behaves as x1 here)
-LOW_SENS_FACTOR = 1.0 / 3.0  # SENS bit 6 = 1: low sensitivity, 1/3 of high
+# The part's facts come from hardware/parts/veml3328.toml (generated spectratac.hardware.veml3328).
+FULL_SCALE = chip.FULL_SCALE
+INTEGRATION_MS = chip.INTEGRATION_MS  # by IT code
+GAIN_BITS = dict(enumerate(chip.GAINS))  # gain code -> analogue gain
+DG_BITS = dict(enumerate(chip.DIGITAL_GAINS))  # DG code -> factor (0b11 reserved: x1 here)
+LOW_SENS_FACTOR = 1.0 / 3.0  # SENS = 1: low sensitivity, 1/3 of high
 
-# CONF register bit layout (DESIGN.md / VEML3328 datasheet).
-SD0 = 1 << 0
-TRIG = 1 << 2
-AF = 1 << 3
-SENS = 1 << 6
-SD_ALS = 1 << 14
-SD1 = 1 << 15
+# CONF register bits.
+SD0 = chip.CONF_SD0
+TRIG = chip.CONF_TRIG
+AF = chip.CONF_AF
+SENS = chip.CONF_SENS
+SD_ALS = chip.CONF_SD_ALS
+SD1 = chip.CONF_SD1
 
 
 @dataclass(frozen=True)
@@ -75,14 +77,19 @@ class SensorConfig:
         it = INTEGRATION_MS.index(self.integration_ms)
         g = next(b for b, v in GAIN_BITS.items() if v == self.gain)
         d = next(b for b, v in DG_BITS.items() if v == self.dg)
-        return (d << 12) | (g << 10) | (SENS if self.sens_low else 0) | (it << 4)
+        return (
+            (d << chip.CONF_DG_SHIFT)
+            | (g << chip.CONF_GAIN_SHIFT)
+            | (SENS if self.sens_low else 0)
+            | (it << chip.CONF_IT_SHIFT)
+        )
 
     @staticmethod
     def from_conf(conf: int) -> SensorConfig:
         return SensorConfig(
-            integration_ms=INTEGRATION_MS[(conf >> 4) & 3],
-            gain=GAIN_BITS[(conf >> 10) & 3],
-            dg=DG_BITS.get((conf >> 12) & 3, 1),
+            integration_ms=INTEGRATION_MS[(conf & chip.CONF_IT_MASK) >> chip.CONF_IT_SHIFT],
+            gain=GAIN_BITS[(conf & chip.CONF_GAIN_MASK) >> chip.CONF_GAIN_SHIFT],
+            dg=DG_BITS.get((conf & chip.CONF_DG_MASK) >> chip.CONF_DG_SHIFT, 1),
             sens_low=bool(conf & SENS),
         )
 

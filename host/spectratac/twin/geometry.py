@@ -1,7 +1,9 @@
 """Board geometry and the nine contact regions (the fixed interface other parts build on).
 
 Board centre is the origin, x to the right, y up, z out of the skin, lengths in mm.
-Sensor k sits at angle 120°·k and LED j at 60° + 120°·j, both on a 5.5 mm radius.
+Sensor k sits at angle 120°·k and LED j at 60° + 120°·j, both on a 5.5 mm radius. The board's
+outline, part ring and angles come from hardware/params.toml (generated
+`spectratac.hardware.board`), so the twin is laid out like the board that is built.
 
 Regions are numbered like a phone keypad so that the Snake game's directions read naturally:
 
@@ -22,10 +24,16 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-DISC_RADIUS_MM = 9.6
-STACK_HEIGHT_MM = 4.0
-RING_RADIUS_MM = 5.5
-# Layer stack (z = 0 at the PCB top): 0.8 mm PCB below, 2.4 mm PDMS, 0.8 mm black skin.
+from spectratac.hardware import board
+
+DISC_RADIUS_MM = board.BOARD_RADIUS
+STACK_HEIGHT_MM = board.STACK_HEIGHT
+RING_RADIUS_MM = board.LAYOUT_RING_RADIUS
+# Layer stack (z = 0 at the PCB top): 0.8 mm PCB below, 2.4 mm PDMS, 0.8 mm black skin. These
+# are twin model parameters, not the board's: params.toml builds 1.0 mm FR-4, 2.5 mm PDMS and a
+# 0.5 mm skin top. The twin's contact and light-transport constants were calibrated with these
+# thicknesses, so adopting the board's would change every twin output and needs re-calibration.
+# tests/twin/test_geometry_matches_hardware.py lists exactly which values differ.
 PCB_MM = 0.8
 PDMS_MM = 2.4
 SKIN_MM = 0.8
@@ -34,8 +42,8 @@ SURFACE_Z_MM = PDMS_MM + SKIN_MM  # skin surface above the PCB top
 CENTER_RADIUS_MM = 2.6
 ACTIVE_RADIUS_MM = 8.0
 
-SENSOR_ANGLES_DEG = np.array([0.0, 120.0, 240.0])
-LED_ANGLES_DEG = np.array([60.0, 180.0, 300.0])
+SENSOR_ANGLES_DEG = np.array(board.LAYOUT_SENSOR_ANGLES)
+LED_ANGLES_DEG = np.array(board.LAYOUT_LED_ANGLES)
 
 CHANNELS = ("R", "G", "B", "C", "IR")
 LED_COLOURS = ("R", "G", "B")

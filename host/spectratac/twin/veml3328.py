@@ -1,9 +1,10 @@
 """Register-level VEML3328 model: answers I2C transfers like the device on its bus.
 
-Registers (16-bit, little-endian): CONF 0x00, data C 0x04, R 0x05, G 0x06, B 0x07, IR 0x08,
-ID 0x0C (low byte 0x28). CONF bits: SD1 15 and SD0 0 (shutdown when either is set),
-SD_ALS 14 (only G, C, IR powered), DG 13:12 (x1, x2, x4), gain 11:10 (x1, x2, x4, x1/2),
-SENS 6 (1 = low, 1/3), IT 5:4 (50, 100, 200, 400 ms), AF 3 (active force), TRIG 2.
+Registers are 16-bit, little-endian; their addresses and the CONF bit fields come from the part
+definition, hardware/parts/veml3328.toml (generated `spectratac.hardware.veml3328`): CONF (the
+only writable register), data C, R, G, B, IR and ID (part ID in the low byte). CONF holds SD1
+and SD0 (shutdown when either is set), SD_ALS (only G, C, IR powered), the digital gain DG, the
+analogue gain, SENS (low sensitivity, 1/3), the integration time IT, AF (active force) and TRIG.
 
 Modes: in active-force mode (AF = 1) writing TRIG = 1 starts one integration at that instant;
 the data registers update when the integration time has elapsed and TRIG then reads back 0;
@@ -43,22 +44,23 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from spectratac.hardware import veml3328 as chip
 from spectratac.twin.electronics import AF, SD0, SD1, SD_ALS, TRIG, SensorConfig
 from spectratac.twin.errors import I2CNack
 
 if TYPE_CHECKING:
     from spectratac.twin.rig import TwinRig
 
-ADDRESS = 0x10
-REG_CONF = 0x00
-REG_C, REG_R, REG_G, REG_B, REG_IR = 0x04, 0x05, 0x06, 0x07, 0x08
-REG_ID = 0x0C
-DEVICE_ID = 0x0028
+ADDRESS = chip.ADDRESS
+REG_CONF = chip.REG_CONF
+REG_C, REG_R, REG_G, REG_B, REG_IR = chip.REG_C, chip.REG_R, chip.REG_G, chip.REG_B, chip.REG_IR
+REG_ID = chip.REG_ID
+DEVICE_ID = chip.ID_LOW  # the ID register: part ID in the low byte, address option 0 above
 POWER_ON_CONF = SD1 | SD0
 DATA_REGS = (REG_R, REG_G, REG_B, REG_C, REG_IR)  # in the twin's channel order R G B C IR
 READABLE = frozenset((REG_CONF, REG_ID, *DATA_REGS))
-# Bits that exist in CONF (reserved bits 1, 7, 8, 9 read back as 0).
-CONF_MASK = 0xFC7D
+# Bits that exist in CONF (reserved bits read back as 0).
+CONF_MASK = chip.CONF_DEFINED
 
 
 class Veml3328:
@@ -99,7 +101,7 @@ class Veml3328:
             if reg not in READABLE:
                 raise I2CNack(f"VEML3328 has no register 0x{reg:02x}")
             if len(write) == 3:
-                if reg != REG_CONF:
+                if reg not in chip.WRITABLE_REGS:
                     raise I2CNack(f"register 0x{reg:02x} is read-only; only CONF 0x00 is writable")
                 self._write_conf(now, write[1] | (write[2] << 8))
             elif len(write) != 1:

@@ -5,8 +5,8 @@
 #include "veml3328.h"
 
 static uint32_t it_us_of(uint16_t conf) {
-    static const uint32_t k_it[4] = {50000u, 100000u, 200000u, 400000u};
-    return k_it[(conf >> VEML3328_CONF_IT_SHIFT) & 3u];
+    static const uint32_t k_it_ms[VEML3328_CONF_IT_COUNT] = VEML3328_CONF_IT_VALUES;
+    return k_it_ms[(conf & VEML3328_CONF_IT_MASK) >> VEML3328_CONF_IT_SHIFT] * 1000u;
 }
 
 static uint32_t led_sum(const fake_board_t *b) {
