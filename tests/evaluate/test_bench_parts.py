@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from spectratac.evaluate.acquisition import Acquisition, AcquisitionError, grid
+from spectratac.evaluate.acquisition import INTEGRATION_MS, Acquisition, AcquisitionError, grid
 from spectratac.evaluate.latency import side_by_side_latency
 from spectratac.evaluate.speed import batch_for, pareto_front
 from spectratac.evaluate.variants import add_improvements, merge_seeds, target_check
@@ -35,7 +35,7 @@ def test_every_acquisition_is_fairly_exposed_and_unsaturated() -> None:
 
 
 def test_batch_keeps_steps_per_epoch() -> None:
-    for it in (50, 100, 200, 400):
+    for it in INTEGRATION_MS:
         assert batch_for(it) * it == batch_for(50) * 50
 
 

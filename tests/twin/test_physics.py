@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.twin import UnitParams, generate_session, region_centre, scenes
-from spectratac.twin.electronics import SensorConfig
+from spectratac.twin.electronics import INTEGRATION_MS, SensorConfig
 from spectratac.twin.forward import expected_output
 from spectratac.twin.geometry import rotate_xy
 
@@ -73,7 +73,7 @@ def test_no_contact_gives_the_baseline_within_noise(nominal: UnitParams, white: 
 
 def test_doubling_integration_time_doubles_counts_until_saturation(nominal: UnitParams):
     means = {}
-    for it in (50, 100, 200, 400):
+    for it in INTEGRATION_MS:
         s = generate_session(scenes.idle(2.0), seed=1, unit=nominal, integration_ms=it)
         means[it] = s.counts.astype(float).mean(axis=0)
         if it == 400:

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from spectratac.twin import UnitParams, region_of
-from spectratac.twin.electronics import SensorConfig, digitise
+from spectratac.twin.electronics import INTEGRATION_MS, SensorConfig, digitise
 from spectratac.twin.mechanics import lowpass
 
 finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
@@ -29,7 +29,7 @@ def test_blockwise_lowpass_matches_the_recursion(x: np.ndarray, tau: float) -> N
 @settings(max_examples=60, deadline=None)
 @given(
     arrays(np.float64, (4, 3, 5), elements=st.floats(0, 1e7, allow_nan=False)),
-    st.sampled_from([50, 100, 200, 400]),
+    st.sampled_from(INTEGRATION_MS),
     st.sampled_from([0.5, 1.0, 2.0, 4.0]),
     st.sampled_from([1, 2, 4]),
 )

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.errors import SpectraTacError
+from spectratac.hardware import veml3328 as chip
 from spectratac.twin import I2CNack, scenes
-from spectratac.twin.electronics import AF, SD0, SD1, TRIG, SensorConfig
+from spectratac.twin.electronics import AF, INTEGRATION_MS, SD0, SD1, TRIG, SensorConfig
 from spectratac.twin.rig import TwinRig
 from spectratac.twin.veml3328 import Veml3328
 
@@ -27,14 +28,14 @@ def _r(dev: Veml3328, now: int, reg: int) -> int:
 
 def _trigger(dev: Veml3328, now: int, cfg: SensorConfig | None = None) -> None:
     cfg = cfg or SensorConfig()
-    _w(dev, now, 0x00, cfg.to_conf() | AF | TRIG)
+    _w(dev, now, chip.REG_CONF, cfg.to_conf() | AF | TRIG)
 
 
 def test_id_and_power_on_state() -> None:
     dev = _rig().sensors[1]
-    assert _r(dev, 0, 0x0C) & 0xFF == 0x28
-    assert _r(dev, 0, 0x00) == SD1 | SD0
-    assert all(_r(dev, 0, reg) == 0 for reg in (4, 5, 6, 7, 8))
+    assert _r(dev, 0, chip.REG_ID) & 0xFF == chip.ID_LOW
+    assert _r(dev, 0, chip.REG_CONF) == SD1 | SD0
+    assert all(_r(dev, 0, reg) == 0 for reg in (chip.REG_C, chip.REG_R, chip.REG_G, chip.REG_B, chip.REG_IR))
 
 
 def test_nacks_are_typed() -> None:
@@ -55,30 +56,30 @@ def test_nacks_are_typed() -> None:
 def test_active_force_trigger_completes_after_integration_time() -> None:
     dev = _rig().sensors[0]
     _trigger(dev, 1_000)
-    assert _r(dev, 1_000, 0x00) & TRIG
-    assert _r(dev, 50_999, 0x04) == 0  # still integrating: previous data
-    c = _r(dev, 51_000, 0x04)
+    assert _r(dev, 1_000, chip.REG_CONF) & TRIG
+    assert _r(dev, 50_999, chip.REG_C) == 0  # still integrating: previous data
+    c = _r(dev, 51_000, chip.REG_C)
     assert 15_000 < c < 45_000
-    assert not _r(dev, 51_000, 0x00) & TRIG  # self-cleared
+    assert not _r(dev, 51_000, chip.REG_CONF) & TRIG  # self-cleared
     # No new trigger: data stays put.
-    assert _r(dev, 500_000, 0x04) == c
+    assert _r(dev, 500_000, chip.REG_C) == c
     assert dev.completed == 1
     _trigger(dev, 600_000, SensorConfig(integration_ms=100))
-    assert _r(dev, 650_000, 0x04) == c
-    assert _r(dev, 700_000, 0x04) != c
+    assert _r(dev, 650_000, chip.REG_C) == c
+    assert _r(dev, 700_000, chip.REG_C) != c
     assert dev.completed == 2
 
 
 def test_continuous_mode_integrates_back_to_back_and_shutdown_stops() -> None:
     dev = _rig().sensors[2]
-    _w(dev, 0x00, 0x00, SensorConfig().to_conf())  # powered, AF = 0, 50 ms
-    assert _r(dev, 49_000, 0x07) == 0
-    values = [_r(dev, t, 0x07) for t in (50_000, 100_000, 150_000, 400_000)]
+    _w(dev, 0x00, chip.REG_CONF, SensorConfig().to_conf())  # powered, AF = 0, 50 ms
+    assert _r(dev, 49_000, chip.REG_B) == 0
+    values = [_r(dev, t, chip.REG_B) for t in (50_000, 100_000, 150_000, 400_000)]
     assert all(v > 0 for v in values) and len(set(values)) > 1
     done = dev.completed
-    _w(dev, 410_000, 0x00, SensorConfig().to_conf() | SD0)
-    frozen = _r(dev, 410_000, 0x07)
-    assert _r(dev, 2_000_000, 0x07) == frozen and dev.completed == done
+    _w(dev, 410_000, chip.REG_CONF, SensorConfig().to_conf() | SD0)
+    frozen = _r(dev, 410_000, chip.REG_B)
+    assert _r(dev, 2_000_000, chip.REG_B) == frozen and dev.completed == done
 
 
 def test_pointer_then_read_and_bus_padding() -> None:
@@ -94,12 +95,12 @@ def test_doubling_integration_time_doubles_counts_until_saturation() -> None:
     dev = rig.sensors[0]
     t = 0
     means = {}
-    for it in (50, 100, 200, 400):
+    for it in INTEGRATION_MS:
         vals = []
         for _ in range(8):
             _trigger(dev, t, SensorConfig(integration_ms=it))
             t += it * 1000
-            vals.append(_r(dev, t, 0x05))  # red channel (~11.6k at 50 ms)
+            vals.append(_r(dev, t, chip.REG_R))  # red channel (~11.6k at 50 ms)
         means[it] = np.mean(vals)
     assert means[100] / means[50] == pytest.approx(2.0, rel=0.03)
     assert means[200] / means[100] == pytest.approx(2.0, rel=0.03)
@@ -116,7 +117,7 @@ def test_gain_bits_scale_counts() -> None:
         for _ in range(6):
             _trigger(dev, t, SensorConfig(gain=gain))
             t += 50_000
-            acc.append(_r(dev, t, 0x06))
+            acc.append(_r(dev, t, chip.REG_G))
         vals[gain] = np.mean(acc)
     assert vals[1.0] / vals[0.5] == pytest.approx(2.0, rel=0.03)
     assert vals[2.0] / vals[1.0] == pytest.approx(2.0, rel=0.03)
@@ -137,9 +138,9 @@ def test_press_changes_counts_through_the_register_interface() -> None:
     rig = _rig(scenes.single_press(6, 8.0, start_s=0.5, hold_s=2.0))
     dev = rig.sensors[0]
     _trigger(dev, 0)
-    idle = _r(dev, 50_000, 0x05)
+    idle = _r(dev, 50_000, chip.REG_R)
     _trigger(dev, 1_500_000)
-    pressed = _r(dev, 1_550_000, 0x05)
+    pressed = _r(dev, 1_550_000, chip.REG_R)
     assert abs(pressed - idle) > 0.1 * idle  # a firm press next to sensor 0 moves its red
 
 

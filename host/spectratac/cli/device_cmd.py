@@ -9,6 +9,7 @@ import time
 
 from spectratac.cli.output import Table
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.veml3328 import INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -20,7 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     stream.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
     stream.add_argument("--count", type=int, default=20, help="samples to print (0: forever)")
     stream.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
-    stream.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    stream.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     stream.add_argument("--duty", type=int, default=500, help="white LED duty, permille")
     stream.set_defaults(func=_stream)
 

@@ -14,6 +14,7 @@ import threading
 from typing import Any
 
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.veml3328 import INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     until = p.add_mutually_exclusive_group()
     until.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     until.add_argument("--samples", type=int, metavar="N", help="stop after N optical samples")
-    p.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     p.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
     p.add_argument("--sensitivity", default="high", choices=("high", "low"))
     p.add_argument(

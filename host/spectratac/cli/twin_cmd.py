@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.hardware.veml3328 import INTEGRATION_MS
+
 SCENES = ("calibration", "idle", "drift", "press")
 
 
@@ -41,7 +43,7 @@ def register(subparsers: Any) -> None:
     g.add_argument("--list", action="store_true", help="list the scenes and exit")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--duration", type=float, default=None, help="session length in s")
-    g.add_argument("--integration-ms", type=int, default=50, choices=(50, 100, 200, 400))
+    g.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     g.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
     g.add_argument("--dg", type=int, default=1, choices=(1, 2, 4))
     g.add_argument("--sens-low", action="store_true")

@@ -43,6 +43,7 @@ from spectratac.device.errors import (
 from spectratac.device.iohub import Link, shared_hub
 from spectratac.device.records import Sample, Unwrapper, to_array
 from spectratac.device.transport import Transport, open_transport
+from spectratac.hardware.veml3328 import INTEGRATION_MS as INTEGRATION_TIMES
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
 from spectratac.protocol.schema import Message
@@ -51,7 +52,6 @@ log = logging.getLogger("spectratac.device")
 
 OverflowPolicy = Literal["drop_oldest", "drop_newest", "error"]
 FrameListener = Callable[[Frame, float], None]  # (accepted frame, host receive time)
-INTEGRATION_TIMES = (50, 100, 200, 400)
 _GAINS = {1.0: m.Gain.GAIN_X1, 2.0: m.Gain.GAIN_X2, 4.0: m.Gain.GAIN_X4, 0.5: m.Gain.GAIN_X0_5}
 _DG = {1: m.DigitalGain.DG_X1, 2: m.DigitalGain.DG_X2, 4: m.DigitalGain.DG_X4}
 

@@ -30,8 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.veml3328 import INTEGRATION_MS
 
-INTEGRATION_MS = (50, 100, 200, 400)
 SEQUENCES = ("white", "rgb", "per-led")
 REFERENCE_DUTY = 0.25  # all nine channels: clear ~41 % of full scale at 50 ms, x1 (twin)
 # (gain, SENS low) per integration time: analog scale it/50 x gain x (1/3 if low) near 1.
