@@ -35,7 +35,10 @@ def test_id_and_power_on_state() -> None:
     dev = _rig().sensors[1]
     assert _r(dev, 0, chip.REG_ID) & 0xFF == chip.ID_LOW
     assert _r(dev, 0, chip.REG_CONF) == SD1 | SD0
-    assert all(_r(dev, 0, reg) == 0 for reg in (chip.REG_C, chip.REG_R, chip.REG_G, chip.REG_B, chip.REG_IR))
+    assert all(
+        _r(dev, 0, reg) == 0
+        for reg in (chip.REG_C, chip.REG_R, chip.REG_G, chip.REG_B, chip.REG_IR)
+    )
 
 
 def test_nacks_are_typed() -> None:
