@@ -17,6 +17,7 @@ from types import ModuleType
 import numpy as np
 
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.veml3328 import CONF_WINDOW
 
 REPO = Path(__file__).resolve().parents[3]
 FIRMWARE = REPO / "firmware"
@@ -46,7 +47,7 @@ WINDOW_FN = ctypes.CFUNCTYPE(
 )
 PLAN_MAX = 256  # STAC_SIM_PLAN_MAX
 SHARED_WINDOWS = 8  # STAC_SIM_SHARED_WINDOWS
-WINDOW_BITS = 0x7C70  # CONF bits a window's counts depend on (IT, SENS, gain, DG, SD_ALS)
+WINDOW_BITS = CONF_WINDOW  # CONF bits a window's counts depend on (IT, SENS, gain, DG, SD_ALS)
 #: stac_sim_window_t: one window computed ahead, as the library stores it
 WINDOW_DTYPE = np.dtype(
     [
