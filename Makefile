@@ -28,7 +28,9 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check host tools tests
 
-# Regenerate committed code from protocol/messages.toml (a test fails if this would change anything).
+# Regenerate every committed generated file from its one definition (a test fails on drift):
+# protocol/messages.toml, hardware/parts/veml3328.toml, the STM32 pinmap.toml (board.h) and
+# hardware/params.toml (the twin's board geometry).
 regen: $(STAMP)
 	$(BIN)/python tools/codegen/generate.py
 
