@@ -18,7 +18,7 @@ from spectratac.dataset import Dataset, DatasetError
 from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import BuildOptions, build_datasets, session_datasets
 from spectratac.dataset.frames import recorded_samples, unwrap_us
-from spectratac.dataset.labels import guided_labels, rebuild_scene
+from spectratac.dataset.labels import guided_labels
 from spectratac.protocol import messages as m
 from spectratac.protocol.framing import decode_frame, encode_frame
 from spectratac.record import (
@@ -28,6 +28,7 @@ from spectratac.record import (
     read_recording,
     record_url,
 )
+from spectratac.sim.world import rebuild_scene
 
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
@@ -330,11 +331,11 @@ def test_a_synthetic_twin_recording_builds_to_the_twin_dataset(tmp_path: Path) -
     twin's own dataset of the same session: equal, window for window. Arrivals lag 5 µs here:
     an F/T clock fitted to arrival times alone absorbs the smallest transport latency, which
     would move F/T samples that sit exactly on a window edge across it."""
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.record.synthetic import write_twin_recording
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.synthetic_recording import write_twin_recording
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes, generate_session
 
-    scene = scenes.calibration_session(3, 60.0)
+    scene = builtin_scenes.calibration_session(3, 60.0)
     session = generate_session(scene, seed=3, ft_rate_hz=500)
     path = write_twin_recording(
         tmp_path / "twin.mcap",

@@ -56,7 +56,7 @@ def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Reco
 
 def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Recording]) -> None:
     _, rec = tour_session
-    from spectratac.dataset.labels import rebuild_scene
+    from spectratac.sim.world import rebuild_scene
 
     scene = rebuild_scene(rec.session["sim"])
     p = scene.presses
