@@ -18,7 +18,7 @@ from spectratac.dataset import Dataset, DatasetError
 from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import BuildOptions, build_datasets, session_datasets
 from spectratac.dataset.frames import recorded_samples, unwrap_us
-from spectratac.dataset.labels import guided_labels, rebuild_scene
+from spectratac.dataset.labels import guided_labels
 from spectratac.protocol import messages as m
 from spectratac.protocol.framing import decode_frame, encode_frame
 from spectratac.record import (
@@ -28,6 +28,7 @@ from spectratac.record import (
     read_recording,
     record_url,
 )
+from spectratac.sim.world import rebuild_scene
 
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
@@ -81,6 +82,52 @@ def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) ->
     err = tour.t_end - truth
     assert abs(np.median(err)) < 3e-3 and np.ptp(err) < 2e-3, (np.median(err), np.ptp(err))
     assert np.all(tour.t_end > tour.t_start) and np.all(np.diff(tour.t_start) > 0)
+
+
+def test_labels_equal_the_scenes_truth_at_each_window_centre(
+    tour: Dataset, tour_mcap: Path
+) -> None:
+    """The labels the builder takes from the recording are the scene's own truth at each
+    window's centre on the device clock: what rebuilding the scene used to give."""
+    rec = read_recording(tour_mcap)
+    scene = rebuild_scene(rec.session["sim"])
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    t_mid = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
+    contact = scene.contact(t_mid)
+    np.testing.assert_array_equal(tour.region, contact.region)
+    np.testing.assert_array_equal(tour.in_contact, contact.in_contact)
+    np.testing.assert_array_equal(tour.press, scene.press_index(t_mid))
+    assert tour.press.max() >= 15
+
+
+def test_a_scene_recording_without_ground_truth_says_re_record(tmp_path: Path) -> None:
+    """Recordings made before the recorder wrote ground truth are refused, not relabelled."""
+    from spectratac.record.writer import RecordingWriter
+
+    raws = [
+        decode_frame(
+            encode_frame(m.Sample(sample_seq=i, t_start_us=50 * i, t_end_us=50 * i + 40), seq=i)[
+                :-1
+            ]
+        ).raw
+        for i in range(3)
+    ]
+    path = tmp_path / "old.mcap"
+    with RecordingWriter(
+        path, {"labels": "scene", "sim": {"scene": "press", "seed": 0, "speed": "max"}}
+    ) as w:
+        w.frames([(raw, float(i)) for i, raw in enumerate(raws)])
+    with pytest.raises(
+        DatasetError, match=r"no ground truth.*Re-record it with `spectratac record`"
+    ):
+        build_datasets([path])
+
+
+def test_the_guided_threshold_is_the_scene_labels_threshold() -> None:
+    from spectratac.dataset.labels import LABEL_MIN_NORMAL_N
+    from spectratac.twin.scene_model import LABEL_MIN_NORMAL_N as SCENE_THRESHOLD
+
+    assert LABEL_MIN_NORMAL_N == SCENE_THRESHOLD
 
 
 def test_labels_and_presses_match_the_scene(tour: Dataset, tour_mcap: Path) -> None:
@@ -330,11 +377,11 @@ def test_a_synthetic_twin_recording_builds_to_the_twin_dataset(tmp_path: Path) -
     twin's own dataset of the same session: equal, window for window. Arrivals lag 5 µs here:
     an F/T clock fitted to arrival times alone absorbs the smallest transport latency, which
     would move F/T samples that sit exactly on a window edge across it."""
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.record.synthetic import write_twin_recording
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.synthetic_recording import write_twin_recording
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes, generate_session
 
-    scene = scenes.calibration_session(3, 60.0)
+    scene = builtin_scenes.calibration_session(3, 60.0)
     session = generate_session(scene, seed=3, ft_rate_hz=500)
     path = write_twin_recording(
         tmp_path / "twin.mcap",

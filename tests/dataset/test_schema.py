@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.dataset import Dataset, DatasetError, concat, split_by_config
-from spectratac.dataset.from_twin import from_twin_session
+from spectratac.sim.twin_dataset import from_twin_session
 from spectratac.twin import Scene, generate_session
 
 

@@ -10,8 +10,9 @@ from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 @pytest.fixture(scope="session")
 def twin_ds() -> Dataset:
     """Two minutes of the twin's calibration protocol (2,400 samples)."""
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
 
     scene = scenes.calibration_session(seed=3, duration_s=120.0)
     return from_twin_session(generate_session(scene, seed=3), scene)

@@ -196,8 +196,9 @@ def test_moving_average_context_sees_only_the_past() -> None:
 
 
 def test_led_sequence_decoder_end_to_end() -> None:
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
 
     steps = np.zeros((3, 3, 3))
     for c in range(3):

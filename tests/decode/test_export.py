@@ -147,8 +147,9 @@ def session_rows(ds) -> tuple[np.ndarray, np.ndarray]:
 @pytest.fixture(scope="module")
 def led_sequence_decoder() -> tuple[Decoder, object]:
     """Context, moving averages and baseline over a three-step (R, G, B) LED sequence."""
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
 
     steps = np.zeros((3, 3, 3))
     for c in range(3):

@@ -72,8 +72,9 @@ def _rotated(scene, turns: int, mirror: bool):
 
 @pytest.mark.parametrize(("turns", "mirror"), [(1, False), (2, False), (0, True), (1, True)])
 def test_the_twin_obeys_the_symmetry(turns: int, mirror: bool) -> None:
-    from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
     from spectratac.twin.unit import UnitParams
 
     scene = scenes.calibration_session(seed=4, duration_s=30.0)

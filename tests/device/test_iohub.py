@@ -18,7 +18,7 @@ from spectratac.device.transport import SerialTransport
 from spectratac.protocol import encode_frame
 from spectratac.protocol import messages as m
 from spectratac.sim.device import SimDevice
-from spectratac.sim.scenes import make_scene
+from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.serve import serve_tcp
 from spectratac.sim.url import parse_sim_url
 

@@ -17,11 +17,12 @@ from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol import messages as m
 from spectratac.sim import native
 from spectratac.sim.device import SimDevice
-from spectratac.sim.scenes import make_scene
-from spectratac.twin import I2CNack, rig, scenes
+from spectratac.sim.named_scenes import make_scene
+from spectratac.twin import I2CNack, builtin_scenes, rig
 
 SCENE = make_scene("tour")
-PRESS = scenes.single_press(6, 6.0, start_s=0.3, hold_s=2.0)  # short: cheap rigs per example
+# short: cheap rigs per example
+PRESS = builtin_scenes.single_press(6, 6.0, start_s=0.3, hold_s=2.0)
 
 # One register transfer: (bus, time step µs, bytes written, bytes read).
 _settings = st.builds(  # IT, gain, DG (0b11 reserved), SENS, SD_ALS

@@ -10,7 +10,8 @@ from spectratac.evaluate.acquisition import INTEGRATION_MS, Acquisition, Acquisi
 from spectratac.evaluate.latency import side_by_side_latency
 from spectratac.evaluate.speed import batch_for, pareto_front
 from spectratac.evaluate.variants import add_improvements, merge_seeds, target_check
-from spectratac.twin import generate_session, scenes
+from spectratac.twin import builtin_scenes as scenes
+from spectratac.twin import generate_session
 
 
 def test_every_acquisition_is_fairly_exposed_and_unsaturated() -> None:

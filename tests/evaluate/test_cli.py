@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from spectratac.cli import main
 from spectratac.dataset import Dataset
-from spectratac.dataset.from_twin import from_twin_session
 from spectratac.decode import Decoder, DecoderUnitWarning, TrainSpec
 from spectratac.evaluate.protocol import fit_and_evaluate, save_models
-from spectratac.twin import generate_session, scenes
+from spectratac.sim.twin_dataset import from_twin_session
+from spectratac.twin import builtin_scenes as scenes
+from spectratac.twin import generate_session
 
 TINY = TrainSpec.paper(epochs=2, hidden=16, blocks=1)
 

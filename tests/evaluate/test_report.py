@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.dataset import Dataset
-from spectratac.dataset.from_twin import from_twin_session
 from spectratac.evaluate import (
     Predictions,
     SplitSpec,
@@ -21,7 +20,9 @@ from spectratac.evaluate import (
     write_report,
 )
 from spectratac.evaluate.oracle_floor import twin_oracle
-from spectratac.twin import generate_session, scenes
+from spectratac.sim.twin_dataset import from_twin_session
+from spectratac.twin import builtin_scenes as scenes
+from spectratac.twin import generate_session
 
 
 class Noisy:

@@ -18,6 +18,7 @@ from spectratac.record import (
     RecordingSummary,
     RecordOptions,
     read_recording,
+    record_url,
 )
 from spectratac.sim.transport import SimTransport
 from spectratac.twin.geometry import region_of
@@ -56,7 +57,7 @@ def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Reco
 
 def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Recording]) -> None:
     _, rec = tour_session
-    from spectratac.dataset.labels import rebuild_scene
+    from spectratac.sim.world import rebuild_scene
 
     scene = rebuild_scene(rec.session["sim"])
     p = scene.presses
@@ -195,3 +196,48 @@ def test_a_lost_device_keeps_the_ft_rows_too(tmp_path: Path) -> None:
     assert rec.ft is not None and len(rec.ft) == summary.ft_samples > 1000
     last_frame = rec.frame_host_times[-1]
     assert rec.ft["host_time"][-1] > last_frame - 0.1  # F/T written up to the loss
+
+
+def test_every_sample_carries_the_scenes_truth(
+    tour_session: tuple[RecordingSummary, Recording],
+) -> None:
+    """The ground-truth channel: one row per SAMPLE frame, in frame order, holding the
+    scene's contact at the centre of the sample's window on the device (= scene) clock."""
+    from spectratac.sim.world import rebuild_scene
+
+    _, rec = tour_session
+    truth = rec.ground_truth
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    assert truth is not None and len(truth) == len(samples) > 200
+    for key in ("sequence", "t_start_us", "t_end_us"):
+        np.testing.assert_array_equal(truth[key], samples[key])
+    scene = rebuild_scene(rec.session["sim"])
+    t_mid = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
+    contact = scene.contact(t_mid)
+    np.testing.assert_array_equal(truth["region"], contact.region)
+    np.testing.assert_array_equal(truth["in_contact"], contact.in_contact)
+    np.testing.assert_array_equal(truth["press"], scene.press_index(t_mid))
+    np.testing.assert_array_equal(truth["force_n"][:, 2], contact.normal)
+    np.testing.assert_array_equal(truth["position_mm"][:, 0], contact.x)
+    assert set(np.unique(truth["region"])) == {-1, *range(1, 10)}
+
+
+def test_truth_is_written_before_its_frames(tmp_path: Path) -> None:
+    """Any readable prefix of a recording (a crash) has the truth of every sample in it."""
+    path = tmp_path / "t.mcap"
+    record_url("sim://?scene=tour&speed=max", path, RecordOptions(samples=60))
+    data = path.read_bytes()
+    for cut in range(len(data) // 5, len(data), len(data) // 5):
+        (tmp_path / "cut.mcap").write_bytes(data[:cut])
+        with pytest.warns(UserWarning):
+            rec = read_recording(tmp_path / "cut.mcap")
+        n = len(recorded_samples(rec.frames, rec.frame_host_times))
+        assert rec.ground_truth is not None and len(rec.ground_truth) >= n
+
+
+def test_a_link_without_ground_truth_records_no_truth(tmp_path: Path) -> None:
+    path = tmp_path / "plain.mcap"
+    with Sensor.open("sim://?scene=tour&speed=max") as sensor:
+        Recorder(sensor, path, RecordOptions(samples=20)).run()
+    rec = read_recording(path)
+    assert rec.ground_truth is None and rec.labels == [] and rec.session["labels"] == "none"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import Scene, Session, UnitParams, generate_session, scenes
+from spectratac.twin import Scene, Session, UnitParams, builtin_scenes, generate_session
 
 
 @pytest.fixture(scope="session")
@@ -15,7 +15,7 @@ def nominal() -> UnitParams:
 @pytest.fixture(scope="session")
 def short_cal() -> tuple[Scene, Session]:
     """A 4-minute calibration-style session (same protocol as the 50-minute one)."""
-    sc = scenes.calibration_session(seed=5, duration_s=240.0)
+    sc = builtin_scenes.calibration_session(seed=5, duration_s=240.0)
     return sc, generate_session(sc, seed=5)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import Scene, Session, TwinError, generate_session, scenes
+from spectratac.twin import Scene, Session, TwinError, builtin_scenes, generate_session
 
 
 def test_calibration_protocol_shape(short_cal: tuple[Scene, Session]) -> None:
@@ -44,7 +44,7 @@ def test_multi_step_led_sequence() -> None:
     steps = np.zeros((3, 3, 3))
     for j in range(3):
         steps[j, j, :] = 0.5  # one LED at a time
-    s = generate_session(scenes.idle(3.0), seed=0, led_steps=steps)
+    s = generate_session(builtin_scenes.idle(3.0), seed=0, led_steps=steps)
     assert s.step.tolist()[:6] == [0, 1, 2, 0, 1, 2]
     c = s.counts[:, :, 3].astype(float)
     # Sensor 0 is next to LEDs 0 and 2 (60° away) and opposite LED 1.
@@ -53,7 +53,7 @@ def test_multi_step_led_sequence() -> None:
 
 
 def test_default_counts_sit_mid_range() -> None:
-    s = generate_session(scenes.idle(2.0), seed=0)
+    s = generate_session(builtin_scenes.idle(2.0), seed=0)
     clear = s.counts[:, :, 3]
     assert 15_000 < clear.mean() < 40_000
     assert not s.saturated.any()
@@ -73,16 +73,16 @@ def test_default_counts_sit_mid_range() -> None:
 )
 def test_bad_settings_raise_clear_errors(kwargs: dict, match: str) -> None:
     with pytest.raises(TwinError, match=match):
-        generate_session(scenes.idle(1.0), **kwargs)
+        generate_session(builtin_scenes.idle(1.0), **kwargs)
 
 
 def test_bad_scenes_raise_clear_errors() -> None:
     with pytest.raises(TwinError, match="duration_s"):
-        scenes.idle(0.0)
+        builtin_scenes.idle(0.0)
     with pytest.raises(TwinError, match="region"):
-        scenes.single_press(region=12)
+        builtin_scenes.single_press(region=12)
     with pytest.raises(TwinError, match="shorter than one"):
-        generate_session(scenes.idle(0.01))
+        generate_session(builtin_scenes.idle(0.01))
 
 
 def test_save_npz_roundtrip(tmp_path, short_cal: tuple[Scene, Session]) -> None:

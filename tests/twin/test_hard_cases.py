@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import generate_session, scenes
-from spectratac.twin.scenes import hard_cases
+from spectratac.twin import builtin_scenes, generate_session
+from spectratac.twin.builtin_scenes import hard_cases
 
 CASES = hard_cases()
 
@@ -39,5 +39,5 @@ def test_over_range_indentation_saturates_smoothly(nominal) -> None:
 
 
 def test_drift_session_is_finite() -> None:
-    s = generate_session(scenes.drift_session(120.0), seed=0)
+    s = generate_session(builtin_scenes.drift_session(120.0), seed=0)
     assert np.all(np.isfinite(s.ft)) and not s.saturated.any()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import UnitParams, generate_session, region_centre, scenes
+from spectratac.twin import UnitParams, builtin_scenes, generate_session, region_centre
 from spectratac.twin.electronics import INTEGRATION_MS, SensorConfig
 from spectratac.twin.forward import expected_output
 from spectratac.twin.geometry import rotate_xy
@@ -58,7 +58,7 @@ def test_reversing_shear_reverses_the_asymmetry(nominal: UnitParams, white: np.n
 
 
 def test_no_contact_gives_the_baseline_within_noise(nominal: UnitParams, white: np.ndarray):
-    s = generate_session(scenes.idle(20.0), seed=4, unit=nominal)
+    s = generate_session(builtin_scenes.idle(20.0), seed=4, unit=nominal)
     expect = _out(nominal, 0.0, 0.0, 0.0, 0.0, 0.0, white, None)[0]
     mean = s.counts.mean(axis=0)
     sd = s.counts.std(axis=0)
@@ -74,7 +74,7 @@ def test_no_contact_gives_the_baseline_within_noise(nominal: UnitParams, white: 
 def test_doubling_integration_time_doubles_counts_until_saturation(nominal: UnitParams):
     means = {}
     for it in INTEGRATION_MS:
-        s = generate_session(scenes.idle(2.0), seed=1, unit=nominal, integration_ms=it)
+        s = generate_session(builtin_scenes.idle(2.0), seed=1, unit=nominal, integration_ms=it)
         means[it] = s.counts.astype(float).mean(axis=0)
         if it == 400:
             sat = s
@@ -98,7 +98,7 @@ def test_gain_and_sensitivity_scale_counts(nominal: UnitParams, white: np.ndarra
 
 
 def test_same_seed_same_data_and_different_seed_differs() -> None:
-    sc = scenes.single_press(3, 6.0, (1.0, -1.0))
+    sc = builtin_scenes.single_press(3, 6.0, (1.0, -1.0))
     a = generate_session(sc, seed=11)
     b = generate_session(sc, seed=11)
     c = generate_session(sc, seed=12)
@@ -115,7 +115,7 @@ def test_units_differ_between_seeds_and_stay_physical() -> None:
 
 
 def test_thermal_drift_session_drifts_without_contact() -> None:
-    s = generate_session(scenes.drift_session(600.0), seed=0)
+    s = generate_session(builtin_scenes.drift_session(600.0), seed=0)
     c = s.counts[:, :, 0].astype(float)  # red droops the most with junction temperature
     early, late = c[:50].mean(), c[-50:].mean()
     assert late < early * 0.99

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import scenes
+from spectratac.twin import builtin_scenes
 from spectratac.twin.electronics import AF, SD_ALS, TRIG, SensorConfig
 from spectratac.twin.rig import PLAN_MAX, TwinRig, _Normals
 
@@ -48,7 +48,7 @@ def _session(rig: TwinRig, windows: int = 600) -> tuple[np.ndarray, int]:
 
 
 def test_lookahead_counts_equal_window_by_window_counts() -> None:
-    scene = scenes.single_press(6, 6.0, start_s=2.0, hold_s=20.0)
+    scene = builtin_scenes.single_press(6, 6.0, start_s=2.0, hold_s=20.0)
     plain, none = _session(TwinRig(scene, seed=4, lookahead=False))
     ahead, longest = _session(TwinRig(scene, seed=4, lookahead=True))
     assert none == 0 and longest >= 64  # the batched path really ran, and grew its plans
@@ -57,7 +57,7 @@ def test_lookahead_counts_equal_window_by_window_counts() -> None:
 
 
 def test_repeated_reads_of_one_window_share_optics_but_not_noise() -> None:
-    rig = TwinRig(scenes.idle(5.0), seed=2)
+    rig = TwinRig(builtin_scenes.idle(5.0), seed=2)
     rig.set_led_duties(0, np.full((3, 3), 0.25))
     first = rig.window_rates(0, 50_000)
     reads = [rig.read_window(0, 0, 50_000, SensorConfig())[0] for _ in range(5)]
@@ -66,7 +66,7 @@ def test_repeated_reads_of_one_window_share_optics_but_not_noise() -> None:
 
 
 def test_plans_stop_at_their_maximum_and_restart_short_after_a_miss() -> None:
-    rig = TwinRig(scenes.idle(60.0), seed=1)
+    rig = TwinRig(builtin_scenes.idle(60.0), seed=1)
     rig.set_led_duties(0, np.full((3, 3), 0.25))
     lengths = []
     for i in range(700):

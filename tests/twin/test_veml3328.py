@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from spectratac.errors import SpectraTacError
 from spectratac.hardware import veml3328 as chip
-from spectratac.twin import I2CNack, scenes
+from spectratac.twin import I2CNack, builtin_scenes
 from spectratac.twin.electronics import AF, INTEGRATION_MS, SD0, SD1, TRIG, SensorConfig
 from spectratac.twin.rig import TwinRig
 from spectratac.twin.veml3328 import Veml3328
 
 
 def _rig(scene=None, duty: float = 0.25) -> TwinRig:
-    rig = TwinRig(scene or scenes.idle(10.0), seed=3)
+    rig = TwinRig(scene or builtin_scenes.idle(10.0), seed=3)
     rig.set_led_duties(0, np.full((3, 3), duty))
     return rig
 
@@ -138,7 +138,7 @@ def test_window_averages_led_duty_changes_inside_it() -> None:
 
 
 def test_press_changes_counts_through_the_register_interface() -> None:
-    rig = _rig(scenes.single_press(6, 8.0, start_s=0.5, hold_s=2.0))
+    rig = _rig(builtin_scenes.single_press(6, 8.0, start_s=0.5, hold_s=2.0))
     dev = rig.sensors[0]
     _trigger(dev, 0)
     idle = _r(dev, 50_000, chip.REG_R)
@@ -159,7 +159,7 @@ def test_led_timeline_rejects_bad_input() -> None:
 
 
 def test_rig_ft_follows_the_contact() -> None:
-    rig = _rig(scenes.single_press(5, 6.0, start_s=0.5, hold_s=2.0))
+    rig = _rig(builtin_scenes.single_press(5, 6.0, start_s=0.5, hold_s=2.0))
     w = rig.ft(np.array([0.1, 1.8]))
     assert abs(w[0, 2]) < 0.1
     assert w[1, 2] == pytest.approx(-6.0, abs=0.15)

@@ -149,9 +149,10 @@ def percentile_figures(
 
 def training_figure(samples: int, epochs: int) -> benchlib.Figure:
     import torch
-    from spectratac.dataset.from_twin import from_twin_session
     from spectratac.decode import TrainSpec, train
-    from spectratac.twin import generate_session, scenes
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
 
     scene = scenes.calibration_session(seed=0, duration_s=samples / 20.0)
     ds = from_twin_session(generate_session(scene, seed=0), scene)

@@ -5,7 +5,7 @@
 
 The session is made, not recorded: a twin calibration session (`--samples` windows of 50 ms,
 F/T at `--ft-rate`) encoded as real SAMPLE frames and FT_RECORD rows
-(spectratac.record.synthetic), so 50 minutes of data take seconds. Every figure stands
+(spectratac.sim.synthetic_recording), so 50 minutes of data take seconds. Every figure stands
 beside a raw read of the same file (mcap's stream reader over every record, nothing decoded),
 alternated in one run:
 
@@ -32,8 +32,9 @@ from mcap.stream_reader import StreamReader
 from spectratac.dataset.build import build_datasets
 from spectratac.device import Sensor
 from spectratac.record import Recorder, RecordOptions
-from spectratac.record.synthetic import sample_frames, write_twin_recording
-from spectratac.twin import generate_session, scenes
+from spectratac.sim.synthetic_recording import sample_frames, write_twin_recording
+from spectratac.twin import builtin_scenes as scenes
+from spectratac.twin import generate_session
 
 INTEGRATION_S = 0.05
 

@@ -41,8 +41,8 @@ from spectratac.device.transport import SerialTransport
 from spectratac.protocol import encode_frame
 from spectratac.protocol import messages as m
 from spectratac.sim.device import SimDevice
+from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import RUN_STEPS
-from spectratac.sim.scenes import make_scene
 
 
 def capture_device_frames(n: int) -> tuple[bytes, list[bytes]]:

@@ -18,7 +18,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.twin import generate_session, scenes
+from spectratac.twin import builtin_scenes as scenes
+from spectratac.twin import generate_session
 from spectratac.twin.electronics import AF, TRIG, SensorConfig
 from spectratac.twin.rig import TwinRig
 

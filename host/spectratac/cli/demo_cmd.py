@@ -64,7 +64,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 def _demo(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
-    from spectratac.sim.scenes import make_scene
+    from spectratac.sim.named_scenes import make_scene
     from spectratac.twin.geometry import region_of
 
     period = args.seconds / 9

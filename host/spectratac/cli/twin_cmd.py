@@ -92,7 +92,8 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from spectratac.twin import generate_session, scenes, white_step
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session, white_step
     from spectratac.twin.errors import TwinError
 
     hard = scenes.hard_cases()

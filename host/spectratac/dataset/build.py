@@ -3,9 +3,10 @@
 Per recording: the SAMPLE frames are bulk-decoded; device time goes onto the host clock with
 fit_clock (TIME_SYNC exchanges + frame arrival times), and so does the F/T clock (arrival
 times); the F/T is averaged over each integration window (targets; NaN and target_valid
-False wherever the F/T has a gap, never interpolated); labels come from the scene (sim) or
-the guided protocol (LABELS.md). A session's rows are grouped by configuration; groups with
-different configurations are refused together unless split.
+False wherever the F/T has a gap, never interpolated); labels come from the ground truth the
+recorder stored (simulated links) or from the guided protocol's events (LABELS.md): read
+from the recording alone, the same way for every recording. A session's rows are grouped by
+configuration; groups with different configurations are refused together unless split.
 
 >>> import tempfile
 >>> from spectratac.record import RecordOptions, record_url
@@ -30,13 +31,7 @@ import numpy as np
 
 from spectratac.dataset.align import Windows, device_windows, ft_targets
 from spectratac.dataset.frames import recorded_samples
-from spectratac.dataset.labels import (
-    CONTACT_N,
-    ft_contact,
-    guided_labels,
-    rebuild_scene,
-    scene_labels,
-)
+from spectratac.dataset.labels import CONTACT_N, ft_contact, guided_labels, truth_labels
 from spectratac.dataset.schema import (
     FT_NAMES,
     SPECTRATAC_INPUTS,
@@ -110,9 +105,8 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
-    if source == "scene" and sim:
-        t_scene = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
-        region, in_contact, press = scene_labels(rebuild_scene(sim), t_scene)
+    if source == "scene":
+        region, in_contact, press = truth_labels(rec.path, rec.ground_truth, samples)
     elif source == "guided":
         events = [e for e in rec.labels if e.get("source") == "guided"]
         region, press = guided_labels(events, (windows.t_start + windows.t_end) / 2, force)

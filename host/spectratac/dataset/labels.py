@@ -1,12 +1,13 @@
-"""Per-sample region, contact and press labels of a recorded session.
+"""Per-sample region, contact and press labels of a recorded session, from the recording alone.
 
-Simulated sessions (labels "scene"): the scene is rebuilt from the session message and its
-truth evaluated at each window's centre on the device clock (a simulated device's clock is
-the scene clock): region (ContactState.region: 1..9 on firm contacts, -1 elsewhere),
-in_contact, and the press under way. Guided sessions (labels "guided"): a sample inside a
-prompt's hold span takes the prompted region when the reference F/T confirms a firm contact
-(|F| >= LABEL_MIN_NORMAL_N), else -1; in_contact is |F| >= `contact_n`. Without labels,
-region and press are -1 and in_contact comes from the F/T.
+Sessions with ground truth (labels "scene", a simulated link): the recorder stored each
+sample's truth at its window's centre (the ground-truth channel, FORMAT.md); it is matched
+to the samples by sample sequence number and device time: region (1..9 on firm contacts,
+-1 elsewhere), in_contact, and the press under way. Guided sessions (labels "guided"): a
+sample inside a prompt's hold span takes the prompted region when the reference F/T
+confirms a firm contact (|F| >= LABEL_MIN_NORMAL_N), else -1; in_contact is
+|F| >= `contact_n`. Without labels, region and press are -1 and in_contact comes from the
+F/T.
 
 >>> t = np.array([0.5, 1.5, 2.5, 3.5])
 >>> events = [{"index": 0, "region": 4, "t_start": 1.0, "t_end": 3.0}]
@@ -18,31 +19,56 @@ region and press are -1 and in_contact comes from the F/T.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from spectratac.dataset.from_twin import press_ids
-from spectratac.twin.scene import LABEL_MIN_NORMAL_N, Scene
+from spectratac.dataset.schema import DatasetError
 
 CONTACT_N = 0.5  # |F| above which the reference says something touches the skin
+#: A guided sample takes its region only on a firm contact: the paper's interaction
+#: threshold, the one the simulator's scene labels use (tests/dataset checks they agree).
+LABEL_MIN_NORMAL_N = 1.0
 
 
-def rebuild_scene(sim: dict[str, Any]) -> Scene:
-    """The scene a sim:// session played, from its session message."""
-    from spectratac.sim.scenes import make_scene
-    from spectratac.sim.world import DEVICE_PARAMS
-
-    params = {k: v for k, v in sim.get("params", {}).items() if k not in DEVICE_PARAMS}
-    return make_scene(sim["scene"], seed=str(sim["seed"]), **params)
-
-
-def scene_labels(
-    scene: Scene, t_mid_scene: np.ndarray
+def truth_labels(
+    path: Path, truth: np.ndarray | None, samples: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(region, in_contact, press) from the scene's truth at scene times `t_mid_scene`."""
-    contact = scene.contact(t_mid_scene)
-    return contact.region, contact.in_contact, press_ids(scene, t_mid_scene)
+    """(region, in_contact, press) of `samples` (RECORDED_SAMPLE rows) from the recording's
+    ground-truth rows (GROUND_TRUTH_RECORD), matched by sequence number and device time.
+
+    >>> from spectratac.record.format import GROUND_TRUTH_RECORD
+    >>> truth = np.zeros(2, GROUND_TRUTH_RECORD)
+    >>> truth["sequence"], truth["t_end_us"], truth["region"] = [7, 8], [100, 200], [3, -1]
+    >>> samples = np.zeros(1, [("sequence", "<u4"), ("t_end_us", "<i8")])
+    >>> samples["sequence"], samples["t_end_us"] = 8, 200
+    >>> truth_labels(Path("s.mcap"), truth, samples)[0].tolist()
+    [-1]
+    """
+    if truth is None:
+        raise DatasetError(
+            f"{path} says its labels come from a simulated scene but holds no ground truth: "
+            f"it was recorded by an older spectratac, before recordings carried their labels. "
+            f"Re-record it with `spectratac record`"
+        )
+    row_of = {
+        (int(s), int(t)): i
+        for i, (s, t) in enumerate(zip(truth["sequence"], truth["t_end_us"], strict=True))
+    }
+    keys = zip(samples["sequence"].tolist(), samples["t_end_us"].tolist(), strict=True)
+    rows = np.array([row_of.get(k, -1) for k in keys], dtype=np.int64)
+    if len(rows) and rows.min() < 0:
+        raise DatasetError(
+            f"{path}: {int(np.sum(rows < 0))} of {len(rows)} samples have no ground-truth row; "
+            f"the file was not written by `spectratac record`. Re-record it"
+        )
+    picked = truth[rows]
+    return (
+        picked["region"].astype(np.int8),
+        picked["in_contact"].astype(bool),
+        picked["press"].astype(np.int32),
+    )
 
 
 def spans(events: list[dict[str, Any]], t: np.ndarray) -> np.ndarray:

@@ -60,7 +60,8 @@ def fidelity_report(
     cfg: ReportConfig | None = None, progress: Callable[[str, int], None] | None = None
 ) -> dict[str, Any]:
     """Run the whole report; `progress(stage, units_done)` is called as work completes."""
-    from spectratac.twin import generate_session, scenes
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
     from spectratac.twin.oracle import Oracle
 
     cfg = cfg or ReportConfig()
@@ -70,7 +71,7 @@ def fidelity_report(
     session = generate_session(scene, seed=cfg.seed)
     gen_s = time.perf_counter() - t0
     tick("generate", 1)
-    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.sim.twin_dataset import from_twin_session
 
     ds = from_twin_session(session, scene)
     y, lab = session.ft_window, session.region

@@ -1,4 +1,6 @@
-"""Talking to a SpectraTac device: transports, the Sensor API, typed errors."""
+"""Talking to a SpectraTac device: transports (by URL scheme, extensible with
+`register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API, the
+optional ground truth of simulated links, typed errors."""
 
 from spectratac.device.errors import (
     BufferOverflowError,
@@ -10,11 +12,19 @@ from spectratac.device.errors import (
     PermissionDeniedError,
     ProtocolMismatchError,
 )
+from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
 from spectratac.device.records import SAMPLE_RECORD, Sample
 from spectratac.device.sensor import ClockSync, Sensor, SensorStats, TimeSyncExchange
-from spectratac.device.transport import open_transport
+from spectratac.device.transport import (
+    TransportOpener,
+    UnknownSchemeError,
+    open_transport,
+    transport_schemes,
+)
+from spectratac.device.transport import register_scheme as register_transport_scheme
 
 __all__ = [
+    "CONTACT_TRUTH",
     "SAMPLE_RECORD",
     "BufferOverflowError",
     "ClockSync",
@@ -23,11 +33,17 @@ __all__ = [
     "DeviceNotFoundError",
     "DeviceTimeoutError",
     "DisconnectedError",
+    "GroundTruth",
     "PermissionDeniedError",
     "ProtocolMismatchError",
     "Sample",
     "Sensor",
     "SensorStats",
     "TimeSyncExchange",
+    "TransportOpener",
+    "UnknownSchemeError",
+    "ground_truth_of",
     "open_transport",
+    "register_transport_scheme",
+    "transport_schemes",
 ]

@@ -1,14 +1,31 @@
-"""Byte transports behind one small interface: serial ports, pyserial URLs, simulated devices.
+"""Byte transports behind one small interface: serial ports, pyserial URLs, plug-ins.
 
 A transport moves bytes and nothing else; framing lives in spectratac.protocol and the
-request/reply logic in spectratac.device.sensor.
+request/reply logic in spectratac.device.sensor. `open_transport` picks the opener by the
+URL's scheme: a plug-in registered for it (the simulated device registers ``sim://``
+through the ``spectratac.transports`` entry points), else pyserial for a port path or one
+of pyserial's URL schemes (``socket://``, ``rfc2217://``, ``loop://``...).
+
+>>> sorted({"loop", "sim", "socket"} & set(transport_schemes()))
+['loop', 'sim', 'socket']
+>>> register_scheme("loopback", lambda url, baudrate: SerialTransport("loop://", baudrate))
+>>> link = open_transport("loopback://")
+>>> link.write(b"ping"); link.read(1.0)
+b'ping'
+>>> link.close()
+>>> open_transport("nosuch://x")
+Traceback (most recent call last):
+...
+spectratac.device.transport.UnknownSchemeError: no transport opens 'nosuch://x'; ...
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import importlib.util
 import os
+import pkgutil
 from typing import Protocol
 from urllib.parse import urlsplit
 
@@ -22,8 +39,11 @@ from spectratac.device.errors import (
     DisconnectedError,
     PermissionDeniedError,
 )
+from spectratac.url_schemes import SchemeRegistry
 
 DEFAULT_BAUD = 921_600
+#: Entry-point group of transport plug-ins: name = URL scheme, value = an opener.
+ENTRY_POINTS = "spectratac.transports"
 
 
 class Transport(Protocol):
@@ -124,11 +144,60 @@ def _open_error(url: str, exc: serial.SerialException) -> DeviceError:
     return DeviceError(f"cannot open {url!r}: {text}")
 
 
-def open_transport(url: str, baudrate: int = DEFAULT_BAUD) -> Transport:
-    """Open `url`: a port path, a pyserial URL, or sim://… for the simulated device."""
-    scheme = urlsplit(url).scheme
-    if scheme == "sim":
-        from spectratac.sim.transport import SimTransport  # the native firmware + twin
+class TransportOpener(Protocol):
+    """Opens a transport for a URL of its scheme; raises a DeviceError saying what to do."""
 
-        return SimTransport(url)
-    return SerialTransport(url, baudrate)
+    def __call__(self, url: str, baudrate: int) -> Transport: ...
+
+
+class UnknownSchemeError(DeviceError):
+    """No transport plug-in and no pyserial URL handler opens the URL's scheme."""
+
+
+_REGISTRY: SchemeRegistry[TransportOpener] = SchemeRegistry("transport", ENTRY_POINTS)
+
+
+def register_scheme(scheme: str, opener: TransportOpener, *, replace: bool = False) -> None:
+    """Open `scheme`:// URLs with `opener(url, baudrate)` from now on (in this process).
+    Installed packages register theirs once for all with a ``spectratac.transports`` entry
+    point instead. A scheme given twice raises SchemeConflictError unless `replace`."""
+    _REGISTRY.register(scheme, opener, replace=replace)
+
+
+def _pyserial_knows(scheme: str) -> bool:
+    """True if pyserial has a URL handler for `scheme` (serial.serial_for_url's lookup)."""
+    for package in serial.protocol_handler_packages:
+        with contextlib.suppress(ImportError, ValueError):
+            if importlib.util.find_spec(f"{package}.protocol_{scheme}") is not None:
+                return True
+    return False
+
+
+def _pyserial_schemes() -> list[str]:
+    from serial import urlhandler
+
+    prefix = "protocol_"
+    modules = pkgutil.iter_modules(urlhandler.__path__)
+    return [m.name[len(prefix) :] for m in modules if m.name.startswith(prefix)]
+
+
+def transport_schemes() -> list[str]:
+    """The URL schemes open_transport accepts besides plain port paths."""
+    return sorted(set(_REGISTRY.schemes()) | set(_pyserial_schemes()))
+
+
+def open_transport(url: str, baudrate: int = DEFAULT_BAUD) -> Transport:
+    """Open `url`: a port path, a pyserial URL, or a URL of a registered scheme (sim://…
+    for the simulated device). UnknownSchemeError lists the schemes that exist."""
+    scheme = urlsplit(url).scheme
+    if len(scheme) <= 1:  # a port path (a one-letter "scheme" is a Windows drive)
+        return SerialTransport(url, baudrate)
+    opener = _REGISTRY.lookup(scheme)
+    if opener is not None:
+        return opener(url, baudrate)
+    if _pyserial_knows(scheme):
+        return SerialTransport(url, baudrate)
+    raise UnknownSchemeError(
+        f"no transport opens {url!r}; give a serial port path or a URL of one of the schemes "
+        f"{', '.join(s + '://' for s in transport_schemes())}"
+    )

@@ -90,7 +90,7 @@ def _warm_torch() -> None:
 
 
 def _calibration(cfg: BenchConfig) -> Any:
-    from spectratac.twin import scenes
+    from spectratac.twin import builtin_scenes as scenes
 
     return scenes.calibration_session(seed=cfg.seed, duration_s=float(cfg.duration_s or 0))
 
@@ -121,11 +121,11 @@ def _clean(v: Any) -> Any:
 
 def variants_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None) -> dict:
     """Item 5: every variant and the paper's recipe on the same data and splits."""
-    from spectratac.dataset.from_twin import from_twin_session
     from spectratac.evaluate.floor import oracle_predictions
     from spectratac.evaluate.latency import side_by_side_latency, single_sample_fn
     from spectratac.evaluate.scoring import score
     from spectratac.evaluate.splits import SplitSpec, split_dataset
+    from spectratac.sim.twin_dataset import from_twin_session
     from spectratac.twin import generate_session
 
     tick = progress or (lambda s: None)

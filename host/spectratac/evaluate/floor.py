@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from spectratac.evaluate.oracle_floor import DEFAULT_SAMPLES, subsample, twin_oracle
 from spectratac.evaluate.predictions import Predictions
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 
 FT = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"]
 

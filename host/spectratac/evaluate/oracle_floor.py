@@ -8,8 +8,8 @@ from that and *checked* against the dataset (its contact state must agree with t
 one), so a wrong guess never silently produces a floor. The oracle is slow per sample, so it
 runs on a deterministic subsample of the test rows, and the report says so.
 
->>> from spectratac.twin import generate_session, scenes
->>> from spectratac.dataset.from_twin import from_twin_session
+>>> from spectratac.twin import generate_session, builtin_scenes as scenes
+>>> from spectratac.sim.twin_dataset import from_twin_session
 >>> sc = scenes.single_press(6, 6.0, (1.5, 0.0), hold_s=1.0)
 >>> ds = from_twin_session(generate_session(sc, seed=2), sc)
 >>> o = twin_oracle(ds, scene=sc)
@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from spectratac.twin.electronics import SensorConfig
 from spectratac.twin.errors import TwinError
 from spectratac.twin.oracle import Oracle
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
@@ -129,7 +129,7 @@ def _rebuild_scene(
 ) -> tuple[Scene | None, str]:
     """Scene from its name and seed; a calibration scene's presses depend on its exact
     duration, so candidate durations consistent with the last window are tried."""
-    from spectratac.sim.scenes import make_scene
+    from spectratac.sim.named_scenes import make_scene
 
     name = str(info.get("scene", ""))
     seed = int(info.get("scene_seed", info["seed"]))

@@ -33,7 +33,7 @@ from spectratac.evaluate.holdout import resolve
 from spectratac.evaluate.predictions import predict
 from spectratac.evaluate.scoring import Scored, score
 from spectratac.evaluate.splits import KINDS
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 
 Progress = Callable[[str], None]
 

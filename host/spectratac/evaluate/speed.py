@@ -43,7 +43,7 @@ def batch_for(integration_ms: int) -> int:
 
 
 def make_dataset(scene: Any, acq: Acquisition, seed: int) -> Any:
-    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.sim.twin_dataset import from_twin_session
     from spectratac.twin import generate_session
 
     return from_twin_session(generate_session(scene, seed=seed, **acq.settings()), scene)

@@ -1,5 +1,7 @@
 """Reference six-axis F/T sensors behind one interface: ATI Net F/T (UDP RDT), Bota Systems
-serial sensors, CSV replay, and simulated ones speaking those wire protocols (sim://).
+serial sensors, CSV replay, and plug-ins registered by URL scheme (`register_ft_scheme`, or
+the ``spectratac.ft_sensors`` entry points): the simulator's sim:// sensors speak the real
+sensors' wire protocols.
 
     with open_ft("netft://192.168.1.1") as ft:      # or bota:///dev/ttyUSB0, csv://f.csv
         ft.start()
@@ -17,6 +19,8 @@ from spectratac.ft.errors import (
     FTTimeoutError,
     FTURLError,
 )
+from spectratac.ft.open import FTOpener, ft_schemes
+from spectratac.ft.open import register_scheme as register_ft_scheme
 from spectratac.ft.records import AXES, FT_RECORD, FTInfo, FTStats
 
 open_ft = FTSensor.open
@@ -29,10 +33,13 @@ __all__ = [
     "FTError",
     "FTInfo",
     "FTNotFoundError",
+    "FTOpener",
     "FTProtocolError",
     "FTSensor",
     "FTStats",
     "FTTimeoutError",
     "FTURLError",
+    "ft_schemes",
     "open_ft",
+    "register_ft_scheme",
 ]

@@ -25,6 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from spectratac.ft.errors import FTDisconnectedError, FTError
+from spectratac.ft.open import open_url
 from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
 
 
@@ -59,12 +60,11 @@ class FTSensor(ABC):
     ) -> FTSensor:
         """Connect to the F/T sensor named by `url`; dispatches on the scheme:
         netft://HOST[:PORT]?cpf=&cpt=&http_port=, bota:///dev/ttyUSB0?baud=460800,
-        csv://PATH?rate=&realtime=1, sim://?scene=…&ft=netft|bota (starts a simulated
-        sensor in this process and connects the real driver to it). Options given as
-        keywords override the URL's query. Raises FTURLError, FTNotFoundError or
-        FTTimeoutError (within `timeout`) with what to do."""
-        from spectratac.ft.open import open_url
-
+        csv://PATH?rate=&realtime=1, and the schemes of plug-ins (spectratac.ft.open):
+        sim://?scene=…&ft=netft|bota starts a simulated sensor in this process and
+        connects the real driver to it. Options given as keywords override the URL's
+        query. Raises FTURLError, FTNotFoundError or FTTimeoutError (within `timeout`)
+        with what to do."""
         return open_url(url, timeout=timeout, buffer_size=buffer_size, **options)
 
     def close(self) -> None:

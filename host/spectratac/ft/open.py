@@ -1,35 +1,72 @@
-"""FTSensor.open(url): pick the driver by URL scheme; sim:// starts a simulated sensor too."""
+"""FTSensor.open(url): pick the driver by URL scheme.
+
+The drivers of this package open netft://, bota:// and csv:// URLs; other schemes come from
+plug-ins: the ``spectratac.ft_sensors`` entry points of installed packages (the simulator
+registers ``sim://``, which starts a simulated sensor and connects a real driver to it), or
+`register_scheme` at run time.
+
+>>> {"bota", "csv", "netft", "sim"} <= set(ft_schemes())
+True
+>>> open_url("nosuch://x", timeout=1.0, buffer_size=10)
+Traceback (most recent call last):
+...
+spectratac.ft.errors.FTURLError: 'nosuch://x' is not an F/T URL: the schemes are ...
+"""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
-from spectratac.ft.base import FTSensor
 from spectratac.ft.errors import FTURLError
+from spectratac.url_schemes import SchemeRegistry
 
-SCHEMES = ("netft", "bota", "csv", "sim")
+if TYPE_CHECKING:  # the drivers import this module: FTSensor.open dispatches here
+    from spectratac.ft.base import FTSensor
+
+#: Entry-point group of F/T sensor plug-ins: name = URL scheme, value = an FTOpener.
+ENTRY_POINTS = "spectratac.ft_sensors"
 EXAMPLES = (
     "netft://192.168.1.1?cpf=1000000&cpt=1000000, bota:///dev/ttyUSB0?baud=460800, "
     "csv://session_ft.csv, sim://?scene=calibration&seed=3&speed=10&ft=netft"
 )
 
 
+class FTOpener(Protocol):
+    """Connects to the F/T sensor of a URL of its scheme (see FTSensor.open)."""
+
+    def __call__(
+        self, url: str, *, timeout: float, buffer_size: int, **options: Any
+    ) -> FTSensor: ...
+
+
+_REGISTRY: SchemeRegistry[FTOpener] = SchemeRegistry(
+    "F/T sensor",
+    ENTRY_POINTS,
+    {
+        "netft": "spectratac.ft.netft:NetFTSensor.connect",
+        "bota": "spectratac.ft.bota:BotaSensor.connect",
+        "csv": "spectratac.ft.csvfile:CsvFTSensor.connect",
+    },
+)
+
+
+def register_scheme(scheme: str, opener: FTOpener, *, replace: bool = False) -> None:
+    """Open `scheme`:// F/T URLs with `opener` from now on (in this process). Installed
+    packages register theirs with a ``spectratac.ft_sensors`` entry point instead."""
+    _REGISTRY.register(scheme, opener, replace=replace)
+
+
+def ft_schemes() -> list[str]:
+    """Every F/T URL scheme FTSensor.open accepts."""
+    return _REGISTRY.schemes()
+
+
 def open_url(url: str, *, timeout: float, buffer_size: int, **options: Any) -> FTSensor:
     scheme, sep, _ = url.partition("://")
-    if not sep or scheme not in SCHEMES:
-        raise FTURLError(f"{url!r} is not an F/T URL; examples: {EXAMPLES}")
-    if scheme == "csv":
-        from spectratac.ft.csvfile import CsvFTSensor
-
-        return CsvFTSensor.connect(url, timeout=timeout, buffer_size=buffer_size, **options)
-    if scheme == "netft":
-        from spectratac.ft.netft import NetFTSensor
-
-        return NetFTSensor.connect(url, timeout=timeout, buffer_size=buffer_size, **options)
-    if scheme == "bota":
-        from spectratac.ft.bota import BotaSensor
-
-        return BotaSensor.connect(url, timeout=timeout, buffer_size=buffer_size, **options)
-    from spectratac.sim.ft_serve import open_sim_ft
-
-    return open_sim_ft(url, timeout=timeout, buffer_size=buffer_size, **options)
+    opener = _REGISTRY.lookup(scheme) if sep else None
+    if opener is None:
+        raise FTURLError(
+            f"{url!r} is not an F/T URL: the schemes are "
+            f"{', '.join(s + '://' for s in ft_schemes())}; examples: {EXAMPLES}"
+        )
+    return opener(url, timeout=timeout, buffer_size=buffer_size, **options)

@@ -8,7 +8,7 @@ Nothing here imports torch: recording runs on NumPy and the mcap library alone.
 
 from spectratac.record.errors import RecordingError, TruncatedRecordingWarning
 from spectratac.record.guided import GuidedProtocol
-from spectratac.record.labels import SceneLabeler, scene_label_events
+from spectratac.record.labels import LabelQueue
 from spectratac.record.reader import Recording, read_recording
 from spectratac.record.recorder import (
     Recorder,
@@ -21,6 +21,7 @@ from spectratac.record.writer import RecordingWriter
 
 __all__ = [
     "GuidedProtocol",
+    "LabelQueue",
     "RecordOptions",
     "Recorder",
     "Recording",
@@ -28,10 +29,8 @@ __all__ = [
     "RecordingStatus",
     "RecordingSummary",
     "RecordingWriter",
-    "SceneLabeler",
     "TruncatedRecordingWarning",
     "ft_url_for",
     "read_recording",
     "record_url",
-    "scene_label_events",
 ]

@@ -17,8 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spectratac.device.ground_truth import CONTACT_TRUTH
+
 FORMAT = "spectratac.recording"
-VERSION = 1
+#: 2 added GROUND_TRUTH: version-1 readers cannot skip a binary channel they do not know.
+VERSION = 2
 
 # topic -> message encoding; JSON topics carry one JSON object per message.
 SESSION = "/spectratac/session"  # once, first: URLs, sim scene, clocks, versions
@@ -31,11 +34,21 @@ END = "/spectratac/end"  # summary of a cleanly finished recording (absent after
 FT_SAMPLES = "/ft/samples"  # a batch of FT_RECORD rows, raw little-endian bytes
 FT_INFO = "/ft/info"  # the reference sensor's FTInfo and URL
 LABELS = "/labels"  # one region-label event per message
+GROUND_TRUTH = "/spectratac/ground_truth"  # truth of a batch of samples (simulated links)
 
 FRAME_ENCODING = "spectratac.frame"
 FT_ENCODING = "spectratac.ft_record"
+GROUND_TRUTH_ENCODING = "spectratac.ground_truth"
 JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS)
 JSON_SCHEMA = b'{"type": "object"}'
+
+#: One row per SAMPLE frame of a link with ground truth: the sample's identity (its
+#: sample_seq and its window on the device clock, unwrapped µs, as
+#: spectratac.dataset.frames decodes them from the frame) and the truth at the window's
+#: centre (spectratac.device.ground_truth.CONTACT_TRUTH).
+GROUND_TRUTH_RECORD = np.dtype(
+    [("sequence", "<u4"), ("t_start_us", "<i8"), ("t_end_us", "<i8"), *CONTACT_TRUTH.descr]
+)
 
 
 @dataclass(frozen=True)

@@ -1,75 +1,45 @@
-"""Region-label events from a simulated scene: one per press, with its region and time span.
+"""Label events of a link with ground truth, handed to the file as the session goes.
 
-A label event is one JSON object on the ``/labels`` channel (LABELS.md):
-``source`` ("scene" or "guided"), ``index`` (press number), ``region`` (1..9, -1 on the rim),
-``t_start``/``t_end`` (host monotonic s, or null when unknown) and, for scene labels,
-``scene_start``/``scene_end`` (scene s, equal to the simulated device's clock), ``x``,
-``y`` (mm) and ``normal_peak`` (N).
+A label event is one JSON object on the ``/labels`` channel (LABELS.md). A simulated link's
+ground truth (spectratac.device.GroundTruth) lists its presses' events up front: ``source``
+"scene", ``index``, ``region``, ``t_start``/``t_end`` (host monotonic s, or null),
+``scene_start``/``scene_end`` (s on the device clock), ``x``, ``y`` (mm), ``normal_peak``
+(N). `LabelQueue` releases each once the device clock has passed its end, so a recording
+holds the labels of what it recorded.
 
->>> from spectratac.twin.scene import Scene
->>> labeler = SceneLabeler(Scene.single_press(x=0.0, normal_n=5.0), epoch=100.0, speed=10.0)
->>> labeler.due(0.5), len(labeler.due(60.0))
-([], 1)
->>> event = labeler.events[0]
->>> event["region"], event["scene_start"], round(event["t_start"], 6)  # 100 + 0.5 / 10
-(5, 0.5, 100.05)
+>>> queue = LabelQueue([{"index": 0, "scene_start": 0.5, "scene_end": 3.5}])
+>>> queue.due(1.0), [e["index"] for e in queue.due(4.0)], queue.due(9.0)
+([], [0], [])
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from spectratac.twin.geometry import region_of
-from spectratac.twin.scene import Scene
 
+class LabelQueue:
+    """Time-ordered label events, released by device time (`scene_start`, `scene_end`)."""
 
-def scene_label_events(
-    scene: Scene, epoch: float | None = None, speed: float | None = None
-) -> list[dict[str, Any]]:
-    """Every press of `scene` as a label event; host times when the scene is paced
-    (scene time = (host − epoch) × speed), else null."""
-    p = scene.presses
-    regions = region_of(p.x, p.y)
-    end = p.end
-    events = []
-    for i in range(len(p)):
-        s0, s1 = float(p.start[i]), float(end[i])
-        paced = epoch is not None and speed is not None
-        events.append(
-            {
-                "source": "scene",
-                "index": i,
-                "region": int(regions[i]),
-                "t_start": epoch + s0 / speed if paced else None,
-                "t_end": epoch + s1 / speed if paced else None,
-                "scene_start": s0,
-                "scene_end": s1,
-                "x": float(p.x[i]),
-                "y": float(p.y[i]),
-                "normal_peak": float(p.normal_peak[i]),
-            }
-        )
-    return events
-
-
-class SceneLabeler:
-    """Hands out each press's event once the scene clock has passed the press's end, so a
-    recording holds the labels of what it recorded, written as the session goes."""
-
-    def __init__(self, scene: Scene, epoch: float | None = None, speed: float | None = None):
-        self.events = scene_label_events(scene, epoch, speed)
+    def __init__(self, events: list[dict[str, Any]]) -> None:
+        self.events = list(events)
         self._next = 0
 
-    def due(self, scene_now: float) -> list[dict[str, Any]]:
-        """Events of presses that ended by scene time `scene_now` and were not handed out."""
+    def due(self, device_now: float) -> list[dict[str, Any]]:
+        """Events that ended by device time `device_now` and were not handed out."""
         start = self._next
-        while self._next < len(self.events) and self.events[self._next]["scene_end"] <= scene_now:
+        events = self.events
+        while self._next < len(events) and events[self._next]["scene_end"] <= device_now:
             self._next += 1
-        return self.events[start : self._next]
+        return events[start : self._next]
 
-    def started(self, scene_now: float) -> list[dict[str, Any]]:
-        """At the end of a recording: the press under way at `scene_now`, if any (partial)."""
+    def started(self, device_now: float) -> list[dict[str, Any]]:
+        """At the end of a recording: the event under way at `device_now`, if any (partial).
+
+        >>> LabelQueue([{"scene_start": 0.5, "scene_end": 3.5}]).started(1.0)
+        [{'scene_start': 0.5, 'scene_end': 3.5}]
+        """
         start = self._next
-        while self._next < len(self.events) and self.events[self._next]["scene_start"] < scene_now:
+        events = self.events
+        while self._next < len(events) and events[self._next]["scene_start"] < device_now:
             self._next += 1
-        return self.events[start : self._next]
+        return events[start : self._next]

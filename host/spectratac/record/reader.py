@@ -44,7 +44,9 @@ from spectratac.record.format import (
     FRAMES,
     FT_INFO,
     FT_SAMPLES,
+    GROUND_TRUTH,
     INFO,
+    JSON_TOPICS,
     LABELS,
     SESSION,
     STATS,
@@ -76,6 +78,8 @@ class Recording:
     configs: dict[int, dict[str, Any]] = field(default_factory=dict)  # by config id
     ft_info: dict[str, Any] | None = None
     labels: list[dict[str, Any]] = field(default_factory=list)
+    # GROUND_TRUTH_RECORD rows (dtype from the file); None: the link carried no ground truth
+    ground_truth: np.ndarray | None = None
     stats: dict[str, Any] | None = None  # the last stats message
     end: dict[str, Any] | None = None  # present when the recorder finished cleanly
     truncated: bool = False
@@ -98,6 +102,8 @@ def read_recording(path: str | Path) -> Recording:
     log_times: list[int] = []
     ft_parts: list[bytes] = []
     ft_dtype: np.dtype | None = None
+    truth_parts: list[bytes] = []
+    truth_dtype: np.dtype | None = None
     finished = False
     with f:
         try:
@@ -112,12 +118,17 @@ def read_recording(path: str | Path) -> Recording:
                         log_times.append(record.log_time)
                     elif topic == FT_SAMPLES:
                         ft_parts.append(record.data)
-                    else:
+                    elif topic == GROUND_TRUTH:
+                        truth_parts.append(record.data)
+                    elif topic in JSON_TOPICS:
                         _take_json(rec, topic, json.loads(record.data))
+                    # other topics come from a newer minor revision: ignored
                 elif isinstance(record, Channel):
                     topics[record.id] = record
                     if record.topic == FT_SAMPLES:
                         ft_dtype = dtype_from_json(record.metadata["dtype"])
+                    elif record.topic == GROUND_TRUTH:
+                        truth_dtype = dtype_from_json(record.metadata["dtype"])
                 elif isinstance(record, Footer):
                     finished = True
         except _READ_ERRORS as exc:
@@ -140,6 +151,8 @@ def read_recording(path: str | Path) -> Recording:
     rec.frame_host_times = rec.clock.monotonic_array(np.array(log_times, dtype=np.int64))
     if ft_dtype is not None:
         rec.ft = np.frombuffer(b"".join(ft_parts), dtype=ft_dtype)
+    if truth_dtype is not None:
+        rec.ground_truth = np.frombuffer(b"".join(truth_parts), dtype=truth_dtype)
     if rec.truncated:
         warnings.warn(
             f"{path} is truncated ({rec.problem}); using its readable prefix: "

@@ -1,6 +1,9 @@
 """`Recorder`: one session of a SpectraTac device (and optionally a reference F/T sensor)
 into an MCAP file: raw frames, F/T batches, clock-sync exchanges, info, configuration,
-labels and stats, until a duration, a sample count, the guided protocol or a stop request.
+labels and stats, until a duration, a sample count, the guided protocol, the end of a
+simulated scene or a stop request. A link with ground truth (a simulated device,
+spectratac.device.GroundTruth) also gets each sample's truth and its scene's label events
+written as the session goes, so the file alone labels its samples.
 
 The device's frames are taken verbatim by a frame listener on the sensor's reader thread
 (a deque append per frame); everything else happens on the caller's thread in one loop that
@@ -30,13 +33,25 @@ from typing import Any, Literal
 import numpy as np
 
 from spectratac.device import Sensor
+from spectratac.device.ground_truth import GroundTruth
+from spectratac.device.records import Unwrapper
 from spectratac.errors import SpectraTacError
 from spectratac.protocol import Frame
+from spectratac.protocol import messages as m
 from spectratac.record.describe import config_summary, info_dict
 from spectratac.record.errors import RecordingError
-from spectratac.record.format import CONFIG, END, FT_INFO, INFO, LABELS, STATS, TIME_SYNC
+from spectratac.record.format import (
+    CONFIG,
+    END,
+    FT_INFO,
+    GROUND_TRUTH_RECORD,
+    INFO,
+    LABELS,
+    STATS,
+    TIME_SYNC,
+)
 from spectratac.record.guided import GuidedProtocol
-from spectratac.record.labels import SceneLabeler
+from spectratac.record.labels import LabelQueue
 from spectratac.record.writer import RecordingWriter
 
 StopReason = Literal["duration", "samples", "scene_end", "guided", "interrupt", "error"]
@@ -116,27 +131,33 @@ class Recorder:
         *,
         ft: Any = None,
         session: dict[str, Any] | None = None,
-        labeler: SceneLabeler | None = None,
+        ground_truth: GroundTruth | None = None,
         guided: GuidedProtocol | None = None,
         clock: Callable[[], float] = time.monotonic,
-        scene_end_s: float | None = None,
     ) -> None:
         """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
-        message (URLs, sim scene). `labeler`: scene labels (simulated sessions). `guided`:
-        the guided labelling protocol (real sessions). `clock` drives guided prompts.
-        `scene_end_s`: a simulated scene's length; the session stops when the device clock
-        (= scene clock) passes it."""
+        message (URLs, host). `ground_truth`: the link's truth (simulated devices: see
+        spectratac.device.ground_truth_of); it is described in the session message
+        ("sim"), labels every sample, gives the scene's label events, and ends the session
+        when the device clock passes its `duration_s`. `guided`: the guided labelling
+        protocol (real sessions). `clock` drives guided prompts."""
         self.sensor = sensor
         self.path = Path(path)
         self.options = options or RecordOptions()
         self.options.validate()
         self.ft = ft
         self.session = dict(session or {})
-        self.labeler = labeler
+        self.ground_truth = ground_truth
+        self.labeler: LabelQueue | None = None
+        self.scene_end_s: float | None = None
+        if ground_truth is not None:
+            self.session["sim"] = ground_truth.describe()
+            self.labeler = LabelQueue(ground_truth.label_events())
+            self.scene_end_s = ground_truth.duration_s  # a scene that ends ends the session
         self.guided = guided
         self.clock = clock
-        self.scene_end_s = scene_end_s
-        self._frames: collections.deque[tuple[bytes, float]] = collections.deque()
+        self._frames: collections.deque[tuple[Frame, float]] = collections.deque()
+        self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
         self._samples = 0
         self._ft_rows = 0
         self._labels = 0
@@ -168,7 +189,13 @@ class Recorder:
             "labels": "guided" if self.guided else "scene" if self.labeler else "none",
             **self.session,
         }
-        writer = RecordingWriter(self.path, session, ft_dtype=ft_dtype, flush_s=opts.flush_s)
+        writer = RecordingWriter(
+            self.path,
+            session,
+            ft_dtype=ft_dtype,
+            ground_truth=self.ground_truth is not None,
+            flush_s=opts.flush_s,
+        )
         self.sensor.add_listener(self._on_frame)
         t_begin = time.monotonic()
         stopped_by: StopReason = "error"
@@ -313,13 +340,34 @@ class Recorder:
 
     # ------------------------------------------------------------------ moving data
     def _on_frame(self, frame: Frame, host_time: float) -> None:
-        self._frames.append((frame.raw, host_time))  # reader thread: keep it this small
+        self._frames.append((frame, host_time))  # reader thread: keep it this small
 
     def _move_frames(self, writer: RecordingWriter) -> None:
         q = self._frames
         n = len(q)
         if n:
-            writer.frames([q.popleft() for _ in range(n)])
+            batch = [q.popleft() for _ in range(n)]
+            if self.ground_truth is not None:
+                rows = self._truth(self.ground_truth, [f for f, _ in batch])
+                writer.ground_truth(rows, batch[0][1])
+            writer.frames([(f.raw, t) for f, t in batch])
+
+    def _truth(self, truth: GroundTruth, frames: list[Frame]) -> np.ndarray:
+        """GROUND_TRUTH_RECORD rows of the SAMPLE frames among `frames`: each sample's truth
+        at the centre of its window, device times unwrapped in arrival order."""
+        samples = [f.message for f in frames if isinstance(f.message, m.Sample)]
+        rows = np.zeros(len(samples), GROUND_TRUTH_RECORD)
+        if not samples:
+            return rows
+        t_end = np.array([self._unwrap(s.t_end_us) for s in samples], np.int64)
+        span = np.array([(s.t_end_us - s.t_start_us) & 0xFFFF_FFFF for s in samples], np.int64)
+        rows["sequence"] = [s.sample_seq for s in samples]
+        rows["t_end_us"] = t_end
+        rows["t_start_us"] = t_end - span
+        contact = truth.contact((rows["t_start_us"] + rows["t_end_us"]) / 2e6)
+        for name in contact.dtype.names or ():
+            rows[name] = contact[name]
+        return rows
 
     def _move(self, writer: RecordingWriter) -> None:
         """Frames and F/T rows that arrived since the last call into the file; then count

@@ -1,9 +1,10 @@
 """`record_url`: open a device (and its reference F/T sensor) by URL and record a session.
 
-For a sim:// URL the session message names the scene, seed and speed, region labels come
-from the scene (`SceneLabeler`), the session ends with the scene at the latest, and if the
-URL says ``ft=bota`` or ``ft=netft`` the simulated reference sensor of the same world is
-opened when no F/T URL is given.
+A link with ground truth (a simulated device: its transport answers
+spectratac.device.GroundTruth) gives the session message its "sim" description, every
+sample its truth and the file its scene's label events, and ends the session with its scene
+at the latest; a sim:// URL that says ``ft=bota`` or ``ft=netft`` opens the simulated
+reference sensor of the same world when no F/T URL is given.
 
 >>> import tempfile
 >>> path = tempfile.mkdtemp() + "/press.mcap"
@@ -23,9 +24,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from spectratac.device import Sensor
+from spectratac.device import Sensor, ground_truth_of, open_transport
+from spectratac.device.transport import DEFAULT_BAUD
 from spectratac.record.guided import GuidedProtocol
-from spectratac.record.labels import SceneLabeler
 from spectratac.record.recorder import Recorder, RecordingStatus, RecordingSummary, RecordOptions
 
 __all__ = ["RecordOptions", "ft_url_for", "record_url"]
@@ -62,13 +63,11 @@ def record_url(
         "host": {"hostname": socket.gethostname(), "python": sys.version.split()[0]},
         "sim": None,
     }
+    sensor_options = dict(sensor_options or {})
+    baudrate = sensor_options.pop("baudrate", DEFAULT_BAUD)
     with contextlib.ExitStack() as stack:
-        sensor = stack.enter_context(Sensor.open(url, **(sensor_options or {})))
-        labeler = None
-        scene_end = None
-        if urlsplit(url).scheme == "sim":
-            labeler, session["sim"] = _sim_world(url, stack)
-            scene_end = session["sim"]["duration_s"]  # a scene that ends ends the session
+        transport = open_transport(url, baudrate)  # opened here to ask it for ground truth
+        sensor = stack.enter_context(Sensor.attach(transport, **sensor_options))
         ft = None
         if ft_url is not None:
             from spectratac.ft import FTSensor
@@ -81,31 +80,7 @@ def record_url(
             options,
             ft=ft,
             session=session,
-            labeler=labeler,
+            ground_truth=ground_truth_of(transport),
             guided=guided,
-            scene_end_s=scene_end,
         )
         return recorder.run(stop, progress)
-
-
-def _sim_world(url: str, stack: contextlib.ExitStack) -> tuple[SceneLabeler, dict[str, Any]]:
-    """Join the simulated world of `url` (the one the sensor just opened) for its scene."""
-    from spectratac.sim.url import parse_sim_url
-    from spectratac.sim.world import SimWorld
-
-    opts = parse_sim_url(url)
-    world = SimWorld.join(opts)
-    stack.callback(world.release)
-    paced = world.paced
-    speed = float(world.speed) if paced else None
-    meta = {
-        "scene": opts.scene,
-        "seed": opts.seed,
-        "speed": world.speed,
-        "params": dict(opts.scene_params),
-        "absent": list(opts.absent),
-        "epoch": world.epoch if paced else None,
-        "duration_s": world.scene.duration_s,
-        "presses": len(world.scene.presses),
-    }
-    return SceneLabeler(world.scene, world.epoch if paced else None, speed), meta

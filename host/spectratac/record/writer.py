@@ -37,6 +37,9 @@ from spectratac.record.format import (
     FRAMES,
     FT_ENCODING,
     FT_SAMPLES,
+    GROUND_TRUTH,
+    GROUND_TRUTH_ENCODING,
+    GROUND_TRUTH_RECORD,
     JSON_SCHEMA,
     JSON_TOPICS,
     LABELS,
@@ -58,12 +61,14 @@ class RecordingWriter:
         session: dict[str, Any],
         *,
         ft_dtype: np.dtype | None = None,
+        ground_truth: bool = False,
         unix_minus_monotonic_ns: int | None = None,
         flush_s: float = 1.0,
         chunk_bytes: int = CHUNK_BYTES,
     ) -> None:
         """Create `path` and write the session message. `session` is free-form JSON (URLs,
-        sim scene, request); format, version, library version and clocks are added."""
+        sim scene, request); format, version, library version and clocks are added.
+        `ground_truth`: the link carries ground truth (GROUND_TRUTH channel)."""
         self.path = Path(path)
         if unix_minus_monotonic_ns is None:
             unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
@@ -86,6 +91,13 @@ class RecordingWriter:
         if ft_dtype is not None:
             self._channels[FT_SAMPLES] = self._mcap.register_channel(
                 FT_SAMPLES, FT_ENCODING, 0, {"dtype": dtype_to_json(ft_dtype)}
+            )
+        if ground_truth:
+            self._channels[GROUND_TRUTH] = self._mcap.register_channel(
+                GROUND_TRUTH,
+                GROUND_TRUTH_ENCODING,
+                0,
+                {"dtype": dtype_to_json(GROUND_TRUTH_RECORD)},
             )
         self.ft_dtype = ft_dtype
         self.flush_s = flush_s
@@ -129,6 +141,21 @@ class RecordingWriter:
         ns = self.clock.log_time(float(rows["host_time"][-1]))
         self._mcap.add_message(self._channels[FT_SAMPLES], ns, rows.tobytes(), ns)
         self.ft_rows_written += len(rows)
+
+    def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
+        """A batch of GROUND_TRUTH_RECORD rows as one message stamped `host_time`. Written
+        before the batch's frames, so any readable prefix of the file has the truth of
+        every sample in it."""
+        if not len(rows):
+            return
+        channel = self._channels.get(GROUND_TRUTH)
+        if channel is None or rows.dtype != GROUND_TRUTH_RECORD:
+            raise RecordingError(
+                "ground truth given to a recording opened without it, or rows of another "
+                "dtype: open the writer with ground_truth=True and give GROUND_TRUTH_RECORD rows"
+            )
+        ns = self.clock.log_time(host_time)
+        self._mcap.add_message(channel, ns, rows.tobytes(), ns)
 
     def json(self, topic: str, obj: Any, host_time: float) -> None:
         """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""

@@ -12,7 +12,7 @@ the counts of each completed window (`TwinRig.read_window`); windows the twin ev
 `registers="python"` routes every transfer to the twin's own `Veml3328` instead; both give
 the same frames for the same seed (tests/device/test_sim_models.py).
 
->>> from spectratac.sim.scenes import make_scene
+>>> from spectratac.sim.named_scenes import make_scene
 >>> frames = []
 >>> dev = SimDevice(make_scene("idle"), seed=1, on_tx=lambda data, t: frames.append(data))
 >>> dev.feed(b"\\x00" + __import__("spectratac.protocol").protocol.encode_frame(
@@ -35,7 +35,7 @@ from spectratac.sim import native
 from spectratac.twin.electronics import SD_ALS, SensorConfig
 from spectratac.twin.errors import I2CNack
 from spectratac.twin.rig import TwinRig, WindowPlan
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 from spectratac.twin.unit import UnitParams
 
 log = logging.getLogger("spectratac.sim")

@@ -24,8 +24,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from spectratac.sim.device import SimDevice
+from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import MAX, DeviceRunner
-from spectratac.sim.scenes import make_scene
 from spectratac.sim.url import SimOptions
 
 

@@ -1,11 +1,25 @@
-"""The in-process transport behind sim:// URLs: Sensor.open("sim://?scene=tour&speed=max")."""
+"""The in-process transport behind sim:// URLs: Sensor.open("sim://?scene=tour&speed=max").
+
+It reaches spectratac.device through the ``spectratac.transports`` entry point ``sim``
+(`open_sim_transport`) and carries its world's ground truth (`SimTransport.ground_truth`).
+
+>>> from spectratac.device.ground_truth import ground_truth_of
+>>> import numpy as np
+>>> link = open_sim_transport("sim://?scene=press&seed=2&speed=max", 921_600)
+>>> truth = ground_truth_of(link)
+>>> truth.describe()["scene"], truth.contact(np.array([1.5]))["region"].tolist()
+('press', [5])
+>>> link.close()
+"""
 
 from __future__ import annotations
 
 import threading
+from typing import Any
 
 from spectratac.device.errors import DeviceError, DisconnectedError
 from spectratac.sim.device import SimDevice
+from spectratac.sim.ground_truth import SceneTruth
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import parse_sim_url
 from spectratac.sim.world import SimWorld
@@ -22,6 +36,7 @@ class SimTransport:
         except ValueError as exc:
             raise DeviceError(str(exc)) from None
         self.options = opts
+        self.ground_truth = SceneTruth(self.world.scene, self._describe())
         self._out = bytearray()
         self._cond = threading.Condition()
         self._closed = False
@@ -34,6 +49,20 @@ class SimTransport:
         )
         epoch = self.world.epoch if self.world.paced else None
         self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
+
+    def _describe(self) -> dict[str, Any]:
+        """The session message's "sim" block: what this device plays."""
+        world, opts = self.world, self.options
+        return {
+            "scene": opts.scene,
+            "seed": opts.seed,
+            "speed": world.speed,
+            "params": dict(opts.scene_params),
+            "absent": list(opts.absent),
+            "epoch": world.epoch if world.paced else None,
+            "duration_s": world.scene.duration_s,
+            "presses": len(world.scene.presses),
+        }
 
     def _on_tx(self, data: bytes, _t: int) -> bool:
         with self._cond:
@@ -74,3 +103,9 @@ class SimTransport:
             self._cond.notify_all()
         self.runner.stop()
         self.world.release()
+
+
+def open_sim_transport(url: str, baudrate: int) -> SimTransport:
+    """The ``sim`` transport opener (a simulated device has no baud rate to set)."""
+    del baudrate
+    return SimTransport(url)

@@ -12,22 +12,35 @@ seed, speed, scene parameters) and dropped when the last device releases them.
 >>> a is b, a.speed
 (True, 5.0)
 >>> a.release(); b.release()
+>>> rebuild_scene({"scene": "press", "seed": 2, "params": {"ft": "bota"}}).name
+'single_press'
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from typing import ClassVar
+from typing import Any, ClassVar
 
+from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import MAX
-from spectratac.sim.scenes import make_scene
 from spectratac.sim.url import SimOptions
 from spectratac.twin.rig import TwinRig
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 
 #: URL parameters that choose devices rather than the scene; they do not split worlds.
 DEVICE_PARAMS = frozenset({"ft", "ft_rate", "ft_loss", "ft_offset", "ft_drift", "ft_port"})
+
+
+def scene_params(params: dict[str, str]) -> dict[str, str]:
+    """The URL parameters that shape the scene (the others choose devices)."""
+    return {k: v for k, v in params.items() if k not in DEVICE_PARAMS}
+
+
+def rebuild_scene(sim: dict[str, Any]) -> Scene:
+    """The scene a recording's session message names (its "sim" block): for checks and
+    oracles that want the scene itself; the recording already holds its ground truth."""
+    return make_scene(sim["scene"], seed=str(sim["seed"]), **scene_params(sim.get("params", {})))
 
 
 class SimWorld:
@@ -46,7 +59,7 @@ class SimWorld:
     @classmethod
     def join(cls, opts: SimOptions) -> SimWorld:
         """The world of `opts` (created on first use); call release() when done with it."""
-        params = {k: v for k, v in opts.scene_params.items() if k not in DEVICE_PARAMS}
+        params = scene_params(opts.scene_params)
         key = (opts.scene, opts.seed, opts.speed, tuple(sorted(params.items())))
         with cls._lock:
             world = cls._registry.get(key)

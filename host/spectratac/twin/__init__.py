@@ -3,15 +3,15 @@
 Pure NumPy (the oracle also uses SciPy); never imports torch. See MODEL.md for the physics
 and every constant.
 
->>> from spectratac.twin import generate_session, scenes
->>> s = generate_session(scenes.idle(duration_s=1.0), seed=3)
+>>> from spectratac.twin import generate_session, builtin_scenes
+>>> s = generate_session(builtin_scenes.idle(duration_s=1.0), seed=3)
 >>> len(s), s.counts.shape
 (20, (20, 3, 5))
 """
 
 from __future__ import annotations
 
-from spectratac.twin import scenes
+from spectratac.twin import builtin_scenes
 from spectratac.twin.electronics import SensorConfig
 from spectratac.twin.errors import I2CNack, TwinError
 from spectratac.twin.generate import (
@@ -21,7 +21,7 @@ from spectratac.twin.generate import (
     white_step,
 )
 from spectratac.twin.geometry import region_centre, region_of
-from spectratac.twin.scene import ContactState, Environment, Presses, Scene
+from spectratac.twin.scene_model import ContactState, Environment, Presses, Scene
 from spectratac.twin.unit import UnitParams
 
 __all__ = [
@@ -35,9 +35,9 @@ __all__ = [
     "Session",
     "TwinError",
     "UnitParams",
+    "builtin_scenes",
     "generate_session",
     "region_centre",
     "region_of",
-    "scenes",
     "white_step",
 ]

@@ -26,7 +26,7 @@ from spectratac.twin.electronics import SensorConfig, digitise, expected_counts
 from spectratac.twin.errors import TwinError
 from spectratac.twin.ft import ft_noise, wrench
 from spectratac.twin.mechanics import MechanicsTrack
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.twin.scene import AMBIENT_SPECTRA
+from spectratac.twin.scene_model import AMBIENT_SPECTRA
 from spectratac.twin.unit import AMBIENT_COUNTS_PER_LUX, UnitParams
 
 F64 = NDArray[np.float64]

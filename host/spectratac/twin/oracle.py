@@ -8,8 +8,8 @@ finite-difference Jacobians). It knows the LED duties, the settings, the room te
 ambient light, but not the press history (creep) nor the noise, so its error is the floor a
 learned decoder can approach, not zero. The F/T estimate is the wrench of the fitted contact.
 
->>> from spectratac.twin import generate_session, scenes
->>> sc = scenes.single_press(6, 6.0, (1.5, 0.0), hold_s=1.0)
+>>> from spectratac.twin import generate_session, builtin_scenes
+>>> sc = builtin_scenes.single_press(6, 6.0, (1.5, 0.0), hold_s=1.0)
 >>> s = generate_session(sc, seed=2)
 >>> i = np.array([int(np.argmax(-s.force[:, 2]))])
 >>> r = Oracle.for_session(s, sc).decode(s.counts[i], s.t_start[i], s.step[i])
@@ -31,7 +31,7 @@ from spectratac.twin.forward import deformation, static_rates
 from spectratac.twin.ft import wrench
 from spectratac.twin.generate import Session
 from spectratac.twin.geometry import DISC_RADIUS_MM, region_of
-from spectratac.twin.scene import Environment, Scene
+from spectratac.twin.scene_model import Environment, Scene
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]

@@ -18,8 +18,8 @@ buffers in the order one-window-at-a-time evaluation would use (PCG64 gives the 
 drawn in blocks), and a plan entry is used only while it is exactly what the per-window path
 would compute, so the counts are identical with and without it (`lookahead=False`).
 
->>> from spectratac.twin import scenes
->>> rig = TwinRig(scenes.single_press(6, 5.0), seed=1)
+>>> from spectratac.twin import builtin_scenes
+>>> rig = TwinRig(builtin_scenes.single_press(6, 5.0), seed=1)
 >>> rig.set_led_duties(0, np.full((3, 3), 0.25))
 >>> counts, sat = rig.read_window(0, 0, 50_000, SensorConfig())
 >>> counts.shape, counts.dtype.name, bool(sat)
@@ -42,7 +42,7 @@ from spectratac.twin.errors import TwinError
 from spectratac.twin.ft import wrench
 from spectratac.twin.generate import MECH_DT_S, SUBSAMPLE_S
 from spectratac.twin.mechanics import MechanicsTrack
-from spectratac.twin.scene import ContactState, Scene
+from spectratac.twin.scene_model import ContactState, Scene
 from spectratac.twin.unit import UnitParams
 from spectratac.twin.veml3328 import Veml3328
 

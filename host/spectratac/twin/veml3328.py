@@ -22,7 +22,7 @@ This is the reference model. The simulated device normally runs its C mirror
 (firmware/ports/native/veml_model.c), which asks the rig only for each window's counts;
 tests/device/test_sim_models.py checks the two transfer by transfer. Change both together.
 
->>> from spectratac.twin import scenes
+>>> from spectratac.twin import builtin_scenes as scenes
 >>> from spectratac.twin.rig import TwinRig
 >>> rig = TwinRig(scenes.idle(1.0), seed=0)
 >>> rig.set_led_duties(0, np.full((3, 3), 0.25))

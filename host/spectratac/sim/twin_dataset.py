@@ -14,7 +14,7 @@ import numpy as np
 
 from spectratac.dataset.schema import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 from spectratac.twin.generate import Session
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 
 
 def twin_config(session: Session) -> dict[str, object]:
@@ -28,14 +28,6 @@ def twin_config(session: Session) -> dict[str, object]:
         "leds": np.rint(session.led_steps * 1000).astype(int).tolist(),
         "settle_us": 0,
     }
-
-
-def press_ids(scene: Scene, t: np.ndarray) -> np.ndarray:
-    """Index of the scene press under way at each time in `t`; -1 between presses."""
-    p = scene.presses
-    i = np.searchsorted(p.start, t, side="right") - 1
-    inside = (i >= 0) & (t < p.end[np.clip(i, 0, None)]) if len(p) else np.zeros(t.shape, bool)
-    return np.where(inside, i, -1).astype(np.int32)
 
 
 def from_twin_session(session: Session, scene: Scene | None = None) -> Dataset:
@@ -53,7 +45,7 @@ def from_twin_session(session: Session, scene: Scene | None = None) -> Dataset:
         "step": session.step,
         "config_id": np.ones(n),
         "session": np.zeros(n),
-        "press": press_ids(scene, tmid) if scene is not None else np.full(n, -1),
+        "press": scene.press_index(tmid) if scene is not None else np.full(n, -1),
         "counts": session.counts,
         "status": np.where(session.saturated, 0x01, 0),  # SENSOR_SATURATED
     }

@@ -194,6 +194,20 @@ class Scene:
             in_contact=inside & (normal > 0),
         )
 
+    def press_index(self, t: F64) -> NDArray[np.int32]:
+        """Index of the press under way at each time in ``t``; -1 between presses.
+
+        >>> Scene.single_press(start_s=0.5).press_index(np.array([0.2, 1.0, 9.0])).tolist()
+        [-1, 0, -1]
+        """
+        t = np.asarray(t, dtype=np.float64)
+        p = self.presses
+        if not len(p):
+            return np.full(t.shape, -1, np.int32)
+        i = np.searchsorted(p.start, t, side="right") - 1
+        inside = (i >= 0) & (t < p.end[np.clip(i, 0, None)])
+        return np.where(inside, i, -1).astype(np.int32)
+
     @staticmethod
     def single_press(
         x: float = 0.0,

@@ -1,8 +1,9 @@
 """A recording made without recording: a twin session (spectratac.twin.generate_session)
 encoded as the real device's SAMPLE frames and the reference sensor's FT_RECORD rows, with
-arrival latencies, TIME_SYNC exchanges, scene labels and chunk flushes in the order the
-recorder writes them. An hour of calibration data takes seconds; benchmarks and tests of
-the dataset builder use it, and the builder cannot tell it from a `sim://` recording.
+arrival latencies, TIME_SYNC exchanges, ground truth, scene labels and chunk flushes in the
+order the recorder writes them. An hour of calibration data takes seconds; benchmarks and
+tests of the dataset builder use it, and the builder cannot tell it from a `sim://`
+recording.
 
 >>> import tempfile
 >>> from spectratac.twin import Scene, generate_session
@@ -25,11 +26,20 @@ import numpy as np
 from spectratac.protocol import messages as m
 from spectratac.protocol.bulk import SAMPLE_DTYPE
 from spectratac.protocol.framing import crc32c
-from spectratac.record.format import CONFIG, END, FT_INFO, INFO, LABELS, TIME_SYNC
-from spectratac.record.labels import SceneLabeler
+from spectratac.record.format import (
+    CONFIG,
+    END,
+    FT_INFO,
+    GROUND_TRUTH_RECORD,
+    INFO,
+    LABELS,
+    TIME_SYNC,
+)
+from spectratac.record.labels import LabelQueue
 from spectratac.record.writer import RecordingWriter
+from spectratac.sim.ground_truth import SceneTruth
 from spectratac.twin.generate import Session
-from spectratac.twin.scene import Scene
+from spectratac.twin.scene_model import Scene
 
 _HEADER = [("major", "u1"), ("minor", "u1"), ("type", "u1"), ("seq", "<u2")]
 _FRAME = np.dtype([*_HEADER, *SAMPLE_DTYPE.descr, ("crc", "<u4")])
@@ -107,7 +117,9 @@ def write_twin_recording(
     }
     meta: dict[str, Any] = {"url": url, "ft_url": url, "labels": "scene", "sim": sim}
     t0 = epoch - 0.5 / speed
-    writer = RecordingWriter(path, meta | {"synthetic": True}, ft_dtype=FT_RECORD)
+    writer = RecordingWriter(
+        path, meta | {"synthetic": True}, ft_dtype=FT_RECORD, ground_truth=True
+    )
     writer.json(INFO, _info(session.seed), t0)
     writer.json(FT_INFO, {"url": url, "kind": "bota", "model": "synthetic", "rate_hz": 0.0}, t0)
     cfg = session.config
@@ -120,7 +132,9 @@ def write_twin_recording(
         "settle_us": 0,
     }
     writer.json(CONFIG, {"config_id": 1, "request": config, "reply": {}, "config": config}, t0)
-    labeler = SceneLabeler(scene, epoch, speed)
+    truth = SceneTruth(scene, sim)
+    truth_rows = ground_truth_rows(session, truth)
+    labeler = LabelQueue(truth.label_events())
     frames = frames if frames is not None else sample_frames(session)
     end_s = float(session.t_end[-1]) if len(session) else 0.0
     second = 0
@@ -131,6 +145,8 @@ def write_twin_recording(
             writer.json(TIME_SYNC, _exchanges(lo, epoch, speed), epoch + lo / speed)
             next_sync += sync_every_s
         i0, i1 = np.searchsorted(session.t_end, [lo, hi], side="left")
+        if i1 > i0:
+            writer.ground_truth(truth_rows[i0:i1], float(frame_host[i0]))
         writer.frames(list(zip(frames[i0:i1], frame_host[i0:i1].tolist(), strict=True)))
         j0, j1 = np.searchsorted(session.ft_t, [lo, hi], side="left")
         if j1 > j0:
@@ -145,6 +161,18 @@ def write_twin_recording(
     writer.json(END, {"stopped_by": "duration", "error": None, "samples": len(session)}, epoch)
     writer.close()
     return Path(path)
+
+
+def ground_truth_rows(session: Session, truth: SceneTruth) -> np.ndarray:
+    """GROUND_TRUTH_RECORD rows of the session's samples, as the recorder writes them."""
+    rows = np.zeros(len(session), GROUND_TRUTH_RECORD)
+    rows["sequence"] = np.arange(len(session))
+    rows["t_start_us"] = np.rint(session.t_start * 1e6).astype(np.int64)
+    rows["t_end_us"] = np.rint(session.t_end * 1e6).astype(np.int64)
+    contact = truth.contact((rows["t_start_us"] + rows["t_end_us"]) / 2e6)
+    for name in contact.dtype.names or ():
+        rows[name] = contact[name]
+    return rows
 
 
 def _exchanges(scene_t: float, epoch: float, speed: float) -> dict[str, Any]:

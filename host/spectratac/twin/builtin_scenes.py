@@ -22,7 +22,7 @@ from spectratac.twin.geometry import (
     region_centre,
     region_of,
 )
-from spectratac.twin.scene import Environment, Presses, Scene
+from spectratac.twin.scene_model import Environment, Presses, Scene
 
 # Calibration protocol (paper: ~60,000 samples in ~50 min at 20 Hz, nine regions, normal up
 # to ~10 N, shear up to ~+-3 N). Ranges below are the operator's press statistics.

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.twin import scenes as twin_scenes
+from spectratac.twin import builtin_scenes
 from spectratac.twin.geometry import region_centre
-from spectratac.twin.scene import Environment, Presses, Scene
+from spectratac.twin.scene_model import Environment, Presses, Scene
 
 LONG_S = 3600.0  # open-ended scenes (idle) last an hour of device time
 
@@ -47,29 +47,29 @@ def region_tour(period_s: float = 10.0 / 9.0, normal_n: float = 4.0, laps: int =
 
 
 def _press(region: str = "5", force: str = "5.0", **_: str) -> Scene:
-    return twin_scenes.single_press(int(region), float(force))
+    return builtin_scenes.single_press(int(region), float(force))
 
 
 SCENES: dict[str, Callable[..., Scene]] = {
-    "idle": lambda **_: twin_scenes.idle(LONG_S),
+    "idle": lambda **_: builtin_scenes.idle(LONG_S),
     "press": _press,
     "tour": lambda period="1.111", **_: region_tour(float(period)),
-    "calibration": lambda seed="0", duration=str(twin_scenes.CAL_DURATION_S), **_: (
-        twin_scenes.calibration_session(int(seed), float(duration))
+    "calibration": lambda seed="0", duration=str(builtin_scenes.CAL_DURATION_S), **_: (
+        builtin_scenes.calibration_session(int(seed), float(duration))
     ),
-    "drift": lambda **_: twin_scenes.drift_session(),
+    "drift": lambda **_: builtin_scenes.drift_session(),
 }
 
 
 def scene_names() -> list[str]:
-    return sorted(SCENES) + sorted(twin_scenes.hard_cases())
+    return sorted(SCENES) + sorted(builtin_scenes.hard_cases())
 
 
 def make_scene(name: str, **params: Any) -> Scene:
     """The scene called `name`; params are the URL's other query values (strings)."""
     if name in SCENES:
         return SCENES[name](**params)
-    hard = twin_scenes.hard_cases()
+    hard = builtin_scenes.hard_cases()
     if name in hard:
         return hard[name].scene
     raise ValueError(f"unknown scene {name!r}; choose one of {', '.join(scene_names())}")
