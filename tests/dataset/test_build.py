@@ -29,6 +29,8 @@ from spectratac.record import (
     record_url,
 )
 
+pytestmark = pytest.mark.subprocess
+
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(

@@ -12,6 +12,8 @@ from spectratac.cli.exit_codes import ExitCode
 
 from .conftest import Served
 
+pytestmark = pytest.mark.subprocess
+
 SIM = "sim://?scene=tour&seed=1&speed=max"
 
 

@@ -14,6 +14,8 @@ from spectratac.decode import Decoder, DecoderUnitWarning, TrainSpec
 from spectratac.evaluate.protocol import fit_and_evaluate, save_models
 from spectratac.twin import generate_session, scenes
 
+pytestmark = pytest.mark.train
+
 TINY = TrainSpec.paper(epochs=2, hidden=16, blocks=1)
 
 

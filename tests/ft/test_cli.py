@@ -14,6 +14,8 @@ from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.ft import open_ft
 
+pytestmark = pytest.mark.subprocess
+
 SIM = "sim://?scene=calibration&seed=3&speed=10&ft=netft&ft_loss=0"
 
 

@@ -7,7 +7,10 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
 from spectratac.protocol import messages
+
+pytestmark = pytest.mark.subprocess
 
 GENERATED = [
     "firmware/core/generated/stac_messages.h",

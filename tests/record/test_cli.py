@@ -15,6 +15,8 @@ import pytest
 from spectratac.dataset.frames import recorded_samples
 from spectratac.record import Recording, RecordingError, TruncatedRecordingWarning, read_recording
 
+pytestmark = pytest.mark.subprocess
+
 TOUR_FT = "sim://?scene=tour&seed=1&speed=10&ft=bota"
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 from spectratac.cli import main
 
 
@@ -24,6 +25,7 @@ def test_generate_rejects_unknown_scene(tmp_path, capsys) -> None:
     assert "unknown scene" in capsys.readouterr().err
 
 
+@pytest.mark.train
 def test_reduced_report_is_sensible(capsys) -> None:
     # 5 minutes, 6 epochs: far from the paper's budget, but the recipe must already learn.
     code = main(
