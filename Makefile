@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 EXTRAS := train,sim,record,report,hardware,dev
 
-.PHONY: venv demo test lint regen hardware firmware firmware-test firmware-native flash clean
+.PHONY: venv demo test test-fast lint regen hardware firmware firmware-test firmware-native flash clean
 
 venv: $(STAMP)
 
@@ -24,6 +24,12 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+# The inner loop: everything but training, processes, firmware builds, QEMU and KiCad
+# (markers in pyproject.toml; tests/conftest.py applies most of them).
+FAST := not (train or subprocess or qemu or firmware or kicad or slow)
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -m "$(FAST)"
 
 lint: $(STAMP)
 	$(BIN)/ruff check host tools tests

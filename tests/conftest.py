@@ -1,4 +1,6 @@
-"""Shared fixtures: paths into the repository, and running a benchmark as a user would."""
+"""Shared fixtures: paths into the repository, and running a benchmark as a user would; and
+the test tiers: tests that use a fixture which spawns processes, builds firmware or boots
+QEMU get that marker here, so `make test-fast` leaves them out without each test saying so."""
 
 from __future__ import annotations
 
@@ -14,6 +16,24 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 Figures = dict[str, dict[str, Any]]
+
+# Fixture -> the markers (pyproject.toml) of every test that uses it, directly or not.
+FIXTURE_MARKERS: dict[str, tuple[str, ...]] = {
+    "run_bench": ("subprocess",),
+    "pty_device": ("subprocess",),
+    "tcp_device": ("subprocess",),
+    "no_reply_pty": ("subprocess",),
+    "image": ("firmware",),
+    "native_build": ("firmware",),
+    "qemu_port": ("qemu", "subprocess"),
+}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        for fixture in getattr(item, "fixturenames", ()):
+            for marker in FIXTURE_MARKERS.get(fixture, ()):
+                item.add_marker(marker)
 
 
 @pytest.fixture(scope="session")

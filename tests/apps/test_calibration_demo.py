@@ -10,6 +10,8 @@ import pytest
 from spectratac.apps.calibration_demo import DemoOptions, results_table, run_demo
 from spectratac.dataset import Dataset
 
+pytestmark = pytest.mark.train
+
 
 @pytest.mark.slow
 def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:

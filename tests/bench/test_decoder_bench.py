@@ -5,6 +5,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.train
+
 
 def test_speed_bench_quick(run_bench, tmp_path: Path) -> None:
     by = run_bench("decoder.py", "--quick", "--out", str(tmp_path))

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import pytest
+
+pytestmark = pytest.mark.train
+
 
 def test_decoder_runtime_bench_json(run_bench) -> None:
     figures = run_bench(

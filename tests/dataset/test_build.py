@@ -30,6 +30,8 @@ from spectratac.record import (
 )
 from spectratac.sim.world import rebuild_scene
 
+pytestmark = pytest.mark.subprocess
+
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(

@@ -12,6 +12,8 @@ from spectratac.decode import Decoder, TrainSpec, train
 
 from tests.decode.conftest import synthetic
 
+pytestmark = pytest.mark.train
+
 TOUR = "sim://?scene=tour&seed=1&speed=max"
 
 

@@ -24,6 +24,8 @@ from spectratac.decode.assemble import GATE, STUCK, Assembler, assemble
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.layout import Layout
 
+pytestmark = pytest.mark.train
+
 TINY = {"epochs": 3, "hidden": 16, "blocks": 1, "threads": 1, "batch_size": 256}
 
 

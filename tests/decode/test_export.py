@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 from spectratac.decode import Decoder, DecoderError, Runtime, TrainSpec, train
 
+pytestmark = [pytest.mark.train, pytest.mark.subprocess]
+
 HARNESS = Path(__file__).parent / "c" / "harness.c"
 TOL = {"rtol": 1e-5, "atol": 1e-5}
 VARIANTS = {

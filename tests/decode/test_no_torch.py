@@ -5,9 +5,12 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
 from spectratac.decode import TrainSpec, train
 
 from tests.decode.conftest import synthetic
+
+pytestmark = [pytest.mark.train, pytest.mark.subprocess]
 
 
 def test_load_and_predict_without_torch(tmp_path) -> None:

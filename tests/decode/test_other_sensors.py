@@ -11,6 +11,8 @@ from spectratac.dataset import DatasetError
 from spectratac.dataset.generic_io import load_any, load_table
 from spectratac.decode import Decoder, TrainSpec, train
 
+pytestmark = pytest.mark.train
+
 POSITIONS = ("left", "center", "right")
 
 

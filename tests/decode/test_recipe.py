@@ -21,6 +21,8 @@ from spectratac.decode.layout import Layout
 
 from tests.decode.conftest import SPECTRATAC_INPUTS
 
+pytestmark = pytest.mark.train
+
 TINY = {"epochs": 25, "batch_size": 128, "hidden": 32, "blocks": 1, "threads": 1}
 
 

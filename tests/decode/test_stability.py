@@ -16,6 +16,8 @@ from spectratac.decode.scaling import Standardizer
 
 from tests.decode.conftest import synthetic
 
+pytestmark = pytest.mark.train
+
 TINY = {"epochs": 3, "hidden": 16, "blocks": 1, "threads": 1, "batch_size": 256}
 counts = arrays(np.float64, (5, 12), elements=st.integers(0, 65535).map(float))
 

@@ -9,6 +9,8 @@ import pytest
 from spectratac.decode import DecoderConfigError, Estimate, TrainSpec, train
 from spectratac.device import Sensor
 
+pytestmark = pytest.mark.train
+
 TINY = {"epochs": 3, "hidden": 16, "blocks": 1, "threads": 1, "batch_size": 256}
 
 

@@ -20,6 +20,8 @@ from spectratac.decode.symmetry import (
     transforms,
 )
 
+pytestmark = pytest.mark.train
+
 finite = st.floats(-50, 50, allow_nan=False)
 
 

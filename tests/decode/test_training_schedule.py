@@ -3,9 +3,12 @@ and a fixed averaging decay both ruined short runs)."""
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from spectratac.decode.train import average_decay, batch_sizes
+
+pytestmark = pytest.mark.train
 
 
 @given(st.integers(1, 200_000), st.integers(1, 4096))

@@ -7,9 +7,12 @@ import subprocess
 import sys
 
 import pytest
-from spectratac.cli import EXIT_ERROR, EXIT_OK, main
+from spectratac.cli import main
+from spectratac.cli.exit_codes import ExitCode
 
 from .conftest import Served
+
+pytestmark = pytest.mark.subprocess
 
 SIM = "sim://?scene=tour&seed=1&speed=max"
 
@@ -21,23 +24,23 @@ def spectratac(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[
 
 
 def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["info", SIM, "--json"]) == EXIT_OK
+    assert main(["info", SIM, "--json"]) == ExitCode.OK
     info = json.loads(capsys.readouterr().out)
     assert info["board"] == "native-sim" and info["sensors_present"] == [0, 1, 2]
     assert "CAP_SIMULATED" in info["capabilities"]
 
 
 def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["stream", SIM, "--count", "5", "--format", "jsonl"]) == EXIT_OK
+    assert main(["stream", SIM, "--count", "5", "--format", "jsonl"]) == ExitCode.OK
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [r["seq"] for r in rows] == [0, 1, 2, 3, 4] and len(rows[0]["status"]) == 3
-    assert main(["stream", SIM, "--count", "3", "--format", "csv"]) == EXIT_OK
+    assert main(["stream", SIM, "--count", "3", "--format", "csv"]) == ExitCode.OK
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("seq,t_ms,step,s0R") and len(lines) == 4
 
 
 def test_stream_missing_port_exit_code(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["stream", "/dev/ttyNOPE"]) == EXIT_ERROR
+    assert main(["stream", "/dev/ttyNOPE"]) == ExitCode.ERROR
     assert "no device at" in capsys.readouterr().err
 
 
@@ -49,6 +52,6 @@ def test_conformance_over_pty(pty_device: Served) -> None:
     assert len(report["checks"]) == 11
 
 
-def test_conformance_fails_nonzero_on_missing_device() -> None:
+def test_conformance_on_a_missing_device_is_an_error_not_a_failed_check() -> None:
     done = spectratac("conformance", "/dev/ttyNOPE")
-    assert done.returncode == 1 and "FAIL" in done.stdout
+    assert done.returncode == ExitCode.ERROR and "no device at" in done.stderr

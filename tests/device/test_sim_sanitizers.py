@@ -9,7 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from spectratac.sim import native
+
+pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -15,6 +15,8 @@ from spectratac.sim.twin_dataset import from_twin_session
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 
+pytestmark = pytest.mark.train
+
 TINY = TrainSpec.paper(epochs=2, hidden=16, blocks=1)
 
 
@@ -56,7 +58,7 @@ def test_evaluate_both_splits_on_the_training_dataset(trained, tmp_path, capsys)
             "evaluate",
             str(model),
             str(data),
-            "--report",
+            "-o",
             str(tmp_path),
             "--json",
             "--no-progress",
@@ -76,7 +78,7 @@ def test_evaluate_both_splits_on_the_training_dataset(trained, tmp_path, capsys)
                 "evaluate",
                 str(model),
                 str(data),
-                "--report",
+                "-o",
                 str(tmp_path / "h"),
                 "--split",
                 "blocked",
@@ -95,7 +97,7 @@ def test_evaluate_on_another_dataset_scores_every_row(trained, tmp_path, capsys)
     model, _, _ = trained
     other = _twin(6, 30.0)
     path = other.save(tmp_path / "other.npz")
-    argv = ["evaluate", str(model), str(path), "--report", str(tmp_path / "r"), "--json"]
+    argv = ["evaluate", str(model), str(path), "-o", str(tmp_path / "r"), "--json"]
     argv += ["--no-progress", "--oracle-samples", "0", "--baseline", str(model)]
     with pytest.warns(DecoderUnitWarning, match="twin-6"):
         rep = _json(capsys, argv)
@@ -109,12 +111,12 @@ def test_evaluate_on_another_dataset_scores_every_row(trained, tmp_path, capsys)
 
 def test_evaluate_errors_exit_3(trained, tmp_path, capsys) -> None:
     model, data, _ = trained
-    assert main(["evaluate", str(model), str(tmp_path / "none.npz"), "--report", "x"]) == 3
+    assert main(["evaluate", str(model), str(tmp_path / "none.npz"), "-o", "x"]) == 3
     assert "cannot read dataset" in capsys.readouterr().err
-    assert main(["evaluate", str(model), str(data), "--report", "x", "--oracle-samples", "-1"]) == 3
+    assert main(["evaluate", str(model), str(data), "-o", "x", "--oracle-samples", "-1"]) == 3
     generic = Dataset.generic(np.ones((10, 2)), np.zeros(10), ["a", "b"], ["Fz"])
     g = generic.save(tmp_path / "g.npz")
-    assert main(["evaluate", str(model), str(g), "--report", str(tmp_path / "g")]) == 3
+    assert main(["evaluate", str(model), str(g), "-o", str(tmp_path / "g")]) == 3
     assert "inputs" in capsys.readouterr().err
 
 

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
+
 C_DIR = Path(__file__).resolve().parent / "c"
 TIMEOUT_S = 120  # a hang fails the test instead of blocking the suite
 

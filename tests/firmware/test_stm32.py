@@ -16,6 +16,8 @@ from spectratac.protocol.framing import Frame
 
 from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
 
+pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
+
 FLASH_BUDGET = 32 * 1024
 RAM_BUDGET = 8 * 1024
 IO_TIMEOUT_S = 20.0  # bound on every wait for the emulated board

@@ -16,6 +16,8 @@ from typing import Any
 import pytest
 from spectratac.protocol import messages
 
+pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
+
 VECTOR_DIR = Path(__file__).resolve().parents[2] / "protocol" / "vectors"
 VECTORS = sorted(VECTOR_DIR.glob("*.json"))
 

@@ -10,14 +10,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.cli import EXIT_ERROR, EXIT_OK, main
+from spectratac.cli import main
+from spectratac.cli.exit_codes import ExitCode
 from spectratac.ft import open_ft
+
+pytestmark = pytest.mark.subprocess
 
 SIM = "sim://?scene=calibration&seed=3&speed=10&ft=netft&ft_loss=0"
 
 
 def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["ft", "info", SIM, "--json", "--samples", "100"]) == EXIT_OK
+    assert main(["ft", "info", SIM, "--json", "--count", "100"]) == ExitCode.OK
     report = json.loads(capsys.readouterr().out)
     assert report["info"]["kind"] == "netft" and report["records"] == 100
     assert report["measured_rate_hz"] == pytest.approx(1000.0, rel=0.01)
@@ -43,10 +46,10 @@ def test_stream_csv_replays_through_csv_url(
 
 
 def test_stream_jsonl_and_table(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["ft", "stream", SIM, "--count", "3", "--format", "jsonl"]) == EXIT_OK
+    assert main(["ft", "stream", SIM, "--count", "3", "--format", "jsonl"]) == ExitCode.OK
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert len(rows) == 3 and set(rows[0]) >= {"sensor_time", "Fz", "sequence", "status"}
-    assert main(["ft", "stream", SIM, "--count", "2"]) == EXIT_OK
+    assert main(["ft", "stream", SIM, "--count", "2"]) == ExitCode.OK
     assert "sensor_time" in capsys.readouterr().out
 
 
@@ -58,12 +61,12 @@ def test_unreachable_and_bad_urls_exit_3(capsys: pytest.CaptureFixture[str]) -> 
         port = s.getsockname()[1]
         assert (
             main(["ft", "info", f"netft://127.0.0.1:{port}?cpf=1&cpt=1", "--timeout", "0.3"])
-            == EXIT_ERROR
+            == ExitCode.ERROR
         )
     assert "no RDT reply" in capsys.readouterr().err
-    assert main(["ft", "stream", "ftp://x"]) == EXIT_ERROR
+    assert main(["ft", "stream", "ftp://x"]) == ExitCode.ERROR
     assert "not an F/T URL" in capsys.readouterr().err
-    assert main(["sim", "ft", "--netft", "--speed", "max", "--port", "0"]) == EXIT_ERROR
+    assert main(["sim", "ft", "--netft", "--speed", "max", "--port", "0"]) == ExitCode.ERROR
     assert "speed=max" in capsys.readouterr().err
 
 

@@ -13,6 +13,8 @@ from pathlib import Path
 import pytest
 from conftest import KICAD_DIR, SYSTEM_PYTHON, pcbnew_missing
 
+pytestmark = pytest.mark.kicad
+
 EESCHEMA_DO = Path(sys.executable).parent / "eeschema_do"
 
 

@@ -13,7 +13,7 @@ from conftest import KICAD_DIR, SYSTEM_PYTHON, TOOLS, pcbnew_missing, reference
 from kiutils.board import Board
 
 REASON = pcbnew_missing()
-pytestmark = pytest.mark.skipif(REASON is not None, reason=REASON or "")
+pytestmark = [pytest.mark.kicad, pytest.mark.skipif(REASON is not None, reason=REASON or "")]
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,8 @@ import trimesh
 from conftest import REPO, openscad_missing
 from params import Geometry
 
+pytestmark = pytest.mark.kicad
+
 MOULD = REPO / "hardware" / "mould"
 
 

@@ -20,6 +20,8 @@ import pytest
 from spectratac.hardware import board, veml3328
 from spectratac.protocol import messages
 
+pytestmark = pytest.mark.subprocess
+
 GENERATED = [
     "firmware/core/generated/stac_messages.h",
     "firmware/core/generated/stac_messages.c",

@@ -15,6 +15,8 @@ import pytest
 from spectratac.dataset.frames import recorded_samples
 from spectratac.record import Recording, RecordingError, TruncatedRecordingWarning, read_recording
 
+pytestmark = pytest.mark.subprocess
+
 TOUR_FT = "sim://?scene=tour&seed=1&speed=10&ft=bota"
 
 
@@ -48,7 +50,7 @@ def test_record_json_summary(tmp_path: Path) -> None:
             "sim://?scene=press&speed=max",
             "-o",
             str(out),
-            "--samples",
+            "--count",
             "25",
             "--leds",
             "1000,0,0/0,0,1000",
@@ -85,7 +87,7 @@ def test_bad_arguments_are_usage_or_clear_errors(tmp_path: Path) -> None:
             "netft://",
             "-o",
             str(tmp_path / "y.mcap"),
-            "--samples",
+            "--count",
             "3",
         ),
         capture_output=True,
@@ -153,7 +155,7 @@ def test_recording_and_building_never_import_torch(tmp_path: Path) -> None:
 import sys
 from spectratac.cli import main
 assert main(["record", "sim://?scene=press&speed=5&ft=bota", "-o", {t_mcap!r},
-             "--samples", "10", "--no-progress"]) == 0
+             "--count", "10", "--no-progress"]) == 0
 assert main(["dataset", "build", {t_mcap!r}, "-o", {t_npz!r}]) == 0
 assert main(["dataset", "info", {t_npz!r}]) == 0
 print("torch" in sys.modules)

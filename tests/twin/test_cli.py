@@ -5,22 +5,27 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 from spectratac.cli import main
 
 
 def test_generate_writes_npz(tmp_path, capsys) -> None:
     out = tmp_path / "s.npz"
-    assert main(["twin", "generate", str(out), "--scene", "idle", "--duration", "2", "--json"]) == 0
+    assert (
+        main(["twin", "generate", "-o", str(out), "--scene", "idle", "--duration", "2", "--json"])
+        == 0
+    )
     summary = json.loads(capsys.readouterr().out)
     assert summary["samples"] == 40 and out.exists()
     assert np.load(out)["counts"].shape == (40, 3, 5)
 
 
 def test_generate_rejects_unknown_scene(tmp_path, capsys) -> None:
-    assert main(["twin", "generate", str(tmp_path / "x.npz"), "--scene", "nope"]) == 3
+    assert main(["twin", "generate", "-o", str(tmp_path / "x.npz"), "--scene", "nope"]) == 3
     assert "unknown scene" in capsys.readouterr().err
 
 
+@pytest.mark.train
 def test_reduced_report_is_sensible(capsys) -> None:
     # 5 minutes, 6 epochs: far from the paper's budget, but the recipe must already learn.
     code = main(

@@ -1,8 +1,10 @@
 """`spectratac <verb>`: the command-line entry point.
 
 Each verb lives in its own module exposing ``register(subparsers)``; the module sets
-``func`` on its parser, which returns the process exit code. Modules are imported lazily
-by name so that a verb's heavy dependencies (torch, matplotlib) load only when it runs.
+``func`` on its parser, which returns the process exit code (an ExitCode). Verbs raise
+SpectraTacErrors, which main() reports and maps to exit codes in one place. Modules are
+imported lazily by name so that a verb's heavy dependencies (torch, matplotlib) load only
+when it runs.
 """
 
 from __future__ import annotations
@@ -13,13 +15,9 @@ import sys
 from collections.abc import Sequence
 
 from spectratac import __version__
+from spectratac.cli.exit_codes import ExitCode, exit_code_for
+from spectratac.cli.options import require
 from spectratac.errors import SpectraTacError
-
-# Exit codes shared by all verbs.
-EXIT_OK = 0
-EXIT_FAILURE = 1  # the command ran but its check failed (e.g. a conformance test)
-EXIT_USAGE = 2  # bad arguments (argparse's own convention)
-EXIT_ERROR = 3  # a SpectraTacError: bad input, device problem; message says what to do
 
 # Verb modules under spectratac.cli, in the order they appear in --help.
 VERB_MODULES: tuple[str, ...] = (
@@ -51,19 +49,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def command(args: argparse.Namespace) -> str:
+    """The verb and sub-verb that ran, e.g. 'ft info' (sub-verb dests end in _verb)."""
+    subs = [v for k, v in vars(args).items() if k.endswith("_verb") and isinstance(v, str)]
+    return " ".join([args.verb, *subs])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one verb; returns its exit code (see spectratac.cli.exit_codes)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "func"):
         parser.print_help()
-        return EXIT_USAGE
+        return ExitCode.USAGE
     try:
+        require(args)
         return int(args.func(args))
     except SpectraTacError as exc:
-        print(f"spectratac {args.verb}: error: {exc}", file=sys.stderr)
-        return EXIT_ERROR
-    except KeyboardInterrupt:
-        return 130
+        print(f"spectratac {command(args)}: error: {exc}", file=sys.stderr)
+        return exit_code_for(exc)
+    except KeyboardInterrupt as exc:
+        return exit_code_for(exc)
 
 
 if __name__ == "__main__":

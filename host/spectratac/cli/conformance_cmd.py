@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 
-from spectratac.cli import EXIT_FAILURE, EXIT_OK
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_device_url
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("conformance", help="check a device against the protocol")
-    p.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
+    add_device_url(p)
     p.add_argument("--json", action="store_true", help="one JSON object with every check")
-    p.add_argument("--timeout", type=float, default=2.0, help="reply timeout in seconds")
     p.set_defaults(func=_run)
 
 
@@ -31,4 +31,4 @@ def _run(args: argparse.Namespace) -> int:
     else:
         passed = sum(o.passed for _, o in result.rows)
         print(f"{passed}/{len(result.rows)} checks passed against {args.url}")
-    return EXIT_OK if result.passed else EXIT_FAILURE
+    return ExitCode.OK if result.passed else ExitCode.FAILURE

@@ -15,6 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_output
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("dataset", help="build datasets from recordings; describe one")
@@ -27,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "Sessions under different sensor configurations need --split.",
     )
     b.add_argument("recordings", nargs="+", help="session .mcap files")
-    b.add_argument("-o", "--output", required=True, help="the .npz file to write")
+    add_output(b, required=True, help="the .npz file to write")
     b.add_argument(
         "--split",
         action="store_true",
@@ -46,7 +49,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     i.add_argument("dataset", help="a .npz dataset")
     i.add_argument("--json", action="store_true", help="print one JSON object")
     i.set_defaults(func=_info)
-    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+    p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -95,7 +98,7 @@ def _build(args: argparse.Namespace) -> int:
                 f"{w['target_valid'] * 100:.1f} % with F/T targets, {w['presses']} presses, "
                 f"labels {w['labels']}"
             )
-    return 0
+    return ExitCode.OK
 
 
 def summary(ds: Any) -> dict[str, Any]:
@@ -136,7 +139,7 @@ def _info(args: argparse.Namespace) -> int:
     s = summary(ds)
     if args.json:
         print(json.dumps({"path": args.dataset, **s}))
-        return 0
+        return ExitCode.OK
     cfg = s["config"]
     print(f"{args.dataset}: {s['n']} samples, {s['kind']}, {s['sessions']} session(s)")
     print(f"  unit             {s['unit_id']}")
@@ -165,4 +168,4 @@ def _info(args: argparse.Namespace) -> int:
     print(f"  regions          {regions}   (labels: {s['labels']})")
     for src in s["session_sources"]:
         print(f"  session          {src}")
-    return 0
+    return ExitCode.OK

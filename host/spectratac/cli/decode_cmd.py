@@ -8,19 +8,26 @@ flags. Samples the decoder cannot use (LED sequence not complete yet, non-finite
 printed as invalid, not dropped.
 
     spectratac decode model.stac "sim://?scene=tour&speed=1" --count 40
-    spectratac decode model.stac /dev/ttyACM0 --seconds 60 --format jsonl > live.jsonl
+    spectratac decode model.stac /dev/ttyACM0 --duration 60 --format jsonl > live.jsonl
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
 from typing import Any
 
-from spectratac.cli.output import Table
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import (
+    add_count,
+    add_device_url,
+    add_duration,
+    add_renamed,
+    add_row_format,
+)
+from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
 
 # t_s: seconds since the first sample (host clock)
@@ -35,10 +42,11 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="decoder file (.stac)")
-    p.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
-    p.add_argument("--count", type=int, default=0, help="estimates to print (0: no limit)")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (0: never)")
-    p.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
+    add_device_url(p)
+    add_count(p, 0, "estimates to print (0: no limit)")
+    add_duration(p, 0.0, "stop after this long (0: never)")
+    add_renamed(p, "--seconds", "duration", "--duration", type=float)
+    add_row_format(p)
     p.add_argument(
         "--keep-config",
         action="store_true",
@@ -101,37 +109,33 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.decode import Decoder
     from spectratac.device import Sensor
 
-    if args.count < 0 or args.seconds < 0:
-        raise SpectraTacError("--count and --seconds must be >= 0 (0: no limit)")
+    if args.count < 0 or args.duration < 0:
+        raise SpectraTacError("--count and --duration must be >= 0 (0: no limit)")
     decoder = Decoder.load(args.model, expect_unit=args.unit)
     settings = None if args.keep_config else sensor_settings(decoder.config)
-    table = Table(COLUMNS, width=8) if args.format == "table" else None
-    if args.format == "csv":
-        print(",".join(COLUMNS))
     counts = {"estimates": 0, "invalid": 0, "ood": 0, "contact": 0}
     t0 = time.monotonic()
-    with Sensor.open(args.url) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
         if settings is not None:
             sensor.configure(**settings)
+        writer = RowWriter(COLUMNS, args.format, width=8)
         sensor.start()
         try:
             first: float | None = None  # host time of the first sample: t_s counts from it
             for e in decoder.stream(sensor):
                 first = e.time if first is None else first
-                if table:
-                    table.row(_cells(e, first))
-                elif args.format == "csv":
-                    print(",".join(map(str, _cells(e, first))))
-                else:
-                    print(json.dumps(_record(e, first)))
+                writer.row(_cells(e, first), _record(e, first))
                 counts["estimates"] += 1
                 counts["invalid"] += int(e.invalid)
                 counts["ood"] += int(e.ood)
                 counts["contact"] += int(e.contact)
                 if (args.count and counts["estimates"] >= args.count) or (
-                    args.seconds and time.monotonic() - t0 >= args.seconds
+                    args.duration and time.monotonic() - t0 >= args.duration
                 ):
                     break
+        except BrokenPipeError:
+            reader_gone()
+            return ExitCode.OK
         finally:
             if not sensor.stats.reconnects:
                 sensor.stop()
@@ -141,4 +145,4 @@ def run(args: argparse.Namespace) -> int:
         f"{counts['ood']} out of distribution, {counts['invalid']} invalid",
         file=sys.stderr,
     )
-    return 0
+    return ExitCode.OK

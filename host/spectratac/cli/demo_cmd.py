@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from spectratac.cli import EXIT_FAILURE, EXIT_OK
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_duration, add_output, add_renamed
 from spectratac.cli.output import Table
 
 
@@ -20,13 +21,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "demo", help="record, build, train and evaluate on the simulated sensor (or --live)"
     )
-    p.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder")
-    p.add_argument("--scene-seconds", type=float, default=600.0, help="calibration length")
+    add_output(
+        p, type=Path, default=Path("demo-output"), help="output folder", renamed_from=("--out",)
+    )
+    add_duration(p, None, "scene length (default 600: the calibration; --live: 10)")
+    add_renamed(p, "--scene-seconds", "duration", "--duration", type=float)
+    add_renamed(p, "--seconds", "duration", "--duration", type=float)
     p.add_argument("--speed", default=None, help="time scale (default 15; --live: 1 or 'max')")
     p.add_argument("--epochs", type=int, default=40, help="training epochs per decoder")
     p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")
     p.add_argument("--live", action="store_true", help="only stream live (the first demo)")
-    p.add_argument("--seconds", type=float, default=10.0, help="--live: how long to stream")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--every", type=int, default=4, help="--live: print every Nth sample")
     p.add_argument("--no-progress", action="store_true")
@@ -38,12 +42,13 @@ def _dispatch(args: argparse.Namespace) -> int:
     if args.live:
         args.speed = args.speed or "1"
         args.seed = 3 if args.seed is None else args.seed
+        args.duration = args.duration or 10.0
         return _demo(args)
     from spectratac.apps.calibration_demo import DemoOptions, run_demo
 
     opts = DemoOptions(
-        out=args.out,
-        scene_s=args.scene_seconds,
+        out=args.output,
+        scene_s=args.duration or 600.0,
         speed=float(args.speed or 15.0),
         seed=0 if args.seed is None else args.seed,
         epochs=args.epochs,
@@ -59,7 +64,7 @@ def _dispatch(args: argparse.Namespace) -> int:
             f"done in {t['total_s']:.0f} s (record {t['record_s']:.0f} s, dataset "
             f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s)"
         )
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -67,10 +72,10 @@ def _demo(args: argparse.Namespace) -> int:
     from spectratac.sim.named_scenes import make_scene
     from spectratac.twin.geometry import region_of
 
-    period = args.seconds / 9
+    period = args.duration / 9
     url = f"sim://?scene=tour&period={period:.4f}&seed={args.seed}&speed={args.speed}"
     scene = make_scene("tour", period=f"{period:.4f}")  # the same scene, for ground truth
-    expected = int(args.seconds * 20)
+    expected = int(args.duration * 20)
     table = Table(["t_s", "pressed", "dC0_%", "dC1_%", "dC2_%", "strongest"], width=9)
     rows: list[np.ndarray] = []
     baseline = None
@@ -79,7 +84,7 @@ def _demo(args: argparse.Namespace) -> int:
         if not args.json:
             print(
                 f"{url}: {sensor.info.board}, firmware build {sensor.info.build_id}; "
-                f"pressing regions 1-9 over {args.seconds:.0f} s of device time"
+                f"pressing regions 1-9 over {args.duration:.0f} s of device time"
             )
         sensor.configure(integration_ms=50)
         sensor.start()
@@ -119,4 +124,4 @@ def _demo(args: argparse.Namespace) -> int:
         else f"{got}/{expected} samples in {summary['wall_s']} s; link: {stats}"
     )
     ok = got >= expected and stats["crc_errors"] == 0 and stats["sample_gaps"] == 0
-    return EXIT_OK if ok else EXIT_FAILURE
+    return ExitCode.OK if ok else ExitCode.FAILURE

@@ -7,20 +7,22 @@ import json
 import sys
 import time
 
-from spectratac.cli.output import Table
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_count, add_device_url, add_row_format
+from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.veml3328 import INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     info = subparsers.add_parser("info", help="show a device's identity, versions and limits")
-    info.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
+    add_device_url(info)
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     stream = subparsers.add_parser("stream", help="stream samples to the terminal")
-    stream.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
-    stream.add_argument("--count", type=int, default=20, help="samples to print (0: forever)")
-    stream.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
+    add_device_url(stream)
+    add_count(stream, 20, "samples to print (0: forever)")
+    add_row_format(stream)
     stream.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     stream.add_argument("--duty", type=int, default=500, help="white LED duty, permille")
     stream.set_defaults(func=_stream)
@@ -30,7 +32,7 @@ def _info(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
     from spectratac.protocol import messages as m
 
-    with Sensor.open(args.url) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
         info = sensor.info
         status = sensor.status()
     caps = [c.name for c in m.Capabilities if info.capabilities & c]
@@ -42,7 +44,7 @@ def _info(args: argparse.Namespace) -> int:
     }
     if args.json:
         print(json.dumps(row))
-        return 0
+        return ExitCode.OK
     print(
         f"{args.url}: {info.board} firmware {'.'.join(map(str, info.firmware_version))} "
         f"({info.build_id}), protocol {info.protocol_major}.{info.protocol_minor}"
@@ -59,7 +61,7 @@ def _info(args: argparse.Namespace) -> int:
         f"baud {info.baud or 'n/a'}"
     )
     print(f"  uptime           {status.uptime_ms / 1000:.1f} s")
-    return 0
+    return ExitCode.OK
 
 
 CHANNELS = ("R", "G", "B", "C", "IR")
@@ -73,12 +75,10 @@ def _stream(args: argparse.Namespace) -> int:
     if not 0 <= args.duty <= 1000:
         raise SpectraTacError("--duty is in permille: 0..1000")
     columns = ["seq", "t_ms", "step", *(f"s{k}{c}" for k in range(3) for c in CHANNELS), "status"]
-    table = Table(columns, width=7) if args.format == "table" else None
-    if args.format == "csv":
-        print(",".join(columns))
     printed = 0
-    with Sensor.open(args.url) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
         sensor.configure(integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3])
+        writer = RowWriter(columns, args.format, width=7)
         sensor.start()
         t0 = time.monotonic()
         try:
@@ -90,17 +90,14 @@ def _stream(args: argparse.Namespace) -> int:
                     *(v for counts in sample.counts for v in counts),
                 ]
                 status = "".join(f"{s:x}" for s in sample.status)
-                if table:
-                    table.row([*values, status])
-                elif args.format == "csv":
-                    print(",".join(map(str, values)) + f",{status}")
-                else:
-                    print(
-                        json.dumps(dict(zip(columns, [*values, list(sample.status)], strict=True)))
-                    )
+                record = dict(zip(columns, [*values, list(sample.status)], strict=True))
+                writer.row([*values, status], record)
                 printed += 1
                 if args.count and printed >= args.count:
                     break
+        except BrokenPipeError:
+            reader_gone()
+            return ExitCode.OK
         finally:
             if not sensor.stats.reconnects:
                 sensor.stop()
@@ -111,4 +108,4 @@ def _stream(args: argparse.Namespace) -> int:
         f"{stats.sample_gaps}, overflows {stats.buffer_overflows}",
         file=sys.stderr,
     )
-    return 0
+    return ExitCode.OK if args.count == 0 or printed >= args.count else ExitCode.FAILURE

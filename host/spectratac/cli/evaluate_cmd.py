@@ -1,4 +1,4 @@
-"""`spectratac evaluate MODEL DATA --report DIR`: score a trained decoder on a dataset.
+"""`spectratac evaluate MODEL DATA -o DIR`: score a trained decoder on a dataset.
 
 Trains nothing. The model's metadata says which rows it was trained on (see
 `spectratac.evaluate.holdout`): on its own training dataset only the held-out rows of its
@@ -15,6 +15,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_output
 from spectratac.evaluate.metrics import COVERAGE_LEVELS
 
 
@@ -27,7 +29,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("model", help="decoder file (.stac)")
     p.add_argument("data", help="dataset file (.npz)")
-    p.add_argument("--report", required=True, metavar="DIR", help="folder for the report")
+    add_output(p, required=True, help="folder for the report", renamed_from=("--report",))
     p.add_argument(
         "--split",
         choices=("random", "blocked", "both"),
@@ -107,12 +109,12 @@ def run(args: argparse.Namespace) -> int:
         "companions": {k: str(v) for k, v in _companion_files(model).items()},
         "baseline": args.baseline,
     }
-    rep = write_report(ev, args.report, dataset_info, model_info, dataset)
+    rep = write_report(ev, args.output, dataset_info, model_info, dataset)
     if args.json:
         print(json.dumps(rep))
     else:
-        print(summary(rep, Path(args.report)))
-    return 0
+        print(summary(rep, Path(args.output)))
+    return ExitCode.OK
 
 
 def _companion_files(model: Any) -> dict[str, str]:

@@ -18,7 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.cli.output import Table
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_count, add_device_url, add_renamed, add_row_format
+from spectratac.cli.output import RowWriter, reader_gone
+from spectratac.errors import SpectraTacError
 
 URL_HELP = "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, or sim://?…&ft=netft|bota"
 COLUMNS = ("sensor_time", "host_time", "sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status")
@@ -28,16 +31,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("ft", help="reference force/torque sensors (Net F/T, Bota, CSV)")
     verbs = p.add_subparsers(dest="ft_verb", metavar="<ft verb>", required=True)
     info = verbs.add_parser("info", help="identity, scaling and rate of an F/T sensor")
-    info.add_argument("url", help=URL_HELP)
-    info.add_argument("--samples", type=int, default=200, help="records to read for a check")
-    info.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for it")
+    add_device_url(info, URL_HELP)
+    add_count(info, 200, "records to read for a check (0: none)")
+    add_renamed(info, "--samples", "count", "--count", type=int)
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     stream = verbs.add_parser("stream", help="print F/T records")
-    stream.add_argument("url", help=URL_HELP)
-    stream.add_argument("--count", type=int, default=20, help="records to print (0: forever)")
-    stream.add_argument("--format", choices=("table", "csv", "jsonl"), default="table")
-    stream.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for data")
+    add_device_url(stream, URL_HELP)
+    add_count(stream, 20, "records to print (0: forever)")
+    add_row_format(stream)
     stream.set_defaults(func=_stream)
     _register_sim_ft(subparsers)
 
@@ -70,14 +72,14 @@ def _info(args: argparse.Namespace) -> int:
     from spectratac.ft import open_ft
 
     with open_ft(args.url, timeout=args.timeout) as ft:
-        rows = ft.read(max(args.samples, 0), timeout=args.timeout) if args.samples else None
+        rows = ft.read(max(args.count, 0), timeout=args.timeout) if args.count else None
         report: dict[str, Any] = {"url": args.url, "info": ft.info.as_dict()}
         if rows is not None:
             report |= _check(rows)
         report["stats"] = ft.stats.as_dict()
     if args.json:
         print(json.dumps(report, default=str))
-        return 0
+        return ExitCode.OK
     info = report["info"]
     print(f"{args.url}: {info['model']} ({info['kind']}) {info['serial']}".rstrip())
     print(f"  rate             {info['rate_hz']:g} Hz")
@@ -92,7 +94,7 @@ def _info(args: argparse.Namespace) -> int:
         print(f"  mean wrench      {mean}  (N, N·m)")
         print(f"  status words     {report['status_nonzero']} non-zero")
     print("  link             " + ", ".join(f"{k} {v}" for k, v in report["stats"].items()))
-    return 0
+    return ExitCode.OK
 
 
 def _check(rows: np.ndarray) -> dict[str, Any]:
@@ -111,11 +113,11 @@ def _check(rows: np.ndarray) -> dict[str, Any]:
 def _stream(args: argparse.Namespace) -> int:
     from spectratac.ft import FTTimeoutError, open_ft
 
+    if args.count < 0:
+        raise SpectraTacError("--count must be >= 0 (0 streams until interrupted)")
     printed = 0
     with open_ft(args.url, timeout=args.timeout) as ft:
-        table = Table(COLUMNS, width=10)
-        if args.format == "csv":
-            print(",".join(COLUMNS))
+        writer = RowWriter(COLUMNS, args.format, width=10, table_cell=_rounded)
         try:
             while args.count == 0 or printed < args.count:
                 want = 256 if args.count == 0 else min(256, args.count - printed)
@@ -127,36 +129,33 @@ def _stream(args: argparse.Namespace) -> int:
                         )
                     break
                 for r in rows:
-                    _emit(r, args.format, table)
+                    writer.row(_values(r))
                 printed += len(rows)
                 sys.stdout.flush()
-        except BrokenPipeError:  # `| head`: the reader is gone, which is fine
-            sys.stderr.close()
-            return 0
+        except BrokenPipeError:
+            reader_gone()
+            return ExitCode.OK
         stats = ft.stats.as_dict()
     print(f"{printed} records; " + ", ".join(f"{k} {v}" for k, v in stats.items()), file=sys.stderr)
-    return 0 if args.count == 0 or printed >= args.count else 1
+    return ExitCode.OK if args.count == 0 or printed >= args.count else ExitCode.FAILURE
 
 
-def _emit(r: np.void, fmt: str, table: Table) -> None:
-    values = [
+def _values(r: np.void) -> list[float | int]:
+    return [
         float(r["sensor_time"]),
         float(r["host_time"]),
         int(r["sequence"]),
         *map(float, r["wrench"]),
         int(r["status"]),
     ]
-    if fmt == "jsonl":
-        print(json.dumps(dict(zip(COLUMNS, values, strict=True))))
-    elif fmt == "csv":
-        print(",".join(repr(v) for v in values))
-    else:
-        table.row([f"{v:.4f}" if isinstance(v, float) else v for v in values])
+
+
+def _rounded(v: object) -> object:
+    return f"{v:.4f}" if isinstance(v, float) else v
 
 
 # ------------------------------------------------------------------ sim ft
 def _serve(args: argparse.Namespace) -> int:
-    from spectratac.errors import SpectraTacError
     from spectratac.sim.ft_serve import start_server
     from spectratac.sim.url import parse_sim_url
     from spectratac.sim.world import SimWorld
@@ -193,4 +192,4 @@ def _serve(args: argparse.Namespace) -> int:
             server.stop()
     finally:
         world.release()
-    return 0
+    return ExitCode.OK

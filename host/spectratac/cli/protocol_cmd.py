@@ -11,6 +11,7 @@ import json
 import sys
 from pathlib import Path
 
+from spectratac.cli.exit_codes import ExitCode
 from spectratac.errors import SpectraTacError
 
 
@@ -44,7 +45,7 @@ def _show(args: argparse.Namespace) -> int:
                 }
             )
         )
-        return 0
+        return ExitCode.OK
     print(
         f"SpectraTac protocol {m.PROTOCOL_MAJOR}.{m.PROTOCOL_MINOR}, "
         f"definition hash 0x{m.DEFINITION_HASH:08X}"
@@ -52,7 +53,7 @@ def _show(args: argparse.Namespace) -> int:
     for row in table:
         arrow = "host -> device" if row["direction"] == "host_to_device" else "device -> host"
         print(f"  0x{row['id']:02X}  {row['name']:<18} {arrow}  {row['payload']:>3} B")
-    return 0
+    return ExitCode.OK
 
 
 def _read_input(args: argparse.Namespace) -> bytes:
@@ -96,4 +97,4 @@ def _decode(args: argparse.Namespace) -> int:
             if isinstance(v, int) and v and k not in ("bytes_in", "frames_ok", "dropped")
         }
         print(f"{len(frames)} frame(s) decoded" + (f"; dropped: {drops}" if drops else ""))
-    return 0 if decoder.stats.dropped == 0 else 1
+    return ExitCode.OK if decoder.stats.dropped == 0 else ExitCode.FAILURE

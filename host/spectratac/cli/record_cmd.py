@@ -13,8 +13,16 @@ import sys
 import threading
 from typing import Any
 
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import (
+    add_count,
+    add_device_url,
+    add_duration,
+    add_output,
+    add_renamed,
+)
 from spectratac.errors import SpectraTacError
-from spectratac.hardware.veml3328 import INTEGRATION_MS
+from spectratac.hardware.veml3328 import GAINS, INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,19 +32,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Record raw device frames, reference F/T samples, clock-sync exchanges, "
         "configuration and region labels into a crash-safe MCAP file. Ctrl-C stops cleanly.",
     )
-    p.add_argument("url", help="serial port, socket://host:port, or sim://?scene=…&ft=bota")
+    add_device_url(p, "serial port, socket://host:port, or sim://?scene=…&ft=bota")
     p.add_argument(
         "--ft",
         metavar="FT_URL",
         help="reference F/T: netft://HOST, bota:///dev/ttyUSB1, csv://path, sim://… "
         "(default for sim:// URLs with ft=…: the same URL)",
     )
-    p.add_argument("-o", "--output", required=True, help="the .mcap file to write")
+    add_output(p, required=True, help="the .mcap file to write")
     until = p.add_mutually_exclusive_group()
-    until.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    until.add_argument("--samples", type=int, metavar="N", help="stop after N optical samples")
+    add_duration(until, None, "stop after S seconds")
+    add_count(until, None, "stop after N optical samples")
+    add_renamed(until, "--samples", "count", "--count", type=int)
     p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
-    p.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
+    p.add_argument("--gain", type=float, default=1.0, choices=GAINS)
     p.add_argument("--sensitivity", default="high", choices=("high", "low"))
     p.add_argument(
         "--leds",
@@ -89,7 +98,7 @@ def _record(args: argparse.Namespace) -> int:
 
     options = RecordOptions(
         duration_s=args.duration,
-        samples=args.samples,
+        samples=args.count,
         integration_ms=args.integration_ms,
         gain=args.gain,
         sensitivity=args.sensitivity,
@@ -123,6 +132,7 @@ def _record(args: argparse.Namespace) -> int:
             guided=guided,
             stop=stop,
             progress=progress,
+            sensor_options={"timeout": args.timeout},
         )
     finally:
         _restore(previous)
@@ -139,7 +149,7 @@ def _record(args: argparse.Namespace) -> int:
         )
         if s.error:
             print(f"the session ended early: {s.error}", file=sys.stderr)
-    return 3 if summary.stopped_by == "error" else 0
+    return ExitCode.ERROR if summary.stopped_by == "error" else ExitCode.OK
 
 
 def _progress_bar(options: Any) -> tuple[Any, Any]:

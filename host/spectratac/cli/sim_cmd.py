@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from spectratac.cli.exit_codes import ExitCode
 from spectratac.errors import SpectraTacError
 
 
@@ -56,4 +57,4 @@ def _serve(args: argparse.Namespace) -> int:
         pass
     except OSError as exc:
         raise SpectraTacError(f"cannot serve: {exc}") from None
-    return 0
+    return ExitCode.OK

@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.cli import EXIT_OK
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_output
 
 RECIPES = ("paper", "best")
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
@@ -56,7 +57,7 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
     p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
-    p.add_argument("-o", "--out", required=True, help="model file to write (.stac)")
+    add_output(p, required=True, help="model file to write (.stac)", renamed_from=("--out",))
     p.add_argument("--recipe", choices=RECIPES, default="paper", help="starting spec")
     p.add_argument("--features", choices=FEATURES, help="default: paper33, or generic")
     p.add_argument("--model", choices=MODELS)
@@ -134,7 +135,7 @@ def _train(args: argparse.Namespace) -> int:
         from spectratac.evaluate.holdout import mark
 
         mark(dec, ds, split)
-    out = Path(args.out)
+    out = Path(args.output)
     dec.save(out)
     written = {"model": str(out)}
     for fmt in exports:
@@ -145,7 +146,7 @@ def _train(args: argparse.Namespace) -> int:
         print(json.dumps(summary))
     else:
         print(_human(summary))
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:

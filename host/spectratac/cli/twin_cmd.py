@@ -1,7 +1,7 @@
 """`spectratac twin`: generate simulated sessions and report the twin's fidelity.
 
 spectratac twin report [--json] [--check]     train the paper recipe on a simulated session
-spectratac twin generate OUT.npz [--scene S]  write a session (counts, F/T, truth) to .npz
+spectratac twin generate -o OUT.npz [--scene S] write a session (counts, F/T, truth) to .npz
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.hardware.veml3328 import INTEGRATION_MS
+from spectratac.cli.exit_codes import ExitCode, UsageError
+from spectratac.cli.options import RenamedOption, add_duration, add_output, add_renamed
+from spectratac.hardware.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 
 SCENES = ("calibration", "idle", "drift", "press")
 
@@ -26,7 +28,7 @@ def register(subparsers: Any) -> None:
     r = sub.add_parser("report", help="train the paper recipe on a simulated session; compare")
     r.add_argument("--json", action="store_true", help="print one JSON object")
     r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--duration", type=float, default=3000.0, help="session length in s")
+    add_duration(r, 3000.0, "session length in s")
     r.add_argument("--epochs", type=int, default=30)
     r.add_argument("--oracle-samples", type=int, default=1000)
     r.add_argument("--check", action="store_true", help="exit 1 if outside the calibration band")
@@ -34,7 +36,11 @@ def register(subparsers: Any) -> None:
     r.set_defaults(func=_report)
 
     g = sub.add_parser("generate", help="simulate a session and write it to an .npz file")
-    g.add_argument("out", help="output .npz path")
+    add_output(g, help="the .npz file to write")
+    # The output used to be a positional OUT: still accepted, with a warning.
+    g.add_argument(
+        "output", nargs="?", action=RenamedOption, replacement="-o/--output", metavar="OUT"
+    )
     g.add_argument(
         "--scene",
         default="calibration",
@@ -42,15 +48,17 @@ def register(subparsers: Any) -> None:
     )
     g.add_argument("--list", action="store_true", help="list the scenes and exit")
     g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--duration", type=float, default=None, help="session length in s")
+    add_duration(g, None, "session length in s")
     g.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
-    g.add_argument("--gain", type=float, default=1.0, choices=(0.5, 1.0, 2.0, 4.0))
-    g.add_argument("--dg", type=int, default=1, choices=(1, 2, 4))
-    g.add_argument("--sens-low", action="store_true")
+    g.add_argument("--gain", type=float, default=1.0, choices=GAINS)
+    g.add_argument("--digital-gain", type=int, default=1, choices=DIGITAL_GAINS)
+    add_renamed(g, "--dg", "digital_gain", "--digital-gain", type=int, choices=DIGITAL_GAINS)
+    g.add_argument("--sensitivity", default="high", choices=("high", "low"))
+    add_renamed(g, "--sens-low", "sensitivity", "--sensitivity low", nargs=0, const="low")
     g.add_argument("--duty", type=float, default=None, help="white LED duty for all channels")
     g.add_argument("--json", action="store_true", help="print a JSON summary")
     g.set_defaults(func=_generate)
-    p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+    p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -88,7 +96,7 @@ def _report(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     print(json.dumps(rep) if args.json else format_report(rep))
-    return 1 if args.check and not rep["pass"] else 0
+    return ExitCode.FAILURE if args.check and not rep["pass"] else ExitCode.OK
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -100,7 +108,9 @@ def _generate(args: argparse.Namespace) -> int:
     if args.list:
         for name in (*SCENES, *sorted(hard)):
             print(name)
-        return 0
+        return ExitCode.OK
+    if args.output is None:
+        raise UsageError("the following arguments are required: -o/--output")
     settings: dict[str, Any] = {}
     if args.scene == "calibration":
         scene = scenes.calibration_session(args.seed, args.duration or scenes.CAL_DURATION_S)
@@ -113,19 +123,19 @@ def _generate(args: argparse.Namespace) -> int:
     elif args.scene in hard:
         scene, settings = hard[args.scene].scene, dict(hard[args.scene].settings)
     else:
-        raise TwinError(f"unknown scene {args.scene!r}; `spectratac twin generate x --list`")
+        raise TwinError(f"unknown scene {args.scene!r}; `spectratac twin generate --list`")
     settings.setdefault("integration_ms", args.integration_ms)
     settings.setdefault("gain", args.gain)
-    settings.setdefault("dg", args.dg)
-    settings.setdefault("sens_low", args.sens_low)
+    settings.setdefault("dg", args.digital_gain)
+    settings.setdefault("sens_low", args.sensitivity == "low")
     if args.duty is not None:
         settings["led_steps"] = white_step(args.duty)
     t0 = time.perf_counter()
     s = generate_session(scene, seed=args.seed, **settings)
     gen_s = time.perf_counter() - t0
-    s.save_npz(args.out)
+    s.save_npz(args.output)
     summary = {
-        "out": str(args.out),
+        "out": str(args.output),
         "scene": scene.name,
         "samples": len(s),
         "ft_samples": int(s.ft.shape[0]),
@@ -143,4 +153,4 @@ def _generate(args: argparse.Namespace) -> int:
             f"{100 * summary['saturated_fraction']:.1f} % saturated, "
             f"{100 * summary['labelled_fraction']:.1f} % labelled"
         )
-    return 0
+    return ExitCode.OK

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 from spectratac.conformance.checks import CHECKS, Outcome, run_check
 from spectratac.device import Sensor
-from spectratac.device.errors import DeviceError
+from spectratac.device.errors import DeviceError, DeviceNotFoundError, PermissionDeniedError
 
 
 @dataclass
@@ -35,6 +35,8 @@ def run_suite(
     result = SuiteResult(url)
     try:
         sensor = Sensor.open(url, timeout=timeout)
+    except (DeviceNotFoundError, PermissionDeniedError):
+        raise  # nothing to check: an error (exit 3), not a failed check
     except DeviceError as exc:
         outcome = Outcome(False, str(exc))
         result.rows.append(("handshake, version and definition hash", outcome))

@@ -1,0 +1,190 @@
+"""Every verb follows one command-line convention, checked on the argparse tree itself so that a
+new verb cannot drift: -o/--output for what it writes, one spelling per setting across verbs,
+URL + --timeout wherever a device is opened, exit codes from ExitCode, and old spellings that
+still work (hidden, with a warning)."""
+
+from __future__ import annotations
+
+import argparse
+import ast
+from collections import defaultdict
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from spectratac.cli import build_parser, main
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import ROW_FORMATS, RenamedOption
+
+CLI = Path(__file__).resolve().parents[2] / "host" / "spectratac" / "cli"
+# Spellings that name an output path in other tools; here it is always -o/--output.
+OUTPUT_SPELLINGS = {"--out", "--output", "--report", "--outdir", "--output-dir", "--dest"}
+# bench decoder's options are shared with tools/bench/decoder*.py (add_options), which keep
+# their own --out; the one exception to -o/--output.
+OUTPUT_EXCEPTIONS = {("bench decoder", "out")}
+# Verb modules whose returns are checked for literal exit codes (bench_cmd is shared with
+# tools/bench and returns its codes there).
+EXIT_CODE_MODULES = sorted(p for p in CLI.glob("*_cmd.py") if p.name != "bench_cmd.py")
+
+
+def leaves(parser: argparse.ArgumentParser, path: str = "") -> Iterator[tuple[str, list]]:
+    """(verb path, actions) of every parser that runs something."""
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    if parser.get_default("func") is not None and not subs:
+        yield path, parser._actions
+    for sub in subs:
+        for name, child in sub.choices.items():
+            yield from leaves(child, f"{path} {name}".strip())
+
+
+VERBS = dict(leaves(build_parser()))
+
+
+def visible(actions: list) -> list[argparse.Action]:
+    return [
+        a
+        for a in actions
+        if not isinstance(a, (RenamedOption, argparse._HelpAction, argparse._VersionAction))
+    ]
+
+
+def test_the_tree_has_every_documented_verb() -> None:
+    for verb in (
+        "info", "stream", "sim serve", "sim ft", "conformance", "twin report", "twin generate",
+        "protocol show", "protocol decode", "ft info", "ft stream", "record", "dataset build",
+        "dataset info", "train", "evaluate", "decode", "bench decoder", "demo",
+    ):  # fmt: skip
+        assert verb in VERBS, f"{verb} is gone from the argparse tree"
+
+
+@pytest.mark.parametrize("verb", sorted(VERBS))
+def test_output_paths_are_spelled_o_output(verb: str) -> None:
+    for action in visible(VERBS[verb]):
+        if (verb, action.dest) in OUTPUT_EXCEPTIONS:
+            continue
+        names = set(action.option_strings)
+        if action.dest in ("out", "output", "report") or names & OUTPUT_SPELLINGS:
+            assert action.option_strings == ["-o", "--output"], (verb, action.option_strings)
+            assert action.dest == "output"
+
+
+@pytest.mark.parametrize("verb", sorted(VERBS))
+def test_verbs_that_open_a_device_take_url_and_timeout(verb: str) -> None:
+    dests = {a.dest: a for a in visible(VERBS[verb])}
+    if "url" in dests:
+        assert not dests["url"].option_strings, f"{verb}: the URL is positional"
+        timeout = dests.get("timeout")
+        assert timeout is not None and timeout.option_strings == ["--timeout"], verb
+        assert timeout.type is float and timeout.default > 0
+
+
+def test_one_spelling_per_setting_across_verbs() -> None:
+    spellings: dict[str, set[tuple[str, ...]]] = defaultdict(set)
+    dests: dict[str, set[str]] = defaultdict(set)
+    for verb, actions in VERBS.items():
+        for action in visible(actions):
+            if not action.option_strings or (verb, action.dest) in OUTPUT_EXCEPTIONS:
+                continue
+            spellings[action.dest].add(tuple(action.option_strings))
+            for option in action.option_strings:
+                dests[option].add(action.dest)
+    assert {d: s for d, s in spellings.items() if len(s) > 1} == {}
+    assert {o: d for o, d in dests.items() if len(d) > 1} == {}
+
+
+@pytest.mark.parametrize("verb", sorted(VERBS))
+def test_row_formats_and_old_spellings_are_alike(verb: str) -> None:
+    actions = VERBS[verb]
+    for action in visible(actions):
+        if action.dest == "format":
+            assert tuple(action.choices) == ROW_FORMATS and action.default == "table"
+    shown = {a.dest for a in visible(actions)}
+    for action in actions:
+        if isinstance(action, RenamedOption):
+            assert action.help == argparse.SUPPRESS and action.dest in shown, verb
+
+
+def is_number(node: ast.expr | None) -> bool:
+    """An int literal, or a choice between expressions one of which is (`1 if x else 0`)."""
+    if isinstance(node, ast.IfExp):
+        return is_number(node.body) or is_number(node.orelse)
+    return isinstance(node, ast.Constant) and type(node.value) is int
+
+
+@pytest.mark.parametrize("path", EXIT_CODE_MODULES, ids=lambda p: p.name)
+def test_verbs_return_exit_code_constants_not_numbers(path: Path) -> None:
+    tree = ast.parse(path.read_text())
+    literal = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Return) and is_number(n.value)]
+    literal += [  # func=lambda args: (p.print_help(), 2)[1]
+        n.lineno
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Lambda)
+        and any(is_number(e) for t in ast.walk(n.body) if isinstance(t, ast.Tuple) for e in t.elts)
+    ]
+    assert literal == [], f"{path.name}: return ExitCode.<name>, not a number (lines {literal})"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["info", "/dev/ttyNOPE"],
+        ["stream", "/dev/ttyNOPE"],
+        ["conformance", "/dev/ttyNOPE"],
+        ["record", "/dev/ttyNOPE", "-o", "never.mcap", "--no-progress"],
+        ["ft", "info", "bota:///dev/ttyNOPE"],
+        ["ft", "stream", "bota:///dev/ttyNOPE"],
+    ],
+    ids=" ".join,
+)
+def test_a_missing_device_exits_3_in_every_verb(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--timeout", "0.5"]) == ExitCode.ERROR
+    err = capsys.readouterr().err
+    assert f"spectratac {' '.join(a for a in argv[:2] if '/' not in a)}: error:" in err
+    assert "/dev/ttyNOPE" in err and not (tmp_path / "never.mcap").exists()
+
+
+RENAMED = [
+    # (old argv, new argv, dest)
+    (["train", "d.npz", "--out", "m.stac"], ["train", "d.npz", "-o", "m.stac"], "output"),
+    (["evaluate", "m", "d", "--report", "r"], ["evaluate", "m", "d", "-o", "r"], "output"),
+    (["demo", "--out", "x"], ["demo", "-o", "x"], "output"),
+    (["demo", "--scene-seconds", "60"], ["demo", "--duration", "60"], "duration"),
+    (["demo", "--live", "--seconds", "3"], ["demo", "--live", "--duration", "3"], "duration"),
+    (["decode", "m", "sim://", "--seconds", "2"], ["decode", "m", "sim://", "--duration", "2"],
+     "duration"),
+    (["record", "sim://", "-o", "s", "--samples", "9"], ["record", "sim://", "-o", "s",
+     "--count", "9"], "count"),
+    (["ft", "info", "csv://f", "--samples", "9"], ["ft", "info", "csv://f", "--count", "9"],
+     "count"),
+    (["twin", "generate", "s.npz"], ["twin", "generate", "-o", "s.npz"], "output"),
+    (["twin", "generate", "-o", "s", "--dg", "2"], ["twin", "generate", "-o", "s",
+     "--digital-gain", "2"], "digital_gain"),
+    (["twin", "generate", "-o", "s", "--sens-low"], ["twin", "generate", "-o", "s",
+     "--sensitivity", "low"], "sensitivity"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("old", "new", "dest"), RENAMED, ids=lambda v: " ".join(v))
+def test_old_spellings_still_work_with_a_warning(
+    old: list[str], new: list[str], dest: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    parsed_new = build_parser().parse_args(new)
+    assert "deprecated" not in capsys.readouterr().err
+    parsed_old = build_parser().parse_args(old)
+    assert vars(parsed_old) == vars(parsed_new)
+    assert getattr(parsed_old, dest) not in (None, "high", 1)  # the old spelling took effect
+    warning = capsys.readouterr().err.strip().splitlines()
+    assert len(warning) == 1 and "is deprecated; use" in warning[0], warning
+
+
+def test_required_output_given_by_neither_spelling_is_a_usage_error(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    without_output = ["train", "d.npz"]  # stops at the usage check: nothing trains
+    assert main(without_output) == ExitCode.USAGE
+    assert "required: -o/--output" in capsys.readouterr().err
+    assert main(["evaluate", "m.stac", "d.npz"]) == ExitCode.USAGE
+    assert main(["twin", "generate", "--scene", "idle"]) == ExitCode.USAGE
