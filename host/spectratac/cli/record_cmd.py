@@ -45,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_count(until, None, "stop after N optical samples")
     add_renamed(until, "--samples", "count", "--count", type=int)
     p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
-    p.add_argument("--gain", type=float, default=1.0, choices=GAINS)
+    p.add_argument("--gain", type=float, default=1.0, choices=sorted(GAINS))
     p.add_argument("--sensitivity", default="high", choices=("high", "low"))
     p.add_argument(
         "--leds",

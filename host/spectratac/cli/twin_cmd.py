@@ -50,7 +50,7 @@ def register(subparsers: Any) -> None:
     g.add_argument("--seed", type=int, default=0)
     add_duration(g, None, "session length in s")
     g.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
-    g.add_argument("--gain", type=float, default=1.0, choices=GAINS)
+    g.add_argument("--gain", type=float, default=1.0, choices=sorted(GAINS))
     g.add_argument("--digital-gain", type=int, default=1, choices=DIGITAL_GAINS)
     add_renamed(g, "--dg", "digital_gain", "--digital-gain", type=int, choices=DIGITAL_GAINS)
     g.add_argument("--sensitivity", default="high", choices=("high", "low"))
