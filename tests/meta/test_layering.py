@@ -32,8 +32,9 @@ SIM_BUILDS_ON = "dataset"
 #: From this part on, the data flow may use the twin and the simulator (fidelity reports,
 #: the twin oracle's floor, demos, the CLI).
 SIM_USED_FROM = "decode"
-#: Top-level modules every part may import.
-SHARED = frozenset({"errors", "url_schemes"})
+#: Modules every part may import, and which import no part themselves: the shared errors, the
+#: URL-scheme registry, and `hardware` (constants generated from the part and board definitions).
+SHARED = frozenset({"errors", "url_schemes", "hardware"})
 
 
 def allowed(part: str) -> frozenset[str]:
