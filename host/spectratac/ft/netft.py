@@ -145,7 +145,6 @@ class NetFTSensor(FTSensor):
         self._rdt_unwrap = Unwrapper(32)
         self._ft_unwrap = Unwrapper(32)
         self._tracker = SequenceTracker(self.stats)
-        self._next_base = 0  # where a new stream's sequence numbers start
         self._held: list[tuple[np.ndarray, np.ndarray]] = []  # records before seq_rate is known
 
     # ------------------------------------------------------------------ commands

@@ -28,10 +28,6 @@ class Options:
         self._asked.append(name)
         return self._values.get(name)
 
-    def has(self, name: str) -> bool:
-        self._asked.append(name)
-        return name in self._values
-
     def text(self, name: str, default: str | None = None) -> str | None:
         raw = self._raw(name)
         return default if raw is None else str(raw)

@@ -16,7 +16,6 @@ itself: the decoder resynchronises at the next delimiter and counts what it drop
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 
 from cobs import cobs
@@ -143,8 +142,3 @@ class StreamDecoder:
         self._pending = b""
         self._discarding = False
         self._last_seq = None
-
-    def iter_frames(self, chunks: Iterable[bytes]) -> Iterator[Frame]:
-        """Generator form of feed() over an iterable of chunks."""
-        for chunk in chunks:
-            yield from self.feed(chunk)

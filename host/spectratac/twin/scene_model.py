@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.twin.errors import TwinError
-from spectratac.twin.geometry import ACTIVE_RADIUS_MM, DISC_RADIUS_MM, region_of
+from spectratac.twin.geometry import DISC_RADIUS_MM, region_of
 
 F64 = NDArray[np.float64]
 
@@ -250,7 +250,3 @@ class Scene:
             env=env or Environment(),
             friction=10.0,  # single presses are set up explicitly; do not cap their shear
         )
-
-
-def in_active_area(x: F64, y: F64) -> NDArray[np.bool_]:
-    return np.hypot(x, y) <= ACTIVE_RADIUS_MM
