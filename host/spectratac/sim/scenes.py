@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.twin import scenes as twin_scenes
+from spectratac.twin import scripted_presses
 from spectratac.twin.geometry import region_centre
 from spectratac.twin.scene import Environment, Presses, Scene
 
@@ -58,6 +59,7 @@ SCENES: dict[str, Callable[..., Scene]] = {
         twin_scenes.calibration_session(int(seed), float(duration))
     ),
     "drift": lambda **_: twin_scenes.drift_session(),
+    "presses": scripted_presses.from_url_params,  # order=up,left,5&force=2.0
 }
 
 
