@@ -52,3 +52,20 @@ def open_for_decoder(
             if not sensor.stats.reconnects:
                 with contextlib.suppress(SpectraTacError, OSError):
                     sensor.stop()
+
+
+class SampleTap:
+    """A sensor as `Decoder.stream` sees it, keeping the sample behind each estimate in
+    `last` (the raw counts, the device clock) while the decoder consumes it."""
+
+    def __init__(self, sensor: Any) -> None:
+        self.sensor = sensor
+        self.last: Any = None
+
+    def __iter__(self) -> Iterator[Any]:
+        for sample in self.sensor:
+            self.last = sample
+            yield sample
+
+    def get_config(self) -> Any:
+        return self.sensor.get_config()
