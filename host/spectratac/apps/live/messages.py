@@ -8,7 +8,7 @@
      "step": 0, "counts": [12 counts: s0 R G B C, s1 ..., s2 ...],
      "saturated": [12 bools], "dark": [3 bools: each sensor's Clear below the dark level],
      "status": [3 SENSOR_* bit sets: saturated 1, bus fault 2, stale 4, absent 8],
-     "refs": [[t, Fx, Fy, Fz, Tx, Ty, Tz], ...],               reference windows now ready
+     "refs": [[seq, t, Fx, Fy, Fz, Tx, Ty, Tz], ...],          reference windows now ready
      "mae": {"Fx": 0.12, ...}, "snake": {...} or absent}
 
 ``t`` is seconds since the session began on the host clock the estimates and the reference

@@ -75,6 +75,7 @@ class LiveSession:
         self.model_path = model_path
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
+        self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
         self.scale = clock_scale(url)
         self.sensor: Any = None
         self.ft: Any = None
@@ -175,6 +176,7 @@ class LiveSession:
             "error": self.error,
             "latency": self.latency.summary(),
             "echo": self.echo.summary(),
+            "pipeline": self.pipeline.summary(),
         }
         if s is not None:
             out["link"] = {
@@ -251,6 +253,7 @@ class LiveSession:
             self.last = msg
             publish(msg)
             now = time.monotonic()
+            self.pipeline.add([(now - sample.host_time) * 1e3])
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())
@@ -274,7 +277,7 @@ class LiveSession:
         refs = []
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)
-            refs.append([round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
+            refs.append([key, round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
         msg["refs"] = refs
         msg["mae"] = tracker.mae()
 

@@ -56,12 +56,12 @@ $("save").addEventListener("click", async () => {
 $("snake-restart").addEventListener("click", () => send({ type: "snake_restart" }));
 
 // ---------------------------------------------------------------- plots (uPlot)
-function plotOpts(title, series, height) {
+function plotOpts(key, series, height, legend) {
   return {
-    title, width: 600, height, legend: { show: true, live: false },
+    width: 600, height, legend: { show: legend, live: false },
     cursor: { sync: { key: "forces" }, drag: { x: false, y: false } },
-    scales: { x: { time: false }, y: { auto: false, range: (u) => yRange(title, u) } },
-    axes: [{ label: "", size: 28 }, { size: 56, label: title === "Torque" ? "N·m" : "N" }],
+    scales: { x: { time: false }, y: { auto: false, range: () => stac.yRanges[key] || [-1, 1] } },
+    axes: [{ size: 30 }, { size: 64, label: key === "T" ? "torque (N·m)" : `${key} (N)`, labelSize: 18 }],
     series: [{ label: "t (s)" }, ...series],
   };
 }
@@ -78,9 +78,9 @@ function torqueSeries() {
 }
 function makePlots() {
   for (const a of ["Fx", "Fy", "Fz"]) {
-    stac.plots[a] = new uPlot(plotOpts(a, forceSeries(a), 150), [[], [], []], $("plot-" + a));
+    stac.plots[a] = new uPlot(plotOpts(a, forceSeries(a), 140, false), [[], [], []], $("plot-" + a));
   }
-  stac.plots.T = new uPlot(plotOpts("Torque", torqueSeries(), 190), [[], [], [], [], [], [], []], $("plot-T"));
+  stac.plots.T = new uPlot(plotOpts("T", torqueSeries(), 180, true), [[], [], [], [], [], [], []], $("plot-T"));
   resizePlots();
 }
 function resizePlots() {
@@ -118,10 +118,6 @@ function fitY(force) {
   }
   stac.dirty = true;
 }
-function yRange(title) {
-  const key = title === "Torque" ? "T" : title;
-  return stac.yRanges[key] || [-1, 1];
-}
 function redraw() {
   if (stac.dirty && !stac.paused && stac.xs.length) {
     stac.dirty = false;
@@ -131,12 +127,17 @@ function redraw() {
     for (const a of ["Fx", "Fy", "Fz"]) {
       const i = AXES.indexOf(a);
       const p = stac.plots[a];
-      p.batch(() => { p.setData([stac.xs, stac.pred[i], stac.ref[i]], false); p.setScale("x", scale); });
+      p.batch(() => {
+        p.setData([stac.xs, stac.pred[i], stac.ref[i]], false);
+        p.setScale("x", scale);
+        p.setScale("y", { min: stac.yRanges[a][0], max: stac.yRanges[a][1] });
+      });
     }
     const T = stac.plots.T;
     T.batch(() => {
       T.setData([stac.xs, stac.pred[3], stac.pred[4], stac.pred[5], stac.ref[3], stac.ref[4], stac.ref[5]], false);
       T.setScale("x", scale);
+      T.setScale("y", { min: stac.yRanges.T[0], max: stac.yRanges.T[1] });
     });
   }
   requestAnimationFrame(redraw);
@@ -167,12 +168,12 @@ function buildFace(g) {
   svgEl("circle", { cx: 0, cy: 0, r: ri, class: "region", "data-region": "5" }, face);
   svgEl("text", { x: 0, y: 0, "data-label": "5" }, face).textContent = "5";
   for (const [i, a] of g.sensors_deg.entries()) {
-    const [x, y] = polar(g.disc_mm + 0.45, a);
+    const [x, y] = polar(g.ring_mm, a);
     svgEl("rect", { x: x - 0.35, y: y - 0.35, width: 0.7, height: 0.7, class: "sensor" }, face)
       .appendChild(document.createElementNS(SVG, "title")).textContent = `colour sensor ${i}`;
   }
   for (const [i, a] of g.leds_deg.entries()) {
-    const [x, y] = polar(g.disc_mm + 0.45, a);
+    const [x, y] = polar(g.ring_mm, a);
     svgEl("circle", { cx: x, cy: y, r: 0.36, class: "led" }, face)
       .appendChild(document.createElementNS(SVG, "title")).textContent = `RGB LED ${i}`;
   }
@@ -297,7 +298,8 @@ function showSnake(state, commands) {
     ctx.fillStyle = "#fff"; ctx.font = "bold 36px system-ui"; ctx.textAlign = "center";
     ctx.fillText("Game over", cv.width / 2, cv.height / 2);
   }
-  $("snake-status").textContent = `score ${state.score} · length ${state.body.length} · heading ${ARROWS[state.direction]}` + (state.alive ? "" : " · game over");
+  $("snake-status").textContent = `score ${state.score} · length ${state.body.length} · heading ${ARROWS[state.direction]}` +
+    (!state.alive ? " · game over: press a direction to play again" : state.started === false ? " · press a direction to start" : "");
   if (state.commands) {
     $("snake-commands").innerHTML = [...state.commands].reverse().map((c) =>
       `<li>${c.direction ? ARROWS[c.direction] + " " + c.direction : "neutral"} · region ${c.region} · ${c.force_n.toFixed(2)} N · t ${c.time.toFixed(2)} s</li>`).join("");
