@@ -74,9 +74,9 @@ def scripted_presses(
     """One press per entry of `regions`, at the centre of that region, peaking at the
     matching entry of `forces` (N); the scene ends one gap after the last press."""
     n = len(regions)
-    peak = np.broadcast_to(np.asarray(forces, dtype=np.float64), (n,)).copy()
     if np.size(forces) not in (1, n):
         raise TwinError(f"{np.size(forces)} forces for {n} presses: give one, or one per press")
+    peak = np.broadcast_to(np.asarray(forces, dtype=np.float64), (n,)).copy()
     if min(rise_s, fall_s) <= 0 or min(hold_s, gap_s, lead_in_s) < 0:
         raise TwinError("rise and fall must be > 0 s; hold, gap and lead-in >= 0 s")
     period = rise_s + hold_s + fall_s + gap_s
