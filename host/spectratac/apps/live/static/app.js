@@ -123,19 +123,21 @@ function redraw() {
     stac.dirty = false;
     fitY(false);
     const t1 = stac.xs[stac.xs.length - 1];
+    // copies: a paused view (and a resize while paused) keeps showing what it showed
+    const xs = stac.xs.slice(), pred = stac.pred.map((a) => a.slice()), ref = stac.ref.map((a) => a.slice());
     const scale = { min: Math.max(t1 - stac.windowS, stac.xs[0]), max: Math.max(t1, stac.xs[0] + 1) };
     for (const a of ["Fx", "Fy", "Fz"]) {
       const i = AXES.indexOf(a);
       const p = stac.plots[a];
       p.batch(() => {
-        p.setData([stac.xs, stac.pred[i], stac.ref[i]], false);
+        p.setData([xs, pred[i], ref[i]], false);
         p.setScale("x", scale);
         p.setScale("y", { min: stac.yRanges[a][0], max: stac.yRanges[a][1] });
       });
     }
     const T = stac.plots.T;
     T.batch(() => {
-      T.setData([stac.xs, stac.pred[3], stac.pred[4], stac.pred[5], stac.ref[3], stac.ref[4], stac.ref[5]], false);
+      T.setData([xs, pred[3], pred[4], pred[5], ref[3], ref[4], ref[5]], false);
       T.setScale("x", scale);
       T.setScale("y", { min: stac.yRanges.T[0], max: stac.yRanges.T[1] });
     });
@@ -162,7 +164,7 @@ function buildFace(g) {
     const [x2, y2] = polar(ri, centre + 22.5), [x3, y3] = polar(ri, centre - 22.5);
     const d = `M${x0},${y0} A${ro},${ro} 0 0 0 ${x1},${y1} L${x2},${y2} A${ri},${ri} 0 0 1 ${x3},${y3} Z`;
     svgEl("path", { d, class: "region", "data-region": region }, face);
-    const [tx, ty] = polar((ri + ro) / 2, centre);
+    const [tx, ty] = polar(ri + 0.33 * (ro - ri), centre);  // inside the sensors and LEDs
     svgEl("text", { x: tx, y: ty, "data-label": region }, face).textContent = region;
   }
   svgEl("circle", { cx: 0, cy: 0, r: ri, class: "region", "data-region": "5" }, face);
