@@ -41,8 +41,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
     p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),
                    help="folder for saved clips (default: %(default)s)")  # fmt: skip
-    p.add_argument("--history", type=float, default=120.0,
-                   help="seconds kept for 'save the last N seconds' (default: %(default)s)")
+    p.add_argument(
+        "--history",
+        type=float,
+        default=120.0,
+        help="seconds kept for 'save the last N seconds' (default: %(default)s)",
+    )
     p.add_argument("--seconds", type=float, default=0.0,
                    help="serve for this long, then stop (0: until Ctrl-C)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the page's URL as a JSON line")

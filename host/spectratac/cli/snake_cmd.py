@@ -32,14 +32,30 @@ def add_game_options(p: argparse.ArgumentParser) -> None:
     from spectratac.apps.snake.controller import TICK_S
 
     g = p.add_argument_group("Snake game")
-    g.add_argument("--threshold", type=float, default=THRESHOLD_N,
-                   help="normal force (N) a press must exceed to command (default: %(default)s)")
-    g.add_argument("--hysteresis", type=float, default=HYSTERESIS_N,
-                   help="re-arm once the force falls this far below the threshold (N)")
-    g.add_argument("--confirm", type=int, default=CONFIRM,
-                   help="estimates the region must stay the same before a press is decided")
-    g.add_argument("--map", default="cross", dest="mapping",
-                   help="region -> direction: cross | keypad | pairs like 1=up,3=right")
+    g.add_argument(
+        "--threshold",
+        type=float,
+        default=THRESHOLD_N,
+        help="normal force (N) a press must exceed to command (default: %(default)s)",
+    )
+    g.add_argument(
+        "--hysteresis",
+        type=float,
+        default=HYSTERESIS_N,
+        help="re-arm once the force falls this far below the threshold (N)",
+    )
+    g.add_argument(
+        "--confirm",
+        type=int,
+        default=CONFIRM,
+        help="estimates the region must stay the same before a press is decided",
+    )
+    g.add_argument(
+        "--map",
+        default="cross",
+        dest="mapping",
+        help="region -> direction: cross | keypad | pairs like 1=up,3=right",
+    )
     g.add_argument("--tick", type=float, default=TICK_S, help="seconds per snake move")
     g.add_argument("--grid", default="16x12", help="board columns x rows")
     g.add_argument("--game-seed", type=int, default=0, help="seed of the food positions")
@@ -76,8 +92,11 @@ def add_device_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("model", help="decoder file (.stac)")
     p.add_argument("url", help="serial port, socket://host:port, rfc2217://…, or sim://…")
     p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for the devices")
-    p.add_argument("--keep-config", action="store_true",
-                   help="do not configure the sensor; decode only if its configuration matches")
+    p.add_argument(
+        "--keep-config",
+        action="store_true",
+        help="do not configure the sensor; decode only if its configuration matches",
+    )
     p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
 
 
@@ -89,12 +108,19 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_device_options(p)
-    p.add_argument("--seconds", type=float, default=0.0,
-                   help="stop after this many seconds of the sensor's clock (0: until quit)")
+    p.add_argument(
+        "--seconds",
+        type=float,
+        default=0.0,
+        help="stop after this many seconds of the sensor's clock (0: until quit)",
+    )
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--web", action="store_true", help="play in the live page's Snake tab")
-    mode.add_argument("--json", action="store_true",
-                      help="no UI: one JSON line per command, then the game's outcome")
+    mode.add_argument(
+        "--json",
+        action="store_true",
+        help="no UI: one JSON line per command, then the game's outcome",
+    )
     p.add_argument("--port", type=int, default=0, help="--web: port on 127.0.0.1 (0: any)")
     p.add_argument("--no-browser", action="store_true", help="--web: do not open a browser")
     add_game_options(p)

@@ -73,9 +73,7 @@ def check_page(driver, server) -> None:
     # plots receive data: predictions and the time-aligned reference
     assert driver.execute_script("return stac.plots.Fz.data[0].length") > 10
     wait_for(driver, "stac.refsReceived > 10")
-    assert driver.execute_script(
-        "return stac.plots.Fz.data[2].filter(v => v !== null).length"
-    ) > 10
+    assert driver.execute_script("return stac.plots.Fz.data[2].filter(v => v !== null).length") > 10
     wait_for(driver, "document.getElementById('mae').textContent.includes('Fz 0.')")
     # raw counts: 12 per LED step
     assert len(driver.find_elements("css selector", "#raw tbody tr")) == 12
@@ -95,7 +93,8 @@ def check_page(driver, server) -> None:
     driver.find_element("id", "save-seconds").send_keys("2")
     driver.find_element("css selector", "#save-format option[value=csv]").click()
     driver.find_element("id", "save").click()
-    saved = wait_for(driver, "document.getElementById('save-result').textContent.startsWith('saved') && document.getElementById('save-result').textContent")
+    result = "document.getElementById('save-result').textContent"
+    saved = wait_for(driver, f"{result}.startsWith('saved') && {result}")
     assert Path(saved.removeprefix("saved ")).is_file()
     # nothing loaded from outside the package (the page works offline)
     resources = driver.execute_script(

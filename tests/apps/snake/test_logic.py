@@ -37,7 +37,7 @@ def test_default_mapping_follows_the_paper_centre_neutral() -> None:
 
 @pytest.mark.parametrize("text", ["0=up", "10=up", "1=north", "upward", "1:up"])
 def test_bad_mappings_say_what_to_give(text: str) -> None:
-    with pytest.raises(MappingError, match="region|direction"):
+    with pytest.raises(MappingError, match=r"region|direction"):
         DirectionMap.parse(text)
 
 

@@ -68,7 +68,9 @@ def test_scripted_presses_give_exactly_the_scripted_commands(press_model) -> Non
     # deterministic: the same commands and game twice (the sample grid moves with the
     # moment streaming starts, so times differ by up to a sample), and the game the
     # script gives by hand
-    assert [(c.direction, c.region) for c in runs[1][0]] == [(c.direction, c.region) for c in history]
+    assert [(c.direction, c.region) for c in runs[1][0]] == [
+        (c.direction, c.region) for c in history
+    ]
     assert runs[1][1] == outcome == replay_by_hand(scene, expected_commands())
     # the snake runs into the left wall at 14 s; the "down" press at 17.5 s starts a new
     # game, "right" turns it: 8 moves

@@ -4,8 +4,8 @@ terminal, its screen rebuilt by pyte (a VT100 emulator) and read back."""
 from __future__ import annotations
 
 import os
-import re
 import pty
+import re
 import select
 import subprocess
 import sys
@@ -60,5 +60,7 @@ def test_terminal_game_shows_board_keypad_and_the_scripted_commands(press_model)
     assert "SpectraTac Snake" in text and "[2^]" in text and "[4<]" in text and "[5.]" in text
     assert "threshold 1.0 N" in text and "@@" in text and "()" in text
     # the commands panel lists the presses of the first 12 s, newest first
-    commands = [m.group(1) for line in last if (m := re.search(r"(\w+) +region \d +[\d.]+ N", line))]
+    commands = [
+        m.group(1) for line in last if (m := re.search(r"(\w+) +region \d +[\d.]+ N", line))
+    ]
     assert commands[:5] == ["neutral", "left", "down", "right", "up"]

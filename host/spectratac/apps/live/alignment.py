@@ -19,16 +19,17 @@ host: both are scene time already).
 from __future__ import annotations
 
 import collections
+import contextlib
 import time
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
 
 F64 = NDArray[np.float64]
 WINDOW_S = 30.0
+FT_WINDOW_S = 10.0  # the F/T streams hundreds of rows a second: a shorter fit and buffer
 REFIT_S = 2.0
 MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only until then)
 AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
@@ -37,7 +38,9 @@ AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
 class LiveClock:
     """A device clock mapped onto the host clock, refitted as pairs arrive."""
 
-    def __init__(self, scale: float | None, *, window_s: float = WINDOW_S, refit_s: float = REFIT_S):
+    def __init__(
+        self, scale: float | None, *, window_s: float = WINDOW_S, refit_s: float = REFIT_S
+    ):
         self.scale = scale
         self.window_s = window_s
         self.refit_s = refit_s
@@ -66,10 +69,9 @@ class LiveClock:
             return
         if now >= self._refit_at or self._model is None:
             self._refit_at = now + self.refit_s
-            try:
+            # fewer than two distinct times: the lowest offset seen serves meanwhile
+            with contextlib.suppress(ClockFitError):
                 self._model = fit_clock(np.concatenate(self._device), np.concatenate(self._host))
-            except ClockFitError:
-                pass  # fewer than two distinct times yet: the first offset serves
 
     def to_host(self, device_s: ArrayLike) -> F64:
         d = np.asarray(device_s, dtype=np.float64)
@@ -91,7 +93,7 @@ class Pending:
 class ReferenceTracker:
     """Pairs estimates with the reference F/T over their windows; keeps the running MAE."""
 
-    def __init__(self, clock: LiveClock, *, keep_s: float = WINDOW_S, max_pending: int = 100):
+    def __init__(self, clock: LiveClock, *, keep_s: float = FT_WINDOW_S, max_pending: int = 100):
         self.clock = clock
         self.keep_s = keep_s
         self.max_pending = max_pending

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from spectratac.errors import SpectraTacError
 
 KEEP_S = 120.0
@@ -94,7 +93,8 @@ class History:
             frames = [f for f in list(self._frames) if f[1] >= since]
             ft = np.concatenate(list(self._ft)) if self._ft else None
             rows = [
-                r | {f"ref_{a}": v for a, v in zip(AXES, self._refs.get(r["key"], []), strict=False)}
+                r
+                | {f"ref_{a}": v for a, v in zip(AXES, self._refs.get(r["key"], []), strict=False)}
                 for r in self._rows
                 if r["host_time"] >= since
             ]
@@ -130,7 +130,11 @@ class History:
             reply = sensor.get_config().to_dict()
             w.json(
                 CONFIG,
-                {"config_id": reply.get("config_id"), "reply": reply, "config": config_summary(reply)},
+                {
+                    "config_id": reply.get("config_id"),
+                    "reply": reply,
+                    "config": config_summary(reply),
+                },
                 now,
             )
             w.json(TIME_SYNC, {"exchanges": exchanges}, now)
@@ -139,8 +143,13 @@ class History:
                 w.ft(ft)
             w.json(
                 END,
-                {"stopped_by": "clip", "samples": len(rows), "frames": len(frames),
-                 "ft_samples": 0 if ft is None else len(ft), "labels": 0},  # fmt: skip
+                {
+                    "stopped_by": "clip",
+                    "samples": len(rows),
+                    "frames": len(frames),
+                    "ft_samples": 0 if ft is None else len(ft),
+                    "labels": 0,
+                },
                 time.monotonic(),
             )
         return len(frames)

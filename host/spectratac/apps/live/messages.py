@@ -26,7 +26,6 @@ import math
 from typing import Any
 
 import numpy as np
-
 from spectratac.decode.guard import DARK_COUNTS, SATURATION
 
 

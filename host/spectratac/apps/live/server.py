@@ -25,15 +25,14 @@ from pathlib import Path
 from typing import Any
 
 import uvicorn
+from spectratac.apps.live.session import LiveSession
+from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse
 from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
-
-from spectratac.apps.live.session import LiveSession
-from spectratac.errors import SpectraTacError
 
 STATIC = Path(__file__).with_name("static")
 HOST = "127.0.0.1"  # never another interface: the page controls a device
@@ -164,7 +163,9 @@ def bind(port: int = 0) -> socket.socket:
         sock.bind((HOST, port))
     except OSError as exc:
         sock.close()
-        raise SpectraTacError(f"cannot listen on {HOST}:{port}: {exc}; give another --port") from None
+        raise SpectraTacError(
+            f"cannot listen on {HOST}:{port}: {exc}; give another --port"
+        ) from None
     return sock
 
 

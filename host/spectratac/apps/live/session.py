@@ -20,8 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from spectratac.apps.live.alignment import LiveClock, ReferenceTracker
+from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
 from spectratac.apps.live.latency import LatencyLog
 from spectratac.apps.live.messages import estimate_message
@@ -94,14 +93,17 @@ class LiveSession:
         decode on a worker thread, calling `publish(message)` from it."""
         try:
             self.sensor = self._stack.enter_context(
-                open_for_decoder(self.decoder, self.url, keep_config=self.keep_config,
-                                 timeout=self.timeout)  # fmt: skip
+                open_for_decoder(
+                    self.decoder, self.url, keep_config=self.keep_config, timeout=self.timeout
+                )
             )
             self.sensor.add_listener(lambda frame, t: self.history.add_frame(frame.raw, t))
             if self.ft_url is not None:
                 from spectratac.ft import FTSensor
 
-                self.ft = self._stack.enter_context(FTSensor.open(self.ft_url, timeout=self.timeout))
+                self.ft = self._stack.enter_context(
+                    FTSensor.open(self.ft_url, timeout=self.timeout)
+                )
                 self.ft.start()
         except BaseException:
             self._stack.close()
@@ -225,7 +227,9 @@ class LiveSession:
     def _decode(self, publish: Publish) -> None:
         tap = SampleTap(self.sensor)
         sensor_clock = LiveClock(self.scale)
-        tracker = ReferenceTracker(LiveClock(self.scale)) if self.ft is not None else None
+        tracker = None
+        if self.ft is not None:
+            tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S))
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
@@ -271,7 +275,9 @@ class LiveSession:
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
-        t_start, t_end = sensor_clock.to_host([sample.t_start_us / 1e6, sample.device_time_us / 1e6])
+        t_start, t_end = sensor_clock.to_host(
+            [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
+        )
         if not est.invalid:
             tracker.add_estimate(seq, float(t_start), float(t_end), np.r_[est.force, est.torque])
         refs = []
@@ -295,5 +301,7 @@ class LiveSession:
             "contact": int(msg["contact"]),
             "ood": int(msg["ood"]),
             "invalid": int(msg["invalid"]),
-            **dict(zip([f"s{s}.{c}" for s in range(3) for c in "RGBC"], msg["counts"], strict=True)),
+            **dict(
+                zip([f"s{s}.{c}" for s in range(3) for c in "RGBC"], msg["counts"], strict=True)
+            ),
         }

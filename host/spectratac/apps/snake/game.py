@@ -24,7 +24,12 @@ import numpy as np
 from spectratac.apps.snake.mapping import Direction
 from spectratac.errors import SpectraTacError
 
-MOVES: dict[str, tuple[int, int]] = {"up": (0, -1), "down": (0, 1), "left": (-1, 0), "right": (1, 0)}
+MOVES: dict[str, tuple[int, int]] = {
+    "up": (0, -1),
+    "down": (0, 1),
+    "left": (-1, 0),
+    "right": (1, 0),
+}
 OPPOSITE = {"up": "down", "down": "up", "left": "right", "right": "left"}
 
 Cell = tuple[int, int]  # (column, row), row 0 at the top
@@ -110,7 +115,9 @@ class SnakeGame:
 
     def _place_food(self) -> Cell:
         occupied = set(self.body)
-        free = [(x, y) for y in range(self.height) for x in range(self.width) if (x, y) not in occupied]
+        free = [
+            (x, y) for y in range(self.height) for x in range(self.width) if (x, y) not in occupied
+        ]
         if not free:
             return self.head  # the snake fills the grid: nothing left to eat
         return free[int(self._rng.integers(len(free)))]

@@ -107,5 +107,10 @@ def draw(screen: Any, controller: SnakeController, estimate: Any, t: float) -> N
     _put(screen, top + 11, px, "commands", curses.A_BOLD)
     for i, c in enumerate(reversed(controller.history[-8:])):
         what = c.direction or "neutral"
-        _put(screen, top + 12 + i, px, f"{what:<8} region {c.region}  {c.force_n:4.1f} N  {c.time:7.2f} s")
+        _put(
+            screen,
+            top + 12 + i,
+            px,
+            f"{what:<8} region {c.region}  {c.force_n:4.1f} N  {c.time:7.2f} s",
+        )
     screen.refresh()
