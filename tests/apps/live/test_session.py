@@ -81,4 +81,4 @@ def test_session_refuses_what_it_cannot_open(press_model) -> None:
     session = LiveSession(Decoder.load(press_model), "socket://127.0.0.1:9", timeout=0.5)
     with pytest.raises(SpectraTacError):
         session.start(lambda msg: None)
-    assert not session.running and session._stack.close() is None
+    assert not session.running and session.sensor is None
