@@ -44,3 +44,19 @@ def test_load_and_predict_without_torch(tmp_path) -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout
     assert out.split() == ["200", "False"]
+
+
+def test_live_and_snake_apps_do_not_import_torch() -> None:
+    code = (
+        "import sys\n"
+        "from spectratac.cli import build_parser\n"
+        "import spectratac.cli.live_cmd, spectratac.cli.snake_cmd\n"
+        "import spectratac.apps.live.server, spectratac.apps.live.session\n"
+        "import spectratac.apps.snake.play, spectratac.apps.snake.terminal\n"
+        "build_parser().parse_args(['live', 'm.stac', 'sim://'])\n"
+        "print('torch' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.split() == ["False"]

@@ -34,6 +34,8 @@ VERB_MODULES: tuple[str, ...] = (
     "bench_cmd",
     "train_cmd",
     "decode_cmd",
+    "live_cmd",
+    "snake_cmd",
 )
 
 

@@ -19,6 +19,7 @@ import sys
 import time
 from typing import Any
 
+from spectratac.apps.sensor_setup import sensor_settings
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import (
     add_count,
@@ -54,21 +55,6 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
     p.set_defaults(func=run)
-
-
-def sensor_settings(config: dict[str, Any] | None) -> dict[str, Any]:
-    """`Sensor.configure` keyword arguments for a model's training configuration.
-
-    >>> sensor_settings({"integration_ms": 100, "leds": [[[9, 9, 9]] * 3], "note": "x"})
-    {'integration_ms': 100, 'leds': [[[9, 9, 9], [9, 9, 9], [9, 9, 9]]]}
-    """
-    if not config:
-        raise SpectraTacError(
-            "the model records no sensor configuration (trained on data from another "
-            "sensor?): pass --keep-config to decode with the device's own"
-        )
-    keys = ("integration_ms", "gain", "digital_gain", "sensitivity", "leds", "settle_us")
-    return {k: config[k] for k in keys if k in config}
 
 
 def _cells(e: Any, t0: float) -> list[Any]:

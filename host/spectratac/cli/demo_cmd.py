@@ -64,6 +64,10 @@ def _dispatch(args: argparse.Namespace) -> int:
             f"done in {t['total_s']:.0f} s (record {t['record_s']:.0f} s, dataset "
             f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s)"
         )
+        print(
+            f"watch the model you just trained live (force vs reference F/T, regions, Snake):\n"
+            f'  spectratac live {opts.out / "best.stac"} "sim://?scene=presses&speed=1&ft=bota"'
+        )
     return ExitCode.OK
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.twin import builtin_scenes
+from spectratac.twin import builtin_scenes, scripted_presses
 from spectratac.twin.geometry import region_centre
 from spectratac.twin.scene_model import Environment, Presses, Scene
 
@@ -58,6 +58,7 @@ SCENES: dict[str, Callable[..., Scene]] = {
         builtin_scenes.calibration_session(int(seed), float(duration))
     ),
     "drift": lambda **_: builtin_scenes.drift_session(),
+    "presses": scripted_presses.from_url_params,  # order=up,left,5&force=2.0
 }
 
 

@@ -1,0 +1,150 @@
+"""Live time alignment of the decoder's estimates with the reference F/T, and running MAE.
+
+The same method the dataset builder uses (`spectratac.dataset.align`), run on a rolling
+window: each device clock (the optical sensor's, the F/T's) is fitted onto the host's
+monotonic clock with `spectratac.fusion.fit_clock` over the last `window_s` seconds of
+(device time, arrival time) pairs, refitted every `refit_s`; the reference for an
+estimate is the F/T averaged over its integration window (`window_average`), as in the
+dataset. `scale` is device seconds per host second (a paced sim's speed, 1 for hardware);
+None keeps the device clocks as they are (sim at speed=max, where they run ahead of the
+host: both are scene time already).
+
+>>> clock = LiveClock(scale=1.0)
+>>> t = np.arange(0.0, 3.0, 0.05)
+>>> clock.add(t, 100.002 + t * (1 + 1e-3) + np.where(np.arange(t.size) % 3, 0.004, 0.0))
+>>> round(float(clock.to_host(4.0)), 4)
+104.006
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
+
+F64 = NDArray[np.float64]
+WINDOW_S = 30.0
+FT_WINDOW_S = 10.0  # the F/T streams hundreds of rows a second: a shorter fit and buffer
+REFIT_S = 2.0
+MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only until then)
+AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+
+
+class LiveClock:
+    """A device clock mapped onto the host clock, refitted as pairs arrive."""
+
+    def __init__(
+        self, scale: float | None, *, window_s: float = WINDOW_S, refit_s: float = REFIT_S
+    ):
+        self.scale = scale
+        self.window_s = window_s
+        self.refit_s = refit_s
+        self._device: collections.deque[F64] = collections.deque()
+        self._host: collections.deque[F64] = collections.deque()
+        self._model: ClockModel | None = None
+        self._offset = np.inf  # lowest host - device seen: the offset until the first fit
+        self._refit_at = 0.0
+
+    def add(self, device_s: ArrayLike, host_s: ArrayLike) -> None:
+        """Pairs of (device time s, host arrival time s), in arrival order."""
+        if self.scale is None:
+            return
+        d = np.asarray(device_s, dtype=np.float64).ravel() / self.scale
+        h = np.asarray(host_s, dtype=np.float64).ravel()
+        if not d.size:
+            return
+        self._offset = min(self._offset, float(np.min(h - d)))
+        self._device.append(d)
+        self._host.append(h)
+        while len(self._host) > 1 and self._host[0][-1] < h[-1] - self.window_s:
+            self._device.popleft()
+            self._host.popleft()
+        now = time.monotonic()
+        if self._device[-1][-1] - self._device[0][0] < MIN_FIT_S:
+            return
+        if now >= self._refit_at or self._model is None:
+            self._refit_at = now + self.refit_s
+            # fewer than two distinct times: the lowest offset seen serves meanwhile
+            with contextlib.suppress(ClockFitError):
+                self._model = fit_clock(np.concatenate(self._device), np.concatenate(self._host))
+
+    def to_host(self, device_s: ArrayLike) -> F64:
+        d = np.asarray(device_s, dtype=np.float64)
+        if self.scale is None:
+            return d
+        if self._model is not None:
+            return self._model.to_host(d / self.scale)
+        return d / self.scale + (self._offset if np.isfinite(self._offset) else 0.0)
+
+
+@dataclass
+class Pending:
+    key: int
+    t_start: float  # host clock
+    t_end: float
+    predicted: F64  # (6,) Fx Fy Fz Tx Ty Tz, NaN where not decoded
+
+
+class ReferenceTracker:
+    """Pairs estimates with the reference F/T over their windows; keeps the running MAE."""
+
+    def __init__(self, clock: LiveClock, *, keep_s: float = FT_WINDOW_S, max_pending: int = 100):
+        self.clock = clock
+        self.keep_s = keep_s
+        self.max_pending = max_pending
+        self._t = np.empty(0)
+        self._w = np.empty((0, 6))
+        self._pending: collections.deque[Pending] = collections.deque()
+        self.abs_sum = np.zeros(6)
+        self.count = np.zeros(6, dtype=np.int64)
+
+    def add_ft(self, rows: np.ndarray) -> None:
+        """FT_RECORD rows as they arrive."""
+        if not len(rows):
+            return
+        self.clock.add(rows["sensor_time"], rows["host_time"])
+        t = self.clock.to_host(rows["sensor_time"])
+        self._t = np.concatenate([self._t, t])
+        self._w = np.concatenate([self._w, rows["wrench"].astype(np.float64)])
+        keep = self._t >= self._t[-1] - self.keep_s
+        self._t, self._w = self._t[keep], self._w[keep]
+
+    def add_estimate(self, key: int, t_start: float, t_end: float, predicted: ArrayLike) -> None:
+        self._pending.append(Pending(key, t_start, t_end, np.asarray(predicted, np.float64)))
+
+    def ready(self) -> list[tuple[int, float, F64]]:
+        """(key, window end, reference wrench (6,)) of the windows the F/T now covers, in
+        order; windows it will never cover (a dropout, F/T stopped) are given up once
+        `max_pending` wait behind them."""
+        out: list[tuple[int, float, F64]] = []
+        last = self._t[-1] if self._t.size else -np.inf
+        while self._pending:
+            p = self._pending[0]
+            if p.t_end > last:
+                if len(self._pending) <= self.max_pending:
+                    break
+                self._pending.popleft()  # never covered: a dropout, or the F/T stopped
+                continue
+            self._pending.popleft()
+            mean, valid, _ = window_average(self._t, self._w, [p.t_start], [p.t_end])
+            if not valid[0]:
+                continue
+            ref = mean[0]
+            err = np.abs(p.predicted - ref)
+            ok = np.isfinite(err)
+            self.abs_sum[ok] += err[ok]
+            self.count[ok] += 1
+            out.append((p.key, p.t_end, ref))
+        return out
+
+    def mae(self) -> dict[str, float | None]:
+        """Running mean absolute error per axis (None for axes not decoded yet)."""
+        return {
+            a: (float(self.abs_sum[i] / self.count[i]) if self.count[i] else None)
+            for i, a in enumerate(AXES)
+        }

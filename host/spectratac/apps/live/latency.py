@@ -1,0 +1,53 @@
+"""Latency figures the page reports: frame arrival -> browser, and a bare WebSocket echo.
+
+The page stamps every estimate on receipt (`performance.timeOrigin + performance.now()`,
+the same system clock as the host's `time.time()`) and sends the differences to
+`arrival_ms` back in batches; the server also pings the page and times the echo, the
+reference: what the WebSocket alone costs on this machine, measured at the same time.
+
+>>> log = LatencyLog()
+>>> log.add([float(v) for v in range(1, 101)])
+>>> log.summary()
+{'n': 100, 'p50_ms': 50.5, 'p99_ms': 99.01, 'max_ms': 100.0}
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+from typing import Any
+
+import numpy as np
+
+KEEP = 20_000
+
+
+class LatencyLog:
+    def __init__(self, keep: int = KEEP) -> None:
+        self._values: collections.deque[float] = collections.deque(maxlen=keep)
+        self._lock = threading.Lock()
+
+    def add(self, values_ms: list[float]) -> None:
+        finite = [float(v) for v in values_ms if isinstance(v, int | float) and np.isfinite(v)]
+        with self._lock:
+            self._values.extend(finite)
+
+    def clear(self) -> None:
+        with self._lock:
+            self._values.clear()
+
+    def values(self) -> list[float]:
+        with self._lock:
+            return list(self._values)
+
+    def summary(self) -> dict[str, Any]:
+        v = np.asarray(self.values())
+        if not v.size:
+            return {"n": 0, "p50_ms": None, "p99_ms": None, "max_ms": None}
+        p50, p99 = np.percentile(v, [50, 99])
+        return {
+            "n": int(v.size),
+            "p50_ms": round(float(p50), 3),
+            "p99_ms": round(float(p99), 3),
+            "max_ms": round(float(v.max()), 3),
+        }

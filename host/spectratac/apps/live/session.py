@@ -1,0 +1,307 @@
+"""`LiveSession`: the decoder running on a live sensor, with its reference F/T, history
+and Snake game, publishing one JSON message per sample. No UI: the web server
+(`spectratac.apps.live.server`) and the tests subscribe to it.
+
+    session = LiveSession(Decoder.load("model.stac"), "sim://?scene=presses&speed=1")
+    session.start(publish=print)      # opens the devices here (errors raise here) ...
+    ...                               # ... and decodes on a worker thread
+    session.stop()
+
+Torch is never imported: decoding runs on the model file's NumPy runtime.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
+from spectratac.apps.live.history import FORMATS, KEEP_S, History
+from spectratac.apps.live.latency import LatencyLog
+from spectratac.apps.live.messages import estimate_message
+from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
+from spectratac.apps.snake.controller import SnakeController
+from spectratac.errors import SpectraTacError
+
+Publish = Callable[[dict[str, Any]], None]
+STATS_EVERY_S = 0.5
+
+
+def clock_scale(url: str) -> float | None:
+    """Device seconds per host second of a sensor URL: a paced sim's speed, 1 for
+    hardware, None for a sim at speed=max (its clock is not tied to the host's).
+
+    >>> clock_scale("/dev/ttyACM0"), clock_scale("sim://?scene=tour&speed=4"), clock_scale(
+    ...     "sim://?speed=max")
+    (1.0, 4.0, None)
+    """
+    if not url.startswith("sim://"):
+        return 1.0
+    from spectratac.sim.runner import MAX
+    from spectratac.sim.url import parse_sim_url
+
+    speed = parse_sim_url(url).speed
+    return None if speed == MAX else float(speed)
+
+
+class LiveSession:
+    def __init__(
+        self,
+        decoder: Any,
+        url: str,
+        *,
+        ft_url: str | None = None,
+        keep_config: bool = False,
+        timeout: float = 2.0,
+        history_s: float = KEEP_S,
+        snake: SnakeController | None = None,
+        out_dir: str | Path = "live-clips",
+        model_path: str | None = None,
+    ) -> None:
+        self.decoder = decoder
+        self.url = url
+        self.ft_url = ft_url
+        self.keep_config = keep_config
+        self.timeout = timeout
+        self.snake = snake or SnakeController()
+        self.history = History(history_s)
+        self.out_dir = Path(out_dir)
+        self.model_path = model_path
+        self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
+        self.echo = LatencyLog()  # the bare WebSocket round trip, halved
+        self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
+        self.scale = clock_scale(url)
+        self.sensor: Any = None
+        self.ft: Any = None
+        self.estimates = 0
+        self.last: dict[str, Any] | None = None
+        self._stack = contextlib.ExitStack()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()  # the snake is driven by the worker and by clients
+        self._unix_minus_mono = time.time() - time.monotonic()
+        self.error: str | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self, publish: Publish) -> None:
+        """Open the sensor (configured as the model was trained) and the F/T sensor, then
+        decode on a worker thread, calling `publish(message)` from it."""
+        try:
+            self.sensor = self._stack.enter_context(
+                open_for_decoder(
+                    self.decoder, self.url, keep_config=self.keep_config, timeout=self.timeout
+                )
+            )
+            self.sensor.add_listener(lambda frame, t: self.history.add_frame(frame.raw, t))
+            if self.ft_url is not None:
+                from spectratac.ft import FTSensor
+
+                self.ft = self._stack.enter_context(
+                    FTSensor.open(self.ft_url, timeout=self.timeout)
+                )
+                self.ft.start()
+        except BaseException:
+            self._stack.close()
+            raise
+        self._thread = threading.Thread(
+            target=self._run, args=(publish,), name="spectratac-live", daemon=True
+        )
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop decoding and close the devices (idempotent)."""
+        self._stop.set()
+        self._stack.close()  # closing the sensor ends the stream the worker waits on
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    # ------------------------------------------------------------------ what clients see
+    def meta(self) -> dict[str, Any]:
+        """Everything the page needs once: model, devices, geometry, game settings."""
+        from spectratac.twin import geometry as g
+
+        det = self.snake.detector
+        dec = self.decoder
+        return {
+            "type": "meta",
+            "model": {
+                "path": self.model_path,
+                "targets": list(dec.target_names),
+                "unit": dec.unit_id,
+                "params": dec.n_params,
+                "regions": int(dec.heads.n_classes),
+            },
+            "url": self.url,
+            "ft_url": self.ft_url,
+            "device": None if self.sensor is None else self.sensor.info.board,
+            "config": dec.config,
+            "history_s": self.history.keep_s,
+            "formats": list(FORMATS),
+            "geometry": {
+                "disc_mm": g.DISC_RADIUS_MM,
+                "centre_mm": g.CENTER_RADIUS_MM,
+                "active_mm": g.ACTIVE_RADIUS_MM,
+                "ring_mm": g.RING_RADIUS_MM,
+                "sectors_deg": {str(k): v for k, v in g.SECTOR_CENTRE_DEG.items()},
+                "sensors_deg": g.SENSOR_ANGLES_DEG.tolist(),
+                "leds_deg": g.LED_ANGLES_DEG.tolist(),
+            },
+            "snake": self.snake_state(),
+            "threshold_n": det.threshold_n,
+            "release_n": det.release_n,
+        }
+
+    def snake_state(self) -> dict[str, Any]:
+        with self._lock:
+            return self.snake.state()
+
+    def restart_snake(self) -> dict[str, Any]:
+        with self._lock:
+            self.snake.restart()
+            return self.snake.state()
+
+    def stats(self) -> dict[str, Any]:
+        s = self.sensor.stats if self.sensor is not None else None
+        out: dict[str, Any] = {
+            "type": "stats",
+            "estimates": self.estimates,
+            "running": self.running,
+            "error": self.error,
+            "latency": self.latency.summary(),
+            "echo": self.echo.summary(),
+            "pipeline": self.pipeline.summary(),
+        }
+        if s is not None:
+            out["link"] = {
+                "samples": s.samples_received,
+                "lost": s.sample_gaps,
+                "errors": s.crc_errors + s.cobs_errors + s.other_frame_errors,
+                "frame_gaps": s.frame_gaps,
+                "overflows": s.buffer_overflows,
+                "reconnects": s.reconnects,
+            }
+        if self.ft is not None:
+            out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost}
+        return out
+
+    def save(self, seconds: float, fmt: str = "mcap") -> dict[str, Any]:
+        """Write the last `seconds` as `fmt` (mcap or csv) into the output folder."""
+        if fmt not in FORMATS:
+            raise SpectraTacError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
+        if self.sensor is None:
+            raise SpectraTacError("the session has not started: nothing to save yet")
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = self.out_dir / f"live-{stamp}-{seconds:g}s.{fmt}"
+        if fmt == "csv":
+            n = self.history.save_csv(path, seconds)
+            what = "rows"
+        else:
+            session = {"url": self.url, "ft_url": self.ft_url, "clip_s": seconds,
+                       "ft_info": None if self.ft is None else self.ft.info.as_dict()}  # fmt: skip
+            n = self.history.save_mcap(path, seconds, self.sensor, session)
+            what = "frames"
+        return {"path": str(path.resolve()), "format": fmt, what: n, "seconds": seconds}
+
+    # ------------------------------------------------------------------ the worker
+    def _run(self, publish: Publish) -> None:
+        try:
+            self._decode(publish)
+        except SpectraTacError as exc:
+            if not self._stop.is_set():
+                self.error = str(exc)
+                publish({"type": "error", "message": str(exc)})
+        finally:
+            if not self._stop.is_set():
+                publish(self.stats())
+
+    def _decode(self, publish: Publish) -> None:
+        tap = SampleTap(self.sensor)
+        sensor_clock = LiveClock(self.scale)
+        tracker = None
+        if self.ft is not None:
+            tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S))
+        t0: float | None = None
+        t_last = -np.inf
+        next_stats = time.monotonic() + STATS_EVERY_S
+        for seq, est in enumerate(self.decoder.stream(tap)):
+            if self._stop.is_set():
+                return
+            sample = tap.last
+            t_end = sample.device_time_us / 1e6
+            sensor_clock.add([t_end], [sample.host_time])
+            t0 = float(sensor_clock.to_host(t_end)) if t0 is None else t0
+            # a refit may move the clock back a little: the page's time axis only advances
+            t_plot = max(float(sensor_clock.to_host(t_end)) - t0, t_last + 1e-4)
+            t_last = t_plot
+            msg = estimate_message(seq, est, sample, t_plot,
+                                   (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
+            if tracker is not None:
+                self._reference(tracker, sensor_clock, seq, est, sample, t0, msg)
+            with self._lock:
+                update = self.snake.feed(est, t_end)
+                if update.commands or update.steps:
+                    msg["snake"] = self.snake.state()
+                    msg["commands"] = [c.as_dict() for c in update.commands]
+            self.history.add_row(seq, self._row(msg, est, sample))
+            self.estimates += 1
+            self.last = msg
+            publish(msg)
+            now = time.monotonic()
+            self.pipeline.add([(now - sample.host_time) * 1e3])
+            if now >= next_stats:
+                next_stats = now + STATS_EVERY_S
+                publish(self.stats())
+
+    def _reference(
+        self,
+        tracker: ReferenceTracker,
+        sensor_clock: LiveClock,
+        seq: int,
+        est: Any,
+        sample: Any,
+        t0: float,
+        msg: dict[str, Any],
+    ) -> None:
+        rows = self.ft.read_available()
+        tracker.add_ft(rows)
+        self.history.add_ft(rows)
+        t_start, t_end = sensor_clock.to_host(
+            [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
+        )
+        if not est.invalid:
+            tracker.add_estimate(seq, float(t_start), float(t_end), np.r_[est.force, est.torque])
+        refs = []
+        for key, t, wrench in tracker.ready():
+            self.history.add_reference(key, wrench)
+            refs.append([key, round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
+        msg["refs"] = refs
+        msg["mae"] = tracker.mae()
+
+    @staticmethod
+    def _row(msg: dict[str, Any], est: Any, sample: Any) -> dict[str, Any]:
+        names = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+        return {
+            "t_s": msg["t"],
+            "host_time": sample.host_time,
+            "device_time_s": sample.device_time_us / 1e6,
+            "step": msg["step"],
+            **dict(zip(names, [*msg["force"], *msg["torque"]], strict=True)),
+            "region": msg["region"],
+            "region_prob": msg["p"],
+            "contact": int(msg["contact"]),
+            "ood": int(msg["ood"]),
+            "invalid": int(msg["invalid"]),
+            **dict(
+                zip([f"s{s}.{c}" for s in range(3) for c in "RGBC"], msg["counts"], strict=True)
+            ),
+        }

@@ -1,0 +1,71 @@
+"""Setting a sensor up for a trained decoder: configure it as the model was trained.
+
+Shared by every verb that decodes live (`spectratac decode`, `live`, `snake`).
+
+    with open_for_decoder(decoder, url) as sensor:
+        for estimate in decoder.stream(sensor):
+            ...
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from typing import Any
+
+from spectratac.errors import SpectraTacError
+
+SETTINGS = ("integration_ms", "gain", "digital_gain", "sensitivity", "leds", "settle_us")
+
+
+def sensor_settings(config: dict[str, Any] | None) -> dict[str, Any]:
+    """`Sensor.configure` keyword arguments for a model's training configuration.
+
+    >>> sensor_settings({"integration_ms": 100, "leds": [[[9, 9, 9]] * 3], "note": "x"})
+    {'integration_ms': 100, 'leds': [[[9, 9, 9], [9, 9, 9], [9, 9, 9]]]}
+    """
+    if not config:
+        raise SpectraTacError(
+            "the model records no sensor configuration (trained on data from another "
+            "sensor?): pass --keep-config to decode with the device's own"
+        )
+    return {k: config[k] for k in SETTINGS if k in config}
+
+
+@contextlib.contextmanager
+def open_for_decoder(
+    decoder: Any, url: str, *, keep_config: bool = False, **options: Any
+) -> Iterator[Any]:
+    """The sensor at `url`, configured as `decoder` was trained (unless `keep_config`:
+    then `Decoder.stream` refuses a device configured otherwise) and streaming; stopped
+    and closed on exit. `options` go to `Sensor.open` (timeout, buffer_size, ...)."""
+    from spectratac.device import Sensor
+
+    settings = None if keep_config else sensor_settings(decoder.config)
+    with Sensor.open(url, **options) as sensor:
+        if settings is not None:
+            sensor.configure(**settings)
+        sensor.start()
+        try:
+            yield sensor
+        finally:
+            if not sensor.stats.reconnects:
+                with contextlib.suppress(SpectraTacError, OSError):
+                    sensor.stop()
+
+
+class SampleTap:
+    """A sensor as `Decoder.stream` sees it, keeping the sample behind each estimate in
+    `last` (the raw counts, the device clock) while the decoder consumes it."""
+
+    def __init__(self, sensor: Any) -> None:
+        self.sensor = sensor
+        self.last: Any = None
+
+    def __iter__(self) -> Iterator[Any]:
+        for sample in self.sensor:
+            self.last = sample
+            yield sample
+
+    def get_config(self) -> Any:
+        return self.sensor.get_config()

@@ -1,0 +1,93 @@
+"""`spectratac live MODEL URL [--ft FT_URL]`: the real-time force tracking page.
+
+Serves a local web page (127.0.0.1 only; the URL is printed and opened in the browser
+unless --no-browser) with rolling plots of the decoded Fx, Fy, Fz and torques at the
+sensor's rate; with a reference F/T sensor (--ft, or a sim:// URL with ft=...), the
+reference drawn dashed on the same axes, time-aligned with the clock fit the dataset
+builder uses, and a running MAE per axis. Beside them: the sensor face with the decoded
+region lit by its probability, contact / out-of-distribution / invalid flags, the raw
+counts of every LED step with saturation and dark warnings, link statistics and the
+latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
+(into --output). The Snake tab plays the paper's game on the same estimates.
+
+    spectratac live model.stac /dev/ttyACM0 --ft netft://192.168.1.1
+    spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota"
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import threading
+import webbrowser
+from pathlib import Path
+from typing import Any
+
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_duration
+from spectratac.cli.snake_cmd import add_device_options, add_game_options, controller_from_args
+from spectratac.errors import SpectraTacError
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "live",
+        help="live web page: force plots vs reference F/T, region map, raw counts, Snake",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_device_options(p)
+    p.add_argument("--ft", dest="ft_url", help="reference F/T URL (netft://, bota://, sim://)")
+    p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
+    p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
+    p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),
+                   help="folder for saved clips (default: %(default)s)")  # fmt: skip
+    p.add_argument(
+        "--history",
+        type=float,
+        default=120.0,
+        help="seconds kept for 'save the last N seconds' (default: %(default)s)",
+    )
+    add_duration(p, 0.0, "serve for this long, then stop (0: until Ctrl-C)")
+    p.add_argument("--json", action="store_true", help="print the page's URL as a JSON line")
+    add_game_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    return serve(args, controller_from_args(args), tab="live")
+
+
+def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
+    """Serve the page of a live session on `args` until Ctrl-C or --duration."""
+    from spectratac.apps.live.server import LiveServer, bind
+    from spectratac.apps.live.session import LiveSession
+    from spectratac.decode import Decoder
+    from spectratac.record import ft_url_for
+
+    if args.duration < 0:
+        raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
+    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    session = LiveSession(
+        decoder,
+        args.url,
+        ft_url=ft_url_for(args.url, getattr(args, "ft_url", None)),
+        keep_config=args.keep_config,
+        timeout=args.timeout,
+        history_s=getattr(args, "history", 120.0),
+        snake=controller,
+        out_dir=getattr(args, "output", Path("live-clips")),
+        model_path=str(args.model),
+    )
+    server = LiveServer(session, bind(args.port))
+    url = server.url + ("#snake" if tab == "snake" else "")
+    if args.duration:
+        threading.Timer(args.duration, lambda: setattr(server.server, "should_exit", True)).start()
+    if getattr(args, "json", False):
+        print(json.dumps({"url": url}), flush=True)
+    else:
+        print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
+    if not args.no_browser:
+        threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+    server.run()
+    return ExitCode.OK

@@ -1,0 +1,152 @@
+"""`spectratac snake MODEL URL`: the paper's Snake game, steered by pressing the sensor.
+
+The nine contact regions map to directions (keypad layout: 2 up, 4 left, 6 right, 8 down,
+5 the neutral centre; corners neutral by default, `--map keypad` gives them to the top and
+bottom rows, or give region=direction pairs). A command fires only when the normal force
+exceeds `--threshold` (the paper's 1.0 N); it re-arms below threshold − `--hysteresis`,
+so one press gives one command. The snake waits for the first command, then moves one
+cell every `--tick` seconds of the sensor's clock.
+
+Runs in the terminal (curses: works over SSH; q quits, r restarts), or with `--web` in the
+live page's Snake tab, or with `--json` headless, one JSON line per command.
+
+    spectratac snake model.stac /dev/ttyACM0
+    spectratac snake model.stac "sim://?scene=presses&speed=1"         # a scripted demo
+    spectratac snake model.stac "sim://?scene=presses&speed=max" --json --duration 22
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_device_url, add_duration
+from spectratac.errors import SpectraTacError
+
+
+def add_game_options(p: argparse.ArgumentParser) -> None:
+    """The options that set the game up (shared with `spectratac live`)."""
+    from spectratac.apps.snake.control import CONFIRM, HYSTERESIS_N, THRESHOLD_N
+    from spectratac.apps.snake.controller import TICK_S
+
+    g = p.add_argument_group("Snake game")
+    g.add_argument(
+        "--threshold",
+        type=float,
+        default=THRESHOLD_N,
+        help="normal force (N) a press must exceed to command (default: %(default)s)",
+    )
+    g.add_argument(
+        "--hysteresis",
+        type=float,
+        default=HYSTERESIS_N,
+        help="re-arm once the force falls this far below the threshold (N)",
+    )
+    g.add_argument(
+        "--confirm",
+        type=int,
+        default=CONFIRM,
+        help="estimates the region must stay the same before a press is decided",
+    )
+    g.add_argument(
+        "--map",
+        default="cross",
+        dest="mapping",
+        help="region -> direction: cross | keypad | pairs like 1=up,3=right",
+    )
+    g.add_argument("--tick", type=float, default=TICK_S, help="seconds per snake move")
+    g.add_argument("--grid", default="16x12", help="board columns x rows")
+    g.add_argument("--game-seed", type=int, default=0, help="seed of the food positions")
+    g.add_argument("--accept-ood", action="store_true",
+                   help="let out-of-distribution estimates command too")  # fmt: skip
+
+
+def controller_from_args(args: argparse.Namespace) -> Any:
+    from spectratac.apps.snake.control import CommandDetector
+    from spectratac.apps.snake.controller import SnakeController
+    from spectratac.apps.snake.game import SnakeGame
+    from spectratac.apps.snake.mapping import DirectionMap
+
+    try:
+        width, height = (int(v) for v in args.grid.lower().split("x"))
+    except ValueError:
+        raise SpectraTacError(f"--grid {args.grid!r}: give columns x rows, e.g. 16x12") from None
+    detector = CommandDetector(
+        DirectionMap.parse(args.mapping),
+        threshold_n=args.threshold,
+        hysteresis_n=args.hysteresis,
+        confirm=args.confirm,
+        accept_ood=args.accept_ood,
+    )
+    try:
+        return SnakeController(SnakeGame(width, height, seed=args.game_seed), detector,
+                               tick_s=args.tick)  # fmt: skip
+    except ValueError as exc:
+        raise SpectraTacError(f"--tick: {exc}") from None
+
+
+def add_device_options(p: argparse.ArgumentParser) -> None:
+    """Model and device options shared by the live verbs (as `spectratac decode` has them)."""
+    p.add_argument("model", help="decoder file (.stac)")
+    add_device_url(p)
+    p.add_argument(
+        "--keep-config",
+        action="store_true",
+        help="do not configure the sensor; decode only if its configuration matches",
+    )
+    p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "snake",
+        help="play Snake by pressing the sensor (terminal, --web page, or --json)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_device_options(p)
+    add_duration(p, 0.0, "stop after this many seconds of the sensor's clock (0: until quit)")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--web", action="store_true", help="play in the live page's Snake tab")
+    mode.add_argument(
+        "--json",
+        action="store_true",
+        help="no UI: one JSON line per command, then the game's outcome",
+    )
+    p.add_argument("--port", type=int, default=0, help="--web: port on 127.0.0.1 (0: any)")
+    p.add_argument("--no-browser", action="store_true", help="--web: do not open a browser")
+    add_game_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from spectratac.decode import Decoder
+
+    if args.duration < 0:
+        raise SpectraTacError("--duration must be >= 0 (0: until quit)")
+    controller = controller_from_args(args)
+    if args.web:
+        from spectratac.cli.live_cmd import serve
+
+        return serve(args, controller, tab="snake")
+    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    from spectratac.apps.snake.play import play
+
+    if args.json:
+        outcome = play(decoder, args.url, controller, seconds=args.duration,
+                       keep_config=args.keep_config, timeout=args.timeout,
+                       on_command=lambda c: print(json.dumps(c.as_dict()), flush=True))  # fmt: skip
+        print(json.dumps({"outcome": outcome.__dict__}))
+        return ExitCode.OK
+    if not sys.stdout.isatty():
+        raise SpectraTacError("the terminal game needs a terminal: use --json or --web")
+    from spectratac.apps.snake.terminal import play_in_terminal
+
+    outcome = play_in_terminal(decoder, args.url, controller, seconds=args.duration,
+                               keep_config=args.keep_config, timeout=args.timeout)  # fmt: skip
+    print(f"score {outcome.score}, length {outcome.length}, {outcome.steps} moves"
+          + ("" if outcome.alive else ", game over"))  # fmt: skip
+    return ExitCode.OK

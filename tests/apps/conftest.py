@@ -1,0 +1,42 @@
+"""A decoder for the interaction apps' tests: trained in a few seconds on twin presses of
+every region at forces below and above the Snake threshold, on the same simulated unit
+(seed 0) that `sim://?scene=presses` plays."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+#: The scripted scene the pipeline tests play: a press below the threshold (0.6 N) on
+#: "up" must not command; the centre is neutral.
+ORDER = ("up", "right", "down", "left", "centre", "up", "left", "5", "down", "right")
+FORCES = (2.5, 2.5, 2.5, 2.5, 2.5, 0.6, 2.5, 2.5, 2.5, 2.5)
+PRESSES_URL = (
+    f"sim://?scene=presses&order={','.join(ORDER)}&force={','.join(map(str, FORCES))}&seed=0"
+)
+
+
+def training_scene():
+    from spectratac.twin.scripted_presses import scripted_presses
+
+    rng = np.random.default_rng(5)
+    regions = list(range(1, 10)) * 6
+    rng.shuffle(regions)
+    forces = np.tile([0.6, 1.5, 3.0, 2.0, 4.0, 1.0], 9)  # either side of the 1.0 N threshold
+    return scripted_presses(regions, forces)
+
+
+@pytest.fixture(scope="session")
+def press_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Path of a .stac decoding Fx, Fy, Fz, region and contact (seconds to train)."""
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.decode import TrainSpec, train
+    from spectratac.twin import generate_session
+
+    scene = training_scene()
+    ds = from_twin_session(generate_session(scene, seed=0), scene)
+    spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=60,
+                           hidden=64, blocks=2, threads=1, context=2, drift="baseline")  # fmt: skip
+    return train(ds, spec, progress=False).save(tmp_path_factory.mktemp("model") / "presses.stac")

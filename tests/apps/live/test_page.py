@@ -1,0 +1,109 @@
+"""The live page in a real browser (headless Chromium from Debian, driven by selenium):
+plots receive data, the region map lights the pressed region, the Snake moves, pause and
+save work, and the page loads nothing from outside the package. Screenshots of both tabs
+are saved under build/screenshots/."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+from spectratac.apps.live.server import LiveServer, bind
+from spectratac.apps.live.session import LiveSession
+from spectratac.decode import Decoder
+
+from tests.apps.conftest import PRESSES_URL
+from tests.apps.live.browser import chromium, missing
+
+SHOTS = Path(__file__).resolve().parents[3] / "build" / "screenshots"
+LIT = "(document.querySelector('#face .region.lit') || {dataset: {}}).dataset.region || null"
+
+
+def sustained_lit_regions(driver, seconds: float) -> list[int]:
+    """Regions lit on the face for 0.25 s or more in a row, in order, over `seconds`."""
+    runs: list[list] = []
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        region = driver.execute_script("return " + LIT)
+        if runs and runs[-1][0] == region:
+            runs[-1][1] += 1
+        else:
+            runs.append([region, 1])
+        time.sleep(0.05)
+    out: list[int] = []
+    for region, polls in runs:
+        if region is not None and polls >= 5 and (not out or out[-1] != int(region)):
+            out.append(int(region))
+    return out
+
+
+def wait_for(driver, script: str, timeout: float = 60.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = driver.execute_script("return " + script)
+        if value:
+            return value
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {script!r}")
+
+
+@pytest.mark.slow
+def test_page_plots_lights_regions_plays_snake_and_saves(press_model, tmp_path) -> None:
+    if (why := missing()) is not None:
+        pytest.fail(why)
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    url = PRESSES_URL + "&speed=1&ft=bota"
+    session = LiveSession(Decoder.load(press_model), url, ft_url=url, out_dir=tmp_path,
+                          model_path=press_model.name)  # fmt: skip
+    with chromium() as driver:  # the browser first: the scene starts with the server
+        server = LiveServer(session, bind(0)).start()
+        try:
+            check_page(driver, server)
+        finally:
+            server.stop()
+    assert (SHOTS / "live.png").stat().st_size > 20_000
+
+
+def check_page(driver, server) -> None:
+    driver.get(server.url)
+    # the pressed regions light up in the scene's order: up (2), right (6), down (8)
+    assert sustained_lit_regions(driver, 6.5)[:3] == [2, 6, 8]
+    wait_for(driver, "document.getElementById('region-label').textContent.startsWith('region')")
+    # plots receive data: predictions and the time-aligned reference
+    assert driver.execute_script("return stac.plots.Fz.data[0].length") > 10
+    wait_for(driver, "stac.refsReceived > 10")
+    assert driver.execute_script("return stac.plots.Fz.data[2].filter(v => v !== null).length") > 10
+    wait_for(driver, "document.getElementById('mae').textContent.includes('Fz 0.')")
+    # raw counts: 12 per LED step
+    assert len(driver.find_elements("css selector", "#raw tbody tr")) == 12
+    # the snake moves after the first command
+    wait_for(driver, "stac.snake && stac.snake.steps >= 3")
+    head = driver.execute_script("return stac.snake.body[0]")
+    assert head != [8, 6]
+    # pause freezes the plots, resume follows the data again
+    driver.find_element("id", "pause").click()
+    frozen = driver.execute_script("return stac.plots.Fz.data[0].length")
+    time.sleep(0.6)
+    assert driver.execute_script("return stac.plots.Fz.data[0].length") == frozen
+    driver.find_element("id", "pause").click()
+    wait_for(driver, f"stac.plots.Fz.data[0].length > {frozen}")
+    # save the last 2 s as CSV
+    driver.find_element("id", "save-seconds").clear()
+    driver.find_element("id", "save-seconds").send_keys("2")
+    driver.find_element("css selector", "#save-format option[value=csv]").click()
+    driver.find_element("id", "save").click()
+    result = "document.getElementById('save-result').textContent"
+    saved = wait_for(driver, f"{result}.startsWith('saved') && {result}")
+    assert Path(saved.removeprefix("saved ")).is_file()
+    # nothing loaded from outside the package (the page works offline)
+    resources = driver.execute_script(
+        "return performance.getEntriesByType('resource').map(e => e.name)"
+    )
+    assert resources and all(r.startswith(server.url) for r in resources)
+    wait_for(driver, "stac.latency.length > 20")
+    driver.save_screenshot(str(SHOTS / "live.png"))
+    driver.find_element("id", "tab-snake").click()
+    wait_for(driver, "document.getElementById('snake-commands').children.length >= 2")
+    driver.save_screenshot(str(SHOTS / "snake.png"))
+    assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]

@@ -1,0 +1,14 @@
+"""The live page latency benchmark runs end to end briefly (no timing is asserted)."""
+
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.mark.slow
+def test_live_bench_json(run_bench) -> None:
+    figures = run_bench("live.py", "--seconds", "2", "--warmup", "1")
+    p99 = figures["frame arrival -> browser p99"]
+    assert p99["unit"] == "ms" and p99["extra"]["estimates_received"] >= 20
+    assert p99["reference_name"].startswith("bare WebSocket echo") and p99["extra"]["echoes"] > 0
+    assert figures["frame arrival -> browser p50"]["value"] <= p99["value"]

@@ -1,0 +1,123 @@
+"""Live page latency: a sample's frame arriving at the host -> its estimate in the browser.
+
+    python tools/bench/live.py [--json] [--seconds S] [--warmup S] [--model PATH]
+
+Runs `spectratac live`'s server on the simulated sensor at real time (20 samples/s, the
+scripted presses scene, a simulated Bota F/T as reference) and opens the page in headless
+Chromium (Debian's chromium + chromium-driver, driven by selenium). The page stamps every
+estimate on receipt against the frame's arrival time (same system clock); the figures are
+p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
+at the same time on the same socket: half the round trip of a bare WebSocket echo (the
+server pings the page every 250 ms). Also reported: the part spent before the message
+leaves the server (decoding included), and whether p99 stays under one sample period.
+
+Without --model, a small decoder is trained first on twin presses (a few seconds).
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from benchlib import Figure, parser, report
+from spectratac.apps.live.server import LiveServer, bind
+from spectratac.apps.live.session import LiveSession
+from spectratac.decode import Decoder
+
+URL = "sim://?scene=presses&order=up,right,down,left,centre&seed=0&speed=1&ft=bota"
+SAMPLE_PERIOD_MS = 50.0
+CHROMIUM_FLAGS = (
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--disable-dev-shm-usage",
+)  # fmt: skip
+
+
+def small_model(folder: Path) -> Path:
+    """A decoder of Fx, Fy, Fz, region and contact trained on twin presses of every region."""
+    import numpy as np
+    from spectratac.dataset.from_twin import from_twin_session
+    from spectratac.decode import TrainSpec, train
+    from spectratac.twin import generate_session
+    from spectratac.twin.scripted_presses import scripted_presses
+
+    regions = list(range(1, 10)) * 4
+    scene = scripted_presses(regions, np.tile([0.6, 1.5, 3.0, 4.0], 9))
+    ds = from_twin_session(generate_session(scene, seed=0), scene)
+    spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=10,
+                           hidden=32, blocks=1, threads=1, context=2)  # fmt: skip
+    return train(ds, spec, progress=False).save(folder / "bench.stac")
+
+
+def measure(model: Path, seconds: float, warmup: float) -> dict:
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    session = LiveSession(Decoder.load(model), URL, ft_url=URL)
+    profile = tempfile.mkdtemp(prefix="stac-bench-chromium-")
+    options = webdriver.ChromeOptions()
+    options.binary_location = "/usr/bin/chromium"
+    for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={profile}", "--window-size=1400,1000"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+    server = LiveServer(session, bind(0)).start()
+    try:
+        driver.get(server.url)
+        time.sleep(warmup)
+        for log in (session.latency, session.echo, session.pipeline):
+            log.clear()
+        time.sleep(seconds)
+        time.sleep(1.2)  # the page sends its latencies once a second
+        return {
+            "browser": session.latency.summary(),
+            "echo": session.echo.summary(),
+            "pipeline": session.pipeline.summary(),
+            "estimates": session.estimates,
+        }
+    finally:
+        server.stop()
+        driver.quit()
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def main() -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--seconds", type=float, default=30.0, help="measured seconds")
+    p.add_argument("--warmup", type=float, default=3.0, help="seconds before measuring")
+    p.add_argument("--model", type=Path, help="decoder file (default: train a small one)")
+    args = p.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        model = args.model or small_model(Path(tmp))
+        m = measure(model, args.seconds, args.warmup)
+    b, e = m["browser"], m["echo"]
+    figures = []
+    for q in ("p50", "p99"):
+        value, ref = b[f"{q}_ms"], e[f"{q}_ms"]
+        figures.append(
+            Figure(
+                f"frame arrival -> browser {q}",
+                value,
+                "ms",
+                f"bare WebSocket echo, half round trip, {q}",
+                ref,
+                round(value / ref, 2) if value is not None and ref else float("nan"),
+                {
+                    "estimates_received": b["n"],
+                    "echoes": e["n"],
+                    "server_part_ms": m["pipeline"][f"{q}_ms"],
+                    "sample_period_ms": SAMPLE_PERIOD_MS,
+                    "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
+                    "max_ms": b["max_ms"],
+                },
+            )
+        )
+    report(figures, args.json)
+
+
+if __name__ == "__main__":
+    main()
