@@ -26,6 +26,7 @@ FIXTURE_MARKERS: dict[str, tuple[str, ...]] = {
     "image": ("firmware",),
     "native_build": ("firmware",),
     "qemu_port": ("qemu", "subprocess"),
+    "press_model": ("train",),  # tests/apps: a decoder trained on scripted presses
 }
 
 

@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_device_options(p)
-    p.add_argument("--ft", dest="ft_url", help="reference F/T URL (netft://, bota://, sim://)")
+    p.add_argument("--ft", metavar="FT_URL", help="reference F/T URL (netft://, bota://, sim://)")
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
     p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),
@@ -71,7 +71,7 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     session = LiveSession(
         decoder,
         args.url,
-        ft_url=ft_url_for(args.url, getattr(args, "ft_url", None)),
+        ft_url=ft_url_for(args.url, getattr(args, "ft", None)),
         keep_config=args.keep_config,
         timeout=args.timeout,
         history_s=getattr(args, "history", 120.0),

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from spectratac.twin.errors import TwinError
 from spectratac.twin.geometry import region_centre, region_of
-from spectratac.twin.scene import Environment, Presses, Scene
+from spectratac.twin.scene_model import Environment, Presses, Scene
 
 REGION_NAMES = {"up": 2, "down": 8, "left": 4, "right": 6, "centre": 5, "center": 5}
 DEFAULT_ORDER = "up,right,down,left,centre,up,left,down,right"

@@ -16,6 +16,8 @@ from spectratac.decode import Decoder
 from tests.apps.conftest import PRESSES_URL
 from tests.apps.live.browser import chromium, missing
 
+pytestmark = pytest.mark.subprocess  # drives Debian's Chromium
+
 SHOTS = Path(__file__).resolve().parents[3] / "build" / "screenshots"
 LIT = "(document.querySelector('#face .region.lit') || {dataset: {}}).dataset.region || null"
 

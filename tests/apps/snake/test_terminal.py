@@ -16,6 +16,8 @@ import pytest
 
 from tests.apps.conftest import PRESSES_URL
 
+pytestmark = pytest.mark.subprocess  # the game in a pty / Chromium
+
 COLS, ROWS = 100, 30
 
 
