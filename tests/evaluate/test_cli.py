@@ -11,7 +11,7 @@ from spectratac.cli import main
 from spectratac.dataset import Dataset
 from spectratac.dataset.from_twin import from_twin_session
 from spectratac.decode import Decoder, DecoderUnitWarning, TrainSpec
-from spectratac.evaluate.protocol import fit_and_evaluate, save_models
+from spectratac.evaluate.fit_both_splits import fit_and_evaluate, save_models
 from spectratac.twin import generate_session, scenes
 
 TINY = TrainSpec.paper(epochs=2, hidden=16, blocks=1)

@@ -24,7 +24,7 @@ from spectratac.decode.errors import (
     DecoderUnitWarning,
 )
 from spectratac.decode.estimates import Estimate, Estimates
-from spectratac.decode.features import (
+from spectratac.decode.paper_features import (
     EPS,
     FEATURE_NAMES,
     FeatureError,

@@ -25,11 +25,11 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
 from spectratac.decode.estimates import FORCE, TORQUE, Estimate, Estimates
-from spectratac.decode.featureset import build_features
+from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.guard import Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
-from spectratac.decode.model import flops, init_weights, n_params
+from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
 
 F64 = NDArray[np.float64]
@@ -280,7 +280,7 @@ class Decoder:
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> Path:
         """Write the single-file model (.stac): weights, normalisation, features, config."""
-        from spectratac.decode.modelfile import write_model
+        from spectratac.decode.stac_file import write_model
 
         return write_model(self, path)
 
@@ -294,7 +294,7 @@ class Decoder:
         """Read a .stac file. Refuses (DecoderConfigError) if `expect_config` (a config
         dict or a device CONFIG message) differs from the training configuration; warns
         (DecoderUnitWarning) if `expect_unit` is another unit."""
-        from spectratac.decode.modelfile import read_model
+        from spectratac.decode.stac_file import read_model
 
         dec = read_model(path)
         if expect_config is not None:

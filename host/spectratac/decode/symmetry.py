@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.featureset import SPECTRATAC_CHANNELS
+from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
 from spectratac.decode.spec import AUGMENTS
 
 F64 = NDArray[np.float64]

@@ -27,7 +27,7 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.featureset import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS, FeatureSet, build_features
 from spectratac.decode.guard import SATURATION, Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
@@ -214,7 +214,7 @@ def train(
     tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
     y_fit = y_all[fit_rows][tv[fit_rows]]
     y_scale = _safe_std(y_fit) if p.reg_cols else np.ones(0)
-    from spectratac.decode.model import init_weights
+    from spectratac.decode.networks import init_weights
 
     dummy = init_weights(spec.arch, p.features.n_features, p.heads.n_out, np.random.default_rng(0))
     rt = Runtime.create(p.features, spec.arch, dummy, p.heads, u[fit_rows], y_scale)

@@ -1,6 +1,6 @@
 """Which rows a model was trained on: the convention between training and evaluation.
 
-A model trained through `evaluate.protocol.fit_and_evaluate` (or any trainer that calls
+A model trained through `evaluate.fit_both_splits.fit_and_evaluate` (or any trainer that calls
 `mark`) carries ``meta["holdout"]``::
 
     {"dataset": "<fingerprint of the training dataset>", "n_rows": N,

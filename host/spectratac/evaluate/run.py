@@ -164,7 +164,7 @@ def _missing(kind: str, have: str) -> str:
     return (
         f"not evaluated: the model was trained on the {have} split's training rows, so the "
         f"{kind} split's test rows include rows it was trained on; train a companion under the "
-        f"{kind} split (evaluate.protocol.fit_and_evaluate writes both) and pass it"
+        f"{kind} split (evaluate.fit_both_splits.fit_and_evaluate writes both) and pass it"
     )
 
 

@@ -2,7 +2,7 @@
 same splits, the same training budget, one change at a time, then the combination.
 
 Each variant is `TrainSpec.paper(**changes)`; every variant is trained on each split's
-training rows and scored on its test rows (`evaluate.protocol.fit_and_evaluate`). The
+training rows and scored on its test rows (`evaluate.fit_both_splits.fit_and_evaluate`). The
 table reports MAE per force axis with the change in % against the paper's recipe, mean and
 minimum R², region and contact accuracy, interval coverage (uncertainty), and inference cost
 (flops per sample, and single-sample latency measured side by side).
@@ -220,7 +220,7 @@ def run_variants(
     in `train_seeds` (scores are means, with the MAE's spread); the other kinds use the first.
     Returns the table rows and the trained models (by variant, blocked split, first seed)."""
     from spectratac.decode import TrainSpec
-    from spectratac.evaluate.protocol import fit_and_evaluate
+    from spectratac.evaluate.fit_both_splits import fit_and_evaluate
 
     rows: list[dict[str, Any]] = []
     models: dict[str, Any] = {}

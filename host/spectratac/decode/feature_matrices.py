@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.features import EPS
+from spectratac.decode.paper_features import EPS
 from spectratac.decode.layout import Layout
 
 F64 = NDArray[np.float64]
