@@ -28,6 +28,8 @@ from spectratac.decode.runtime import Runtime
 
 FORMAT = "spectratac.decoder"
 VERSION = "1.0"
+#: Torque names of generic datasets before Tx Ty Tz became the only spelling.
+RETIRED_TORQUE_NAMES = ("Mx", "My", "Mz")
 
 
 def _jsonable(v: Any) -> Any:
@@ -107,4 +109,11 @@ def read_model(path: str | Path) -> Any:
         raise
     except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
         raise DecoderFileError(f"{path} is damaged ({exc!r}): retrain or re-copy it") from None
-    return Decoder(runtime, layout, guard, meta["decoder"])
+    dec = Decoder(runtime, layout, guard, meta["decoder"])
+    old = [n for n in dec.target_names if n in RETIRED_TORQUE_NAMES]
+    if old:
+        raise DecoderFileError(
+            f"{path} names torque targets {old}; torques are Tx Ty Tz now: retrain the "
+            "decoder on the dataset (its Mx My Mz columns load as Tx Ty Tz)"
+        )
+    return dec

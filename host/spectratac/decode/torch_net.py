@@ -13,8 +13,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from spectratac.decode.paper_features import EPS
 from spectratac.decode.networks import LN_EPS, Arch
+from spectratac.decode.paper_features import EPS
 
 
 class Block(nn.Module):

@@ -36,7 +36,6 @@ from spectratac.decode.spec import TrainSpec
 
 F64 = NDArray[np.float64]
 PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
-PAPER_LOSS_WEIGHTS.update({"Mx": 0.1, "My": 0.1, "Mz": 0.2})
 HUBER_DELTA = 0.1  # in scaled target units
 N_VAL_BLOCKS = 10
 Progress = bool | Callable[[int, float], None]

@@ -16,7 +16,9 @@ from spectratac.evaluate.metrics import (
     contact_scores,
     improvement,
     interval_coverage,
+    region_accuracy,
     region_scores,
+    regression_metrics,
     regression_scores,
 )
 from spectratac.evaluate.predictions import Predictions, predict
@@ -49,7 +51,9 @@ __all__ = [
     "make_split",
     "mark",
     "predict",
+    "region_accuracy",
     "region_scores",
+    "regression_metrics",
     "regression_scores",
     "resolve",
     "score",

@@ -122,8 +122,8 @@ def _clean(v: Any) -> Any:
 def variants_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None) -> dict:
     """Item 5: every variant and the paper's recipe on the same data and splits."""
     from spectratac.dataset.from_twin import from_twin_session
-    from spectratac.evaluate.floor import oracle_predictions
     from spectratac.evaluate.latency import side_by_side_latency, single_sample_fn
+    from spectratac.evaluate.oracle_floor import oracle_predictions
     from spectratac.evaluate.scoring import score
     from spectratac.evaluate.splits import SplitSpec, split_dataset
     from spectratac.twin import generate_session

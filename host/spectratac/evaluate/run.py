@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.evaluate.floor import oracle_predictions
 from spectratac.evaluate.holdout import resolve
+from spectratac.evaluate.oracle_floor import oracle_predictions
 from spectratac.evaluate.predictions import predict
 from spectratac.evaluate.scoring import Scored, score
 from spectratac.evaluate.splits import KINDS
