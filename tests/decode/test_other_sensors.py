@@ -1,4 +1,4 @@
-"""Other sensors (issue 7, item 7): CSV / column .npz in, generic decoder out, CLI included."""
+"""Other sensors: CSV / column .npz in, generic decoder out, CLI included."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Numerical stability (issue 7, item 8): dark and saturated inputs, constant features,
+"""Numerical stability: dark and saturated inputs, constant features,
 NaN/inf rows, forces beyond the training range, float32 against float64."""
 
 from __future__ import annotations

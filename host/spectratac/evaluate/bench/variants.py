@@ -7,7 +7,7 @@ table reports MAE per force axis with the change in % against the paper's recipe
 minimum R², region and contact accuracy, interval coverage (uncertainty), and inference cost
 (flops per sample, and single-sample latency measured side by side).
 
-The issue's target: the best decoder has >= 25 % lower MAE than the paper's recipe on the
+The target: the best decoder has >= 25 % lower MAE than the paper's recipe on the
 blocked split on every force axis, at no more than its inference cost (flops per sample).
 
 >>> list(VARIANTS)[:3], VARIANTS["contact"]["targets"][-1]
