@@ -19,8 +19,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
@@ -34,7 +35,6 @@ from spectratac.decode.runtime import Runtime
 
 F64 = NDArray[np.float64]
 CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
-EXPORT_FORMATS = ("onnx", "numpy", "torchscript", "c")
 
 
 @dataclass
@@ -111,7 +111,7 @@ class Decoder:
             )
 
     # ------------------------------------------------------------------ prediction
-    def predict(self, dataset: Any, rows: Any = None) -> Estimates:
+    def predict(self, dataset: Dataset, rows: ArrayLike | None = None) -> Estimates:
         """Estimates for `rows` (mask, indices or None for all) of a Dataset.
 
         Samples are assembled over the whole dataset per session in time order, so rows see
@@ -313,7 +313,7 @@ class Decoder:
     @classmethod
     def untrained(
         cls,
-        dataset: Any,
+        dataset: Dataset,
         features: str = "generic",
         targets: tuple[str, ...] = ("Fz",),
         arch: tuple[str, int, int] = ("resmlp", 8, 1),

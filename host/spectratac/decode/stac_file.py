@@ -17,7 +17,7 @@ import io
 import json
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.guard import Guard
 from spectratac.decode.layout import Layout
 from spectratac.decode.runtime import Runtime
+
+if TYPE_CHECKING:
+    from spectratac.decode.decoder import Decoder
 
 FORMAT = "spectratac.decoder"
 VERSION = "1.0"
@@ -44,7 +47,7 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-def write_model(dec: Any, path: str | Path) -> Path:
+def write_model(dec: Decoder, path: str | Path) -> Path:
     path = Path(path)
     meta = {
         "format": FORMAT,
@@ -91,7 +94,7 @@ def read_meta(path: str | Path) -> dict[str, Any]:
     return meta
 
 
-def read_model(path: str | Path) -> Any:
+def read_model(path: str | Path) -> Decoder:
     from spectratac.decode.decoder import Decoder
 
     meta = read_meta(path)

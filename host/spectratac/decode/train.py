@@ -21,8 +21,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
@@ -58,7 +59,7 @@ class Plan:
     class_labels: list[str] | None
 
 
-def plan(dataset: Any, spec: TrainSpec) -> Plan:
+def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
     """Resolve targets, LED steps and features against `dataset`; DecoderConfigError if the
     spec asks for something the dataset lacks."""
     names = list(dataset.target_names)
@@ -116,7 +117,7 @@ def plan(dataset: Any, spec: TrainSpec) -> Plan:
     )
 
 
-def select_rows(n: int, rows: Any) -> NDArray[np.intp]:
+def select_rows(n: int, rows: ArrayLike | None) -> NDArray[np.intp]:
     if rows is None:
         return np.arange(n)
     r = np.asarray(rows)
@@ -137,7 +138,7 @@ def _name_rows(bad: NDArray[np.intp], what: str, fix: str) -> DecoderDataError:
     )
 
 
-def check_rows(dataset: Any, p: Plan, rows: NDArray[np.intp]) -> None:
+def check_rows(dataset: Dataset, p: Plan, rows: NDArray[np.intp]) -> None:
     """Refuse training rows that cannot be used, naming them."""
     x = np.asarray(dataset.inputs, dtype=np.float64)[rows]
     bad = rows[~np.all(np.isfinite(x), axis=1)]
@@ -183,7 +184,10 @@ def val_split(order: NDArray[np.intp], fraction: float) -> tuple[NDArray, NDArra
 
 
 def train(
-    dataset: Any, spec: TrainSpec | None = None, rows: Any = None, progress: Progress = True
+    dataset: Dataset,
+    spec: TrainSpec | None = None,
+    rows: ArrayLike | None = None,
+    progress: Progress = True,
 ) -> Decoder:
     """Train a decoder on `rows` (mask, indices or None: all) of `dataset`.
 
@@ -264,7 +268,7 @@ def train(
 
 
 def _augmented(
-    dataset: Any,
+    dataset: Dataset,
     p: Plan,
     rt: Runtime,
     data: dict[str, Any],

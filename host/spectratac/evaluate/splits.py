@@ -24,14 +24,13 @@ True
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.errors import SpectraTacError
 
-Kind = Literal["random", "blocked"]
 KINDS: tuple[str, ...] = ("random", "blocked")
 I64 = NDArray[np.int64]
 
