@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.dataset.schema import FT_NAMES
+from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.evaluate.predictions import Predictions
 from spectratac.twin.electronics import SensorConfig
 from spectratac.twin.errors import TwinError
@@ -67,7 +67,7 @@ class TwinOracle:
     reason: str = ""
     scene_name: str = ""
 
-    def decode(self, dataset: Any, rows: NDArray[np.int64]) -> OracleEstimates:
+    def decode(self, dataset: Dataset, rows: NDArray[np.int64]) -> OracleEstimates:
         if self.oracle is None:
             raise TwinError(f"no oracle for this dataset: {self.reason}")
         a = dataset.arrays
@@ -86,7 +86,7 @@ def subsample(rows: NDArray[np.int64], k: int, seed: int = 0) -> NDArray[np.int6
     return np.sort(rng.choice(rows, k, replace=False))
 
 
-def twin_oracle(dataset: Any, scene: Scene | None = None, session: int = 0) -> TwinOracle:
+def twin_oracle(dataset: Dataset, scene: Scene | None = None, session: int = 0) -> TwinOracle:
     """The oracle for rows of `session`, with `scene` given or rebuilt from the metadata."""
     meta = dataset.meta
     sessions = meta.get("sessions") or []
@@ -129,14 +129,14 @@ def twin_oracle(dataset: Any, scene: Scene | None = None, session: int = 0) -> T
     return TwinOracle(oracle, session, "", scene.name)
 
 
-def _agreement(dataset: Any, rows: NDArray[np.int64], scene: Scene) -> float:
+def _agreement(dataset: Dataset, rows: NDArray[np.int64], scene: Scene) -> float:
     a = dataset.arrays
     tmid = 0.5 * (a["t_start"][rows] + a["t_end"][rows])
     return float(np.mean(scene.contact(tmid).in_contact == a["in_contact"][rows]))
 
 
 def _rebuild_scene(
-    dataset: Any, rows: NDArray[np.int64], info: dict[str, Any]
+    dataset: Dataset, rows: NDArray[np.int64], info: dict[str, Any]
 ) -> tuple[Scene | None, str]:
     """Scene from its name and seed; a calibration scene's presses depend on its exact
     duration, so candidate durations consistent with the last window are tried."""
@@ -174,7 +174,7 @@ def _durations(t_last: float, period: float) -> list[float]:
 
 
 def oracle_predictions(
-    dataset: Any,
+    dataset: Dataset,
     rows: NDArray[np.int64],
     scene: Scene | None = None,
     samples: int = DEFAULT_SAMPLES,

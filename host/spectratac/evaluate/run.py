@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.holdout import resolve
 from spectratac.evaluate.oracle_floor import oracle_predictions
 from spectratac.evaluate.predictions import predict
@@ -104,7 +105,7 @@ def _history(model: Any) -> list[float]:
 
 def evaluate_model(
     model: Any,
-    dataset: Any,
+    dataset: Dataset,
     *,
     splits: Sequence[str] = KINDS,
     companions: dict[str, Any] | None = None,
@@ -169,7 +170,7 @@ def _missing(kind: str, have: str) -> str:
 
 
 def _score_baseline(
-    baseline: Any, dataset: Any, rows: NDArray[np.int64]
+    baseline: Any, dataset: Dataset, rows: NDArray[np.int64]
 ) -> tuple[Scored | None, str]:
     hb = resolve(getattr(baseline, "meta", {}) or {}, dataset)
     if hb.split is not None:

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.bench.acquisition import Acquisition
 
 MODELS: dict[str, dict[str, Any]] = {
@@ -50,7 +51,7 @@ def make_dataset(scene: Any, acq: Acquisition, seed: int) -> Any:
 
 
 def grid_point(
-    dataset: Any,
+    dataset: Dataset,
     acq: Acquisition,
     model_name: str,
     epochs: int,

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.metrics import improvement
 
 FT6 = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
@@ -206,7 +207,7 @@ def merge_seeds(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_variants(
-    dataset: Any,
+    dataset: Dataset,
     names: Sequence[str],
     base: dict[str, Any],
     *,
