@@ -1,4 +1,5 @@
-"""Evaluating decoders honestly: splits, metrics, the oracle floor, Fig. 3 reports.
+"""Evaluating decoders honestly: splits, metrics, the oracle floor, Fig. 3 reports, the twin
+fidelity report (`twin_fidelity`) and the decoder benchmarks (`evaluate.bench`).
 
 Two splits are always reported: the paper's random split and a blocked split (whole presses
 or time blocks held out, with a guard gap) that measures generalisation. A model records the
