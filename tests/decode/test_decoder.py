@@ -97,6 +97,10 @@ def test_model_file_versions_and_damage(synth_ds, tmp_path) -> None:
         Decoder.load(tmp_path / "junk.stac")
     with pytest.raises(DecoderFileError, match="no model file"):
         Decoder.load(tmp_path / "missing.stac")
+    # A file saved when generic datasets kept Mx My Mz as torque names is refused, saying why.
+    old = json.loads(json.dumps(meta).replace('"Tx"', '"Mx"').replace('"Tz"', '"Mz"'))
+    with pytest.raises(DecoderFileError, match=r"torque targets \['Mx', 'Mz'\].*retrain"):
+        Decoder.load(write("old_torque_names.stac", old))
 
 
 @settings(max_examples=40, deadline=None)

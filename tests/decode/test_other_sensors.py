@@ -1,7 +1,8 @@
-"""Other sensors (issue 7, item 7): CSV / column .npz in, generic decoder out, CLI included."""
+"""Other sensors: CSV / column .npz in, generic decoder out, CLI included."""
 
 from __future__ import annotations
 
+import io
 import json
 
 import numpy as np
@@ -136,3 +137,14 @@ def test_cli_recipe_best_with_a_blocked_holdout(twin_ds, tmp_path, capsys) -> No
     assert 0 < summary["n_test"] < twin_ds.n and summary["n_train"] < twin_ds.n - summary["n_test"]
     held = resolve(Decoder.load(tmp_path / "m.stac").meta, twin_ds)
     assert held.status == "split" and held.split.n_test == summary["n_test"]
+
+
+def test_torque_columns_spelled_m_load_as_t(tmp_path) -> None:
+    text = "ch0,ch1,Fz,Mx,Mz:class\n1,2,0.5,0.1,1\n3,4,0.7,0.2,2\n"
+    ds = load_table(io.StringIO(text), inputs=["ch0", "ch1"], targets=["Fz", "Mx", "Mz"])
+    assert ds.target_names == ["Fz", "Tx"] and ds.meta["region_name"] == "Tz"
+    assert ds.targets[:, 1].tolist() == [0.1, 0.2]
+    auto = load_table(io.StringIO("ch0,Fz,My\n1,0.5,0.1\n2,0.6,0.3\n"))
+    assert auto.input_names == ["ch0"] and auto.target_names == ["Fz", "Ty"]
+    with pytest.raises(DatasetError, match="columns Ty and My are the same torque"):
+        load_table(io.StringIO("ch0,Ty,My\n1,0.5,0.1\n"))

@@ -16,7 +16,7 @@ from spectratac.decode import (
     raw12_from_counts,
     train,
 )
-from spectratac.decode.featureset import build_features
+from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.layout import Layout
 
 from tests.decode.conftest import SPECTRATAC_INPUTS

@@ -1,4 +1,4 @@
-"""Numerical stability (issue 7, item 8): dark and saturated inputs, constant features,
+"""Numerical stability: dark and saturated inputs, constant features,
 NaN/inf rows, forces beyond the training range, float32 against float64."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder, DecoderDataError, TrainSpec, train
-from spectratac.decode.featureset import build_features
+from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.layout import Layout
 from spectratac.decode.scaling import Standardizer
 

@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.cli.bench_cmd import add_options, config, run_with_progress
+from spectratac.evaluate.bench import add_options, config_from_args, run_with_progress
 
 
 def figures(result: dict) -> list[benchlib.Figure]:
@@ -69,7 +69,7 @@ def main() -> None:
     p = benchlib.parser(__doc__.splitlines()[0])
     add_options(p)
     args = p.parse_args()
-    result = run_with_progress(config(args), Path(args.out), variants=False)
+    result = run_with_progress(config_from_args(args), Path(args.out), variants=False)
     if not args.json:
         print((Path(args.out) / "decoder_speed.md").read_text())
     benchlib.report(figures(result), args.json)

@@ -11,7 +11,7 @@ run (this machine is shared: read the ratios, not the absolute times).
 2. Training time of the paper's recipe on --samples twin calibration samples for --epochs,
    against plain GEMMs of the same shapes and total FLOPs (forward + backward ~ 3x forward):
    the ratio is the training loop's overhead over raw matrix arithmetic.
-Targets (issue 7): p99 <= 100 us; the paper recipe on 60,000 samples in <= 60 s. A p99
+Targets: p99 <= 100 us; the paper recipe on 60,000 samples in <= 60 s. A p99
 far above the p50 means the process was preempted (see load_average_1min in --json).
 """
 

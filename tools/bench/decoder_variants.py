@@ -7,7 +7,7 @@ on the same twin calibration data and the same blocked and random splits.
 
 Writes decoder_variants.md and decoder_variants.json into --out. Figures: per variant, the
 blocked-split MAE per force axis and the single-sample latency as ratios to the paper's
-recipe trained and timed side by side in the same run; plus the issue's target check
+recipe trained and timed side by side in the same run; plus the target check
 (>= 25 % lower blocked MAE per force axis at no more flops). Same as
 `spectratac bench decoder --variants`.
 """
@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.cli.bench_cmd import add_options, config, run_with_progress
+from spectratac.evaluate.bench import add_options, config_from_args, run_with_progress
 
 
 def figures(result: dict) -> list[benchlib.Figure]:
@@ -77,7 +77,7 @@ def main() -> None:
     p = benchlib.parser(__doc__.splitlines()[0])
     add_options(p)
     args = p.parse_args()
-    result = run_with_progress(config(args), Path(args.out), variants=True)
+    result = run_with_progress(config_from_args(args), Path(args.out), variants=True)
     if not args.json:
         print((Path(args.out) / "decoder_variants.md").read_text())
     benchlib.report(figures(result), args.json)

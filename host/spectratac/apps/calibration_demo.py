@@ -152,7 +152,7 @@ def on_scene_clock(dataset: Any, scene_s: float) -> Any:
 def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, Any]:
     from spectratac.decode import TrainSpec
     from spectratac.evaluate import write_report
-    from spectratac.evaluate.protocol import fit_and_evaluate, save_models
+    from spectratac.evaluate.fit_both_splits import fit_and_evaluate, save_models
 
     out: dict[str, Any] = {}
     specs = {

@@ -55,8 +55,8 @@ def run(args: argparse.Namespace) -> int:
 
     from spectratac.dataset import Dataset
     from spectratac.decode import Decoder
+    from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.holdout import fingerprint
-    from spectratac.evaluate.protocol import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model
 

@@ -8,6 +8,7 @@ non-numbers, or (a target) by holding only integers with at most MAX_AUTO_CLASSE
 values; its labels become 1..K (meta ``region_labels``; empty, ``-1``, ``nan`` or ``none``:
 unlabelled). Pass classes=[] to treat no column as a class.
 Empty or NaN target cells are dropouts: ``target_valid`` False, never filled in.
+Torque columns may be spelled Mx My Mz; they load as Tx Ty Tz, the only name inside.
 
 >>> import io
 >>> text = "ch0,ch1,Fz,position\\n1,2,0.5,left\\n3,4,,right\\n5,6,1.5,\\n"
@@ -35,7 +36,9 @@ from spectratac.dataset.schema import Dataset, DatasetError
 SPECIAL = {"t": "t", "time": "t", "session": "session", "press": "press", "contact": "contact"}
 UNLABELLED = {"", "-1", "nan", "none", "null"}
 MAX_AUTO_CLASSES = 20
-KNOWN_TARGETS = {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "Mx", "My", "Mz"}
+KNOWN_TARGETS = {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz"}
+#: Accepted input spelling of torque columns (and of --inputs/--targets naming them).
+TORQUE_SPELLING = {"Mx": "Tx", "My": "Ty", "Mz": "Tz"}
 CLASS_SUFFIX = ":class"
 
 
@@ -145,10 +148,11 @@ def load_table(
     inputs: channel columns in order (default: every numeric column that is neither a
     target nor special). targets: target columns, regression and at most one class column
     (default: every non-input, non-special column; with inputs not given either, the F/T
-    names Fx..Tz, Mx..Mz and the class columns). classes: columns to treat as classes
+    names Fx..Tz and the class columns). classes: columns to treat as classes
     (default: automatic, see the module docstring).
     """
-    raw = read_columns(source)
+    raw = _torques_as_t(read_columns(source), source)
+    inputs, targets, classes = _t_names(inputs), _t_names(targets), _t_names(classes)
     cols = {k[: -len(CLASS_SUFFIX)] if k.endswith(CLASS_SUFFIX) else k: v for k, v in raw.items()}
     marked = {k[: -len(CLASS_SUFFIX)] for k in raw if k.endswith(CLASS_SUFFIX)}
     special = {k: SPECIAL[k.lower()] for k in cols if k.lower() in SPECIAL}
@@ -200,6 +204,23 @@ def load_table(
         ds.arrays["in_contact"] = _floats(by["contact"], cols[by["contact"]]) > 0.5
     ds.validate()
     return ds
+
+
+def _torques_as_t(cols: dict[str, NDArray[Any]], source: Any) -> dict[str, NDArray[Any]]:
+    """Columns with Mx My Mz renamed Tx Ty Tz (a ``:class`` suffix is kept)."""
+    out: dict[str, NDArray[Any]] = {}
+    for k, v in cols.items():
+        cut = len(CLASS_SUFFIX) if k.endswith(CLASS_SUFFIX) else 0
+        base = k[: len(k) - cut]
+        name = TORQUE_SPELLING.get(base, base) + k[len(k) - cut :]
+        if name in out:
+            raise DatasetError(f"{source}: columns {name} and {k} are the same torque; keep one")
+        out[name] = v
+    return out
+
+
+def _t_names(names: Sequence[str] | None) -> list[str] | None:
+    return None if names is None else [TORQUE_SPELLING.get(n, n) for n in names]
 
 
 def load_any(

@@ -24,14 +24,13 @@ from spectratac.decode.errors import (
     DecoderUnitWarning,
 )
 from spectratac.decode.estimates import Estimate, Estimates
-from spectratac.decode.features import (
+from spectratac.decode.paper_features import (
     EPS,
     FEATURE_NAMES,
     FeatureError,
     features33,
     raw12_from_counts,
 )
-from spectratac.decode.metrics import region_accuracy, regression_metrics
 from spectratac.decode.runtime import Runtime
 from spectratac.decode.scaling import Standardizer, ZeroAnchoredScaler
 from spectratac.decode.spec import TrainSpec
@@ -56,7 +55,5 @@ __all__ = [
     "ZeroAnchoredScaler",
     "features33",
     "raw12_from_counts",
-    "region_accuracy",
-    "regression_metrics",
     "train",
 ]

@@ -19,22 +19,22 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
 from spectratac.decode.estimates import FORCE, TORQUE, Estimate, Estimates
-from spectratac.decode.featureset import build_features
+from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.guard import Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
-from spectratac.decode.model import flops, init_weights, n_params
+from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
 
 F64 = NDArray[np.float64]
 CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
-EXPORT_FORMATS = ("onnx", "numpy", "torchscript", "c")
 
 
 @dataclass
@@ -111,7 +111,7 @@ class Decoder:
             )
 
     # ------------------------------------------------------------------ prediction
-    def predict(self, dataset: Any, rows: Any = None) -> Estimates:
+    def predict(self, dataset: Dataset, rows: ArrayLike | None = None) -> Estimates:
         """Estimates for `rows` (mask, indices or None for all) of a Dataset.
 
         Samples are assembled over the whole dataset per session in time order, so rows see
@@ -280,7 +280,7 @@ class Decoder:
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> Path:
         """Write the single-file model (.stac): weights, normalisation, features, config."""
-        from spectratac.decode.modelfile import write_model
+        from spectratac.decode.stac_file import write_model
 
         return write_model(self, path)
 
@@ -294,7 +294,7 @@ class Decoder:
         """Read a .stac file. Refuses (DecoderConfigError) if `expect_config` (a config
         dict or a device CONFIG message) differs from the training configuration; warns
         (DecoderUnitWarning) if `expect_unit` is another unit."""
-        from spectratac.decode.modelfile import read_model
+        from spectratac.decode.stac_file import read_model
 
         dec = read_model(path)
         if expect_config is not None:
@@ -313,7 +313,7 @@ class Decoder:
     @classmethod
     def untrained(
         cls,
-        dataset: Any,
+        dataset: Dataset,
         features: str = "generic",
         targets: tuple[str, ...] = ("Fz",),
         arch: tuple[str, int, int] = ("resmlp", 8, 1),

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.decode.model import LN_EPS, SQRT_2_OVER_PI
+from spectratac.decode.networks import LN_EPS, SQRT_2_OVER_PI
 
 F32 = NDArray[np.float32]
 F64 = NDArray[np.float64]

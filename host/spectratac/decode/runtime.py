@@ -10,9 +10,9 @@ layer, GELU's 1/2 folded forward, preallocated float32 buffers) for low single-s
 tests check it against `run`.
 
 >>> from spectratac.decode.layout import Layout
->>> from spectratac.decode.featureset import build_features
+>>> from spectratac.decode.feature_matrices import build_features
 >>> from spectratac.decode.heads import Heads
->>> from spectratac.decode.model import init_weights
+>>> from spectratac.decode.networks import init_weights
 >>> fs = build_features("generic", Layout(("a", "b")))
 >>> heads = Heads(("Fz",), n_classes=2)
 >>> w = init_weights(("resmlp", 8, 1), fs.n_features, heads.n_out, np.random.default_rng(0))
@@ -34,9 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderFileError
-from spectratac.decode.featureset import FeatureSet
+from spectratac.decode.feature_matrices import FeatureSet
 from spectratac.decode.heads import Heads, postprocess
-from spectratac.decode.model import Arch, Weights, forward
+from spectratac.decode.networks import Arch, Weights, forward
 from spectratac.decode.scaling import Standardizer
 
 F64 = NDArray[np.float64]

@@ -173,9 +173,6 @@ class TrainSpec:
             return ("linear", 0, 0)
         return (self.model, self.hidden, self.blocks)
 
-    def regression_targets(self) -> tuple[str, ...]:
-        return tuple(t for t in self.targets if t not in CLASS_TARGETS)
-
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["targets"] = list(self.targets)

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.featureset import SPECTRATAC_CHANNELS
+from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
 from spectratac.decode.spec import AUGMENTS
 
 F64 = NDArray[np.float64]
@@ -46,7 +46,7 @@ MIRROR_REGION = {1: 7, 2: 8, 3: 9, 4: 4, 5: 5, 6: 6, 7: 1, 8: 2, 9: 3}
 CENTRE_REGION = 5
 # (force or torque x, y) pairs and the sign of the z component under the mirror
 # (other targets are taken as invariant scalars)
-VECTORS = (("Fx", "Fy", "Fz", 1.0), ("Tx", "Ty", "Tz", -1.0), ("Mx", "My", "Mz", -1.0))
+VECTORS = (("Fx", "Fy", "Fz", 1.0), ("Tx", "Ty", "Tz", -1.0))
 
 
 def transforms(augment: str) -> list[tuple[int, bool]]:

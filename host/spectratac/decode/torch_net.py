@@ -1,7 +1,7 @@
 """The decoder networks in torch (training, ONNX and TorchScript export only).
 
 Importing this module imports torch: only `train` and the exporters do. Parameter names
-match `spectratac.decode.model`, whose NumPy forward is the reference.
+match `spectratac.decode.networks`, whose NumPy forward is the reference.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from spectratac.decode.features import EPS
-from spectratac.decode.model import LN_EPS, Arch
+from spectratac.decode.networks import LN_EPS, Arch
+from spectratac.decode.paper_features import EPS
 
 
 class Block(nn.Module):

@@ -21,13 +21,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.featureset import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS, FeatureSet, build_features
 from spectratac.decode.guard import SATURATION, Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
@@ -36,7 +37,6 @@ from spectratac.decode.spec import TrainSpec
 
 F64 = NDArray[np.float64]
 PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
-PAPER_LOSS_WEIGHTS.update({"Mx": 0.1, "My": 0.1, "Mz": 0.2})
 HUBER_DELTA = 0.1  # in scaled target units
 N_VAL_BLOCKS = 10
 Progress = bool | Callable[[int, float], None]
@@ -59,7 +59,7 @@ class Plan:
     class_labels: list[str] | None
 
 
-def plan(dataset: Any, spec: TrainSpec) -> Plan:
+def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
     """Resolve targets, LED steps and features against `dataset`; DecoderConfigError if the
     spec asks for something the dataset lacks."""
     names = list(dataset.target_names)
@@ -117,7 +117,7 @@ def plan(dataset: Any, spec: TrainSpec) -> Plan:
     )
 
 
-def select_rows(n: int, rows: Any) -> NDArray[np.intp]:
+def select_rows(n: int, rows: ArrayLike | None) -> NDArray[np.intp]:
     if rows is None:
         return np.arange(n)
     r = np.asarray(rows)
@@ -138,7 +138,7 @@ def _name_rows(bad: NDArray[np.intp], what: str, fix: str) -> DecoderDataError:
     )
 
 
-def check_rows(dataset: Any, p: Plan, rows: NDArray[np.intp]) -> None:
+def check_rows(dataset: Dataset, p: Plan, rows: NDArray[np.intp]) -> None:
     """Refuse training rows that cannot be used, naming them."""
     x = np.asarray(dataset.inputs, dtype=np.float64)[rows]
     bad = rows[~np.all(np.isfinite(x), axis=1)]
@@ -184,7 +184,10 @@ def val_split(order: NDArray[np.intp], fraction: float) -> tuple[NDArray, NDArra
 
 
 def train(
-    dataset: Any, spec: TrainSpec | None = None, rows: Any = None, progress: Progress = True
+    dataset: Dataset,
+    spec: TrainSpec | None = None,
+    rows: ArrayLike | None = None,
+    progress: Progress = True,
 ) -> Decoder:
     """Train a decoder on `rows` (mask, indices or None: all) of `dataset`.
 
@@ -214,7 +217,7 @@ def train(
     tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
     y_fit = y_all[fit_rows][tv[fit_rows]]
     y_scale = _safe_std(y_fit) if p.reg_cols else np.ones(0)
-    from spectratac.decode.model import init_weights
+    from spectratac.decode.networks import init_weights
 
     dummy = init_weights(spec.arch, p.features.n_features, p.heads.n_out, np.random.default_rng(0))
     rt = Runtime.create(p.features, spec.arch, dummy, p.heads, u[fit_rows], y_scale)
@@ -265,7 +268,7 @@ def train(
 
 
 def _augmented(
-    dataset: Any,
+    dataset: Dataset,
     p: Plan,
     rt: Runtime,
     data: dict[str, Any],

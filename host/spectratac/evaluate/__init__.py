@@ -1,4 +1,5 @@
-"""Evaluating decoders honestly: splits, metrics, the oracle floor, Fig. 3 reports.
+"""Evaluating decoders honestly: splits, metrics, the oracle floor, Fig. 3 reports, the twin
+fidelity report (`twin_fidelity`) and the decoder benchmarks (`evaluate.bench`).
 
 Two splits are always reported: the paper's random split and a blocked split (whole presses
 or time blocks held out, with a guard gap) that measures generalisation. A model records the
@@ -16,7 +17,9 @@ from spectratac.evaluate.metrics import (
     contact_scores,
     improvement,
     interval_coverage,
+    region_accuracy,
     region_scores,
+    regression_metrics,
     regression_scores,
 )
 from spectratac.evaluate.predictions import Predictions, predict
@@ -49,7 +52,9 @@ __all__ = [
     "make_split",
     "mark",
     "predict",
+    "region_accuracy",
     "region_scores",
+    "regression_metrics",
     "regression_scores",
     "resolve",
     "score",

@@ -1,6 +1,6 @@
 """Which rows a model was trained on: the convention between training and evaluation.
 
-A model trained through `evaluate.protocol.fit_and_evaluate` (or any trainer that calls
+A model trained through `evaluate.fit_both_splits.fit_and_evaluate` (or any trainer that calls
 `mark`) carries ``meta["holdout"]``::
 
     {"dataset": "<fingerprint of the training dataset>", "n_rows": N,
@@ -36,12 +36,13 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.splits import Split, SplitSpec, split_dataset
 
 KEY = "holdout"
 
 
-def fingerprint(dataset: Any) -> str:
+def fingerprint(dataset: Dataset) -> str:
     """Short content hash of what defines the rows: inputs, targets, times, sessions."""
     h = hashlib.sha256()
     for key in ("inputs", "targets", "t_start", "session", "press"):
@@ -52,7 +53,9 @@ def fingerprint(dataset: Any) -> str:
     return h.hexdigest()[:16]
 
 
-def mark(model: Any, dataset: Any, split: Split, companions: dict[str, str] | None = None) -> None:
+def mark(
+    model: Any, dataset: Dataset, split: Split, companions: dict[str, str] | None = None
+) -> None:
     """Record in `model.meta` that it was trained on `split.train` of `dataset`."""
     record: dict[str, Any] = {
         "dataset": fingerprint(dataset),
@@ -77,7 +80,7 @@ class Holdout:
     companions: dict[str, str]
 
 
-def resolve(meta: dict[str, Any], dataset: Any) -> Holdout:
+def resolve(meta: dict[str, Any], dataset: Dataset) -> Holdout:
     rec = meta.get(KEY)
     if not isinstance(rec, dict) or "dataset" not in rec or "split" not in rec:
         return Holdout(

@@ -18,6 +18,15 @@ runs on a deterministic subsample of the test rows, and the report says so.
 (True, 6)
 >>> twin_oracle(ds).reason[:40]
 'session 0 comes from the twin but its sc'
+
+`oracle_predictions` decodes a subsample of evaluation rows session by session and returns
+them as `Predictions` for the report's floor column; a dataset without an oracle gets a note:
+
+>>> from spectratac.dataset import Dataset
+>>> plain = Dataset.generic(np.zeros((4, 1)), np.zeros(4), ["a"], ["Fz"])
+>>> rows, pred, note = oracle_predictions(plain, np.arange(4))
+>>> rows.size, pred, note[:22]
+(0, None, 'no oracle: not a Spect')
 """
 
 from __future__ import annotations
@@ -29,6 +38,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.schema import FT_NAMES, Dataset
+from spectratac.evaluate.predictions import Predictions
 from spectratac.twin.electronics import SensorConfig
 from spectratac.twin.errors import TwinError
 from spectratac.twin.oracle import Oracle
@@ -56,7 +67,7 @@ class TwinOracle:
     reason: str = ""
     scene_name: str = ""
 
-    def decode(self, dataset: Any, rows: NDArray[np.int64]) -> OracleEstimates:
+    def decode(self, dataset: Dataset, rows: NDArray[np.int64]) -> OracleEstimates:
         if self.oracle is None:
             raise TwinError(f"no oracle for this dataset: {self.reason}")
         a = dataset.arrays
@@ -75,7 +86,7 @@ def subsample(rows: NDArray[np.int64], k: int, seed: int = 0) -> NDArray[np.int6
     return np.sort(rng.choice(rows, k, replace=False))
 
 
-def twin_oracle(dataset: Any, scene: Scene | None = None, session: int = 0) -> TwinOracle:
+def twin_oracle(dataset: Dataset, scene: Scene | None = None, session: int = 0) -> TwinOracle:
     """The oracle for rows of `session`, with `scene` given or rebuilt from the metadata."""
     meta = dataset.meta
     sessions = meta.get("sessions") or []
@@ -118,14 +129,14 @@ def twin_oracle(dataset: Any, scene: Scene | None = None, session: int = 0) -> T
     return TwinOracle(oracle, session, "", scene.name)
 
 
-def _agreement(dataset: Any, rows: NDArray[np.int64], scene: Scene) -> float:
+def _agreement(dataset: Dataset, rows: NDArray[np.int64], scene: Scene) -> float:
     a = dataset.arrays
     tmid = 0.5 * (a["t_start"][rows] + a["t_end"][rows])
     return float(np.mean(scene.contact(tmid).in_contact == a["in_contact"][rows]))
 
 
 def _rebuild_scene(
-    dataset: Any, rows: NDArray[np.int64], info: dict[str, Any]
+    dataset: Dataset, rows: NDArray[np.int64], info: dict[str, Any]
 ) -> tuple[Scene | None, str]:
     """Scene from its name and seed; a calibration scene's presses depend on its exact
     duration, so candidate durations consistent with the last window are tried."""
@@ -160,3 +171,47 @@ def _durations(t_last: float, period: float) -> list[float]:
         if d < t_last + period - 1e-9 and d not in out:
             out.append(d)
     return out
+
+
+def oracle_predictions(
+    dataset: Dataset,
+    rows: NDArray[np.int64],
+    scene: Scene | None = None,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+) -> tuple[NDArray[np.int64], Predictions | None, str]:
+    """(rows decoded, their oracle predictions, a note for the report)."""
+    sub = subsample(np.asarray(rows, dtype=np.int64), samples, seed)
+    sessions = dataset.arrays["session"][sub]
+    kept: list[NDArray[np.int64]] = []
+    targets: list[NDArray[np.float64]] = []
+    regions: list[NDArray[np.int8]] = []
+    reasons: list[str] = []
+    for s in np.unique(sessions):
+        o = twin_oracle(dataset, scene=scene, session=int(s))
+        if o.oracle is None:
+            reasons.append(o.reason)
+            continue
+        r = sub[sessions == s]
+        est = o.decode(dataset, r)
+        kept.append(r)
+        targets.append(est.targets)
+        regions.append(est.region)
+    if not kept:
+        why = "; ".join(sorted(set(reasons))) or "no rows to decode"
+        return np.zeros(0, np.int64), None, f"no oracle: {why}"
+    done = np.concatenate(kept)
+    order = np.argsort(done)
+    pred = Predictions(
+        list(FT_NAMES),
+        np.concatenate(targets)[order],
+        region=np.concatenate(regions)[order].astype(np.int64),
+    )
+    note = (
+        f"oracle (true unit, model inversion per sample) on a deterministic subsample of "
+        f"{done.size} of the {rows.size} evaluation rows (seed {seed}); it knows the unit, LEDs "
+        "and environment but not the press history (creep), so a learned decoder can beat it"
+    )
+    if reasons:
+        note += f"; rows of other sessions skipped: {'; '.join(sorted(set(reasons)))}"
+    return done[order], pred, note

@@ -1,16 +1,15 @@
-"""One view of what any decoder predicted for some rows of a dataset, whichever decoder API
-produced it (`Decoder.predict(dataset, rows)` giving `Estimates`, or the legacy
-`PaperDecoder.predict(raw12)`), with its columns matched to the dataset's target names.
+"""One view of what a decoder predicted for some rows of a dataset (`Decoder.predict(dataset,
+rows)` giving `Estimates`, or any object with the same fields), with its columns matched to
+the dataset's target names.
 
 >>> import numpy as np
->>> p = Predictions(["Fx", "Mz"], np.array([[1.0, 2.0]]))
->>> p.aligned(["Fx", "Tz"]).tolist()
-[[1.0, 2.0]]
+>>> p = Predictions(["Fx", "Tz"], np.array([[1.0, 2.0]]))
+>>> p.aligned(["Tz", "Fy"]).tolist()
+[[2.0, nan]]
 """
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -18,19 +17,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.errors import SpectraTacError
 
 F64 = NDArray[np.float64]
-# The paper writes torques M, the dataset T: the same components.
-_ALIASES = {"Mx": "Tx", "My": "Ty", "Mz": "Tz"}
 
 
 class PredictionError(SpectraTacError):
     """A decoder's output cannot be matched to the dataset's targets."""
-
-
-def canonical(name: str) -> str:
-    return _ALIASES.get(name, name)
 
 
 @dataclass
@@ -44,8 +38,8 @@ class Predictions:
     std: F64 | None = None  # (N, T) predicted standard deviation, if the model has one
 
     def _columns(self, names: Sequence[str]) -> list[int | None]:
-        mine = [canonical(n) for n in self.target_names]
-        return [mine.index(canonical(n)) if canonical(n) in mine else None for n in names]
+        mine = list(self.target_names)
+        return [mine.index(n) if n in mine else None for n in names]
 
     def aligned(self, names: Sequence[str], std: bool = False) -> F64:
         """(N, len(names)) columns in the order of `names`; NaN where not predicted."""
@@ -63,30 +57,11 @@ class Predictions:
         return [n for n, i in zip(names, self._columns(names), strict=True) if i is not None]
 
 
-def predict(decoder: Any, dataset: Any, rows: NDArray[np.int64]) -> Predictions:
+def predict(decoder: Any, dataset: Dataset, rows: NDArray[np.int64]) -> Predictions:
     """Run `decoder` on `rows` of `dataset` (the decoder sees the whole dataset, so models with
     temporal context can use the rows before each one)."""
-    rows = np.asarray(rows, dtype=np.int64)
-    if hasattr(decoder, "predict") and _takes_dataset(decoder):
-        est = decoder.predict(dataset, rows=rows)
-        return _from_estimates(est)
-    # Legacy paper-recipe decoder: (N, 12) raw counts in, Prediction out.
-    pred = decoder.predict(np.asarray(dataset.arrays["inputs"])[rows])
-    return Predictions(
-        target_names=["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"],
-        targets=np.asarray(pred.ft, dtype=np.float64),
-        region=np.asarray(pred.region, dtype=np.int64),
-        region_prob=np.asarray(pred.region_prob),
-    )
-
-
-def _takes_dataset(decoder: Any) -> bool:
-    """New API: predict(dataset, rows=...); the legacy PaperDecoder: predict(raw12)."""
-    try:
-        params = inspect.signature(decoder.predict).parameters
-    except (TypeError, ValueError):
-        return True
-    return "rows" in params
+    est = decoder.predict(dataset, rows=np.asarray(rows, dtype=np.int64))
+    return _from_estimates(est)
 
 
 def _opt(est: Any, name: str, dtype: Any) -> Any:

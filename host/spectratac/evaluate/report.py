@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate import plots
 from spectratac.evaluate.paper import paper_figures, paper_mae
 from spectratac.evaluate.run import Evaluation, Section
@@ -167,7 +168,7 @@ def _panel_names(s: Section) -> list[str]:
     return names
 
 
-def write_panels(s: Section, dataset: Any | None, out: Path, paper: bool = True) -> list[Path]:
+def write_panels(s: Section, dataset: Dataset | None, out: Path, paper: bool = True) -> list[Path]:
     """The Fig. 3 panels of one section (the paper's marks only for SpectraTac data)."""
     if s.decoder is None:
         return []
@@ -220,7 +221,7 @@ def write_report(
     out: str | Path,
     dataset_info: dict[str, Any],
     model: dict[str, Any] | None = None,
-    dataset: Any | None = None,
+    dataset: Dataset | None = None,
 ) -> dict[str, Any]:
     """Write report.json, report.md and the panels into `out`; return the JSON dict."""
     out = Path(out)

@@ -28,8 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.evaluate.floor import oracle_predictions
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.holdout import resolve
+from spectratac.evaluate.oracle_floor import oracle_predictions
 from spectratac.evaluate.predictions import predict
 from spectratac.evaluate.scoring import Scored, score
 from spectratac.evaluate.splits import KINDS
@@ -104,7 +105,7 @@ def _history(model: Any) -> list[float]:
 
 def evaluate_model(
     model: Any,
-    dataset: Any,
+    dataset: Dataset,
     *,
     splits: Sequence[str] = KINDS,
     companions: dict[str, Any] | None = None,
@@ -164,12 +165,12 @@ def _missing(kind: str, have: str) -> str:
     return (
         f"not evaluated: the model was trained on the {have} split's training rows, so the "
         f"{kind} split's test rows include rows it was trained on; train a companion under the "
-        f"{kind} split (evaluate.protocol.fit_and_evaluate writes both) and pass it"
+        f"{kind} split (evaluate.fit_both_splits.fit_and_evaluate writes both) and pass it"
     )
 
 
 def _score_baseline(
-    baseline: Any, dataset: Any, rows: NDArray[np.int64]
+    baseline: Any, dataset: Dataset, rows: NDArray[np.int64]
 ) -> tuple[Scored | None, str]:
     hb = resolve(getattr(baseline, "meta", {}) or {}, dataset)
     if hb.split is not None:

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.metrics import (
     contact_scores,
     interval_coverage,
@@ -43,7 +44,7 @@ class Scored:
     region_pred: NDArray[np.int64] | None
 
 
-def score(dataset: Any, rows: NDArray[np.int64], pred: Predictions) -> Scored:
+def score(dataset: Dataset, rows: NDArray[np.int64], pred: Predictions) -> Scored:
     """Targets the decoder does not predict are left out; rows with invalid targets ignored."""
     a = dataset.arrays
     rows = np.asarray(rows, dtype=np.int64)

@@ -24,14 +24,14 @@ True
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from spectratac.dataset.schema import Dataset
 from spectratac.errors import SpectraTacError
 
-Kind = Literal["random", "blocked"]
 KINDS: tuple[str, ...] = ("random", "blocked")
 I64 = NDArray[np.int64]
 
@@ -158,7 +158,7 @@ def make_split(
     )
 
 
-def split_dataset(dataset: Any, spec: SplitSpec) -> Split:
+def split_dataset(dataset: Dataset, spec: SplitSpec) -> Split:
     """`make_split` over a `spectratac.dataset.Dataset`."""
     a = dataset.arrays
     return make_split(spec, a["t_start"], a["t_end"], a["session"], a["press"])

@@ -23,7 +23,7 @@ from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
 
-AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
 
 
 def wrench(

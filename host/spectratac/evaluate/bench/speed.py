@@ -1,6 +1,6 @@
 """Speed against error: integration time x LED sequencing x model size on one scene.
 
-Every acquisition setting (`evaluate.acquisition`) records the same calibration scene (same
+Every acquisition setting (`evaluate.bench.acquisition`) records the same calibration scene (same
 presses, same unit), so the settings differ only in how they sample it. Each model is trained
 on the blocked split's training rows and scored on its test rows. Training budget: the same
 epochs and the same optimiser steps per epoch everywhere (the batch shrinks with the number
@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.evaluate.acquisition import Acquisition
+from spectratac.dataset.schema import Dataset
+from spectratac.evaluate.bench.acquisition import Acquisition
 
 MODELS: dict[str, dict[str, Any]] = {
     "linear": {"model": "linear"},
@@ -50,7 +51,7 @@ def make_dataset(scene: Any, acq: Acquisition, seed: int) -> Any:
 
 
 def grid_point(
-    dataset: Any,
+    dataset: Dataset,
     acq: Acquisition,
     model_name: str,
     epochs: int,
@@ -133,7 +134,7 @@ def add_latency(
 ) -> None:
     """Single-sample latency of every decoder, timed side by side; ratios to the reference
     (the paper's model at 50 ms white, or the first point if that was not run). In place."""
-    from spectratac.evaluate.latency import side_by_side_latency, single_sample_fn
+    from spectratac.evaluate.bench.latency import side_by_side_latency, single_sample_fn
 
     fns, inputs = {}, {}
     for key, (dec, ds) in trained.items():

@@ -17,7 +17,7 @@ import io
 import json
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,8 +26,13 @@ from spectratac.decode.guard import Guard
 from spectratac.decode.layout import Layout
 from spectratac.decode.runtime import Runtime
 
+if TYPE_CHECKING:
+    from spectratac.decode.decoder import Decoder
+
 FORMAT = "spectratac.decoder"
 VERSION = "1.0"
+#: Torque names of generic datasets before Tx Ty Tz became the only spelling.
+RETIRED_TORQUE_NAMES = ("Mx", "My", "Mz")
 
 
 def _jsonable(v: Any) -> Any:
@@ -42,7 +47,7 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-def write_model(dec: Any, path: str | Path) -> Path:
+def write_model(dec: Decoder, path: str | Path) -> Path:
     path = Path(path)
     meta = {
         "format": FORMAT,
@@ -89,7 +94,7 @@ def read_meta(path: str | Path) -> dict[str, Any]:
     return meta
 
 
-def read_model(path: str | Path) -> Any:
+def read_model(path: str | Path) -> Decoder:
     from spectratac.decode.decoder import Decoder
 
     meta = read_meta(path)
@@ -107,4 +112,11 @@ def read_model(path: str | Path) -> Any:
         raise
     except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
         raise DecoderFileError(f"{path} is damaged ({exc!r}): retrain or re-copy it") from None
-    return Decoder(runtime, layout, guard, meta["decoder"])
+    dec = Decoder(runtime, layout, guard, meta["decoder"])
+    old = [n for n in dec.target_names if n in RETIRED_TORQUE_NAMES]
+    if old:
+        raise DecoderFileError(
+            f"{path} names torque targets {old}; torques are Tx Ty Tz now: retrain the "
+            "decoder on the dataset (its Mx My Mz columns load as Tx Ty Tz)"
+        )
+    return dec

@@ -20,16 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.decode.metrics import AXES, region_accuracy, regression_metrics
+from spectratac.dataset.schema import FT_NAMES as AXES
 from spectratac.decode.spec import TrainSpec
 from spectratac.decode.train import train
+from spectratac.evaluate.metrics import region_accuracy, regression_metrics
+from spectratac.evaluate.paper import PAPER
 
-PAPER: dict[str, Any] = {
-    "mae": {"Fx": 0.161, "Fy": 0.164, "Fz": 0.429},
-    "r2_min": 0.91,
-    "region_accuracy": 0.999,
-    "torque_mae_max": 0.004,
-}
 BAND = 0.30
 TARGET_REGION_ACCURACY = 0.99
 

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.holdout import mark
 from spectratac.evaluate.run import Evaluation, Section, evaluate_model
 from spectratac.evaluate.splits import KINDS, Split, SplitSpec, split_dataset
@@ -59,7 +60,7 @@ def default_trainer() -> Trainer:
 
 
 def fit_and_evaluate(
-    dataset: Any,
+    dataset: Dataset,
     spec: Any,
     kinds: Sequence[str] = KINDS,
     *,

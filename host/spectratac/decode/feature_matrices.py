@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.features import EPS
 from spectratac.decode.layout import Layout
+from spectratac.decode.paper_features import EPS
 
 F64 = NDArray[np.float64]
 SPECTRATAC_CHANNELS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")

@@ -1,8 +1,8 @@
 """The two decoder benchmarks end to end, shared by `spectratac bench decoder` and the
 scripts in tools/bench/: build the data, train, score, time, write tables and plots.
 
-- `variants_bench`: the paper's recipe against each improvement (issue 7, item 5).
-- `speed_bench`: integration time x LED sequence x model size (item 6).
+- `variants_bench`: the paper's recipe against each improvement beyond it.
+- `speed_bench`: integration time x LED sequence x model size.
 
 Both write ``<name>.md``, ``<name>.json`` (and the Pareto PNG) into the output folder and
 return the JSON dict. `QUICK` settings run in seconds for the test suite; numbers from them
@@ -23,15 +23,15 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from spectratac.evaluate.acquisition import INTEGRATION_MS, SEQUENCES, grid
-from spectratac.evaluate.bench_tables import (
+from spectratac.evaluate.bench.acquisition import INTEGRATION_MS, SEQUENCES, grid
+from spectratac.evaluate.bench.speed import MODELS, REFERENCE, add_latency, pareto_front, run_grid
+from spectratac.evaluate.bench.tables import (
     grid_markdown,
     latency_front,
     pareto_plot,
     variants_markdown,
 )
-from spectratac.evaluate.speed import MODELS, REFERENCE, add_latency, pareto_front, run_grid
-from spectratac.evaluate.variants import VARIANTS, run_variants, target_check
+from spectratac.evaluate.bench.variants import VARIANTS, run_variants, target_check
 
 Progress = Callable[[str], None]
 # Scene lengths of the full runs (s of the calibration protocol; the paper's is 3000 s):
@@ -120,9 +120,9 @@ def _clean(v: Any) -> Any:
 
 
 def variants_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None) -> dict:
-    """Item 5: every variant and the paper's recipe on the same data and splits."""
-    from spectratac.evaluate.floor import oracle_predictions
-    from spectratac.evaluate.latency import side_by_side_latency, single_sample_fn
+    """Every variant and the paper's recipe on the same data and splits."""
+    from spectratac.evaluate.bench.latency import side_by_side_latency, single_sample_fn
+    from spectratac.evaluate.oracle_floor import oracle_predictions
     from spectratac.evaluate.scoring import score
     from spectratac.evaluate.splits import SplitSpec, split_dataset
     from spectratac.sim.twin_dataset import from_twin_session
@@ -228,7 +228,7 @@ def variants_report(result: dict[str, Any]) -> str:
 
 
 def speed_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None) -> dict:
-    """Item 6: error against observation rate, latency and training time."""
+    """Error against observation rate, latency and training time, per grid point."""
     tick = progress or (lambda s: None)
     t0 = time.perf_counter()
     cfg = cfg.resolved("speed")

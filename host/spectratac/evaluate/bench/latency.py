@@ -21,10 +21,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.schema import Dataset
+
 F64 = NDArray[np.float64]
 
 
-def single_sample_fn(decoder: Any, dataset: Any) -> tuple[Callable[[F64], Any], F64]:
+def single_sample_fn(decoder: Any, dataset: Dataset) -> tuple[Callable[[F64], Any], F64]:
     """(per-sample live function, its inputs) for a `Decoder`: the inputs are rows
     ``[step, channels...]`` of the dataset's first session in time order, and the function
     assembles one row and runs the network on it."""

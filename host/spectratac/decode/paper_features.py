@@ -20,7 +20,6 @@ from spectratac.decode.errors import DecoderDataError
 
 EPS = 1e-5
 N_RAW = 12
-N_FEATURES = 33
 _CH = ("R", "G", "B", "C")
 
 FEATURE_NAMES: tuple[str, ...] = (

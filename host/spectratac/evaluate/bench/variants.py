@@ -2,12 +2,12 @@
 same splits, the same training budget, one change at a time, then the combination.
 
 Each variant is `TrainSpec.paper(**changes)`; every variant is trained on each split's
-training rows and scored on its test rows (`evaluate.protocol.fit_and_evaluate`). The
+training rows and scored on its test rows (`evaluate.fit_both_splits.fit_and_evaluate`). The
 table reports MAE per force axis with the change in % against the paper's recipe, mean and
 minimum R², region and contact accuracy, interval coverage (uncertainty), and inference cost
 (flops per sample, and single-sample latency measured side by side).
 
-The issue's target: the best decoder has >= 25 % lower MAE than the paper's recipe on the
+The target: the best decoder has >= 25 % lower MAE than the paper's recipe on the
 blocked split on every force axis, at no more than its inference cost (flops per sample).
 
 >>> list(VARIANTS)[:3], VARIANTS["contact"]["targets"][-1]
@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.metrics import improvement
 
 FT6 = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
@@ -206,7 +207,7 @@ def merge_seeds(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_variants(
-    dataset: Any,
+    dataset: Dataset,
     names: Sequence[str],
     base: dict[str, Any],
     *,
@@ -220,7 +221,7 @@ def run_variants(
     in `train_seeds` (scores are means, with the MAE's spread); the other kinds use the first.
     Returns the table rows and the trained models (by variant, blocked split, first seed)."""
     from spectratac.decode import TrainSpec
-    from spectratac.evaluate.protocol import fit_and_evaluate
+    from spectratac.evaluate.fit_both_splits import fit_and_evaluate
 
     rows: list[dict[str, Any]] = []
     models: dict[str, Any] = {}
