@@ -17,6 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import c_backend
 import markdown_backend
 import python_backend
+import sim_abi_backend
 from definition import load
 
 REPO = Path(__file__).resolve().parents[2]
@@ -57,6 +58,12 @@ def main(argv: list[str] | None = None) -> int:
         if rel.endswith(".py"):
             text = ruff_format(text)
         path.write_text(text, encoding="utf-8")
+        print(f"wrote {path}")
+    # The simulator library's C ABI, from its own definition (firmware/ports/native/stac_sim.toml).
+    for rel, text in sim_abi_backend.render_all().items():
+        path = args.root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(ruff_format(text) if rel.endswith(".py") else text, encoding="utf-8")
         print(f"wrote {path}")
     print(f"definition hash 0x{definition.hash:08X}")
     return 0
