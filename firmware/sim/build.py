@@ -2,8 +2,8 @@
 (libstac_sim.so and its sanitized twin), the C unit tests, the golden-vector probe and the
 benchmark program, compiled with the system C compiler.
 
-Used by the package build (setup.py), by PlatformIO's stac-native platform (which reads the
-targets through `load()` and compiles them with SCons), by the tests and benchmarks of a
+Used by the package build (setup.py), by PlatformIO's stac-native platform (which reads a
+target through `target()` and compiles it with SCons), by the tests and benchmarks of a
 checkout, and by spectratac.sim.native in a checkout. `build()` recompiles a target only when
 one of its inputs is newer than the output, so edited C sources are picked up on the next use.
 Standard library only: setup.py imports it before any dependency is installed.
@@ -95,40 +95,47 @@ def _paths(patterns: list[str], root: Path, where: str) -> list[Path]:
     return paths
 
 
-def load(description: Path = DESCRIPTION, root: Path = REPO) -> dict[str, Target]:
-    """The targets of a build description, paths resolved against `root`.
+def target_names(description: Path = DESCRIPTION) -> list[str]:
+    """The targets a description defines.
 
-    >>> sorted(load())
-    ['bench', 'simlib', 'simlib-asan', 'unit-tests', 'vector-check']
-    >>> load()["simlib"].output
-    'libstac_sim.so'
+    >>> target_names()
+    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench']
+    """
+    return list(tomllib.loads(description.read_text(encoding="utf-8")).get("targets", {}))
+
+
+def target(name: str, description: Path = DESCRIPTION, root: Path = REPO) -> Target:
+    """Target `name` of a description, its paths resolved against `root` (only this target's
+    files need to exist: an sdist carries just what the library needs).
+
+    >>> lib = target("simlib")
+    >>> lib.kind, lib.output, [p.name for p in lib.sources][-2:]
+    ('shared', 'libstac_sim.so', ['stac_sim.c', 'veml_model.c'])
     """
     raw = tomllib.loads(description.read_text(encoding="utf-8"))
     lists: dict[str, list[str]] = raw.get("lists", {})
-    targets: dict[str, Target] = {}
-    for name, spec in raw.get("targets", {}).items():
-        where = f"{description.name} [targets.{name}]"
-        if spec.get("kind") not in KINDS:
-            raise BuildDescriptionError(f"{where}: kind must be one of {', '.join(KINDS)}")
-        excluded = set(_paths(_expand(spec.get("exclude", []), lists, where), root, where))
-        sources = [
-            p
-            for p in _paths(_expand(spec["sources"], lists, where), root, where)
-            if p not in excluded
-        ]
-        targets[name] = Target(
-            name=name,
-            kind=spec["kind"],
-            output=spec["output"],
-            sources=tuple(sources),
-            include_dirs=tuple(
-                root / d for d in _expand(spec.get("include_dirs", []), lists, where)
-            ),
-            defines=tuple((k, str(v)) for k, v in spec.get("defines", {}).items()),
-            flags=tuple(_expand(spec.get("flags", []), lists, where)),
-            link_flags=tuple(_expand(spec.get("link_flags", []), lists, where)),
+    targets = raw.get("targets", {})
+    if name not in targets:
+        raise BuildDescriptionError(
+            f"{description.name} has no target {name!r}; choose from {', '.join(targets)}"
         )
-    return targets
+    spec = targets[name]
+    where = f"{description.name} [targets.{name}]"
+    if spec.get("kind") not in KINDS:
+        raise BuildDescriptionError(f"{where}: kind must be one of {', '.join(KINDS)}")
+    excluded = set(_paths(_expand(spec.get("exclude", []), lists, where), root, where))
+    sources = _paths(_expand(spec["sources"], lists, where), root, where)
+    includes = _expand(spec.get("include_dirs", []), lists, where)
+    return Target(
+        name=name,
+        kind=spec["kind"],
+        output=spec["output"],
+        sources=tuple(p for p in sources if p not in excluded),
+        include_dirs=tuple(root / d for d in includes),
+        defines=tuple((k, str(v)) for k, v in spec.get("defines", {}).items()),
+        flags=tuple(_expand(spec.get("flags", []), lists, where)),
+        link_flags=tuple(_expand(spec.get("link_flags", []), lists, where)),
+    )
 
 
 def compiler() -> str | None:
@@ -139,12 +146,9 @@ def compiler() -> str | None:
 def build(name: str, out: Path = DEFAULT_OUT) -> Path:
     """Compile target `name` into folder `out` unless it is newer than all its inputs (sources,
     headers, the description and this script); return the output file."""
-    targets = load()
-    if name not in targets:
-        raise BuildDescriptionError(f"no target {name!r}; choose from {', '.join(targets)}")
-    target = targets[name]
-    output = out / target.output
-    inputs = [*target.sources, *target.headers(), DESCRIPTION, Path(__file__)]
+    chosen = target(name)
+    output = out / chosen.output
+    inputs = [*chosen.sources, *chosen.headers(), DESCRIPTION, Path(__file__)]
     if output.exists() and all(p.stat().st_mtime <= output.stat().st_mtime for p in inputs):
         return output
     cc = compiler()
@@ -152,7 +156,7 @@ def build(name: str, out: Path = DEFAULT_OUT) -> Path:
         raise RuntimeError("no C compiler found (Debian: apt install build-essential; or set CC)")
     out.mkdir(parents=True, exist_ok=True)
     partial = output.with_name(output.name + ".partial")
-    cmd = target.command(cc, partial)
+    cmd = chosen.command(cc, partial)
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"compile failed: {' '.join(cmd)}\n{done.stdout}{done.stderr}")
@@ -161,7 +165,7 @@ def build(name: str, out: Path = DEFAULT_OUT) -> Path:
 
 
 def main() -> int:
-    targets = load()
+    targets = target_names()
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("targets", nargs="*", help=f"any of {', '.join(targets)} (default: simlib)")
