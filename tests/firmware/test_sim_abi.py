@@ -48,7 +48,7 @@ def test_every_entry_point_and_constant_is_on_both_sides() -> None:
     header = (REPO / GENERATED[0]).read_text(encoding="utf-8")
     declared = set(re.findall(r"^STAC_SIM_API \w+ (stac_sim_\w+)\(", header, flags=re.M))
     assert declared == set(native_abi.SIGNATURES)
-    defines = dict(re.findall(r"^#define STAC_SIM_(\w+) (0x[0-9A-F]+|\d+)u?$", header, flags=re.M))
+    defines = dict(re.findall(r"^#define STAC_SIM_(\w+) (0x[0-9A-F]+|\d+)u?\b", header, flags=re.M))
     assert len(defines) >= 9
     for name, literal in defines.items():
         assert getattr(native_abi, name) == int(literal, 0), name
