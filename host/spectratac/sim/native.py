@@ -131,6 +131,9 @@ def library_path() -> Path:
 def load() -> ctypes.CDLL:
     """The loaded library with argument types declared (compiled first in a checkout).
 
+    >>> load().stac_sim_abi_version() == ABI_VERSION
+    True
+
     Loaded as a PyDLL: calls keep the GIL. A CDLL call releases it and every Python callback
     takes it back, so with another thread waiting (the host reading the stream) each of a
     step's callbacks became a thread switch; a step is microseconds of C, holding is cheaper."""

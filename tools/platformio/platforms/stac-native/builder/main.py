@@ -39,7 +39,7 @@ env.Append(
     CCFLAGS=list(target.flags),
     LINKFLAGS=list(target.flags) + list(target.link_flags),
     CPPPATH=[str(d) for d in target.include_dirs],
-    CPPDEFINES=[(k, '\\"%s\\"' % v) for k, v in target.defines],
+    CPPDEFINES=[(k, f'\\"{v}\\"') for k, v in target.defines],
 )
 compile_one = env.SharedObject if shared else env.Object
 objects = [
