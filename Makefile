@@ -54,9 +54,10 @@ firmware: $(STAMP)
 firmware-test: $(STAMP)
 	$(BIN)/python tools/platformio/pio.py run -e native -t exec
 
-# The core as a host shared library (build/firmware/native/libstac_sim.so, C ABI in stac_sim.h).
+# The simulator library (build/firmware/native/libstac_sim.so, C ABI in stac_sim.h) as
+# firmware/sim/build.toml describes it; rebuilt only when a source is newer.
 firmware-native:
-	$(PYTHON) firmware/ports/native/build.py lib
+	$(PYTHON) firmware/sim/build.py simlib
 
 # Black Pill in ROM DFU mode (hold BOOT0, tap NRST); ST-Link: see firmware/README.md.
 flash: firmware

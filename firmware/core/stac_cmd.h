@@ -7,7 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "stac_app.h"
+#include "stac_state.h"
 
 /* Handle the COBS bytes of one received frame (delimiter excluded). */
 void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len);

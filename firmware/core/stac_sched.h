@@ -11,7 +11,7 @@
 
 #include <stdint.h>
 
-#include "stac_app.h"
+#include "stac_state.h"
 
 /* How often a running integration is polled for completion once it is due. */
 #define STAC_POLL_INTERVAL_US 250u

@@ -18,8 +18,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_model_tests_pass_on_the_sanitized_library() -> None:
-    builder = native._builder()
-    lib = builder.build_lib_sanitized()
+    builder = native.checkout_builder()
+    assert builder is not None, "the tests run from a source checkout"
+    lib = builder.build("simlib-asan")
     cc = builder.compiler()
     assert cc is not None
     asan = subprocess.run(

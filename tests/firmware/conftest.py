@@ -82,8 +82,8 @@ def qemu_port(image: Path) -> Iterator[int]:
 
 
 def load_native_build() -> ModuleType:
-    """firmware/ports/native/build.py, the one place that knows how to compile the core."""
-    path = REPO / "firmware" / "ports" / "native" / "build.py"
+    """firmware/sim/build.py: compiles the host targets of firmware/sim/build.toml."""
+    path = REPO / "firmware" / "sim" / "build.py"
     spec = importlib.util.spec_from_file_location("stac_native_build", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
@@ -101,14 +101,14 @@ def native_build() -> ModuleType:
 
 @pytest.fixture(scope="session")
 def unit_binary(native_build: ModuleType) -> Path:
-    return native_build.build_unit(OUT)
+    return native_build.build("unit-tests", OUT)
 
 
 @pytest.fixture(scope="session")
 def vector_binary(native_build: ModuleType) -> Path:
-    return native_build.build_vector_check(OUT)
+    return native_build.build("vector-check", OUT)
 
 
 @pytest.fixture(scope="session")
 def sim_library(native_build: ModuleType) -> Path:
-    return native_build.build_lib(OUT)
+    return native_build.build("simlib", OUT)

@@ -28,6 +28,7 @@ import part
 import part_c_backend
 import part_python_backend
 import python_backend
+import sim_abi_backend
 from definition import load
 
 REPO = Path(__file__).resolve().parents[2]
@@ -84,6 +85,12 @@ def main(argv: list[str] | None = None) -> int:
         if rel.endswith(".py"):
             text = ruff_format(text)
         path.write_text(text, encoding="utf-8")
+        print(f"wrote {path}")
+    # The simulator library's C ABI, from its own definition (firmware/ports/native/stac_sim.toml).
+    for rel, text in sim_abi_backend.render_all().items():
+        path = args.root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(ruff_format(text) if rel.endswith(".py") else text, encoding="utf-8")
         print(f"wrote {path}")
     print(f"definition hash 0x{load(DEFINITION).hash:08X}")
     return 0

@@ -1,4 +1,5 @@
-/* Native port: adapts caller-supplied callbacks to the core's HAL, one instance per device. */
+/* Native port: adapts caller-supplied callbacks (or the VEML3328 models of firmware/sim) to the
+ * core's HAL, one instance per device. The ABI (stac_sim.h) is generated from stac_sim.toml. */
 #include "stac_sim.h"
 
 #include <string.h>
@@ -10,7 +11,8 @@
 #define STAC_BUILD_ID "native"
 #endif
 
-_Static_assert(sizeof(stac_sim_window_t) == 56u, "stac_sim_window_t layout is part of the ABI");
+_Static_assert(STAC_SIM_WINDOW_BITS == VEML_MODEL_WINDOW_BITS,
+               "a plan entry's CONF bits are the ones the model compares");
 _Static_assert(STAC_SIM_I2C_OK == VEML_MODEL_OK && STAC_SIM_I2C_NACK == VEML_MODEL_NACK &&
                    STAC_SIM_I2C_BUS_ERROR == VEML_MODEL_BUS_ERROR,
                "model results are I2C results");

@@ -1,7 +1,17 @@
-"""Build (once, cached) and load the firmware core as a host shared library.
+"""Find and load the simulator library: the firmware core compiled for this host.
 
-The simulated device is the real firmware: firmware/core plus firmware/ports/native compiled
-with the system C compiler by firmware/ports/native/build.py (rebuilt when a source changes).
+The simulated device is the real firmware: firmware/core, the native port's HAL glue and the
+VEML3328 register models of firmware/sim, built as described once in firmware/sim/build.toml.
+The library comes from, in this order:
+
+1. ``$SPECTRATAC_SIM_LIB``: a prebuilt library (the tests load the sanitizer build this way);
+2. a source checkout (this package imported from ``host/`` beside ``firmware/``):
+   build/firmware/native/libstac_sim.so, compiled by firmware/sim/build.py on first use and
+   again whenever a C source, header or the build description is newer;
+3. an installed package: libstac_sim.so beside this module, compiled when the wheel was built
+   (setup.py). An installed package never runs a build script.
+
+The ctypes declarations of the library's C ABI are generated (spectratac.sim.native_abi).
 """
 
 from __future__ import annotations
@@ -10,107 +20,119 @@ import ctypes
 import importlib.util
 import os
 import threading
-from ctypes import POINTER, c_int32, c_uint8, c_uint16, c_uint32, c_uint64, c_void_p
 from pathlib import Path
 from types import ModuleType
 
-import numpy as np
-
 from spectratac.errors import SpectraTacError
-from spectratac.hardware.veml3328 import CONF_WINDOW
+from spectratac.sim.native_abi import (
+    ABI_VERSION,
+    CLOCK_FN,
+    I2C_BUS_ERROR,
+    I2C_FN,
+    I2C_NACK,
+    I2C_OK,
+    I2C_TIMEOUT,
+    PLAN_MAX,
+    PWM_FN,
+    SHARED_WINDOWS,
+    TX_FN,
+    WINDOW_BITS,
+    WINDOW_DTYPE,
+    WINDOW_FN,
+    Callbacks,
+    declare,
+)
 
-REPO = Path(__file__).resolve().parents[3]
-FIRMWARE = REPO / "firmware"
-ABI_VERSION = 1
-#: Use this prebuilt library instead of building one (e.g. the sanitizer build in tests).
+__all__ = [
+    "ABI_VERSION",
+    "CLOCK_FN",
+    "I2C_BUS_ERROR",
+    "I2C_FN",
+    "I2C_NACK",
+    "I2C_OK",
+    "I2C_TIMEOUT",
+    "LIB_ENV",
+    "PACKAGED_LIBRARY",
+    "PLAN_MAX",
+    "PWM_FN",
+    "SHARED_WINDOWS",
+    "TX_FN",
+    "WINDOW_BITS",
+    "WINDOW_DTYPE",
+    "WINDOW_FN",
+    "Callbacks",
+    "NativeBuildError",
+    "checkout_builder",
+    "declare",
+    "library_path",
+    "load",
+]
+
+#: Use this prebuilt library instead of the checkout's or the package's.
 LIB_ENV = "SPECTRATAC_SIM_LIB"
-
-I2C_OK, I2C_NACK, I2C_TIMEOUT, I2C_BUS_ERROR = 0, 1, 2, 3
-
-I2C_FN = ctypes.CFUNCTYPE(
-    c_int32,
-    c_void_p,
-    c_uint32,
-    c_uint8,
-    c_uint8,
-    POINTER(c_uint8),
-    c_uint32,
-    POINTER(c_uint8),
-    c_uint32,
-    c_uint32,
-)
-PWM_FN = ctypes.CFUNCTYPE(None, c_void_p, c_uint32, c_uint8, c_uint8, c_uint16)
-TX_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p, c_uint32, POINTER(c_uint8), c_uint32)
-CLOCK_FN = ctypes.CFUNCTYPE(c_uint32, c_void_p)
-WINDOW_FN = ctypes.CFUNCTYPE(
-    c_int32, c_void_p, c_uint8, c_uint64, c_uint64, c_uint16, POINTER(c_uint16), POINTER(c_uint8)
-)
-PLAN_MAX = 256  # STAC_SIM_PLAN_MAX
-SHARED_WINDOWS = 8  # STAC_SIM_SHARED_WINDOWS
-WINDOW_BITS = CONF_WINDOW  # CONF bits a window's counts depend on (IT, SENS, gain, DG, SD_ALS)
-#: stac_sim_window_t: one window computed ahead, as the library stores it
-WINDOW_DTYPE = np.dtype(
-    [
-        ("t0_us", "<u8"),
-        ("t1_us", "<u8"),
-        ("conf", "<u2"),
-        ("counts", "<u2", (3, 5)),
-        ("saturated", "u1", (3,)),
-        ("reserved", "u1", (5,)),
-    ]
-)
-assert WINDOW_DTYPE.itemsize == 56
-
-
-class Callbacks(ctypes.Structure):
-    _fields_ = (
-        ("user", c_void_p),
-        ("i2c_transfer", I2C_FN),
-        ("pwm_set", PWM_FN),
-        ("uart_tx", TX_FN),
-        ("clock_us", CLOCK_FN),
-    )
+#: Where an installed package holds the library (setup.py compiles it into the wheel).
+PACKAGED_LIBRARY = Path(__file__).with_name("libstac_sim.so")
+#: The library target of firmware/sim/build.toml.
+TARGET = "simlib"
 
 
 class NativeBuildError(SpectraTacError):
-    """The firmware could not be compiled for the host."""
+    """The simulator library could not be found, compiled or loaded."""
 
 
 _lock = threading.Lock()
 _lib: ctypes.CDLL | None = None
 
 
-def _builder() -> ModuleType:
-    """firmware/ports/native/build.py: the one place that knows how to compile the core."""
-    path = FIRMWARE / "ports" / "native" / "build.py"
-    if not path.exists():
-        raise NativeBuildError(
-            f"{path} is missing: the simulated device compiles the firmware from the repository "
-            f"checkout (firmware/ next to host/)"
-        )
-    spec = importlib.util.spec_from_file_location("stac_native_build", path)
-    assert spec is not None and spec.loader is not None
+def checkout_builder() -> ModuleType | None:
+    """firmware/sim/build.py when this package is imported from a source checkout, else None.
+
+    A checkout is recognised by its layout: this file under ``host/spectratac/sim/`` and the
+    build description in ``firmware/sim/`` of the same tree. Installed copies (site-packages)
+    never match, so they never compile anything."""
+    here = Path(__file__).resolve()
+    root = here.parents[3]
+    script = root / "firmware" / "sim" / "build.py"
+    if here.parents[2].name != "host" or not (root / "firmware" / "sim" / "build.toml").is_file():
+        return None
+    spec = importlib.util.spec_from_file_location("stac_native_build", script)
+    if spec is None or spec.loader is None:
+        return None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def build() -> Path:
-    """Compile the native port unless an up-to-date build exists; return the library."""
-    builder = _builder()
+def library_path() -> Path:
+    """The library `load()` uses (compiled first in a checkout when a source is newer)."""
+    prebuilt = os.environ.get(LIB_ENV)
+    if prebuilt:
+        return Path(prebuilt)
+    builder = checkout_builder()
+    if builder is None:
+        if not PACKAGED_LIBRARY.is_file():
+            raise NativeBuildError(
+                f"{PACKAGED_LIBRARY} is missing: this installation of spectratac has no simulator "
+                f"library. Install a wheel built on a machine with a C compiler (`pip wheel .` in "
+                f"a checkout), or point {LIB_ENV} at a built libstac_sim.so."
+            )
+        return PACKAGED_LIBRARY
     if builder.compiler() is None:
         raise NativeBuildError(
-            "no C compiler found: the simulated device compiles the firmware for this host. "
-            "Install one (Debian: apt install build-essential) or set CC."
+            "no C compiler found: a source checkout compiles the simulated device's firmware for "
+            "this host. Install one (Debian: apt install build-essential) or set CC."
         )
     try:
-        return Path(builder.build_lib())
+        return Path(builder.build(TARGET))
     except RuntimeError as exc:
         raise NativeBuildError(f"compiling the native firmware failed: {exc}") from None
 
 
 def load() -> ctypes.CDLL:
-    """The loaded library with argument types declared (built on first use).
+    """The loaded library with argument types declared (compiled first in a checkout).
+
+    >>> load().stac_sim_abi_version() == ABI_VERSION
+    True
 
     Loaded as a PyDLL: calls keep the GIL. A CDLL call releases it and every Python callback
     takes it back, so with another thread waiting (the host reading the stream) each of a
@@ -119,71 +141,18 @@ def load() -> ctypes.CDLL:
     with _lock:
         if _lib is not None:
             return _lib
-        path = os.environ.get(LIB_ENV) or str(build())
-        lib = declare(ctypes.PyDLL(path))
+        path = library_path()
+        try:
+            lib = declare(ctypes.PyDLL(str(path)))
+        except (OSError, AttributeError) as exc:
+            raise NativeBuildError(
+                f"cannot load the simulator library {path}: {exc}. Rebuild it from the same "
+                f"checkout as this package (`make firmware-native`) or reinstall the package."
+            ) from None
         if lib.stac_sim_abi_version() != ABI_VERSION:
             raise NativeBuildError(
-                f"native firmware ABI {lib.stac_sim_abi_version()} != {ABI_VERSION} expected by "
-                f"this host library: update both from one checkout"
+                f"{path} has ABI {lib.stac_sim_abi_version()}, this package expects "
+                f"{ABI_VERSION}: build both from one checkout"
             )
         _lib = lib
         return lib
-
-
-def declare(lib: ctypes.CDLL) -> ctypes.CDLL:
-    """Declare the stac_sim_* argument and result types on a loaded library."""
-    lib.stac_sim_abi_version.restype = c_uint32
-    lib.stac_sim_sizeof.restype = c_uint32
-    lib.stac_sim_default_capabilities.restype = c_uint32
-    lib.stac_sim_init.restype = c_int32
-    lib.stac_sim_init.argtypes = [
-        c_void_p,
-        POINTER(Callbacks),
-        ctypes.c_char_p,
-        c_uint32,
-        c_void_p,
-        c_uint32,
-        c_uint32,
-    ]
-    lib.stac_sim_step.restype = None
-    lib.stac_sim_step.argtypes = [c_void_p, c_uint32]
-    lib.stac_sim_rx_feed.restype = c_uint32
-    lib.stac_sim_rx_feed.argtypes = [c_void_p, ctypes.c_char_p, c_uint32]
-    lib.stac_sim_next_wake_us.restype = c_uint32
-    lib.stac_sim_next_wake_us.argtypes = [c_void_p]
-    lib.stac_sim_streaming.restype = c_uint32
-    lib.stac_sim_streaming.argtypes = [c_void_p]
-    # Additions within ABI 1: 64-bit time, free-running, native sensor models with a plan.
-    lib.stac_sim_step64.restype = None
-    lib.stac_sim_step64.argtypes = [c_void_p, c_uint64]
-    lib.stac_sim_now64.restype = c_uint64
-    lib.stac_sim_now64.argtypes = [c_void_p]
-    lib.stac_sim_run.restype = c_uint32
-    lib.stac_sim_run.argtypes = [c_void_p, c_uint32]
-    lib.stac_sim_init_models.restype = c_int32
-    lib.stac_sim_init_models.argtypes = [
-        c_void_p,
-        POINTER(Callbacks),
-        WINDOW_FN,
-        c_uint32,
-        ctypes.c_char_p,
-        c_uint32,
-        c_void_p,
-        c_uint32,
-        c_uint32,
-    ]
-    lib.stac_sim_plan.restype = c_uint32
-    lib.stac_sim_plan.argtypes = [c_void_p, c_void_p, c_uint32, POINTER(c_uint32), c_uint32]
-    lib.stac_sim_plan_progress.restype = None
-    lib.stac_sim_plan_progress.argtypes = [c_void_p, POINTER(c_uint32), POINTER(c_uint32)]
-    lib.stac_sim_sensor_transfer.restype = c_int32
-    lib.stac_sim_sensor_transfer.argtypes = [
-        c_void_p,
-        c_uint8,
-        c_uint64,
-        ctypes.c_char_p,
-        c_uint32,
-        c_void_p,
-        c_uint32,
-    ]
-    return lib

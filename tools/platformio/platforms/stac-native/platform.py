@@ -4,4 +4,4 @@ from platformio.public import PlatformBase
 
 
 class StacnativePlatform(PlatformBase):
-    """Host builds (the firmware core's C unit tests) with the system compiler."""
+    """Host builds (targets of firmware/sim/build.toml) with the system compiler."""

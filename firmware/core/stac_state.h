@@ -1,0 +1,127 @@
+/* The application's state and the services every layer of the core shares.
+ *
+ * One stac_app_t instance holds all state (no globals, no heap), so a host can run several
+ * simulated devices in one process. This file is the bottom of the application's layers
+ * (firmware/README.md): stac_sched and stac_cmd work on the instance through it, and stac_app
+ * (the superloop pass) drives both; nothing here calls up into them. */
+#ifndef STAC_STATE_H
+#define STAC_STATE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "generated/stac_messages.h"
+#include "stac_frame.h"
+#include "stac_hal.h"
+#include "stac_leds.h"
+
+#define STAC_FW_VERSION_MAJOR 0u
+#define STAC_FW_VERSION_MINOR 1u
+#define STAC_FW_VERSION_PATCH 0u
+
+#define STAC_TEXT_SIZE 16u
+
+/* Capabilities every build of this core implements. */
+#define STAC_CAPS_CORE \
+    (STAC_CAP_LED_SEQUENCE | STAC_CAP_TIME_SYNC | STAC_CAP_STATUS | STAC_CAP_LOG | \
+     STAC_CAP_IR_CHANNEL)
+
+/* What INFO reports about the board; supplied by the port. */
+typedef struct stac_identity {
+    char board[STAC_TEXT_SIZE];    /* NUL-padded, e.g. "blackpill-f411" */
+    char build_id[STAC_TEXT_SIZE]; /* NUL-padded, e.g. git describe */
+    uint32_t capabilities;         /* STAC_CAP_* bits */
+    uint32_t baud;                 /* UART rate, 0 when not a UART */
+} stac_identity_t;
+
+typedef struct stac_stats {
+    uint32_t samples_taken;
+    uint32_t frames_sent;
+    uint32_t frames_dropped;
+    uint32_t bus_errors[STAC_SENSORS];
+    uint32_t saturations[STAC_SENSORS];
+    uint32_t rx_frames;
+    uint32_t rx_errors;
+    uint32_t command_errors;
+} stac_stats_t;
+
+/* Acquisition state: one cycle = light a step, let it settle, integrate, read, send. */
+typedef enum stac_acq_state {
+    STAC_ACQ_IDLE = 0,  /* between cycles, or not streaming */
+    STAC_ACQ_SETTLE,    /* LEDs set, waiting settle time before the trigger */
+    STAC_ACQ_INTEGRATE  /* sensors triggered, waiting for them to finish */
+} stac_acq_state_t;
+
+typedef struct stac_acq {
+    uint8_t state;           /* stac_acq_state_t */
+    uint8_t step;            /* LED step of the current / next cycle */
+    uint8_t pending;         /* sensors whose measurement has not finished yet */
+    uint8_t done;            /* sensors that finished this window */
+    uint8_t fault;           /* sensors whose transfer failed this window */
+    bool busy;               /* a triggered measurement may still be running (after STOP) */
+    uint32_t settle_until;   /* SETTLE: trigger time */
+    uint32_t t_start;        /* INTEGRATE: trigger time */
+    uint32_t poll_at;        /* INTEGRATE: next completion poll */
+    uint32_t deadline;       /* INTEGRATE: give up waiting (sensor reported stale) */
+    uint16_t last_counts[STAC_SENSORS][STAC_CHANNELS]; /* last good reading per sensor */
+} stac_acq_t;
+
+typedef struct stac_app {
+    stac_hal_t hal;
+    stac_identity_t id;
+    uint8_t uid[STAC_UID_SIZE];
+
+    uint32_t now;       /* time of the current pass (µs) */
+    uint64_t uptime_us; /* accumulated from pass to pass, so it outlives the 32-bit wrap */
+
+    stac_configure_t cfg;     /* configuration in force */
+    uint16_t cfg_id;
+    stac_configure_t pending; /* accepted, applied at the next integration start */
+    bool has_pending;
+    uint16_t latest_id;       /* id of the newest accepted configuration */
+
+    bool streaming;
+    uint32_t sample_seq;
+    uint8_t present; /* bit k: sensor k answered its ID probe */
+    uint8_t lost;    /* bit k: sensor k's last transfer failed (logged once) */
+
+    stac_leds_t leds;
+    stac_acq_t acq;
+    stac_stats_t stats;
+    stac_rx_t rx;
+    uint16_t tx_seq;
+
+    uint8_t log_tokens; /* LOG rate limit: a burst of a few, then one per second */
+    uint32_t log_refill_at;
+
+    uint8_t frame[STAC_MAX_FRAME]; /* encode scratch */
+} stac_app_t;
+
+/* Fresh state: default configuration in force and pending, LEDs and receiver reset, full LOG
+ * budget, not streaming. The HAL is stored and asked for the unique id; nothing else runs. */
+void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity_t *id,
+                     uint32_t now_us);
+
+/* Start of a pass at now_us: accumulate uptime across the 32-bit wrap, refill the LOG budget. */
+void stac_state_advance(stac_app_t *app, uint32_t now_us);
+
+/* Frame and hand one message to the UART; counts it as sent or dropped. */
+bool stac_app_send(stac_app_t *app, uint8_t type, const uint8_t *payload, size_t len);
+
+/* Send a LOG message unless the rate limit says the host has heard enough for now. */
+void stac_app_log(stac_app_t *app, uint8_t level, const char *text);
+
+/* Fresh clock reading (the HAL's) for timestamps taken within a pass. */
+uint32_t stac_app_clock(const stac_app_t *app);
+
+/* Default configuration at boot: 50 ms, ×1, DG ×1, high sensitivity, one step at 500 ‰,
+ * settle 1000 µs, not streaming. */
+void stac_default_config(stac_configure_t *cfg);
+
+/* Wrap-safe "a is before b" for 32-bit µs times less than 2^31 apart. */
+static inline bool stac_before(uint32_t a, uint32_t b) {
+    return (int32_t)(a - b) < 0;
+}
+
+#endif /* STAC_STATE_H */

@@ -1,0 +1,64 @@
+"""firmware/sim/build.toml is the one description of the host builds: its reader's examples
+hold, the simulator library it describes contains every source of the core, the native port and
+the sensor models, a checkout rebuilds when an input is newer, and PlatformIO builds the same
+library (the same exported entry points, the ones the generated ctypes declarations name)."""
+
+from __future__ import annotations
+
+import ctypes
+import doctest
+import os
+import subprocess
+from pathlib import Path
+from types import ModuleType
+
+from spectratac.sim import native_abi
+
+from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
+
+FIRMWARE = REPO / "firmware"
+
+
+def exported(library: Path) -> set[str]:
+    out = subprocess.run(
+        ["nm", "-D", "--defined-only", str(library)], capture_output=True, text=True, check=True
+    ).stdout
+    return {line.split()[-1] for line in out.splitlines() if " T " in line}
+
+
+def test_reader_examples(native_build: ModuleType) -> None:
+    result = doctest.testmod(native_build, optionflags=doctest.ELLIPSIS)
+    assert result.attempted >= 3 and result.failed == 0
+
+
+def test_simulator_library_holds_every_source_it_needs(native_build: ModuleType) -> None:
+    lib = native_build.target("simlib")
+    expected = {
+        *FIRMWARE.glob("core/*.c"),
+        *FIRMWARE.glob("core/generated/*.c"),
+        *FIRMWARE.glob("ports/native/*.c"),
+        *FIRMWARE.glob("sim/*.c"),
+    }
+    assert set(lib.sources) == expected
+    assert lib.kind == "shared" and lib.output == "libstac_sim.so"
+    assert not any("bench" in p.parts for p in lib.sources)
+
+
+def test_a_newer_input_rebuilds(native_build: ModuleType, tmp_path: Path) -> None:
+    first = native_build.build("vector-check", tmp_path)
+    built_at = first.stat().st_mtime_ns
+    assert native_build.build("vector-check", tmp_path).stat().st_mtime_ns == built_at
+    source = native_build.target("vector-check").sources[-1]
+    older = source.stat().st_mtime - 10
+    os.utime(first, (older, older))  # as if the source had been edited after the build
+    assert native_build.build("vector-check", tmp_path).stat().st_mtime > older
+
+
+def test_platformio_builds_the_same_simulator_library(sim_library: Path) -> None:
+    need("gcc", "build-essential")
+    result = pio.run(["run", "-e", "simlib"], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    from_pio = REPO / "build" / "pio" / "simlib" / "libstac_sim.so"
+    assert exported(from_pio) == exported(sim_library) == set(native_abi.SIGNATURES)
+    lib = native_abi.declare(ctypes.CDLL(str(from_pio)))
+    assert lib.stac_sim_abi_version() == native_abi.ABI_VERSION
