@@ -12,9 +12,12 @@ import subprocess
 from pathlib import Path
 from types import ModuleType
 
+import pytest
 from spectratac.sim import native_abi
 
 from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
+
+pytestmark = pytest.mark.firmware  # compiles the build description's targets
 
 FIRMWARE = REPO / "firmware"
 

@@ -16,6 +16,8 @@ from spectratac.sim import native_abi
 
 from .conftest import REPO
 
+pytestmark = pytest.mark.subprocess  # runs the generator and the C compiler
+
 GENERATED = ["firmware/ports/native/stac_sim.h", "host/spectratac/sim/native_abi.py"]
 
 

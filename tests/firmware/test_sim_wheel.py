@@ -25,6 +25,8 @@ STREAM = """
 import json, spectratac
 from spectratac.device import Sensor
 from spectratac.sim import native
+
+pytestmark = pytest.mark.subprocess  # builds a wheel and installs it in a fresh venv
 with Sensor.open("sim://?scene=press&speed=max") as sensor:
     sensor.start()
     batch = sensor.read(200, timeout=60.0)
