@@ -102,10 +102,8 @@ def test_every_fact_names_its_source_place_and_status() -> None:
         assert fact["where"], f"{path}: say where in the source"
         if fact["status"] == "secondary":
             assert fact.get("also"), f"{path}: name the independent sources that agree"
-        if fact["status"] == "unverified" and not path.startswith("blackpill.reserved"):
-            assert fact.get("why") or "why" in FACTS[path.split(".")[0]].get(
-                path.split(".")[1].split("[")[0] + "_status", {}
-            ), f"{path}: say why it is unverified"
+        if fact["status"] == "unverified":
+            assert fact.get("why"), f"{path}: say why it is unverified"
 
 
 def test_every_source_is_identified() -> None:
@@ -193,9 +191,7 @@ def test_each_sensor_is_decoupled_next_to_its_supply_pins(board: Board) -> None:
     caps = [ref for ref in fps if ref.startswith("C")]
     for bus in (1, 2, 3):
         sensor = fps[f"U{bus}"]
-        across = [
-            c for c in caps if {nets_of[(c, "1")], nets_of[(c, "2")]} == {"VDD", "GND"}
-        ]
+        across = [c for c in caps if {nets_of[(c, "1")], nets_of[(c, "2")]} == {"VDD", "GND"}]
         near = [
             c
             for c in across
@@ -232,7 +228,8 @@ def test_pullups_meet_rise_time_and_sink_current(board: Board) -> None:
             pullups = [
                 ref
                 for (ref, pad), net in nets_of.items()
-                if ref.startswith("R") and net == line
+                if ref.startswith("R")
+                and net == line
                 and {nets_of[(ref, "1")], nets_of[(ref, "2")]} == {"VDD", line}
             ]
             assert len(pullups) == 1, f"{line}: one pull-up to VDD"

@@ -26,8 +26,9 @@ LED_VF = {"R": 2.0, "G": 2.9, "B": 2.9}
 PIN_DROP = 0.2
 E12 = (100, 120, 150, 180, 220, 270, 330, 390, 470, 560, 680, 820)
 # UM10204 section 7.1: R_p <= t_r / (0.8473 C_b) with t_r <= 300 ns at 400 kHz (Table 10), so
-# 2.2 kOhm allows up to 160 pF per line (two 10 pF pins, traces and 30 cm of cable: ~55 pF);
-# R_p >= (3.3 V - 0.4 V) / 3 mA = 967 Ohm keeps V_OL within the 3 mA sink rating (Table 9).
+# 2.2 kOhm allows up to 160 pF per line (a 10 pF sensor pin, a 5 pF MCU pin, traces and
+# 30 cm of cable: ~50 pF); R_p >= (3.3 V - 0.4 V) / 3 mA = 967 Ohm keeps V_OL within the
+# 3 mA sink rating (Table 9).
 PULLUP_OHMS = 2200
 # 100 nF X7R at each VEML3328's VDD pin (facts: veml3328.decoupling_nf; Vishay's application
 # circuits for the VEML family).
