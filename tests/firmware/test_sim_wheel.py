@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.subprocess  # builds a wheel and installs it in a fresh venv
+
 REPO = Path(__file__).resolve().parents[2]
 TIMEOUT_S = 600
 
@@ -26,7 +28,6 @@ import json, spectratac
 from spectratac.device import Sensor
 from spectratac.sim import native
 
-pytestmark = pytest.mark.subprocess  # builds a wheel and installs it in a fresh venv
 with Sensor.open("sim://?scene=press&speed=max") as sensor:
     sensor.start()
     batch = sensor.read(200, timeout=60.0)
