@@ -267,6 +267,10 @@ static void on_out_endpoints(void) {
             usb_dev_setup(&g_dev, g_setup);
             if (g_dev.ep0 == USB_EP0_DATA_IN || g_dev.ep0 == USB_EP0_STATUS_IN) {
                 drv_ep0_receive(0); /* keep accepting the next SETUP or an early status OUT */
+            } else if (g_dev.ep0 == USB_EP0_STALLED) {
+                /* Room for the next SETUPs without enabling the stalled endpoint. */
+                OTG_DOEPTSIZ(0u) = (3u << OTG_DOEPTSIZ0_STUPCNT_SHIFT) |
+                                   (1u << OTG_TSIZ_PKTCNT_SHIFT) | USB_EP0_SIZE;
             }
         } else if ((irq & OTG_EPINT_XFRC) != 0u) {
             const uint32_t len = g_ep0_out_len;

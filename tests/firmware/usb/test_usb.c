@@ -533,6 +533,74 @@ TEST(usb_enumeration_sequence) {
     CHECK(usb_cdc_port_open(&dev));
 }
 
+/* Random events (SETUPs with random fields, data, completions, resets, suspends) under the
+ * sanitizers: the core never sends a packet over 64 bytes nor more than wLength in one data
+ * stage, is never Configured without an address, and its EP0 stage stays consistent. */
+#define NCASES (uint32_t)(sizeof k_cases / sizeof k_cases[0])
+
+TEST(usb_random_events_keep_invariants) {
+    usb_dev_t dev;
+    fake_udc_t f;
+    fresh(&dev, &f);
+    uint32_t x = 0x12345678u; /* xorshift32: the same sequence on every run */
+    uint32_t stage_bytes = 0u;
+    uint32_t w_length = 0u;
+    for (uint32_t step = 0; step < 200000u; step++) {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        const uint32_t what = x % 16u;
+        if (what < 6u) {
+            /* A request of the table, SET_ADDRESS or SET_CONFIGURATION (so that every state is
+             * reached), one byte of it sometimes replaced by a random one. */
+            const uint32_t pick = (x >> 4) % (NCASES + 2u);
+            uint8_t setup[8];
+            if (pick < NCASES) {
+                const req_case_t *c = &k_cases[pick];
+                const uint8_t b[8] = {c->bm, c->request, (uint8_t)c->value,
+                                      (uint8_t)(c->value >> 8), (uint8_t)c->index,
+                                      (uint8_t)(c->index >> 8), (uint8_t)c->length,
+                                      (uint8_t)(c->length >> 8)};
+                memcpy(setup, b, 8);
+            } else {
+                const uint8_t set_address[8] = {H2D_DEV, 5, (uint8_t)(1u + (x >> 9) % 127u),
+                                                0, 0, 0, 0, 0};
+                const uint8_t set_config[8] = {H2D_DEV, 9, 1, 0, 0, 0, 0, 0};
+                memcpy(setup, pick == NCASES ? set_address : set_config, 8);
+            }
+            if ((x >> 16) % 4u == 0u) {
+                setup[(x >> 18) % 8u] = (uint8_t)(x >> 24);
+            }
+            f.queued = 0u;
+            usb_dev_setup(&dev, setup);
+            stage_bytes = 0u;
+            w_length = (uint32_t)(setup[6] | (setup[7] << 8));
+        } else if (what < 11u) {
+            usb_dev_ep0_in_done(&dev);
+        } else if (what < 14u) {
+            const uint8_t data[64] = {0, 0xC2, 1, 0, 0, 0, 8};
+            usb_dev_ep0_out(&dev, data, (x >> 8) % 65u);
+        } else if (what == 14u) {
+            usb_dev_suspend(&dev);
+        } else if ((x >> 8) % 8u == 0u) {
+            usb_dev_bus_reset(&dev);
+        } else {
+            usb_dev_resume(&dev);
+        }
+        for (uint32_t i = 0; i < f.queued; i++) {
+            CHECK(f.packet_len[i] <= USB_EP0_SIZE);
+            stage_bytes += f.packet_len[i];
+        }
+        f.queued = 0u;
+        if ((dev.setup[0] & 0x80u) != 0u) {
+            CHECK(stage_bytes <= w_length);
+        }
+        CHECK(dev.state != USB_STATE_CONFIGURED || dev.address != 0u);
+        CHECK(dev.ep0 <= USB_EP0_STALLED);
+        CHECK(dev.ep0 != USB_EP0_DATA_IN || dev.in_left <= w_length);
+    }
+}
+
 static const test_case_t k_tests[] = {
     {"usb_request_table", usb_request_table},
     {"usb_stall_ends_at_next_setup", usb_stall_ends_at_next_setup},
@@ -555,6 +623,7 @@ static const test_case_t k_tests[] = {
     {"usb_descriptor_chain_consistent", usb_descriptor_chain_consistent},
     {"usb_serial_from_uid", usb_serial_from_uid},
     {"usb_enumeration_sequence", usb_enumeration_sequence},
+    {"usb_random_events_keep_invariants", usb_random_events_keep_invariants},
     {NULL, NULL},
 };
 
