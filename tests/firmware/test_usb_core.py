@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from .conftest import BUILD_TIMEOUT_S, need, pio
+
 pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 
 SOURCE = Path(__file__).resolve().parent / "usb" / "test_usb.c"
@@ -44,3 +46,13 @@ def test_unknown_test_name_fails(usb_binary: Path) -> None:
         [str(usb_binary), "usb_no_such_test"], capture_output=True, text=True, timeout=TIMEOUT_S
     )
     assert result.returncode == 2 and "no test named" in result.stdout
+
+
+def test_platformio_env_runs_usb_tests() -> None:
+    """`pio run -e native_usb -t exec` builds the same target and runs every test."""
+    need("gcc", "build-essential")
+    result = pio.run(["run", "-e", "native_usb", "-t", "exec"], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    assert re.search(rf"^{len(NAMES)} tests, 0 failed$", result.stdout, flags=re.M), result.stdout[
+        -2000:
+    ]
