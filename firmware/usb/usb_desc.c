@@ -63,7 +63,9 @@ static const uint8_t k_manufacturer[2u + 2u * 10u] = {
     U('c'),
 };
 static const uint8_t k_product[2u + 2u * 23u] = {
-    48u, DESC_STRING, U('S'), U('p'), U('e'), U('c'), U('t'), U('r'), U('a'), U('T'), U('a'), U('c'), U(' '), U('s'), U('e'), U('n'), U('s'), U('o'), U('r'), U(' '), U('b'), U('o'), U('a'), U('r'), U('d'),
+    48u, DESC_STRING, U('S'), U('p'), U('e'), U('c'), U('t'), U('r'), U('a'), U('T'), U('a'),
+    U('c'), U(' '), U('s'), U('e'), U('n'), U('s'), U('o'), U('r'), U(' '), U('b'), U('o'),
+    U('a'), U('r'), U('d'),
 };
 
 void usb_desc_serial(uint8_t out[USB_SERIAL_DESC_LEN], const uint8_t uid[12]) {

@@ -265,7 +265,10 @@ static int endpoint_request(usb_dev_t *dev, const setup_t *s) {
     }
     switch (s->request) {
     case REQ_GET_STATUS:
-        return reply_u16(dev, s, (uint16_t)(bit >= 0 ? ((unsigned)dev->halted >> (unsigned)bit) & 1u : 0u));
+        if (bit < 0) {
+            return reply_u16(dev, s, 0u);
+        }
+        return reply_u16(dev, s, (uint16_t)(((unsigned)dev->halted >> (unsigned)bit) & 1u));
     case REQ_CLEAR_FEATURE:
     case REQ_SET_FEATURE: {
         const uint8_t halt = s->request == REQ_SET_FEATURE;
