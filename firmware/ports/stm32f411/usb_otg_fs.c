@@ -14,6 +14,7 @@
 #include "host_link.h"
 #include "regs.h"
 #include "systick.h"
+#include "usb_cdc_io.h"
 #include "usb_dev.h"
 
 /* Data FIFO RAM is 1.25 KB = 320 words (RM0383 §22.11), in 32-bit words:
@@ -34,9 +35,6 @@ _Static_assert(FIFO_RX_WORDS + FIFO_EP0_WORDS + FIFO_EP1_WORDS + FIFO_EP2_WORDS 
 #define EPTYP_BULK 2u
 #define EPTYP_INTERRUPT 3u
 
-#define TX_SIZE 2048u /* power of two: several whole frames */
-#define RX_SIZE 512u  /* power of two, at least two 64-byte packets */
-
 /* Bounds on the controller's own flags (reset and flush finish within a few PHY clocks). */
 #define FLAG_SPINS 100000u
 #define MODE_SWITCH_US 25000u /* forcing device mode takes effect after 25 ms (GUSBCFG FDMOD) */
@@ -48,14 +46,8 @@ static usb_dev_t g_dev;
 static uint8_t g_ep0_out[USB_EP0_SIZE];
 static uint32_t g_ep0_out_len;
 static uint8_t g_setup[8];
-static uint8_t g_tx[TX_SIZE];
-static volatile uint32_t g_tx_head; /* main context */
-static volatile uint32_t g_tx_tail; /* interrupt */
+static usb_cdc_io_t g_io;
 static volatile uint8_t g_tx_busy;  /* a bulk IN packet is in the FIFO */
-static uint8_t g_tx_last_full;      /* the last packet was 64 bytes: a ZLP may be owed */
-static uint8_t g_rx[RX_SIZE];
-static volatile uint32_t g_rx_head; /* interrupt */
-static volatile uint32_t g_rx_tail; /* main context */
 static volatile uint8_t g_rx_armed; /* EP1 OUT accepts a packet */
 static uint8_t g_running;           /* the controller was brought up */
 
@@ -130,7 +122,7 @@ static void drv_set_address(void *ctx, uint8_t address) {
 }
 
 static void arm_data_out(void) {
-    if (RX_SIZE - (g_rx_head - g_rx_tail) >= USB_DATA_SIZE) {
+    if (usb_cdc_io_rx_room(&g_io)) {
         OTG_DOEPTSIZ(EP_DATA) = (1u << OTG_TSIZ_PKTCNT_SHIFT) | USB_DATA_SIZE;
         OTG_DOEPCTL(EP_DATA) |= OTG_EPCTL_EPENA | OTG_EPCTL_CNAK;
         g_rx_armed = 1u;
@@ -158,8 +150,7 @@ static void drv_configure(void *ctx, uint8_t on) {
         OTG_DOEPCTL(EP_DATA) = (OTG_DOEPCTL(EP_DATA) & ~OTG_EPCTL_USBAEP) | OTG_EPCTL_SNAK;
         OTG_DAINTMSK = 1u | (1u << 16); /* EP0 IN and OUT only */
         g_tx_busy = 0u;
-        g_tx_last_full = 0u;
-        g_tx_tail = g_tx_head; /* frames queued for a host that went away are dropped */
+        usb_cdc_io_drop_tx(&g_io); /* frames queued for a host that went away */
         g_rx_armed = 0u;
         return;
     }
@@ -197,29 +188,21 @@ static const usb_driver_t k_driver = {
 
 /* --- interrupt ---------------------------------------------------------------------------- */
 
-/* Start the next bulk IN packet from the ring, or the zero-length packet that ends a transfer
- * on a packet boundary (Linux cdc_acm reads in multi-packet URBs that would otherwise wait). */
+/* Start the next bulk IN packet (or the ZLP that ends a transfer) when the endpoint is free. */
 static void tx_kick(void) {
     if (g_tx_busy != 0u || g_dev.state != USB_STATE_CONFIGURED ||
         (g_dev.halted & 2u) != 0u) {
         return;
     }
-    const uint32_t tail = g_tx_tail;
-    const uint32_t queued = g_tx_head - tail;
-    if (queued == 0u && g_tx_last_full == 0u) {
-        return;
-    }
     uint8_t packet[USB_DATA_SIZE];
-    const uint32_t n = queued < USB_DATA_SIZE ? queued : USB_DATA_SIZE;
-    for (uint32_t i = 0; i < n; i++) {
-        packet[i] = g_tx[(tail + i) % TX_SIZE];
+    uint32_t n = 0u;
+    if (!usb_cdc_io_next_packet(&g_io, packet, &n)) {
+        return;
     }
     OTG_DIEPTSIZ(EP_DATA) = (1u << OTG_TSIZ_PKTCNT_SHIFT) | n;
     OTG_DIEPCTL(EP_DATA) |= OTG_EPCTL_EPENA | OTG_EPCTL_CNAK;
     fifo_write(EP_DATA, packet, n);
-    g_tx_tail = tail + n;
     g_tx_busy = 1u;
-    g_tx_last_full = (uint8_t)(n == USB_DATA_SIZE);
 }
 
 static void on_bus_reset(void) {
@@ -248,11 +231,7 @@ static void on_rx_fifo(void) {
         /* Room for a whole packet was checked when the endpoint was armed. */
         uint8_t packet[USB_DATA_SIZE];
         fifo_read(packet, len);
-        const uint32_t head = g_rx_head;
-        for (uint32_t i = 0; i < len; i++) {
-            g_rx[(head + i) % RX_SIZE] = packet[i];
-        }
-        g_rx_head = head + len;
+        usb_cdc_io_rx_push(&g_io, packet, len);
     } else {
         fifo_read(0, len); /* completion entries (len 0) and anything unexpected */
     }
@@ -352,6 +331,7 @@ void OTG_FS_IRQHandler(void) {
 
 void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     usb_dev_init(&g_dev, &k_driver, 0, uid);
+    usb_cdc_io_init(&g_io);
     /* Full speed needs 48 MHz +-0.25 % on PLL48CLK: only the crystal-driven PLL gives that
      * (clock.c); on the HSI fallback the board stays off the bus rather than misbehave on it. */
     if (clk->on_pll == 0u) {
@@ -410,28 +390,15 @@ uint32_t host_link_write(const uint8_t *data, uint32_t len) {
     if (g_running == 0u || !usb_cdc_port_open(&g_dev)) {
         return 0u;
     }
-    const uint32_t head = g_tx_head;
-    if (TX_SIZE - (head - g_tx_tail) < len) {
-        return 0u;
+    const uint32_t n = usb_cdc_io_write(&g_io, data, len);
+    if (n != 0u) {
+        pend_irq();
     }
-    for (uint32_t i = 0; i < len; i++) {
-        g_tx[(head + i) % TX_SIZE] = data[i];
-    }
-    __asm volatile("" ::: "memory"); /* the bytes are in the ring before the handler sees them */
-    g_tx_head = head + len;
-    pend_irq();
-    return len;
+    return n;
 }
 
 uint32_t host_link_read(uint8_t *buf, uint32_t cap) {
-    uint32_t n = 0u;
-    uint32_t tail = g_rx_tail;
-    const uint32_t head = g_rx_head;
-    while (tail != head && n < cap) {
-        buf[n++] = g_rx[tail % RX_SIZE];
-        tail++;
-    }
-    g_rx_tail = tail;
+    const uint32_t n = usb_cdc_io_read(&g_io, buf, cap);
     if (n > 0u && g_rx_armed == 0u && g_running != 0u) {
         pend_irq(); /* room again: let the handler re-arm EP1 OUT */
     }
@@ -439,7 +406,7 @@ uint32_t host_link_read(uint8_t *buf, uint32_t cap) {
 }
 
 void host_link_service(void) {
-    if (g_running != 0u && g_tx_busy == 0u && g_tx_head != g_tx_tail) {
+    if (g_running != 0u && g_tx_busy == 0u && usb_cdc_io_tx_queued(&g_io) != 0u) {
         pend_irq();
     }
 }

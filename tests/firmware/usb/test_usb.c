@@ -7,6 +7,7 @@
 
 #include "check.h"
 #include "fake_udc.h"
+#include "usb_cdc_io.h"
 #include "usb_desc.h"
 #include "usb_dev.h"
 
@@ -536,6 +537,121 @@ TEST(usb_enumeration_sequence) {
 /* Random events (SETUPs with random fields, data, completions, resets, suspends) under the
  * sanitizers: the core never sends a packet over 64 bytes nor more than wLength in one data
  * stage, is never Configured without an address, and its EP0 stage stays consistent. */
+/* --- CDC data path (usb_cdc_io) --------------------------------------------------------- */
+
+/* Drain the transmit ring the way the interrupt does; returns the packet lengths. */
+static uint32_t drain(usb_cdc_io_t *io, uint8_t *out, uint32_t *lens, uint32_t max_packets) {
+    uint32_t packets = 0u;
+    uint32_t at = 0u;
+    uint8_t packet[USB_DATA_SIZE];
+    uint32_t n = 0u;
+    while (packets < max_packets && usb_cdc_io_next_packet(io, packet, &n)) {
+        memcpy(out + at, packet, n);
+        at += n;
+        lens[packets++] = n;
+    }
+    return packets;
+}
+
+TEST(usb_cdc_tx_packets_and_zlp) {
+    static usb_cdc_io_t io;
+    usb_cdc_io_init(&io);
+    uint8_t frame[200];
+    for (uint32_t i = 0; i < sizeof frame; i++) {
+        frame[i] = (uint8_t)(i * 7u + 1u);
+    }
+    uint8_t out[512];
+    uint32_t lens[16];
+    /* 200 bytes: 64 + 64 + 64 + 8, no ZLP (the last packet is short). */
+    CHECK_EQ(usb_cdc_io_write(&io, frame, 200), 200);
+    CHECK_EQ(drain(&io, out, lens, 16), 4);
+    CHECK_EQ(lens[0], 64);
+    CHECK_EQ(lens[3], 8);
+    CHECK(memcmp(out, frame, 200) == 0);
+    /* 128 bytes: two full packets, then the zero-length packet, then nothing. */
+    CHECK_EQ(usb_cdc_io_write(&io, frame, 128), 128);
+    CHECK_EQ(drain(&io, out, lens, 16), 3);
+    CHECK_EQ(lens[1], 64);
+    CHECK_EQ(lens[2], 0);
+    CHECK(memcmp(out, frame, 128) == 0);
+    /* More data arriving before the ZLP went out continues the transfer instead. */
+    CHECK_EQ(usb_cdc_io_write(&io, frame, 64), 64);
+    uint8_t packet[USB_DATA_SIZE];
+    uint32_t n = 0u;
+    CHECK(usb_cdc_io_next_packet(&io, packet, &n));
+    CHECK_EQ(n, 64);
+    CHECK_EQ(usb_cdc_io_write(&io, frame, 5), 5);
+    CHECK_EQ(drain(&io, out, lens, 16), 1);
+    CHECK_EQ(lens[0], 5);
+}
+
+TEST(usb_cdc_tx_all_or_nothing_and_wrap) {
+    static usb_cdc_io_t io;
+    usb_cdc_io_init(&io);
+    static uint8_t big[USB_CDC_TX_SIZE + 1u];
+    CHECK_EQ(usb_cdc_io_write(&io, big, USB_CDC_TX_SIZE + 1u), 0); /* never part of a frame */
+    CHECK_EQ(usb_cdc_io_tx_queued(&io), 0);
+    /* Many odd-sized frames through the ring: every byte comes out once, in order. */
+    uint8_t frame[77];
+    uint8_t out[USB_DATA_SIZE];
+    uint32_t next_in = 0u;
+    uint32_t next_out = 0u;
+    for (uint32_t round = 0; round < 500u; round++) {
+        for (uint32_t i = 0; i < sizeof frame; i++) {
+            frame[i] = (uint8_t)(next_in + i);
+        }
+        if (usb_cdc_io_write(&io, frame, sizeof frame) == sizeof frame) {
+            next_in += sizeof frame;
+        }
+        uint32_t n = 0u;
+        for (int k = 0; k < 1 + (int)(round % 2u); k++) {
+            if (usb_cdc_io_next_packet(&io, out, &n)) {
+                for (uint32_t i = 0; i < n; i++) {
+                    CHECK_EQ(out[i], (uint8_t)(next_out + i));
+                }
+                next_out += n;
+            }
+        }
+    }
+    CHECK(next_in > 4u * USB_CDC_TX_SIZE); /* the indexes wrapped the ring several times */
+    CHECK(next_out + usb_cdc_io_tx_queued(&io) == next_in);
+    /* A full ring refuses a frame, and dropping empties it. */
+    while (usb_cdc_io_write(&io, frame, sizeof frame) != 0u) {
+    }
+    CHECK(usb_cdc_io_tx_queued(&io) > USB_CDC_TX_SIZE - sizeof frame);
+    usb_cdc_io_drop_tx(&io);
+    CHECK_EQ(usb_cdc_io_tx_queued(&io), 0);
+    uint32_t n = 0u;
+    CHECK(!usb_cdc_io_next_packet(&io, out, &n));
+}
+
+TEST(usb_cdc_rx_flow_control) {
+    static usb_cdc_io_t io;
+    usb_cdc_io_init(&io);
+    uint8_t packet[USB_DATA_SIZE];
+    for (uint32_t i = 0; i < sizeof packet; i++) {
+        packet[i] = (uint8_t)i;
+    }
+    /* Room for exactly RX_SIZE / 64 packets, then the endpoint must NAK. */
+    uint32_t pushed = 0u;
+    while (usb_cdc_io_rx_room(&io)) {
+        usb_cdc_io_rx_push(&io, packet, sizeof packet);
+        pushed++;
+    }
+    CHECK_EQ(pushed, USB_CDC_RX_SIZE / USB_DATA_SIZE);
+    uint8_t buf[USB_CDC_RX_SIZE];
+    CHECK_EQ(usb_cdc_io_read(&io, buf, 10), 10);
+    CHECK(!usb_cdc_io_rx_room(&io)); /* 10 bytes free is not a packet */
+    CHECK_EQ(usb_cdc_io_read(&io, buf, 54), 54);
+    CHECK(usb_cdc_io_rx_room(&io));
+    usb_cdc_io_rx_push(&io, packet, 3); /* short packets are stored as they are */
+    CHECK_EQ(usb_cdc_io_read(&io, buf, sizeof buf), USB_CDC_RX_SIZE - 64u + 3u);
+    CHECK_EQ(buf[0], 0);
+    CHECK_EQ(buf[63], 63);
+    CHECK_EQ(buf[USB_CDC_RX_SIZE - 64u + 2u], 2);
+    CHECK_EQ(usb_cdc_io_read(&io, buf, sizeof buf), 0);
+}
+
 #define NCASES (uint32_t)(sizeof k_cases / sizeof k_cases[0])
 
 TEST(usb_random_events_keep_invariants) {
@@ -624,6 +740,9 @@ static const test_case_t k_tests[] = {
     {"usb_serial_from_uid", usb_serial_from_uid},
     {"usb_enumeration_sequence", usb_enumeration_sequence},
     {"usb_random_events_keep_invariants", usb_random_events_keep_invariants},
+    {"usb_cdc_tx_packets_and_zlp", usb_cdc_tx_packets_and_zlp},
+    {"usb_cdc_tx_all_or_nothing_and_wrap", usb_cdc_tx_all_or_nothing_and_wrap},
+    {"usb_cdc_rx_flow_control", usb_cdc_rx_flow_control},
     {NULL, NULL},
 };
 
