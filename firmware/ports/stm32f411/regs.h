@@ -116,8 +116,8 @@ typedef struct {
 
 #define UID_BASE 0x1FFF7A10u
 
-/* USB on-the-go full speed (RM0383 §22, register map §22.16.6), device mode only. Offsets in
- * the comments are from the block's base 0x5000_0000. */
+/* USB on-the-go full speed (RM0383 chapter 22, OTG_FS register map), device mode only; offsets
+ * from the block's base 0x5000_0000. */
 #define OTG_FS_BASE 0x50000000u
 #define OTG_FS_IRQN 67u
 #define OTG_GOTGCTL REG32(OTG_FS_BASE + 0x000u)

@@ -4,9 +4,10 @@
  * path above it. Everything USB happens in OTG_FS_IRQHandler; the superloop only fills and
  * empties two rings and pends the interrupt so the handler moves them on.
  *
- * Register use follows RM0383 §22 (OTG_FS): core initialisation §22.17.1, device
- * initialisation §22.17.3, endpoint initialisation on USB reset and enumeration done
- * §22.17.5, FIFO sizing §22.11, reading the receive FIFO (GRXSTSP packet status) §22.17.6. */
+ * Register use follows RM0383 chapter 22 (OTG_FS), its programming model sections: core
+ * initialisation, device initialisation, endpoint initialisation on USB reset and on
+ * enumeration completion, the receive FIFO read (GRXSTSP packet status), and the FIFO RAM
+ * allocation rules. */
 #include <string.h>
 
 #include "clock.h"
@@ -17,9 +18,10 @@
 #include "usb_cdc_io.h"
 #include "usb_dev.h"
 
-/* Data FIFO RAM is 1.25 KB = 320 words (RM0383 §22.11), in 32-bit words:
- *   RX (shared by all OUT endpoints): SETUP packets, one 64-byte packet + status words, room
- *     for a second packet so the bus is not NAKed while the handler drains the first;
+/* Data FIFO RAM is 1.25 KB = 320 words (RM0383, OTG_FS FIFO RAM allocation), in words:
+ *   RX (shared by all OUT endpoints): the manual's device-mode minimum is
+ *     (4 x control endpoints + 6) + (largest packet / 4 + 1) + 2 x OUT endpoints + 1 = 32 here;
+ *     128 holds several packets so the bus is not NAKed while the handler drains one;
  *   EP0 TX: one 64-byte control packet (16 words is also the minimum depth);
  *   EP1 TX (bulk IN): two 64-byte packets;
  *   EP2 TX (interrupt IN): one 16-byte notification, at the minimum depth of 16 words. */
@@ -96,7 +98,8 @@ static void flush_tx_fifo(uint32_t num) { /* num 0x10: all */
 
 static void drv_ep0_send(void *ctx, const uint8_t *data, uint32_t len) {
     (void)ctx;
-    /* Transfer size, then enable, then the data (RM0383 §22.17.7, IN data transfers). */
+    /* Transfer size, then enable, then the data (RM0383 OTG_FS programming model, IN data
+     * transfers). */
     OTG_DIEPTSIZ(0u) = (1u << OTG_TSIZ_PKTCNT_SHIFT) | len;
     OTG_DIEPCTL(0u) |= OTG_EPCTL_EPENA | OTG_EPCTL_CNAK;
     fifo_write(0u, data, len);
@@ -343,7 +346,8 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     RCC->AHB2ENR |= RCC_AHB2ENR_OTGFS;
     (void)RCC->AHB2ENR;
 
-    /* Core initialisation (RM0383 §22.17.1): idle AHB, soft reset, then device mode. */
+    /* Core initialisation (RM0383 OTG_FS programming model): idle AHB, soft reset, then
+     * device mode. */
     if (!wait_reg(&OTG_GRSTCTL, OTG_GRSTCTL_AHBIDL, OTG_GRSTCTL_AHBIDL)) {
         return;
     }
@@ -364,7 +368,7 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     OTG_GCCFG = OTG_GCCFG_PWRDWN | OTG_GCCFG_NOVBUSSENS;
     OTG_PCGCCTL = 0u;
 
-    /* Device initialisation (RM0383 §22.17.3). */
+    /* Device initialisation (RM0383 OTG_FS programming model). */
     OTG_DCFG = OTG_DCFG_DSPD_FS;
     OTG_GRXFSIZ = FIFO_RX_WORDS;
     OTG_DIEPTXF0 = (FIFO_EP0_WORDS << 16) | FIFO_RX_WORDS;
