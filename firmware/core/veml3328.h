@@ -1,6 +1,21 @@
 /* Register-level driver for the Vishay VEML3328 RGBCIR colour sensor (7-bit address 0x10).
  * 16-bit registers, little-endian: write [reg, lsb, msb]; read [reg] then repeated start and
- * two bytes. Every call is one or a few bounded HAL transfers; nothing here waits. */
+ * two bytes. Every call is one or a few bounded HAL transfers; nothing here waits.
+ *
+ * Checked against hardware/datasheet_facts.toml (Vishay datasheet 84968, Tables 1 and 2; the
+ * register and CONF tables agree with the Linux, Microchip and Samsung drivers that cite it):
+ * CONF 00h, C/R/G/B/IR 04h-08h, ID 0Ch low byte 0x28; SD0 bit 0 and SD1 bit 15 both clear to
+ * run, TRIG bit 2, AF bit 3, IT bits 5:4 = 50/100/200/400 ms, SENS bit 6, GAIN bits 11:10,
+ * DG bits 13:12, SD_ALS bit 14. tests/hardware/test_datasheet_facts.py compares
+ * hardware/parts/veml3328.toml (the source of generated/veml3328_regs.h) with those facts.
+ *
+ * Active force mode: veml3328_configure() writes AF = 1 with both SD bits clear (no
+ * measurement yet); veml3328_trigger() rewrites the same word with TRIG = 1, which starts one
+ * integration; the caller waits the integration time, then veml3328_poll_done() reads CONF
+ * until TRIG reads 0. That the sensor clears TRIG itself is not confirmed from the datasheet
+ * (its register description was not reachable): the scheduler polls only after the
+ * integration time and gives up at a deadline, so a sensor that kept TRIG set would be
+ * reported stale, never waited on forever. */
 #ifndef VEML3328_H
 #define VEML3328_H
 

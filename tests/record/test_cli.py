@@ -154,7 +154,7 @@ def test_recording_and_building_never_import_torch(tmp_path: Path) -> None:
     code = f"""
 import sys
 from spectratac.cli import main
-assert main(["record", "sim://?scene=press&speed=5&ft=bota", "-o", {t_mcap!r},
+assert main(["record", "sim://?scene=tour&speed=5&ft=bota", "-o", {t_mcap!r},
              "--count", "10", "--no-progress"]) == 0
 assert main(["dataset", "build", {t_mcap!r}, "-o", {t_npz!r}]) == 0
 assert main(["dataset", "info", {t_npz!r}]) == 0

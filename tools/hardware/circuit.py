@@ -15,14 +15,28 @@ from params import Geometry, load_pinmap
 # angle and one supply pad on its axis; LED j gets R, G, B at -20°, 0°, +20° around its angle.
 SUPPLY_ON_SENSOR = ("VDD", "GND", "VLED")
 LED_COLOURS = ("R", "G", "B")
-VLED_VOLTS = 5.0
+# Electrical values, each checked by tests/hardware/test_datasheet_facts.py against
+# hardware/datasheet_facts.toml (which names the document, table and page of every value).
+VLED_VOLTS = 5.0  # Black Pill 5V pin = USB VBUS (<= 5.25 V, USB 2.0 section 7.2.1)
 LED_MA = 5.0  # per die: bright enough for the 50 ms integration, far below the die's 20 mA
-# Forward voltages at ~5 mA for a typical 1615 RGB LED and the open-drain pin's drop at 5 mA.
+# Typical V_F at 5 mA of a 1615 RGB LED (facts: led.vf_typ, unverified: the XL-1615RGBC
+# datasheet was not reachable) and the open-drain pin's drop at 5 mA (below the 0.4 V V_OL max
+# at 8 mA of DS10314 section 6.3.16).
 LED_VF = {"R": 2.0, "G": 2.9, "B": 2.9}
 PIN_DROP = 0.2
 E12 = (100, 120, 150, 180, 220, 270, 330, 390, 470, 560, 680, 820)
-PULLUP_OHMS = 2200  # t_r = 0.85 R C <= 300 ns (400 kHz) with up to ~150 pF of cable + pins
+# UM10204 section 7.1: R_p <= t_r / (0.8473 C_b) with t_r <= 300 ns at 400 kHz (Table 10), so
+# 2.2 kOhm allows up to 160 pF per line (a 10 pF sensor pin, a 5 pF MCU pin, traces and
+# 30 cm of cable: ~50 pF); R_p >= (3.3 V - 0.4 V) / 3 mA = 967 Ohm keeps V_OL within the
+# 3 mA sink rating (Table 9).
+PULLUP_OHMS = 2200
+# 100 nF X7R at each VEML3328's VDD pin (facts: veml3328.decoupling_nf; Vishay's application
+# circuits for the VEML family).
 DECOUPLING = "100n"
+# VEML3328 pads (facts: veml3328.pins): 1 GND, 2 SDA, 3 SCL, 4 VDD, datasheet 84968 pin
+# description, as also in an independent KiCad part citing it. LED pads (facts: led.pins):
+# 1 common anode, 2 R, 3 G, 4 B cathodes; unverified, check the drawing of the part ordered.
+SENSOR_PINS = {"1": "GND", "2": "SDA", "3": "SCL", "4": "VDD"}
 
 
 @dataclass(frozen=True)
@@ -85,7 +99,8 @@ def parts(geo: Geometry) -> list[Part]:
     for k, a in enumerate(geo.sensor_angles):
         bus = k + 1
         out.append(Part(f"U{bus}", "VEML3328", "VEML3328", "top", r, a, a,
-                        {"1": "GND", "2": f"SDA{bus}", "3": f"SCL{bus}", "4": "VDD"},
+                        {pad: f"{name}{bus}" if name in ("SDA", "SCL") else name
+                         for pad, name in SENSOR_PINS.items()},
                         "VEML3328", f"RGBCIR colour sensor {k}, I2C bus {bus} (address 0x10)"))
     for j, a in enumerate(geo.led_angles):
         n = j + 1

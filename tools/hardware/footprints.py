@@ -1,9 +1,15 @@
 """Footprints of the sensor board, built with the pcbnew API (Debian's /usr/bin/python3 only).
 
 Debian's KiCad package ships no footprint libraries, and the sensor needs only five land
-patterns, so they are described here as data. Land patterns follow the package outlines
-(VEML3328 OPLGA-4 2.0 x 1.25 mm, RGB LED 1615, 0402); check them against the datasheets of the
-exact parts you order.
+patterns, so they are described here as data. Pad numbering follows the package drawings as
+transcribed in hardware/datasheet_facts.toml (VEML3328 OPLGA4 2.0 x 1.25 x 1.0 mm, Vishay 84968:
+pads 1-4 counter-clockwise from the top left seen from above; tests/hardware/
+test_datasheet_facts.py checks each pad's corner and net). Pad sizes and pitches are not
+checked against a manufacturer's recommended land pattern (neither the VEML3328's nor the 1615
+LED's was reachable): an independent VEML3328 land pattern puts the pads at x = +-0.84 mm,
+y = +-0.35 mm (0.43 x 0.30 mm); this one uses +-0.65 / +-0.375 mm (0.5 x 0.45 mm), which
+overlaps the package's terminals but should be compared with the datasheet drawing before
+ordering.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ configuration; groups with different configurations are refused together unless 
 >>> import tempfile
 >>> from spectratac.record import RecordOptions, record_url
 >>> path = tempfile.mkdtemp() + "/s.mcap"
->>> _ = record_url("sim://?scene=press&speed=5", path, RecordOptions(samples=30))
+>>> _ = record_url("sim://?scene=tour&speed=5", path, RecordOptions(samples=30))  # 1000 s scene
 >>> [ds] = build_datasets([path])
 >>> ds.n >= 30, ds.meta["labels"], ds.meta["unit_id"] == ds.meta["sessions"][0]["unit_id"]
 (True, 'scene', True)

@@ -226,10 +226,10 @@ class LiveSession:
 
     def _decode(self, publish: Publish) -> None:
         tap = SampleTap(self.sensor)
-        sensor_clock = LiveClock(self.scale)
+        sensor_clock = LiveClock(self.scale, background=True)
         tracker = None
         if self.ft is not None:
-            tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S))
+            tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S, background=True))
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
