@@ -16,7 +16,11 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "build" / "firmware" / "native"
-ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+# The two Black Pill images: USB CDC-ACM host link (env blackpill, what a board normally runs)
+# and USART1 host link (env blackpill_uart). QEMU's netduinoplus2 models no OTG_FS controller,
+# so the boot and conformance tests run the UART image.
+ELF = REPO / "build" / "pio" / "blackpill_uart" / "firmware.elf"
+USB_ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
 BUILD_TIMEOUT_S = 600
 
 sys.path.insert(0, str(REPO / "tools" / "platformio"))
@@ -28,13 +32,24 @@ def need(tool: str, package: str) -> None:
         pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")
 
 
+def build_image(env: str, elf: Path) -> Path:
+    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
+    result = pio.run(["run", "-e", env], timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    return elf
+
+
 @pytest.fixture(scope="session")
 def image() -> Path:
-    """The STM32F411 image, built offline through PlatformIO (once per session)."""
-    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
-    result = pio.run(["run", "-e", "blackpill"], timeout=BUILD_TIMEOUT_S)
-    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
-    return ELF
+    """The STM32F411 image with the USART1 host link (the one QEMU can run), built offline
+    through PlatformIO (once per session)."""
+    return build_image("blackpill_uart", ELF)
+
+
+@pytest.fixture(scope="session")
+def usb_image() -> Path:
+    """The STM32F411 image with the USB CDC-ACM host link."""
+    return build_image("blackpill", USB_ELF)
 
 
 @pytest.fixture
@@ -107,6 +122,11 @@ def unit_binary(native_build: ModuleType) -> Path:
 @pytest.fixture(scope="session")
 def vector_binary(native_build: ModuleType) -> Path:
     return native_build.build("vector-check", OUT)
+
+
+@pytest.fixture(scope="session")
+def usb_binary(native_build: ModuleType) -> Path:
+    return native_build.build("usb-tests", OUT)
 
 
 @pytest.fixture(scope="session")

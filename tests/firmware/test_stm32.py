@@ -1,6 +1,8 @@
-"""The STM32F411 image: builds offline through PlatformIO with -Werror, fits the budget, and
-boots under QEMU (-M netduinoplus2), where it answers on USART1 and reports all three sensors
-absent (QEMU's I2C reads zero, so every probe times out) instead of hanging."""
+"""The STM32F411 images: both host links (USB CDC-ACM, env blackpill; USART1, env
+blackpill_uart) build offline through PlatformIO with -Werror and fit the budget, and the UART
+image boots under QEMU (-M netduinoplus2, which models no OTG_FS controller), where it answers
+on USART1 and reports all three sensors absent (QEMU's I2C reads zero, so every probe times
+out) instead of hanging."""
 
 from __future__ import annotations
 
@@ -34,18 +36,43 @@ def section_sizes(elf: Path) -> dict[str, int]:
     return {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
 
 
-def test_board_env_builds_with_werror(image: Path) -> None:
+def test_board_env_builds_with_werror(image: Path, usb_image: Path) -> None:
     ini = (REPO / "platformio.ini").read_text()
     assert re.search(r"^warnings = .*-Werror", ini, flags=re.M)
-    assert "${common.warnings}" in ini.split("[env:blackpill]")[1].split("[env:")[0]
-    assert image.exists() and image.with_suffix(".bin").exists()
+    assert "${common.warnings}" in ini.split("[stm32]")[1].split("[env:")[0]
+    for env in ("blackpill", "blackpill_uart"):
+        assert "extends = stm32" in ini.split(f"[env:{env}]")[1].split("[env:")[0]
+    for elf in (image, usb_image):
+        assert elf.exists() and elf.with_suffix(".bin").exists()
 
 
-def test_image_within_budget(image: Path) -> None:
-    s = section_sizes(image)
+def symbols(elf: Path) -> set[str]:
+    out = subprocess.run(
+        ["arm-none-eabi-nm", "--defined-only", str(elf)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    ).stdout
+    return {line.split()[-1] for line in out.splitlines() if line.split()[1] in "Tt"}
+
+
+def test_each_image_links_one_host_link(image: Path, usb_image: Path) -> None:
+    """The UART image has no USB code and the USB image no USART driver; each image's own
+    interrupt handler is a strong symbol, the other falls back to the default handler."""
+    uart, usb = symbols(image), symbols(usb_image)
+    assert "uart_write" in uart and "usb_dev_setup" not in uart
+    assert "usb_dev_setup" in usb and "uart_write" not in usb
+    assert "USART1_IRQHandler" in uart and "OTG_FS_IRQHandler" not in uart
+    assert "OTG_FS_IRQHandler" in usb and "USART1_IRQHandler" not in usb
+
+
+@pytest.mark.parametrize("which", ["uart", "usb"])
+def test_image_within_budget(which: str, image: Path, usb_image: Path) -> None:
+    s = section_sizes(image if which == "uart" else usb_image)
     flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
     ram = s.get(".data", 0) + s[".bss"]
-    print(f"flash {flash} B of {FLASH_BUDGET}, static RAM {ram} B of {RAM_BUDGET}")
+    print(f"{which}: flash {flash} B of {FLASH_BUDGET}, static RAM {ram} B of {RAM_BUDGET}")
     assert flash <= FLASH_BUDGET
     assert ram <= RAM_BUDGET
 

@@ -1,6 +1,7 @@
 """Firmware benchmark: frame encode cost on the native build beside a memcpy of the same bytes,
 the superloop pass that turns an integration's end into a frame handed to the UART beside an
-idle pass, and the STM32F411 image's flash and static RAM against the budget.
+idle pass, and the flash and static RAM of both STM32F411 images (USB CDC-ACM host link, env
+blackpill; USART1 host link, env blackpill_uart) against the budget.
 
     .venv/bin/python tools/bench/firmware.py [--json] [--no-image]
 """
@@ -21,7 +22,8 @@ import benchlib
 REPO = Path(__file__).resolve().parents[2]
 FLASH_BUDGET = 32 * 1024
 RAM_BUDGET = 8 * 1024
-ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+# PlatformIO env -> the host link it builds (platformio.ini).
+IMAGES = {"blackpill": "USB CDC-ACM", "blackpill_uart": "USART1"}
 
 
 def load(path: Path, name: str) -> ModuleType:
@@ -56,20 +58,25 @@ def image_figures() -> list[benchlib.Figure]:
     sys.path.insert(0, str(REPO / "tools" / "platformio"))
     import pio
 
-    result = pio.run(["run", "-e", "blackpill"], timeout=600)
-    if result.returncode != 0:
-        raise SystemExit(result.stdout[-3000:] + result.stderr[-3000:])
-    out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(ELF)], capture_output=True,
-                         text=True, check=True, timeout=60).stdout
-    s = {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
-    flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
-    ram = s.get(".data", 0) + s[".bss"]
-    return [
-        benchlib.Figure("STM32F411 image flash", flash, "B", "budget", FLASH_BUDGET,
-                        flash / FLASH_BUDGET, {"sections": s}),
-        benchlib.Figure("STM32F411 static RAM", ram, "B", "budget", RAM_BUDGET,
-                        ram / RAM_BUDGET, {"data": s.get(".data", 0), "bss": s[".bss"]}),
-    ]
+    figures: list[benchlib.Figure] = []
+    for env, link in IMAGES.items():
+        result = pio.run(["run", "-e", env], timeout=600)
+        if result.returncode != 0:
+            raise SystemExit(result.stdout[-3000:] + result.stderr[-3000:])
+        elf = REPO / "build" / "pio" / env / "firmware.elf"
+        out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(elf)], capture_output=True,
+                             text=True, check=True, timeout=60).stdout
+        s = {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
+        flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
+        ram = s.get(".data", 0) + s[".bss"]
+        figures += [
+            benchlib.Figure(f"STM32F411 image flash ({link})", flash, "B", "budget",
+                            FLASH_BUDGET, flash / FLASH_BUDGET, {"env": env, "sections": s}),
+            benchlib.Figure(f"STM32F411 static RAM ({link})", ram, "B", "budget", RAM_BUDGET,
+                            ram / RAM_BUDGET,
+                            {"env": env, "data": s.get(".data", 0), "bss": s[".bss"]}),
+        ]
+    return figures
 
 
 def main() -> None:

@@ -7,6 +7,21 @@
  * model without RCC (QEMU) falls back to HSI instead of hanging. */
 #define READY_SPINS 200000u
 
+/* PLL factors and the limits RM0383 §6.3.2 sets on them, checked at compile time: USB full
+ * speed needs exactly 48 MHz on PLL48CLK (the crystal's own tolerance aside). */
+#define PLL_M 25u
+#define PLL_N 192u
+#define PLL_P 2u
+#define PLL_Q 4u
+#define PLL_VCO_IN_HZ (BOARD_HSE_HZ / PLL_M)
+#define PLL_VCO_HZ (PLL_VCO_IN_HZ * PLL_N)
+_Static_assert(BOARD_HSE_HZ % PLL_M == 0u, "VCO input must be exact");
+_Static_assert(PLL_VCO_IN_HZ >= 1000000u && PLL_VCO_IN_HZ <= 2000000u, "VCO input 1..2 MHz");
+_Static_assert(PLL_VCO_HZ >= 100000000u && PLL_VCO_HZ <= 432000000u, "VCO 100..432 MHz");
+_Static_assert(PLL_VCO_HZ / PLL_P == 96000000u, "SYSCLK 96 MHz (at most 100 MHz)");
+_Static_assert(PLL_VCO_HZ % PLL_Q == 0u && PLL_VCO_HZ / PLL_Q == 48000000u,
+               "PLL48CLK must be exactly 48 MHz for USB OTG_FS");
+
 static int wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t value) {
     for (uint32_t i = 0; i < READY_SPINS; i++) {
         if ((*reg & mask) == value) {
@@ -28,8 +43,9 @@ void clock_init(clocks_t *out) {
         RCC->CR &= ~RCC_CR_HSEON;
         return;
     }
-    /* 25 MHz / M=25 = 1 MHz; x N=192 = 192 MHz VCO; / P=2 = 96 MHz; / Q=4 = 48 MHz (USB). */
-    RCC->PLLCFGR = 25u | (192u << 6) | (0u << 16) | (1u << 22) | (4u << 24);
+    /* 25 MHz / M=25 = 1 MHz; x N=192 = 192 MHz VCO; / P=2 = 96 MHz; / Q=4 = 48 MHz (USB).
+     * PLLP is encoded (P/2 - 1); PLLSRC (bit 22) selects HSE (RM0383 §6.3.2 RCC_PLLCFGR). */
+    RCC->PLLCFGR = PLL_M | (PLL_N << 6) | ((PLL_P / 2u - 1u) << 16) | (1u << 22) | (PLL_Q << 24);
     RCC->CR |= RCC_CR_PLLON;
     if (!wait_set(&RCC->CR, RCC_CR_PLLRDY, RCC_CR_PLLRDY)) {
         RCC->CR &= ~(RCC_CR_PLLON | RCC_CR_HSEON);

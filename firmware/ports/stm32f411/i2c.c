@@ -2,10 +2,10 @@
 
 #include "board.h"
 #include "gpio.h"
+#include "host_link.h"
 #include "regs.h"
 #include "stac_hal.h"
 #include "systick.h"
-#include "uart.h"
 
 #define I2C_HZ 400000u
 
@@ -89,7 +89,7 @@ static int32_t wait_sr1(i2c_t *i2c, uint32_t mask, uint32_t t0, uint32_t timeout
         if (systick_now_us() - t0 >= timeout_us) {
             return STAC_I2C_TIMEOUT;
         }
-        uart_service();
+        host_link_service();
     }
 }
 
@@ -98,7 +98,7 @@ static int32_t wait_clear(volatile uint32_t *reg, uint32_t mask, uint32_t t0, ui
         if (systick_now_us() - t0 >= timeout_us) {
             return STAC_I2C_TIMEOUT;
         }
-        uart_service();
+        host_link_service();
     }
     return STAC_I2C_OK;
 }

@@ -6,12 +6,12 @@
 #include "board.h"
 #include "clock.h"
 #include "gpio.h"
+#include "host_link.h"
 #include "i2c.h"
 #include "pwm.h"
 #include "regs.h"
 #include "stac_app.h"
 #include "systick.h"
-#include "uart.h"
 #include "uid.h"
 
 #ifndef STAC_BUILD_ID
@@ -33,12 +33,12 @@ static void hal_pwm(void *ctx, uint8_t led, uint8_t colour, uint16_t duty) {
 
 static uint32_t hal_write(void *ctx, const uint8_t *data, uint32_t len) {
     (void)ctx;
-    return uart_write(data, len);
+    return host_link_write(data, len);
 }
 
 static uint32_t hal_read(void *ctx, uint8_t *buf, uint32_t cap) {
     (void)ctx;
-    return uart_read(buf, cap);
+    return host_link_read(buf, cap);
 }
 
 static uint32_t hal_clock(void *ctx) {
@@ -64,8 +64,10 @@ int main(void) {
     systick_init(clk.sys_hz);
     gpio_init_board();
     pwm_init(clk.tim_hz);
-    uart_init(clk.apb2_hz, BOARD_BAUD);
     i2c_init_all(clk.apb1_hz);
+    uint8_t uid[STAC_UID_SIZE];
+    uid_read(uid);
+    host_link_init(&clk, uid); /* USB: before the watchdog, core set-up waits 25 ms */
     watchdog_start();
 
     stac_identity_t id;
@@ -86,7 +88,7 @@ int main(void) {
     stac_app_init(&g_app, &hal, &id, systick_now_us());
     for (;;) {
         IWDG->KR = 0xAAAAu;
-        uart_service();
+        host_link_service();
         stac_app_step(&g_app, systick_now_us());
     }
 }

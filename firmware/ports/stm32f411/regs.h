@@ -30,6 +30,8 @@ typedef struct {
 #define RCC_APB1ENR_I2C3 (1u << 23)
 #define RCC_APB1ENR_PWR (1u << 28)
 #define RCC_APB2ENR_USART1 (1u << 4)
+#define RCC_AHB2ENR_OTGFS (1u << 7)
+#define RCC_AHB2RSTR_OTGFS (1u << 7)
 
 #define FLASH_ACR REG32(0x40023C00u)
 #define FLASH_ACR_LATENCY_3WS 3u
@@ -99,6 +101,7 @@ typedef struct {
 #define SYSTICK_CSR_CLKSOURCE (1u << 2)
 
 #define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
+#define NVIC_ISPR(n) REG32(0xE000E200u + 4u * (n))
 #define SCB_CPACR REG32(0xE000ED88u)
 #define SCB_CCR REG32(0xE000ED14u)
 #define SCB_CCR_BFHFNMIGN (1u << 8)
@@ -112,5 +115,85 @@ typedef struct {
 #define IWDG ((iwdg_t *)0x40003000u)
 
 #define UID_BASE 0x1FFF7A10u
+
+/* USB on-the-go full speed (RM0383 chapter 22, OTG_FS register map), device mode only; offsets
+ * from the block's base 0x5000_0000. */
+#define OTG_FS_BASE 0x50000000u
+#define OTG_FS_IRQN 67u
+#define OTG_GOTGCTL REG32(OTG_FS_BASE + 0x000u)
+#define OTG_GAHBCFG REG32(OTG_FS_BASE + 0x008u)
+#define OTG_GUSBCFG REG32(OTG_FS_BASE + 0x00Cu)
+#define OTG_GRSTCTL REG32(OTG_FS_BASE + 0x010u)
+#define OTG_GINTSTS REG32(OTG_FS_BASE + 0x014u)
+#define OTG_GINTMSK REG32(OTG_FS_BASE + 0x018u)
+#define OTG_GRXSTSP REG32(OTG_FS_BASE + 0x020u)
+#define OTG_GRXFSIZ REG32(OTG_FS_BASE + 0x024u)
+#define OTG_DIEPTXF0 REG32(OTG_FS_BASE + 0x028u) /* HNPTXFSIZ in host mode */
+#define OTG_GCCFG REG32(OTG_FS_BASE + 0x038u)
+#define OTG_DIEPTXF(n) REG32(OTG_FS_BASE + 0x104u + 4u * ((n) - 1u)) /* n = 1..3 */
+#define OTG_DCFG REG32(OTG_FS_BASE + 0x800u)
+#define OTG_DCTL REG32(OTG_FS_BASE + 0x804u)
+#define OTG_DSTS REG32(OTG_FS_BASE + 0x808u)
+#define OTG_DIEPMSK REG32(OTG_FS_BASE + 0x810u)
+#define OTG_DOEPMSK REG32(OTG_FS_BASE + 0x814u)
+#define OTG_DAINT REG32(OTG_FS_BASE + 0x818u)
+#define OTG_DAINTMSK REG32(OTG_FS_BASE + 0x81Cu)
+#define OTG_DIEPCTL(n) REG32(OTG_FS_BASE + 0x900u + 0x20u * (n))
+#define OTG_DIEPINT(n) REG32(OTG_FS_BASE + 0x908u + 0x20u * (n))
+#define OTG_DIEPTSIZ(n) REG32(OTG_FS_BASE + 0x910u + 0x20u * (n))
+#define OTG_DTXFSTS(n) REG32(OTG_FS_BASE + 0x918u + 0x20u * (n))
+#define OTG_DOEPCTL(n) REG32(OTG_FS_BASE + 0xB00u + 0x20u * (n))
+#define OTG_DOEPINT(n) REG32(OTG_FS_BASE + 0xB08u + 0x20u * (n))
+#define OTG_DOEPTSIZ(n) REG32(OTG_FS_BASE + 0xB10u + 0x20u * (n))
+#define OTG_PCGCCTL REG32(OTG_FS_BASE + 0xE00u)
+#define OTG_FIFO(n) REG32(OTG_FS_BASE + 0x1000u + 0x1000u * (n)) /* push TX n / pop RX */
+
+#define OTG_GAHBCFG_GINTMSK (1u << 0)
+#define OTG_GUSBCFG_PHYSEL (1u << 6)
+#define OTG_GUSBCFG_TRDT_SHIFT 10u
+#define OTG_GUSBCFG_TRDT_MASK (0xFu << 10)
+#define OTG_GUSBCFG_FDMOD (1u << 30)
+#define OTG_GRSTCTL_CSRST (1u << 0)
+#define OTG_GRSTCTL_RXFFLSH (1u << 4)
+#define OTG_GRSTCTL_TXFFLSH (1u << 5)
+#define OTG_GRSTCTL_TXFNUM_SHIFT 6u
+#define OTG_GRSTCTL_AHBIDL (1u << 31)
+#define OTG_GINT_RXFLVL (1u << 4)
+#define OTG_GINT_USBSUSP (1u << 11)
+#define OTG_GINT_USBRST (1u << 12)
+#define OTG_GINT_ENUMDNE (1u << 13)
+#define OTG_GINT_IEPINT (1u << 18)
+#define OTG_GINT_OEPINT (1u << 19)
+#define OTG_GINT_WKUPINT (1u << 31)
+#define OTG_GRXSTSP_EPNUM_MASK 0xFu
+#define OTG_GRXSTSP_BCNT_SHIFT 4u
+#define OTG_GRXSTSP_BCNT_MASK (0x7FFu << 4)
+#define OTG_GRXSTSP_PKTSTS_SHIFT 17u
+#define OTG_GRXSTSP_PKTSTS_MASK (0xFu << 17)
+#define OTG_PKTSTS_OUT_DATA 2u
+#define OTG_PKTSTS_SETUP_DATA 6u
+#define OTG_GCCFG_PWRDWN (1u << 16)
+#define OTG_GCCFG_VBUSASEN (1u << 18)
+#define OTG_GCCFG_VBUSBSEN (1u << 19)
+#define OTG_GCCFG_NOVBUSSENS (1u << 21)
+#define OTG_DCFG_DSPD_FS 3u
+#define OTG_DCFG_DAD_SHIFT 4u
+#define OTG_DCFG_DAD_MASK (0x7Fu << 4)
+#define OTG_DCTL_SDIS (1u << 1)
+#define OTG_DCTL_CGINAK (1u << 8)
+#define OTG_EPCTL_USBAEP (1u << 15)
+#define OTG_EPCTL_EPTYP_SHIFT 18u
+#define OTG_EPCTL_STALL (1u << 21)
+#define OTG_EPCTL_TXFNUM_SHIFT 22u
+#define OTG_EPCTL_CNAK (1u << 26)
+#define OTG_EPCTL_SNAK (1u << 27)
+#define OTG_EPCTL_SD0PID (1u << 28)
+#define OTG_EPCTL_EPDIS (1u << 30)
+#define OTG_EPCTL_EPENA (1u << 31)
+#define OTG_EPINT_XFRC (1u << 0)
+#define OTG_EPINT_EPDISD (1u << 1)
+#define OTG_DOEPINT_STUP (1u << 3)
+#define OTG_TSIZ_PKTCNT_SHIFT 19u
+#define OTG_DOEPTSIZ0_STUPCNT_SHIFT 29u
 
 #endif /* STM32F411_REGS_H */

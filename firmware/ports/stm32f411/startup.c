@@ -12,10 +12,14 @@ void Default_Handler(void);
 void HardFault_Handler(void);
 void fault_from_frame(uint32_t *frame);
 void SysTick_Handler(void);
-void USART1_IRQHandler(void);
+/* The host link's interrupt: each build links one of them (host_link.h); the other stays the
+ * default handler, and its interrupt is never enabled. */
+void USART1_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
+void OTG_FS_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
 
 #define IRQ_COUNT 86u
-#define USART1_SLOT (16u + 37u)
+#define USART1_SLOT (16u + USART1_IRQN)
+#define OTG_FS_SLOT (16u + OTG_FS_IRQN)
 
 /* Cortex-M4 vector table: 16 system entries, then the STM32F411's 86 interrupts. */
 __attribute__((section(".isr_vector"), used))
@@ -32,6 +36,7 @@ static void (*const k_vectors[16u + IRQ_COUNT])(void) = {
     [14] = Default_Handler,  /* PendSV */
     [15] = SysTick_Handler,
     [USART1_SLOT] = USART1_IRQHandler,
+    [OTG_FS_SLOT] = OTG_FS_IRQHandler,
 };
 
 void Reset_Handler(void) {

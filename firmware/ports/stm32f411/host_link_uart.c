@@ -1,0 +1,21 @@
+/* Host link over USART1 (env blackpill_uart): the board's original 921600 8N1 serial link. */
+#include "board.h"
+#include "host_link.h"
+#include "uart.h"
+
+void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
+    (void)uid;
+    uart_init(clk->apb2_hz, BOARD_BAUD);
+}
+
+uint32_t host_link_write(const uint8_t *data, uint32_t len) {
+    return uart_write(data, len);
+}
+
+uint32_t host_link_read(uint8_t *buf, uint32_t cap) {
+    return uart_read(buf, cap);
+}
+
+void host_link_service(void) {
+    uart_service();
+}
