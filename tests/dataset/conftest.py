@@ -12,9 +12,10 @@ TOUR_FT = "sim://?scene=tour&seed=1&speed=10&ft=bota"
 
 @pytest.fixture(scope="package")
 def tour_mcap(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """~2.5 s of wall time: ~25 scene seconds, about 22 presses over all nine regions."""
+    """500 samples (~25 scene seconds, ~2.5 s of wall time): about 22 presses over all nine
+    regions. A sample count, not a wall-clock duration, so a loaded machine records the same."""
     path = tmp_path_factory.mktemp("tour") / "tour.mcap"
-    record_url(TOUR_FT, path, RecordOptions(duration_s=2.5, sync_every_s=1.0))
+    record_url(TOUR_FT, path, RecordOptions(samples=500, sync_every_s=1.0))
     return path
 
 
