@@ -26,21 +26,13 @@ def region_tour(period_s: float = 10.0 / 9.0, normal_n: float = 4.0, laps: int =
     return Scene(
         "tour",
         float(n * period_s),
-        Presses(
+        Presses.steady(
             start=np.arange(n) * period_s + 0.05 * period_s,
-            rise=np.full(n, edge),
-            hold=np.full(n, period_s - 2 * edge - 0.1 * period_s),
-            fall=np.full(n, edge),
-            x=centres[:, 0],
-            y=centres[:, 1],
-            normal_peak=np.full(n, normal_n),
-            normal_mod_depth=np.zeros(n),
-            normal_mod_hz=np.zeros(n),
-            normal_mod_phase=np.zeros(n),
-            shear_amp=np.zeros((n, 2)),
-            shear_hz=np.zeros(n),
-            shear_phase=np.zeros((n, 2)),
-            indenter_radius_mm=np.full(n, 4.0),
+            rise=edge,
+            hold=period_s - 2 * edge - 0.1 * period_s,
+            fall=edge,
+            xy=centres,
+            normal_peak=normal_n,
         ),
         Environment(),
     )

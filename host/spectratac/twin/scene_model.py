@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from spectratac.twin.errors import TwinError
 from spectratac.twin.geometry import DISC_RADIUS_MM, region_of
@@ -56,6 +56,31 @@ class Presses:
 
     def __len__(self) -> int:
         return int(self.start.shape[0])
+
+    @staticmethod
+    def steady(
+        start: ArrayLike,
+        rise: ArrayLike,
+        hold: ArrayLike,
+        fall: ArrayLike,
+        xy: ArrayLike,
+        normal_peak: ArrayLike,
+        indenter_radius_mm: float = 4.0,
+    ) -> Presses:
+        """Presses without shear or load modulation, as scripted demos and tours press: one
+        row of `xy` (mm) per press; the other values are per press or one for all."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        n = len(xy)
+
+        def each(v: ArrayLike) -> F64:
+            return np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()
+
+        z = np.zeros(n)
+        return Presses(
+            each(start), each(rise), each(hold), each(fall), xy[:, 0].copy(), xy[:, 1].copy(),
+            each(normal_peak), z, z.copy(), z.copy(), np.zeros((n, 2)), z.copy(),
+            np.zeros((n, 2)), each(indenter_radius_mm),
+        )  # fmt: skip
 
     @staticmethod
     def empty() -> Presses:

@@ -81,22 +81,7 @@ def scripted_presses(
         raise TwinError("rise and fall must be > 0 s; hold, gap and lead-in >= 0 s")
     period = rise_s + hold_s + fall_s + gap_s
     xy = np.array([region_centre(int(r)) for r in regions], dtype=np.float64)
-    presses = Presses(
-        start=lead_in_s + period * np.arange(n),
-        rise=np.full(n, rise_s),
-        hold=np.full(n, hold_s),
-        fall=np.full(n, fall_s),
-        x=xy[:, 0],
-        y=xy[:, 1],
-        normal_peak=peak,
-        normal_mod_depth=np.zeros(n),
-        normal_mod_hz=np.zeros(n),
-        normal_mod_phase=np.zeros(n),
-        shear_amp=np.zeros((n, 2)),
-        shear_hz=np.zeros(n),
-        shear_phase=np.zeros((n, 2)),
-        indenter_radius_mm=np.full(n, 4.0),
-    )
+    presses = Presses.steady(lead_in_s + period * np.arange(n), rise_s, hold_s, fall_s, xy, peak)
     return Scene("presses", float(lead_in_s + period * n), presses, Environment())
 
 
