@@ -2,7 +2,9 @@
 
 Each check gets a connected Sensor and returns (passed, detail). They assume nothing about the
 device beyond the protocol: the same suite runs against the simulated device in-process or over
-a pty, the STM32F411 image in QEMU, and a real board.
+a pty, the STM32F411 image in QEMU, and a real board. Every check can fail: for each one a
+faulty simulated device breaks exactly it (``sim://?fault=…``, spectratac.sim.faults;
+tests/conformance).
 """
 
 from __future__ import annotations

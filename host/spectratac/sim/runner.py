@@ -90,7 +90,9 @@ class DeviceRunner:
             wake = dev.next_wake_us()
             now = dev0 + int((time.monotonic() - wall0) * 1e6 * rate)
             if wake <= now:
-                dev.step(now)
+                # step at the wake time itself, as the MCU's timer would fire: a step made
+                # late (a loaded host) must not stretch the integration window it ends
+                dev.step(wake)
                 continue
             with self._wake:
                 if not self._inbound and not self._stop:

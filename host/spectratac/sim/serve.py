@@ -24,6 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from spectratac.sim.device import SimDevice
+from spectratac.sim.faults import FaultLayer
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import SimOptions
@@ -58,10 +59,37 @@ class _Endpoint:
         return True
 
 
+class _FaultyRunner(DeviceRunner):
+    """A device behind a fault layer (``fault=`` in its sim URL): host bytes pass the layer."""
+
+    layer: FaultLayer
+
+    def write(self, data: bytes) -> None:
+        self.layer.from_host(data)
+
+    def stop(self) -> None:
+        self.layer.close()
+        super().stop()
+
+
 def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
     scene = make_scene(opts.scene, seed=str(opts.seed), **opts.scene_params)
-    device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=endpoint.send, baud=921_600)
-    return DeviceRunner(device, opts.speed).start()
+    if not opts.faults:
+        device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=endpoint.send, baud=921_600)
+        return DeviceRunner(device, opts.speed).start()
+    runner: _FaultyRunner
+    layer = FaultLayer(
+        opts.query(),
+        opts.faults,
+        opts.fault_params,
+        opts.seed,
+        endpoint.send,
+        lambda data: DeviceRunner.write(runner, data),
+    )
+    device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=layer.from_device, baud=921_600)
+    runner = _FaultyRunner(device, opts.speed)
+    runner.layer = layer
+    return runner.start()
 
 
 def _open_pty(link: Path | None) -> tuple[int, str]:

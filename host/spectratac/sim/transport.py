@@ -19,6 +19,7 @@ from typing import Any
 
 from spectratac.device.errors import DeviceError, DisconnectedError
 from spectratac.sim.device import SimDevice
+from spectratac.sim.faults import FaultLayer
 from spectratac.sim.ground_truth import SceneTruth
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import parse_sim_url
@@ -40,12 +41,24 @@ class SimTransport:
         self._out = bytearray()
         self._cond = threading.Condition()
         self._closed = False
+        self._cable_out = False  # unplugged by a fault: reads drain, then report the loss
         self._blocking = opts.speed == MAX
+        self.faults: FaultLayer | None = None
+        if opts.faults:  # a faulty device: the layer sits on its UART, both ways
+            self.faults = FaultLayer(
+                url,
+                opts.faults,
+                opts.fault_params,
+                opts.seed,
+                self._on_tx,
+                self._to_device,
+                unplug=self._unplug,
+            )
         self.device = SimDevice(  # its own rig: a device's sensor models are stateful
             self.world.scene,
             opts.seed,
             absent=opts.absent,
-            on_tx=self._on_tx,
+            on_tx=self.faults.from_device if self.faults else self._on_tx,
         )
         epoch = self.world.epoch if self.world.paced else None
         self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
@@ -76,14 +89,14 @@ class SimTransport:
 
     def read(self, timeout: float) -> bytes:
         with self._cond:
-            if not self._out and not self._closed and self.runner.running:
+            if not self._out and not self._closed and not self._cable_out and self.runner.running:
                 self._cond.wait(timeout)
             if self._out:
                 data = bytes(self._out)
                 self._out.clear()
                 self._cond.notify_all()
                 return data
-            if self._closed or not self.runner.running:
+            if self._closed or self._cable_out or not self.runner.running:
                 raise DisconnectedError(
                     f"simulated device {self.url} stopped"
                     + (f": {self.runner.error!r}" if self.runner.error else "")
@@ -91,9 +104,23 @@ class SimTransport:
             return b""
 
     def write(self, data: bytes) -> None:
-        if self._closed or not self.runner.running:
+        if self._closed or self._cable_out or not self.runner.running:
             raise DisconnectedError(f"simulated device {self.url} stopped")
-        self.runner.write(data)
+        if self.faults is not None:
+            self.faults.from_host(data)
+        else:
+            self.runner.write(data)
+
+    def _unplug(self) -> None:
+        """The fault layer pulled the cable (called on the device's thread): the host reads
+        what reached it, then DisconnectedError."""
+        with self._cond:
+            self._cable_out = True
+            self._cond.notify_all()
+
+    def _to_device(self, data: bytes) -> None:
+        if data:
+            self.runner.write(data)
 
     def close(self) -> None:
         with self._cond:
@@ -101,6 +128,8 @@ class SimTransport:
                 return
             self._closed = True
             self._cond.notify_all()
+        if self.faults is not None:
+            self.faults.close()
         self.runner.stop()
         self.world.release()
 

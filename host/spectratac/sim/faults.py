@@ -1,0 +1,298 @@
+"""Faulty simulated devices: a layer between the firmware core and its host link that makes
+the device misbehave in one chosen way, selected with ``fault=`` in a sim:// URL.
+
+    spectratac conformance "sim://?fault=late_stop"        # "stop really stops" fails
+    Sensor.open("sim://?seed=3&speed=max&fault=corrupt&fault_rate=1e-4")
+
+Each conformance fault breaks exactly one conformance check (tests/conformance); the link
+faults (``corrupt``, ``stall``) damage the link the way a bad cable or a busy USB hub does.
+Several faults combine with commas: ``fault=corrupt,stall``. Every layer counts what the
+device really sent in `ledger(url)`, summed over every device booted behind that URL in this
+process (a replug boots a new one), so a test can check that nothing vanished unaccounted.
+
+>>> from spectratac.device import Sensor
+>>> with Sensor.open("sim://?fault=bad_info") as s:
+...     s.info.max_frame > m.MAX_FRAME
+True
+>>> ledger("sim://?fault=bad_info").frames_sent > 0
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from cobs import cobs
+
+from spectratac.protocol import encode_raw
+from spectratac.protocol import messages as m
+from spectratac.protocol.framing import FrameError, decode_frame
+
+#: conformance faults: name -> what the device does wrong (and the check that notices)
+CONFORMANCE_FAULTS = {
+    "wrong_hash": "INFO names another definition hash (handshake)",
+    "bad_info": "INFO claims frames longer than the protocol allows (info limits)",
+    "stale_config": "CONFIG echoes another config_id than the CONFIGURE ACK (configure ack)",
+    "wrong_nack_field": "NACKs name the wrong field (invalid configurations refused)",
+    "silent_unknown": "unknown message types get no NACK (unknown type refused)",
+    "fast_clock": "the device clock runs 10 % fast (sample rate)",
+    "short_window": "SAMPLE integration windows are 40 % too short (continuity and time)",
+    "sync_jitter": "every other TIME_SYNC reply is stamped 50 ms early (time-sync round trip)",
+    "no_rx_errors": "STATUS never counts receive errors (recovery after garbage)",
+    "late_stop": "STOP is acknowledged at once but streaming goes on for 0.4 s (stop stops)",
+    "flag_fault": "sensor 0 is flagged as a bus fault although present (sensor status)",
+}
+#: link faults: damage on the wire, not a protocol violation
+LINK_FAULTS = {
+    "none": "no fault; only count what the device sends",
+    "corrupt": "flip random bits in bytes sent to the host (fault_rate per byte, 1e-4)",
+    "stall": "hold the device's output for fault_stall s (0.2) every fault_every s (2) of "
+    "host time",
+    "unplug": "unplug the device after a random time (mean fault_unplug s, 20, of device "
+    "time); the next open boots a fresh one",
+}
+FAULTS = CONFORMANCE_FAULTS | LINK_FAULTS
+SYNC_JITTER_US = 50_000  # how far a sync_jitter device's odd replies are off
+LATE_STOP_S = 0.4  # how long a late_stop device streams on after acknowledging STOP
+
+
+@dataclass
+class Ledger:
+    """What devices behind one URL really sent (before any damage), and the damage done."""
+
+    frames_sent: int = 0
+    samples_sent: int = 0
+    bytes_corrupted: int = 0
+    frames_corrupted: int = 0
+    stalls: int = 0
+    unplugs: int = 0
+    boots: int = 0
+    #: samples corrupted after the last intact one when the device was unplugged: no later
+    #: sample tells the host they existed, so no host can count them
+    samples_lost_at_unplug: int = 0
+    paused: bool = False  # the test bench stopped injecting faults (to end cleanly)
+
+    def as_dict(self) -> dict[str, int | bool]:
+        return dataclasses.asdict(self)
+
+
+_LEDGERS: dict[str, Ledger] = {}
+_LEDGERS_LOCK = threading.Lock()
+
+
+def ledger(url: str) -> Ledger:
+    """The running totals of every faulty device opened with exactly `url` in this process."""
+    with _LEDGERS_LOCK:
+        return _LEDGERS.setdefault(url, Ledger())
+
+
+def parse_faults(value: str) -> tuple[str, ...]:
+    """``corrupt,stall`` -> ('corrupt', 'stall'); raises ValueError naming the known faults."""
+    names = tuple(n for n in value.split(",") if n)
+    unknown = [n for n in names if n not in FAULTS]
+    if unknown:
+        raise ValueError(f"unknown fault {', '.join(unknown)}; choose from {', '.join(FAULTS)}")
+    return names
+
+
+HostSink = Callable[[bytes, int], bool]
+DeviceSink = Callable[[bytes], None]
+
+
+class FaultLayer:
+    """Sits on the device's UART: `from_device` replaces its transmit sink, `from_host` the
+    host's writes. `to_host`/`to_device` are the healthy paths behind it."""
+
+    def __init__(
+        self,
+        url: str,
+        faults: tuple[str, ...],
+        params: dict[str, str],
+        seed: int,
+        to_host: HostSink,
+        to_device: DeviceSink,
+        unplug: Callable[[], None] = lambda: None,
+    ) -> None:
+        self.faults = frozenset(faults)
+        self.ledger = ledger(url)
+        self.ledger.boots += 1
+        self.rate = float(params.get("fault_rate", "1e-4"))
+        self.stall_s = float(params.get("fault_stall", "0.2"))
+        self.stall_every = float(params.get("fault_every", "2"))
+        self._to_host = to_host
+        self._to_device = to_device
+        self._unplug = unplug
+        self._rng = random.Random(seed * 7919 + self.ledger.boots)  # each boot its own faults
+        mean_unplug_us = float(params.get("fault_unplug", "20")) * 1e6
+        self._unplug_after_us = int(self._rng.expovariate(1 / mean_unplug_us))
+        self._unplug_at_us: int | None = None  # counted from the boot's first frame
+        self._unplugged = False
+        self._tail_corrupted = 0  # sample frames corrupted since the last intact one
+        self._pending = b""  # device bytes of a frame not yet complete
+        self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
+        self._next_stall = time.monotonic() + self.stall_every
+        self._held_stop: bytes | None = None
+        self._stop_lock = threading.Lock()
+        self._stop_timer: threading.Timer | None = None
+
+    # --- device -> host ----------------------------------------------------------------------
+    def from_device(self, data: bytes, t: int) -> bool:
+        active = not self.ledger.paused
+        if self._unplugged:
+            return False
+        if self._unplug_at_us is None:
+            self._unplug_at_us = t + self._unplug_after_us  # device clocks of a shared world
+        if active and "unplug" in self.faults and t >= self._unplug_at_us:
+            self._unplugged = True
+            self.ledger.unplugs += 1
+            self.ledger.samples_lost_at_unplug += self._tail_corrupted
+            self._unplug()
+            return False  # the cable is out: nothing more reaches the host
+        *frames, self._pending = (self._pending + data).split(b"\x00")
+        out = bytearray()
+        for encoded in frames:
+            is_sample = self._count(encoded)
+            wire = self._rewrite(encoded) if self._rewrites else encoded + b"\x00"
+            if wire is None:
+                continue
+            if active and "corrupt" in self.faults:
+                wire = self._corrupt(wire, is_sample)
+            elif is_sample:
+                self._tail_corrupted = 0
+            out += wire
+        if not out:
+            return True
+        if active and "stall" in self.faults and time.monotonic() >= self._next_stall:
+            self.ledger.stalls += 1
+            time.sleep(self.stall_s)  # the link holds everything; the device waits
+            self._next_stall = time.monotonic() + self.stall_every
+        return self._to_host(bytes(out), t)
+
+    def _count(self, encoded: bytes) -> bool:
+        """Count a frame the device sent; True if it carries a sample."""
+        self.ledger.frames_sent += 1
+        try:
+            raw = cobs.decode(encoded)
+        except cobs.DecodeError:
+            return False
+        if len(raw) > 2 and raw[2] == m.Sample.TYPE_ID:
+            self.ledger.samples_sent += 1
+            return True
+        return False
+
+    def _corrupt(self, wire: bytes, is_sample: bool) -> bytes:
+        """Flip bits at `rate` per byte (the gaps between flips are geometric: one draw per
+        flip, not one per byte); keeps the tally of corrupted samples since the last intact."""
+        rng, out, hits = self._rng, bytearray(wire), 0
+        i = int(rng.expovariate(self.rate)) if self.rate > 0 else len(out)
+        while i < len(out):
+            out[i] ^= 1 << rng.randrange(8)
+            hits += 1
+            i += 1 + int(rng.expovariate(self.rate))
+        if hits:
+            self.ledger.bytes_corrupted += hits
+            self.ledger.frames_corrupted += 1
+        if is_sample:
+            self._tail_corrupted = self._tail_corrupted + 1 if hits else 0
+        return bytes(out)
+
+    def _rewrite(self, encoded: bytes) -> bytes | None:
+        """The frame as the faulty device sends it, or None if it sends nothing."""
+        try:
+            frame = decode_frame(encoded)
+        except FrameError:
+            return encoded + b"\x00"
+        msg, f = frame.message, self.faults
+        if isinstance(msg, m.Info) and "wrong_hash" in f:
+            msg = dataclasses.replace(msg, definition_hash=msg.definition_hash ^ 0x1)
+        elif isinstance(msg, m.Info) and "bad_info" in f:
+            msg = dataclasses.replace(msg, max_frame=m.MAX_FRAME + 1)
+        elif isinstance(msg, m.Config) and "stale_config" in f:
+            msg = dataclasses.replace(msg, config_id=(msg.config_id + 1) & 0xFFFF)
+        elif isinstance(msg, m.Nack) and "wrong_nack_field" in f:
+            msg = dataclasses.replace(msg, field_index=(msg.field_index + 1) & 0xFF)
+        elif isinstance(msg, m.Nack) and "silent_unknown" in f:
+            if msg.error == m.Error.UNKNOWN_TYPE:
+                return None
+        elif isinstance(msg, m.Sample) and "fast_clock" in f:
+            msg = dataclasses.replace(
+                msg,
+                t_start_us=msg.t_start_us * 11 // 10 & 0xFFFF_FFFF,
+                t_end_us=msg.t_end_us * 11 // 10 & 0xFFFF_FFFF,
+            )
+        elif isinstance(msg, m.Sample) and "short_window" in f:
+            width = (msg.t_end_us - msg.t_start_us) & 0xFFFF_FFFF
+            msg = dataclasses.replace(
+                msg, t_start_us=(msg.t_end_us - width * 6 // 10) & 0xFFFF_FFFF
+            )
+        elif isinstance(msg, m.Sample) and "flag_fault" in f:
+            status = (msg.sensor_status[0] | m.SensorStatus.SENSOR_BUS_FAULT,)
+            msg = dataclasses.replace(msg, sensor_status=status + msg.sensor_status[1:])
+        elif isinstance(msg, m.TimeSyncReply) and "sync_jitter" in f:
+            early = SYNC_JITTER_US * (msg.exchange_id & 1)
+            msg = dataclasses.replace(
+                msg,
+                device_rx_us=(msg.device_rx_us - early) & 0xFFFF_FFFF,
+                device_tx_us=(msg.device_tx_us - early) & 0xFFFF_FFFF,
+            )
+        elif isinstance(msg, m.Status) and "no_rx_errors" in f:
+            msg = dataclasses.replace(msg, rx_errors=0)
+        else:
+            return encoded + b"\x00"
+        return encode_raw(msg.TYPE_ID, msg.pack(), frame.seq, frame.version)
+
+    # --- host -> device ----------------------------------------------------------------------
+    def from_host(self, data: bytes) -> None:
+        if "late_stop" not in self.faults:
+            self._to_device(data)
+            return
+        self._release_stop()  # the device finishes stopping before it reads anything newer
+        out = bytearray()
+        *frames, tail = data.split(b"\x00")
+        for encoded in frames:
+            stop = self._as_stop(encoded)
+            if stop is None:
+                out += encoded + b"\x00"
+                continue
+            self._to_device(bytes(out))
+            out.clear()
+            self._hold_stop(encoded + b"\x00", stop)
+        self._to_device(bytes(out) + tail)
+
+    def _as_stop(self, encoded: bytes) -> int | None:
+        """The seq of a STOP command, else None."""
+        try:
+            frame = decode_frame(encoded)
+        except FrameError:
+            return None
+        return frame.seq if isinstance(frame.message, m.Stop) else None
+
+    def _hold_stop(self, wire: bytes, seq: int) -> None:
+        ack = m.Ack(acked_type=m.Stop.TYPE_ID, acked_seq=seq, config_id=0)
+        self._to_host(
+            encode_raw(m.Ack.TYPE_ID, ack.pack(), 0, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)), 0
+        )
+        with self._stop_lock:
+            self._held_stop = wire
+            self._stop_timer = threading.Timer(LATE_STOP_S, self._release_stop)
+            self._stop_timer.daemon = True
+            self._stop_timer.start()
+
+    def _release_stop(self) -> None:
+        with self._stop_lock:
+            held, self._held_stop = self._held_stop, None
+            if self._stop_timer is not None:
+                self._stop_timer.cancel()
+                self._stop_timer = None
+        if held is not None:
+            self._to_device(held)
+
+    def close(self) -> None:
+        with self._stop_lock:
+            if self._stop_timer is not None:
+                self._stop_timer.cancel()

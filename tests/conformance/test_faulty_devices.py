@@ -1,0 +1,58 @@
+"""A conformance suite that can fail: each faulty simulated device breaks exactly one check.
+
+The faults are real misbehaviour of the simulated device on its link (spectratac.sim.faults),
+not mocks of the suite: the suite talks to them exactly as it talks to a board.
+"""
+
+from __future__ import annotations
+
+import pytest
+from spectratac.conformance import CHECKS, run_suite
+from spectratac.conformance import checks as c
+from spectratac.sim.faults import CONFORMANCE_FAULTS
+
+pytestmark = pytest.mark.slow  # each suite run streams ~5 s of real time
+
+BREAKS = {
+    "wrong_hash": c.handshake,
+    "bad_info": c.info_limits,
+    "stale_config": c.configure_ack,
+    "wrong_nack_field": c.configure_nack,
+    "silent_unknown": c.bad_messages,
+    "fast_clock": c.sample_rate,
+    "short_window": c.continuity_and_time,
+    "sync_jitter": c.time_sync,
+    "no_rx_errors": c.garbage_recovery,
+    "late_stop": c.stop_stops,
+    "flag_fault": c.sensor_status,
+}
+NAME_OF = {check: name for name, check in CHECKS}
+
+
+def _failed(url: str) -> tuple[list[str], int]:
+    result = run_suite(url)
+    assert result.passed == all(outcome.passed for _, outcome in result.rows)
+    return [name for name, outcome in result.rows if not outcome.passed], len(result.rows)
+
+
+def test_every_check_has_a_fault_that_breaks_it() -> None:
+    assert set(BREAKS) == set(CONFORMANCE_FAULTS)
+    assert sorted(NAME_OF[check] for check in BREAKS.values()) == sorted(NAME_OF.values())
+
+
+def test_the_healthy_device_passes_every_check() -> None:
+    failed, rows = _failed("sim://?scene=idle&fault=none")
+    assert (failed, rows) == ([], len(CHECKS))
+
+
+@pytest.mark.parametrize("fault", [f for f in BREAKS if f != "wrong_hash"])
+def test_a_faulty_device_fails_exactly_its_check(fault: str) -> None:
+    failed, rows = _failed(f"sim://?scene=idle&fault={fault}")
+    assert (failed, rows) == ([NAME_OF[BREAKS[fault]]], len(CHECKS))
+
+
+def test_a_wrong_definition_hash_fails_the_handshake_and_stops_the_suite() -> None:
+    """The host refuses to talk on (strict hash) to a device built from other definitions:
+    the handshake row fails and no other check can run, so none is reported."""
+    failed, rows = _failed("sim://?scene=idle&fault=wrong_hash")
+    assert (failed, rows) == ([NAME_OF[c.handshake]], 1)

@@ -1,0 +1,349 @@
+"""Reliability soak: many simulated devices streaming under random faults, and one recording.
+
+    python tools/bench/reliability.py [--json] [--devices 16] [--seconds S] [--seed N]
+
+S (simulated seconds per device) defaults to $SPECTRATAC_SOAK_SECONDS, else 300. Every
+device is the real firmware core (sim://, speed=10) behind a fault layer
+(spectratac.sim.faults) that corrupts bytes, stalls the link and unplugs the device at random;
+the host reads them all through Sensor.open(reconnect=True) in one process. The fault layer
+counts what each device really sent, so the accounting is exact:
+
+    sent = delivered + counted lost (sample gaps + buffer overflows) + lost at unplug
+
+where "lost at unplug" are samples corrupted after the last intact one before the cable was
+pulled: no host can know of them (the next boot starts a new sequence). Anything else missing
+is "unaccounted" and must be 0. The recording (a device with a simulated Bota F/T that drops
+samples, bytes corrupted on the link) must read back complete: every frame the recorder wrote
+is read back, and the dataset builds from it.
+
+The figures printed are the README's reliability table; --json prints one line with all of
+them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from spectratac.dataset.build import build_datasets
+from spectratac.device import Sensor
+from spectratac.device.errors import DeviceError
+from spectratac.protocol import messages as m
+from spectratac.protocol.framing import parse_body
+from spectratac.record import RecordOptions, record_url
+from spectratac.record.reader import read_recording
+from spectratac.sim.faults import ledger
+
+INTEGRATION_MS = 50
+RATE_HZ = 1000 / INTEGRATION_MS
+WHITE = [[[500, 500, 500]] * 3]
+DEVICE_FAULTS = "fault=corrupt,stall,unplug&fault_rate=1e-4&fault_stall=0.05&fault_every=2"
+SPEED = 10  # simulated seconds per wall second: 16 devices at 10x fit one loaded core
+STUCK_S = 15.0  # wall seconds without a new sample before a device counts as stuck
+
+
+@dataclass
+class DeviceTally:
+    url: str
+    sent: int = 0
+    delivered: int = 0
+    sample_gaps: int = 0
+    buffer_overflows: int = 0
+    lost_at_unplug: int = 0
+    crc_errors: int = 0
+    bytes_corrupted: int = 0
+    stalls: int = 0
+    unplugs: int = 0
+    reconnects: int = 0
+    stuck: bool = False  # stopped sending for STUCK_S of wall time (streaming not restored)
+
+    @property
+    def unaccounted(self) -> int:
+        return (
+            self.sent
+            - self.delivered
+            - self.sample_gaps
+            - self.buffer_overflows
+            - self.lost_at_unplug
+        )
+
+
+@dataclass
+class RecordingTally:
+    samples: int = 0  # the recorder's summary
+    frames: int = 0
+    ft_samples: int = 0
+    ft_lost: int = 0
+    lost: int = 0
+    crc_errors: int = 0
+    read_frames: int = 0  # what reads back
+    read_samples: int = 0
+    read_ft_samples: int = 0
+    dataset_samples: int = 0
+    complete: bool = False
+
+
+@dataclass
+class Soak:
+    devices: list[DeviceTally] = field(default_factory=list)
+    recording: RecordingTally = field(default_factory=RecordingTally)
+    seconds: float = 0.0
+    wall_s: float = 0.0
+
+    def summary(self) -> dict[str, Any]:
+        d = self.devices
+        total = sum
+        return {
+            "name": "reliability",
+            "load": {
+                "devices": len(d),
+                "rate_hz": RATE_HZ,
+                "simulated_s_per_device": round(
+                    total(t.sent for t in d) / max(len(d), 1) / RATE_HZ, 1
+                ),
+                "samples_sent": total(t.sent for t in d),
+                "wall_s": round(self.wall_s, 1),
+            },
+            "faults": {
+                "bytes_corrupted": total(t.bytes_corrupted for t in d),
+                "frames_rejected_crc": total(t.crc_errors for t in d),
+                "stalls": total(t.stalls for t in d),
+                "unplugs": total(t.unplugs for t in d),
+                "reconnects": total(t.reconnects for t in d),
+                "stuck_devices": total(t.stuck for t in d),
+                "ft_dropouts": self.recording.ft_lost,
+            },
+            "bad_inputs": total(t.crc_errors for t in d) + self.recording.crc_errors,
+            "samples": {
+                "delivered": total(t.delivered for t in d),
+                "counted_lost": total(t.sample_gaps + t.buffer_overflows for t in d),
+                "lost_at_unplug": total(t.lost_at_unplug for t in d),
+                "unaccounted": total(t.unaccounted for t in d),
+            },
+            "recording": asdict(self.recording),
+            "per_device": [asdict(t) | {"unaccounted": t.unaccounted} for t in d],
+        }
+
+
+def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
+    """Stream `n` faulty devices until each has sent `seconds` of samples; then stop
+    injecting, stop streaming, drain, and tally."""
+    urls = [
+        f"sim://?scene=idle&seed={seed * 1000 + k}&speed={SPEED}&{DEVICE_FAULTS}&fault_unplug="
+        f"{seconds / 3:g}"
+        for k in range(n)
+    ]
+    sensors = [Sensor.open(u, reconnect=True, buffer_size=1 << 20, timeout=5.0) for u in urls]
+    delivered = [0] * n
+    target = int(seconds * RATE_HZ)
+    stuck: list[str] = []
+    try:
+        for s in sensors:
+            _retry(lambda s=s: s.configure(integration_ms=INTEGRATION_MS, leds=WHITE))
+            _retry(s.start)
+        running = set(range(n))
+        progress = {k: (0, time.monotonic()) for k in running}
+        while running:
+            for k in sorted(running):
+                u, s = urls[k], sensors[k]
+                delivered[k] += len(s.read(1 << 20, timeout=0))
+                sent = ledger(u).samples_sent
+                if sent != progress[k][0]:
+                    progress[k] = (sent, time.monotonic())
+                elif time.monotonic() - progress[k][1] > STUCK_S:
+                    stuck.append(u)  # streaming did not come back: tallied, and reported
+                if sent >= target or u in stuck:
+                    ledger(u).paused = True  # end cleanly: no fault hides the last samples
+                    _stop(s)
+                    delivered[k] += _drain(s)
+                    running.discard(k)
+            time.sleep(0.01)
+    finally:
+        for s in sensors:
+            s.close()
+    tallies = []
+    for k, (u, s) in enumerate(zip(urls, sensors, strict=True)):
+        book, st = ledger(u), s.stats
+        tallies.append(
+            DeviceTally(
+                u,
+                sent=book.samples_sent,
+                delivered=delivered[k],
+                sample_gaps=st.sample_gaps,
+                buffer_overflows=st.buffer_overflows,
+                lost_at_unplug=book.samples_lost_at_unplug,
+                crc_errors=st.crc_errors,
+                bytes_corrupted=book.bytes_corrupted,
+                stalls=book.stalls,
+                unplugs=book.unplugs,
+                reconnects=st.reconnects,
+                stuck=u in stuck,
+            )
+        )
+    return tallies
+
+
+def _retry(command: Callable[[], object]) -> None:
+    """A command sent while the device is being unplugged fails: send it again once the
+    link is back (the reconnect restores configuration and streaming by itself)."""
+    for _ in range(50):
+        try:
+            command()
+            return
+        except DeviceError:
+            time.sleep(0.2)
+    command()
+
+
+def _stop(s: Sensor) -> None:
+    """STOP, retried: a reconnect may be under way, and its resume restarts streaming."""
+    for _ in range(20):
+        try:
+            s.stop()
+            time.sleep(0.2)
+            if not s.status().streaming:
+                return
+        except DeviceError:  # the link is coming back: ask again
+            time.sleep(0.2)
+    raise RuntimeError(f"{s.url} would not stop streaming")
+
+
+def _drain(s: Sensor) -> int:
+    got = 0
+    while True:
+        n = len(s.read(1 << 20, timeout=0.5))
+        if not n:
+            return got
+        got += n
+
+
+def soak_recording(seconds: float, seed: int, out: Path) -> RecordingTally:
+    url = (
+        f"sim://?scene=idle&seed={seed}&speed={SPEED}&ft=bota&ft_loss=0.01"
+        f"&fault=corrupt&fault_rate=2e-5"
+    )
+    path = out / "soak.mcap"
+    summary = record_url(
+        url,
+        path,
+        RecordOptions(samples=int(seconds * RATE_HZ), integration_ms=INTEGRATION_MS, leds=WHITE),
+        sensor_options={"timeout": 5.0},
+    )
+    rec = read_recording(path)
+    read_samples = sum(isinstance(decode_frame_raw(f), m.Sample) for f in rec.frames)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        datasets = build_datasets([path])
+    tally = RecordingTally(
+        samples=summary.samples,
+        frames=summary.frames,
+        ft_samples=summary.ft_samples,
+        ft_lost=summary.ft_lost,
+        lost=summary.lost,
+        crc_errors=summary.crc_errors,
+        read_frames=len(rec.frames),
+        read_samples=read_samples,
+        read_ft_samples=0 if rec.ft is None else len(rec.ft),
+        dataset_samples=sum(len(d) for d in datasets),
+    )
+    tally.complete = (
+        rec.end is not None
+        and not rec.truncated
+        and tally.read_frames == tally.frames
+        and tally.read_samples == tally.samples
+        and tally.read_ft_samples == tally.ft_samples
+        and tally.dataset_samples > 0
+    )
+    return tally
+
+
+def decode_frame_raw(raw: bytes) -> m.Message:
+    """A recorded frame (decoded bytes: header, payload, CRC) as its message."""
+    return parse_body(raw[:-4]).message
+
+
+def run(devices: int, seconds: float, seed: int) -> Soak:
+    started = time.monotonic()
+    soak = Soak(seconds=seconds)
+    soak.devices = soak_devices(devices, seconds, seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        soak.recording = soak_recording(seconds, seed, Path(tmp))
+    soak.wall_s = time.monotonic() - started
+    return soak
+
+
+def table(s: dict[str, Any]) -> str:
+    load, faults, samples, rec = s["load"], s["faults"], s["samples"], s["recording"]
+    rows = [
+        (
+            "Load held",
+            f"{load['devices']} devices x {load['rate_hz']:g} samples/s x "
+            f"{load['simulated_s_per_device']:g} s simulated ({load['samples_sent']} samples, "
+            f"{load['wall_s']} s wall) + 1 recording with F/T",
+        ),
+        (
+            "Bytes corrupted",
+            f"{faults['bytes_corrupted']} ({faults['frames_rejected_crc']} frames rejected by CRC)",
+        ),
+        (
+            "Unplug / replug",
+            f"{faults['unplugs']} unplugs, {faults['reconnects']} reconnects, "
+            f"{faults['stuck_devices']} devices left stuck",
+        ),
+        ("Link stalls", str(faults["stalls"])),
+        ("F/T dropouts", str(faults["ft_dropouts"])),
+        ("Bad inputs tried", str(s["bad_inputs"])),
+        ("Samples delivered", str(samples["delivered"])),
+        (
+            "Samples counted lost",
+            f"{samples['counted_lost']} (+{samples['lost_at_unplug']} "
+            "corrupted just before an unplug)",
+        ),
+        ("Samples lost unaccounted", str(samples["unaccounted"])),
+        (
+            "Recording read back",
+            f"{rec['read_frames']}/{rec['frames']} frames, "
+            f"{rec['read_ft_samples']}/{rec['ft_samples']} F/T rows, dataset "
+            f"{rec['dataset_samples']} samples: {'complete' if rec['complete'] else 'INCOMPLETE'}",
+        ),
+    ]
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"| {a:<{width}} | {b} |" for a, b in rows)
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--devices", type=int, default=16)
+    p.add_argument(
+        "--seconds",
+        type=float,
+        default=float(os.environ.get("SPECTRATAC_SOAK_SECONDS", "300")),
+        help="simulated seconds per device (default $SPECTRATAC_SOAK_SECONDS or 300)",
+    )
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--json", action="store_true", help="one JSON line")
+    args = p.parse_args()
+    summary = run(args.devices, args.seconds, args.seed).summary()
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(table(summary))
+    ok = (
+        summary["samples"]["unaccounted"] == 0
+        and summary["faults"]["stuck_devices"] == 0
+        and summary["recording"]["complete"]
+    )
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
