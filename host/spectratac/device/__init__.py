@@ -16,6 +16,7 @@ from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_tr
 from spectratac.device.records import SAMPLE_RECORD, Sample
 from spectratac.device.sensor import ClockSync, Sensor, SensorStats, TimeSyncExchange
 from spectratac.device.transport import (
+    BadAddressError,
     TransportOpener,
     UnknownSchemeError,
     open_transport,
@@ -26,6 +27,7 @@ from spectratac.device.transport import register_scheme as register_transport_sc
 __all__ = [
     "CONTACT_TRUTH",
     "SAMPLE_RECORD",
+    "BadAddressError",
     "BufferOverflowError",
     "ClockSync",
     "CommandRejectedError",
