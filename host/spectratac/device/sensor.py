@@ -73,7 +73,7 @@ class SensorStats:
     samples_received: int = 0
     crc_errors: int = 0
     cobs_errors: int = 0
-    other_frame_errors: int = 0  # too short, oversize, unknown type
+    other_frame_errors: int = 0  # too short, oversize, unknown type, short payload
     frame_gaps: int = 0  # frames missing by the device's frame sequence numbers
     sample_gaps: int = 0  # samples missing by SAMPLE.sample_seq
     buffer_overflows: int = 0  # samples discarded by the overflow policy
@@ -607,7 +607,7 @@ class Sensor:
         d = self._decoder.stats
         st = self.stats
         st.crc_errors, st.cobs_errors = d.bad_crc, d.bad_cobs
-        st.other_frame_errors = d.too_short + d.oversize + d.unknown_type
+        st.other_frame_errors = d.too_short + d.oversize + d.unknown_type + d.short_payload
         st.frame_gaps = d.seq_gaps
         if d.version_mismatch > self._mismatches_seen and d.remote_version:
             # only new ones: one stray frame fails what waits now, not the sensor for good
