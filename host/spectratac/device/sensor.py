@@ -465,6 +465,11 @@ class Sensor:
             yield sample
 
     @property
+    def auto_reconnect(self) -> bool:
+        """True if opened with reconnect=True: a lost link is reopened (a new epoch)."""
+        return self._reconnect
+
+    @property
     def buffered(self) -> int:
         with self._cond:
             return len(self._buffer)

@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from spectratac.device import Sensor
+from spectratac.device import DeviceTimeoutError, DisconnectedError, Sensor
 from spectratac.device.ground_truth import GroundTruth
 from spectratac.device.records import Unwrapper
 from spectratac.errors import SpectraTacError
@@ -289,7 +289,12 @@ class Recorder:
             self._move(writer)
             now = time.monotonic()
             if now >= next_sync:
-                self._sync(writer)
+                try:
+                    self._sync(writer)
+                except (DisconnectedError, DeviceTimeoutError):
+                    if not self.sensor.auto_reconnect:
+                        raise
+                    # the sensor is reconnecting: the session goes on in a new epoch
                 next_sync = now + opts.sync_every_s
             self._label(writer)
             if writer.maybe_flush():
