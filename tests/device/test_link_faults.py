@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.device import DeviceError, Sensor
+from spectratac.device import DeviceError, ProtocolMismatchError, Sensor
 from spectratac.device import sensor as sensor_module
 from spectratac.device.records import SAMPLE_TIME_INVERTED, SAMPLE_WINDOW_CLIPPED
 from spectratac.device.transport import open_transport
@@ -175,3 +175,16 @@ def test_a_bad_socket_address_is_a_clear_error(url: str, says: str) -> None:
     with pytest.raises(DeviceError, match=says + r".*socket://HOST:PORT") as caught:
         open_transport(url)
     assert type(caught.value).__name__ == "BadAddressError"
+
+
+def test_a_reply_in_another_major_fails_that_command_only() -> None:
+    def status_from_major_2(frame: Frame) -> bytes:
+        version = (2, 0) if isinstance(frame.message, m.Status) else frame.version
+        return encode_frame(frame.message, frame.seq, version)
+
+    link = RewritingTransport(SimTransport(FAST), status_from_major_2)
+    with Sensor.attach(link, timeout=0.5) as sensor:
+        with pytest.raises(ProtocolMismatchError, match=r"speaks protocol 2\.0, this host"):
+            sensor.status()
+        assert sensor.get_config().config_id == 0  # the sensor still works
+        assert sensor.stats.version_mismatches == 1 and sensor.stats.command_retries == 0

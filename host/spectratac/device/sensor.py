@@ -122,7 +122,7 @@ class _Waiter:
     event: threading.Event = field(default_factory=threading.Event)
     reply: Message | None = None
     host_time: float = 0.0
-    error: DeviceError | None = None  # why no reply will come (e.g. another protocol major)
+    mismatches: int = 0  # frames of another major seen before it was sent
 
 
 class Sensor:
@@ -165,7 +165,7 @@ class Sensor:
         self._last_sample_seq: int | None = None
         #: connections so far minus one: samples and time syncs carry it (see SAMPLE_RECORD)
         self.epoch = 0
-        self._mismatches_seen = 0  # decoder's version_mismatch count already reacted to
+        self._mismatches_seen = 0  # frames of another major so far (the decoder counts them)
         self._closed = False
         self._lost: DeviceError | None = None
         self._streaming = False
@@ -513,7 +513,7 @@ class Sensor:
         bytes on the line end there instead of swallowing the command. A reply to either
         attempt counts (the first one may only have been late)."""
         msg.validate()
-        waiter = _Waiter(accepts, set() if match_seq else None)
+        waiter = _Waiter(accepts, set() if match_seq else None, mismatches=self._mismatches_seen)
         for attempt in range(attempts):
             self._send_for(waiter, msg)
             if attempt:
@@ -548,6 +548,16 @@ class Sensor:
             if self._lost is not None:
                 self._drop_waiter(waiter)
                 raise self._lost
+            remote = self._decoder.stats.remote_version
+            if self._mismatches_seen > waiter.mismatches and remote is not None:
+                self._drop_waiter(waiter)  # the reply may have come in another major version
+                host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
+                raise ProtocolMismatchError(
+                    f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
+                    f"{host[0]}.{host[1]}: update the library or reflash the firmware",
+                    remote,
+                    host,
+                )
             if not last:
                 return None
             self._drop_waiter(waiter)
@@ -556,8 +566,6 @@ class Sensor:
                 f"no reply to {what}{tries} from {self.url} within {timeout:.1f} s: is the "
                 f"device powered, running SpectraTac firmware, and on this port/baud rate?"
             )
-        if waiter.error is not None:
-            raise waiter.error
         if waiter.reply is None:
             raise self._lost or DisconnectedError(f"{self.url} was closed")
         self._last_reply_time = waiter.host_time
@@ -614,11 +622,8 @@ class Sensor:
         st.crc_errors, st.cobs_errors = d.bad_crc, d.bad_cobs
         st.other_frame_errors = d.too_short + d.oversize + d.unknown_type + d.short_payload
         st.frame_gaps = d.seq_gaps
-        if d.version_mismatch > self._mismatches_seen and d.remote_version:
-            # only new ones: one stray frame fails what waits now, not the sensor for good
-            st.version_mismatches += d.version_mismatch - self._mismatches_seen
-            self._mismatches_seen = d.version_mismatch
-            self._fail_waiters_version(d.remote_version)
+        # counted, not fatal: a command that then gets no reply raises ProtocolMismatchError
+        st.version_mismatches = self._mismatches_seen = d.version_mismatch
         samples: list[Sample] = []
         for listener in self._listeners:
             try:
@@ -705,20 +710,6 @@ class Sensor:
                 return
         if isinstance(msg, m.Nack):
             log.warning("%s: unsolicited NACK %s", self.url, msg)
-
-    def _fail_waiters_version(self, remote: tuple[int, int]) -> None:
-        """A frame of another major came: whoever waits for a reply now gets the mismatch
-        (the reply may have been that frame). Later commands are sent as usual."""
-        host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
-        error = ProtocolMismatchError(
-            f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
-            f"{host[0]}.{host[1]}: update the library or reflash the firmware",
-            remote,
-            host,
-        )
-        for waiter in self._take_waiters():
-            waiter.error = error
-            waiter.event.set()
 
     def _handle_loss(self, exc: DisconnectedError, transport: Transport) -> None:
         """Record the loss (readers see it once the buffer is drained); with reconnect=True
