@@ -13,7 +13,12 @@ from spectratac.device.errors import (
     ProtocolMismatchError,
 )
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
-from spectratac.device.records import SAMPLE_RECORD, Sample
+from spectratac.device.records import (
+    SAMPLE_RECORD,
+    SAMPLE_TIME_INVERTED,
+    SAMPLE_WINDOW_CLIPPED,
+    Sample,
+)
 from spectratac.device.sensor import ClockSync, Sensor, SensorStats, TimeSyncExchange
 from spectratac.device.transport import (
     BadAddressError,
@@ -27,6 +32,8 @@ from spectratac.device.transport import register_scheme as register_transport_sc
 __all__ = [
     "CONTACT_TRUTH",
     "SAMPLE_RECORD",
+    "SAMPLE_TIME_INVERTED",
+    "SAMPLE_WINDOW_CLIPPED",
     "BadAddressError",
     "BufferOverflowError",
     "ClockSync",
