@@ -150,12 +150,13 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
         send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);
         return;
     }
-    if (plen > STAC_MAX_PAYLOAD) {
+    if (plen > STAC_MAX_PAYLOAD || plen < (size_t)stac_payload_min_size(h.type, h.minor)) {
+        /* Too long, or without fields its sender's version has: never zero-filled. */
         send_nack(app, &h, STAC_MALFORMED, NO_FIELD);
         return;
     }
-    /* Payload bytes beyond what this version knows are ignored, missing ones read as zero
-     * (the generated unpack functions implement both rules). */
+    /* Payload bytes beyond what this version knows are ignored; fields newer than the
+     * sender's minor version read as zero (the generated unpack functions do both). */
     switch (h.type) {
     case STAC_MSG_GET_INFO: send_info(app); break;
     case STAC_MSG_CONFIGURE: handle_configure(app, &h, payload, plen); break;
@@ -163,7 +164,7 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
         stac_sched_start(app);
         send_ack(app, &h);
         break;
-    case STAC_MSG_STOP:
+    case STAC_MSG_STOP: /* idempotent: a host resends a STOP whose ACK it missed */
         stac_sched_stop(app);
         send_ack(app, &h);
         break;

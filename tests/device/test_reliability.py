@@ -124,3 +124,30 @@ def test_unplug_and_replug_with_reconnect(pty_device: Served) -> None:
         assert len(seq) == 5 and np.all(np.diff(seq) == 1)
         assert seq[0] < 10  # a freshly booted device, configured and started again by the host
         sensor.stop()
+
+
+def test_reconnect_starts_a_new_epoch(pty_device: Served) -> None:
+    """After an unplug the device may have restarted: its clock and sample numbers start
+    afresh, and every sample and time sync names the connection epoch it belongs to."""
+    with Sensor.open(pty_device.url, reconnect=True, timeout=2.0) as sensor:
+        sensor.configure(integration_ms=50)
+        sensor.start()
+        parts = [sensor.read(10, timeout=5)]
+        sensor.sync_clock(2)
+        pty_device.signal(signal.SIGUSR1)
+        deadline = time.monotonic() + 20
+        while sensor.stats.reconnects == 0 and time.monotonic() < deadline:
+            parts.append(sensor.read(100, timeout=0.2))
+        parts.append(sensor.read(10, timeout=10))
+        sensor.sync_clock(2)
+        sensor.stop()
+        assert sensor.epoch == 1
+        epochs_of_syncs = [e.epoch for e in sensor.time_sync]
+    got = np.concatenate(parts)
+    epoch = got["epoch"]
+    assert epoch[0] == 0 and epoch[-1] == 1 and np.all(np.diff(epoch.astype(int)) >= 0)
+    for e in (0, 1):  # within an epoch, device time only moves forward
+        assert np.all(np.diff(got["device_time_us"][epoch == e].astype(np.int64)) > 0)
+    new = got[epoch == 1]
+    assert new["sequence"][0] < 10 and new["device_time_us"][0] < 1 << 32
+    assert epochs_of_syncs == [0, 0, 1, 1]

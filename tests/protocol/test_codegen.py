@@ -202,3 +202,22 @@ def test_generated_c_compiles_warning_free(repo: Path, tmp_path: Path) -> None:
             text=True,
         )
         assert result.returncode == 0, result.stderr
+
+
+def test_fields_of_a_later_minor_give_each_sender_its_layout(
+    repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
+) -> None:
+    """A field appended in 1.1 is zero-filled for 1.0 senders only; out-of-order or future
+    `since` values are refused."""
+    definition = codegen["definition"]
+    text = (repo / "protocol/messages.toml").read_text(encoding="utf-8")
+    log_text = '{ name = "text", type = "char", shape = [64], doc = "ASCII text, NUL-padded." },'
+    appended = log_text + '\n  { name = "source", type = "u16", since = 1, doc = "Origin." },'
+    newer = text.replace("minor = 0", "minor = 1", 1).replace(log_text, appended)
+    d = definition.load(_definition_copy(repo, tmp_path / "ok", newer))
+    log = next(m for m in d.messages if m.name == "LOG")
+    size = messages.Log.PAYLOAD_SIZE
+    assert [log.size_at(0), log.size_at(1), log.payload_size] == [size, size + 2, size + 2]
+    bad = newer.replace("since = 1", "since = 2")
+    with pytest.raises(definition.DefinitionError, match="'since' values must be minor"):
+        definition.load(_definition_copy(repo, tmp_path / "bad", bad))

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from unittest.mock import patch
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from spectratac.protocol import (
+    ShortPayloadError,
     StreamDecoder,
     decode_frame,
     decode_samples,
@@ -68,8 +71,34 @@ def test_future_minor_trailing_bytes_ignored(
 
 
 @given(message_of(messages.Status), st.data())
-def test_missing_trailing_bytes_zero_filled(msg: messages.Status, data: st.DataObject) -> None:
-    cut = data.draw(st.integers(0, msg.PAYLOAD_SIZE))
+def test_payload_short_of_the_senders_layout_is_refused_everywhere(
+    msg: messages.Status, data: st.DataObject
+) -> None:
+    cut = data.draw(st.integers(0, msg.PAYLOAD_SIZE - 1))
     wire = encode_raw(msg.TYPE_ID, msg.pack()[:cut], seq=1)
-    got = decode_frame(wire[:-1]).message
-    assert got.pack() == fit_payload(msg.pack()[:cut], msg.PAYLOAD_SIZE)
+    with pytest.raises(ShortPayloadError, match=r"STATUS payload of \d+ B from a 1\.0 sender"):
+        decode_frame(wire[:-1])
+    decoder = StreamDecoder()
+    assert decoder.feed(wire) == [] and decoder.stats.short_payload == 1
+
+
+@pytest.mark.parametrize("cut", [0, 2, messages.Sample.PAYLOAD_SIZE - 1])
+def test_a_short_sample_is_counted_not_zero_filled(cut: int) -> None:
+    sample = messages.Sample(sample_seq=5, t_start_us=10, t_end_us=20)
+    wire = encode_raw(sample.TYPE_ID, sample.pack()[:cut], seq=3) + encode_frame(sample, 4)
+    bulk = decode_samples(wire)
+    assert bulk.samples["sample_seq"].tolist() == [5] and bulk.stats.short_payload == 1
+    decoder = StreamDecoder()
+    assert [f.seq for f in decoder.feed(wire)] == [4] and decoder.stats.dropped == 1
+
+
+def test_only_fields_newer_than_the_sender_are_zero_filled() -> None:
+    status = messages.Status(uptime_ms=1000, device_time_us=2000, streaming=1, config_id=4)
+    old_layout = status.pack()[:11]  # as if the fields after byte 11 came with minor 1
+    with patch.object(messages.Status, "LAYOUT_SIZES", (11, status.PAYLOAD_SIZE)):
+        frame = decode_frame(encode_raw(status.TYPE_ID, old_layout, seq=1, version=(1, 0))[:-1])
+        assert frame.message.pack() == fit_payload(old_layout, status.PAYLOAD_SIZE)
+        with pytest.raises(ShortPayloadError):  # a 1.1 sender must send the 1.1 fields
+            decode_frame(encode_raw(status.TYPE_ID, old_layout, seq=2, version=(1, 1))[:-1])
+        bulk = decode_samples(encode_raw(status.TYPE_ID, old_layout, seq=3, version=(1, 0)))
+        assert bulk.other == 1 and bulk.stats.dropped == 0

@@ -1,7 +1,8 @@
 """Render firmware/core/generated/stac_messages.{h,c} from a Definition.
 
 The C side serialises field by field (no packed structs), so the same code is correct on any
-endianness and alignment; unpack applies the minor-version rule (zero-fill / ignore extra).
+endianness and alignment; unpack applies the minor-version rule (zero-fill / ignore extra)
+to payloads that stac_payload_min_size accepted (nothing shorter than the sender's layout).
 """
 
 from __future__ import annotations
@@ -57,7 +58,10 @@ def render_header(d: Definition) -> str:
         low = m.name.lower()
         out.append(f"/* Writes exactly STAC_{m.name}_SIZE bytes; returns that size. */")
         out.append(f"size_t stac_{low}_pack(const stac_{low}_t *m, uint8_t *out);")
-        out.append("/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */")
+        out.append(
+            "/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the "
+            "sender read 0, extra bytes are ignored. */"
+        )
         out.append(f"void stac_{low}_unpack(stac_{low}_t *m, const uint8_t *in, size_t len);")
         if _has_validator(m):
             out.append(
@@ -70,6 +74,9 @@ def render_header(d: Definition) -> str:
         "",
         "/* Payload size of a known message type, or -1 for an unknown type. */",
         "int stac_payload_size(uint8_t type);",
+        "/* Fewest payload bytes a sender of protocol minor `minor` sends for `type` (the",
+        " * fields it knows; shorter is malformed), or -1 for an unknown type. */",
+        "int stac_payload_min_size(uint8_t type, uint8_t minor);",
         '/* Symbolic name of an error code ("?" when unknown). */',
         "const char *stac_error_name(uint16_t code);",
         "",
@@ -213,6 +220,24 @@ def render_source(d: Definition) -> str:
     out += ["", "int stac_payload_size(uint8_t type) {", "    switch (type) {"]
     for m in d.messages:
         out.append(f"    case STAC_MSG_{m.name}: return (int)STAC_{m.name}_SIZE;")
+    out += ["    default: return -1;", "    }", "}"]
+    out += ["", "int stac_payload_min_size(uint8_t type, uint8_t minor) {"]
+    newest = d.protocol["minor"]
+    if newest == 0:
+        out.append("    (void)minor; /* every field is 1.0: one layout for every sender */")
+    else:
+        out.append(f"    const uint8_t v = minor < {newest}u ? minor : (uint8_t){newest}u;")
+    out.append("    switch (type) {")
+    for m in d.messages:
+        sizes = [m.size_at(minor) for minor in range(newest + 1)]
+        if len(set(sizes)) == 1:
+            out.append(f"    case STAC_MSG_{m.name}: return {sizes[0]};")
+        else:
+            table = ", ".join(f"{n}" for n in sizes)
+            out.append(f"    case STAC_MSG_{m.name}: {{")
+            out.append(f"        static const int k[] = {{{table}}};")
+            out.append("        return k[v];")
+            out.append("    }")
     out += ["    default: return -1;", "    }", "}"]
     out += ["", "const char *stac_error_name(uint16_t code) {", "    switch (code) {"]
     for v in d.enums["error"][1]:

@@ -53,6 +53,7 @@ class Field:
     max: int | None
     bits: str | None
     error: str | None
+    since: int = 0  # the protocol minor version that appended this field
 
     @property
     def count(self) -> int:
@@ -78,6 +79,11 @@ class Message:
     @property
     def payload_size(self) -> int:
         return sum(f.size for f in self.fields)
+
+    def size_at(self, minor: int) -> int:
+        """Payload bytes a sender of protocol minor `minor` sends: the fields it knows.
+        A payload shorter than this is malformed; fields after it are zero-filled."""
+        return sum(f.size for f in self.fields if f.since <= minor)
 
 
 @dataclass(frozen=True)
@@ -120,6 +126,7 @@ def _field(raw: dict[str, Any], where: str) -> Field:
         max=raw.get("max"),
         bits=raw.get("bits"),
         error=raw.get("error"),
+        since=raw.get("since", 0),
     )
 
 
@@ -183,6 +190,12 @@ def load(path: Path) -> Definition:
             raise DefinitionError(f"{msg.name}: device-to-host ids are 0x80..0xFF, others below")
         if msg.payload_size > raw["protocol"]["max_payload"]:
             raise DefinitionError(f"{msg.name}: payload {msg.payload_size} B > max_payload")
+        since = [f.since for f in msg.fields]
+        if since != sorted(since) or any(not 0 <= v <= raw["protocol"]["minor"] for v in since):
+            raise DefinitionError(
+                f"{msg.name}: field 'since' values must be minor versions 0..protocol.minor, "
+                f"in field order (a minor version only appends fields)"
+            )
         for f in msg.fields:
             if f.enum and f.enum not in enums:
                 raise DefinitionError(f"{msg.name}.{f.name}: unknown enum {f.enum!r}")
@@ -211,6 +224,7 @@ def wire_hash(d: Definition) -> int:
             [m.name, m.id, m.direction]
             + [
                 [f.name, f.type, list(f.shape), f.enum, f.allowed, f.min, f.max, f.bits, f.error]
+                + ([f.since] if f.since else [])  # 1.0 fields: the hash 1.0 always had
                 for f in m.fields
             ]
             for m in d.messages

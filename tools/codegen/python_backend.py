@@ -113,6 +113,8 @@ def _message(d: Definition, m: Message) -> str:
         f"    NAME: ClassVar[str] = {m.name!r}",
         f"    DIRECTION: ClassVar[str] = {m.direction!r}",
         f"    PAYLOAD_SIZE: ClassVar[int] = {m.payload_size}",
+        "    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)",
+        f"    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = {_layout_sizes(d, m)!r}",
         "    FIELDS: ClassVar[tuple[FieldSpec, ...]] = (",
         *(f"        {_field_spec(d, f)}," for f in m.fields),
         "    )",
@@ -160,6 +162,10 @@ def _message(d: Definition, m: Message) -> str:
         lines += [f"            {c}," for c in ctor]
         lines.append("        )")
     return "\n".join(lines)
+
+
+def _layout_sizes(d: Definition, m: Message) -> tuple[int, ...]:
+    return tuple(m.size_at(minor) for minor in range(d.protocol["minor"] + 1))
 
 
 def _enum(name: str, doc: str, values: tuple, base: str) -> str:

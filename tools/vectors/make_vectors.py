@@ -250,18 +250,16 @@ def build() -> list[dict[str, Any]]:
             "message": meaning(sample, 11, (1, 9)),
         }
     )
-    # An older/shorter sender: trailing fields missing are read as zero.
+    # Shorter than the 1.0 layout: every field of a 1.0 STATUS is 1.0, so none may be missing
+    # (only fields newer than the sender's minor version are zero-filled).
     short = m.Status(uptime_ms=1000, device_time_us=2000, streaming=1, config_id=4)
-    wire = encode_raw(m.Status.TYPE_ID, short.pack()[:11], seq=12)
     vectors.append(
-        {
-            "name": "status_short",
-            "hex": wire.hex(),
-            "valid": True,
-            "short": True,
-            "doc": "Only the first 11 payload bytes: the rest is zero-filled.",
-            "message": meaning(short, 12, (1, 0)),
-        }
+        invalid(
+            "status_short",
+            encode_raw(m.Status.TYPE_ID, short.pack()[:11], seq=12),
+            "short_payload",
+            "A 1.0 STATUS with only its first 11 payload bytes: malformed, not zero-filled.",
+        )
     )
     good = bytes.fromhex(vectors[12]["hex"])
     flipped = bytearray(good)
@@ -308,6 +306,12 @@ def build() -> list[dict[str, Any]]:
             encode_raw(m.Sample.TYPE_ID, bytes([0x33]) * (m.MAX_PAYLOAD + 1), seq=15),
             "oversize",
             "One byte more than max_payload, good CRC.",
+        ),
+        invalid(
+            "sample_empty",
+            encode_raw(m.Sample.TYPE_ID, b"", seq=16),
+            "short_payload",
+            "A 1.0 SAMPLE with an empty payload and a good CRC: malformed, not a zero sample.",
         ),
     ]
     return vectors

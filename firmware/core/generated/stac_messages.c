@@ -722,6 +722,29 @@ int stac_payload_size(uint8_t type) {
     }
 }
 
+int stac_payload_min_size(uint8_t type, uint8_t minor) {
+    (void)minor; /* every field is 1.0: one layout for every sender */
+    switch (type) {
+    case STAC_MSG_GET_INFO: return 0;
+    case STAC_MSG_CONFIGURE: return 153;
+    case STAC_MSG_START: return 0;
+    case STAC_MSG_STOP: return 0;
+    case STAC_MSG_TIME_SYNC_REQUEST: return 12;
+    case STAC_MSG_GET_STATUS: return 0;
+    case STAC_MSG_GET_CONFIG: return 0;
+    case STAC_MSG_RESET_STATS: return 0;
+    case STAC_MSG_INFO: return 70;
+    case STAC_MSG_ACK: return 5;
+    case STAC_MSG_NACK: return 6;
+    case STAC_MSG_SAMPLE: return 48;
+    case STAC_MSG_STATUS: return 60;
+    case STAC_MSG_TIME_SYNC_REPLY: return 20;
+    case STAC_MSG_LOG: return 69;
+    case STAC_MSG_CONFIG: return 155;
+    default: return -1;
+    }
+}
+
 const char *stac_error_name(uint16_t code) {
     switch (code) {
     case STAC_OK: return "OK";

@@ -124,7 +124,7 @@ typedef struct stac_configure {
 } stac_configure_t;
 /* Writes exactly STAC_CONFIGURE_SIZE bytes; returns that size. */
 size_t stac_configure_pack(const stac_configure_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_configure_unpack(stac_configure_t *m, const uint8_t *in, size_t len);
 /* Returns STAC_OK or the error code; *field_index names the field (255: none). */
 uint16_t stac_configure_validate(const stac_configure_t *m, uint8_t *field_index);
@@ -143,7 +143,7 @@ typedef struct stac_time_sync_request {
 } stac_time_sync_request_t;
 /* Writes exactly STAC_TIME_SYNC_REQUEST_SIZE bytes; returns that size. */
 size_t stac_time_sync_request_pack(const stac_time_sync_request_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_time_sync_request_unpack(stac_time_sync_request_t *m, const uint8_t *in, size_t len);
 
 /* GET_STATUS (host to device): Ask for STATUS (statistics). */
@@ -177,7 +177,7 @@ typedef struct stac_info {
 } stac_info_t;
 /* Writes exactly STAC_INFO_SIZE bytes; returns that size. */
 size_t stac_info_pack(const stac_info_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_info_unpack(stac_info_t *m, const uint8_t *in, size_t len);
 
 /* ACK (device to host): A command was accepted and carried out. */
@@ -189,7 +189,7 @@ typedef struct stac_ack {
 } stac_ack_t;
 /* Writes exactly STAC_ACK_SIZE bytes; returns that size. */
 size_t stac_ack_pack(const stac_ack_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_ack_unpack(stac_ack_t *m, const uint8_t *in, size_t len);
 
 /* NACK (device to host): A command was refused; nothing changed on the device. */
@@ -202,7 +202,7 @@ typedef struct stac_nack {
 } stac_nack_t;
 /* Writes exactly STAC_NACK_SIZE bytes; returns that size. */
 size_t stac_nack_pack(const stac_nack_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_nack_unpack(stac_nack_t *m, const uint8_t *in, size_t len);
 
 /* SAMPLE (device to host): One integration window of all three sensors, taken in parallel under one LED step. */
@@ -218,7 +218,7 @@ typedef struct stac_sample {
 } stac_sample_t;
 /* Writes exactly STAC_SAMPLE_SIZE bytes; returns that size. */
 size_t stac_sample_pack(const stac_sample_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_sample_unpack(stac_sample_t *m, const uint8_t *in, size_t len);
 
 /* STATUS (device to host): Statistics since boot or RESET_STATS. */
@@ -240,7 +240,7 @@ typedef struct stac_status {
 } stac_status_t;
 /* Writes exactly STAC_STATUS_SIZE bytes; returns that size. */
 size_t stac_status_pack(const stac_status_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_status_unpack(stac_status_t *m, const uint8_t *in, size_t len);
 
 /* TIME_SYNC_REPLY (device to host): Answer to TIME_SYNC_REQUEST. */
@@ -253,7 +253,7 @@ typedef struct stac_time_sync_reply {
 } stac_time_sync_reply_t;
 /* Writes exactly STAC_TIME_SYNC_REPLY_SIZE bytes; returns that size. */
 size_t stac_time_sync_reply_pack(const stac_time_sync_reply_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_time_sync_reply_unpack(stac_time_sync_reply_t *m, const uint8_t *in, size_t len);
 
 /* LOG (device to host): Human-readable diagnostic text. */
@@ -265,7 +265,7 @@ typedef struct stac_log {
 } stac_log_t;
 /* Writes exactly STAC_LOG_SIZE bytes; returns that size. */
 size_t stac_log_pack(const stac_log_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_log_unpack(stac_log_t *m, const uint8_t *in, size_t len);
 
 /* CONFIG (device to host): The configuration in force, in answer to GET_CONFIG: config_id followed by every CONFIGURE field. */
@@ -283,13 +283,16 @@ typedef struct stac_config {
 } stac_config_t;
 /* Writes exactly STAC_CONFIG_SIZE bytes; returns that size. */
 size_t stac_config_pack(const stac_config_t *m, uint8_t *out);
-/* Reads `len` bytes: missing trailing bytes read 0, extra are ignored. */
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
 void stac_config_unpack(stac_config_t *m, const uint8_t *in, size_t len);
 /* Returns STAC_OK or the error code; *field_index names the field (255: none). */
 uint16_t stac_config_validate(const stac_config_t *m, uint8_t *field_index);
 
 /* Payload size of a known message type, or -1 for an unknown type. */
 int stac_payload_size(uint8_t type);
+/* Fewest payload bytes a sender of protocol minor `minor` sends for `type` (the
+ * fields it knows; shorter is malformed), or -1 for an unknown type. */
+int stac_payload_min_size(uint8_t type, uint8_t minor);
 /* Symbolic name of an error code ("?" when unknown). */
 const char *stac_error_name(uint16_t code);
 

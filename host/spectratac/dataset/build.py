@@ -1,8 +1,9 @@
 """Recorded sessions (MCAP) to datasets: the job behind `spectratac dataset build`.
 
 Per recording: the SAMPLE frames are bulk-decoded; device time goes onto the host clock with
-fit_clock (TIME_SYNC exchanges + frame arrival times), and so does the F/T clock (arrival
-times); the F/T is averaged over each integration window (targets; NaN and target_valid
+fit_clock (TIME_SYNC exchanges + frame arrival times), once per connection epoch (a reconnect
+may restart the device clock: times are never stitched across one), and so does the F/T clock
+(arrival times); the F/T is averaged over each integration window (targets; NaN and target_valid
 False wherever the F/T has a gap, never interpolated); labels come from the ground truth the
 recorder stored (simulated links) or from the guided protocol's events (LABELS.md): read
 from the recording alone, the same way for every recording. A session's rows are grouped by
@@ -40,6 +41,7 @@ from spectratac.dataset.schema import (
     concat,
     split_by_config,
 )
+from spectratac.fusion import ClockFitError
 from spectratac.record.reader import Recording, read_recording
 
 
@@ -88,19 +90,10 @@ def build_datasets(
 def session_datasets(rec: Recording, options: BuildOptions | None = None) -> list[Dataset]:
     """One recording as datasets, one per configuration its samples were taken under."""
     opts = options or BuildOptions()
-    samples = recorded_samples(rec.frames, rec.frame_host_times)
-    if len(samples) == 0:
-        raise DatasetError(f"{rec.path} holds no samples: was the device streaming?")
     sim = rec.session.get("sim")
     paced = bool(sim) and not isinstance(sim.get("speed"), str)
     scale = float(sim["speed"]) if paced else 1.0
-    if sim and not paced:
-        # speed=max: device time races ahead of the host clock; keep the device (scene) clock
-        windows = Windows(
-            samples["t_start_us"] / 1e6, samples["t_end_us"] / 1e6, {"method": "device clock"}
-        )
-    else:
-        windows = device_windows(samples, rec.time_sync, scale)
+    samples, windows = _timed_samples(rec, scale, device_clock=bool(sim) and not paced)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
     force = targets[:, :3]
@@ -154,6 +147,54 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     return out
 
 
+def _epoch_frames(rec: Recording) -> list[tuple[int | None, np.ndarray]]:
+    """(epoch, indices of its frames) per connection epoch of the recording, in order; one
+    epoch (None) for files without epoch messages."""
+    everything = np.arange(len(rec.frames))
+    if not rec.epochs:
+        return [(None, everything)]
+    marks = sorted(rec.epochs, key=lambda e: e["host_time"])
+    starts = np.array([e["host_time"] for e in marks])
+    which = np.clip(np.searchsorted(starts, rec.frame_host_times, side="right") - 1, 0, None)
+    return [(int(e["epoch"]), everything[which == k]) for k, e in enumerate(marks)]
+
+
+def _timed_samples(rec: Recording, scale: float, device_clock: bool) -> tuple[np.ndarray, Windows]:
+    """The recording's samples and their windows on the host clock, the device clock fitted
+    per epoch. `device_clock`: keep device (scene) time (an unpaced simulation, whose device
+    time races ahead of the host clock)."""
+    parts: list[tuple[int | None, np.ndarray, Windows]] = []
+    for epoch, idx in _epoch_frames(rec):
+        samples = recorded_samples([rec.frames[i] for i in idx], rec.frame_host_times[idx])
+        if len(samples) == 0:
+            continue
+        if device_clock:
+            clock = {"method": "device clock"}
+            windows = Windows(samples["t_start_us"] / 1e6, samples["t_end_us"] / 1e6, clock)
+            parts.append((epoch, samples, windows))
+            continue
+        exchanges = [x for x in rec.time_sync if epoch is None or x.get("epoch", 0) == epoch]
+        try:
+            parts.append((epoch, samples, device_windows(samples, exchanges, scale)))
+        except ClockFitError as exc:
+            raise DatasetError(
+                f"{rec.path}: cannot put the device clock of connection epoch {epoch} "
+                f"({len(samples)} samples after a reconnect) on the host clock: {exc}. Device "
+                f"times are not stitched across a reconnect; record that part again"
+            ) from exc
+    if not parts:
+        raise DatasetError(f"{rec.path} holds no samples: was the device streaming?")
+    if len(parts) == 1:
+        return parts[0][1], parts[0][2]
+    clock = {"method": "per epoch", "epochs": [{"epoch": e, **w.clock} for e, _, w in parts]}
+    windows = Windows(
+        np.concatenate([w.t_start for _, _, w in parts]),
+        np.concatenate([w.t_end for _, _, w in parts]),
+        clock,
+    )
+    return np.concatenate([s for _, s, _ in parts]), windows
+
+
 def _session_meta(
     rec: Recording,
     samples: np.ndarray,
@@ -184,6 +225,7 @@ def _session_meta(
         "labels": s.get("labels", "none"),
         "label_events": len(rec.labels),
         "clock": windows.clock,
+        "epochs": len({int(e["epoch"]) for e in rec.epochs}) or 1,
         "ft_clock": ft_clock,
         "truncated": rec.truncated,
         "stopped_by": (rec.end or {}).get("stopped_by"),

@@ -13,9 +13,15 @@ from spectratac.device.errors import (
     ProtocolMismatchError,
 )
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
-from spectratac.device.records import SAMPLE_RECORD, Sample
+from spectratac.device.records import (
+    SAMPLE_RECORD,
+    SAMPLE_TIME_INVERTED,
+    SAMPLE_WINDOW_CLIPPED,
+    Sample,
+)
 from spectratac.device.sensor import ClockSync, Sensor, SensorStats, TimeSyncExchange
 from spectratac.device.transport import (
+    BadAddressError,
     TransportOpener,
     UnknownSchemeError,
     open_transport,
@@ -26,6 +32,9 @@ from spectratac.device.transport import register_scheme as register_transport_sc
 __all__ = [
     "CONTACT_TRUTH",
     "SAMPLE_RECORD",
+    "SAMPLE_TIME_INVERTED",
+    "SAMPLE_WINDOW_CLIPPED",
+    "BadAddressError",
     "BufferOverflowError",
     "ClockSync",
     "CommandRejectedError",

@@ -6,8 +6,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-#: One row per sample. Device times are unwrapped to 64 bits (µs since the device's epoch);
-#: host_time is time.monotonic() in seconds when the frame's bytes were read.
+#: One row per sample. Device times are unwrapped to 64 bits (µs since the device's clock
+#: started in this `epoch`); host_time is time.monotonic() in seconds when the frame's bytes
+#: were read. `epoch` counts the connections of the sensor: 0 for the first, +1 after every
+#: reconnect (the device may have restarted, so device times and sequence numbers of two
+#: epochs are not comparable). `flags` holds SAMPLE_* bits saying what the host had to fix.
 SAMPLE_RECORD = np.dtype(
     [
         ("device_time_us", "<u8"),  # integration end (t_end_us), unwrapped
@@ -18,8 +21,17 @@ SAMPLE_RECORD = np.dtype(
         ("config_id", "<u2"),
         ("counts", "<u2", (3, 5)),  # sensor x (R, G, B, C, IR)
         ("status", "u1", (3,)),  # SENSOR_* bits per sensor
+        ("epoch", "<u2"),
+        ("flags", "u1"),  # SAMPLE_* bits
     ]
 )
+
+#: The device sent t_start_us after t_end_us: the window is unknown; t_start_us is set to
+#: device_time_us (a zero-length window) so that the row stays usable for its counts.
+SAMPLE_TIME_INVERTED = 0x01
+#: The window began before the first time of this epoch's unwrapped clock (its start lies
+#: across a wrap of the device clock that the host never saw): t_start_us is clipped to 0.
+SAMPLE_WINDOW_CLIPPED = 0x02
 
 
 class Sample(NamedTuple):
@@ -33,9 +45,13 @@ class Sample(NamedTuple):
     config_id: int
     counts: tuple[tuple[int, ...], ...]
     status: tuple[int, ...]
+    epoch: int = 0
+    flags: int = 0
 
 
 def to_array(samples: list[Sample]) -> np.ndarray:
+    """Samples as SAMPLE_RECORD rows; raises OverflowError or ValueError on values a row
+    cannot hold (Sensor builds only samples that fit)."""
     return np.array(samples, dtype=SAMPLE_RECORD) if samples else np.empty(0, SAMPLE_RECORD)
 
 

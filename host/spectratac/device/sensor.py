@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import functools
 import logging
 import threading
@@ -41,8 +42,15 @@ from spectratac.device.errors import (
     ProtocolMismatchError,
 )
 from spectratac.device.iohub import Link, shared_hub
-from spectratac.device.records import Sample, Unwrapper, to_array
+from spectratac.device.records import (
+    SAMPLE_TIME_INVERTED,
+    SAMPLE_WINDOW_CLIPPED,
+    Sample,
+    Unwrapper,
+    to_array,
+)
 from spectratac.device.transport import Transport, open_transport
+from spectratac.errors import printable
 from spectratac.hardware.veml3328 import INTEGRATION_MS as INTEGRATION_TIMES
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
@@ -52,6 +60,7 @@ log = logging.getLogger("spectratac.device")
 
 OverflowPolicy = Literal["drop_oldest", "drop_newest", "error"]
 FrameListener = Callable[[Frame, float], None]  # (accepted frame, host receive time)
+EpochListener = Callable[[int, float], None]  # (new epoch, host time of the reconnect)
 _GAINS = {1.0: m.Gain.GAIN_X1, 2.0: m.Gain.GAIN_X2, 4.0: m.Gain.GAIN_X4, 0.5: m.Gain.GAIN_X0_5}
 _DG = {1: m.DigitalGain.DG_X1, 2: m.DigitalGain.DG_X2, 4: m.DigitalGain.DG_X4}
 
@@ -64,12 +73,15 @@ class SensorStats:
     samples_received: int = 0
     crc_errors: int = 0
     cobs_errors: int = 0
-    other_frame_errors: int = 0  # too short, oversize, unknown type
+    other_frame_errors: int = 0  # too short, oversize, unknown type, short payload
     frame_gaps: int = 0  # frames missing by the device's frame sequence numbers
     sample_gaps: int = 0  # samples missing by SAMPLE.sample_seq
     buffer_overflows: int = 0  # samples discarded by the overflow policy
     reconnects: int = 0
     logs: int = 0
+    sample_time_errors: int = 0  # samples flagged SAMPLE_TIME_INVERTED or _WINDOW_CLIPPED
+    version_mismatches: int = 0  # frames of another protocol major version, dropped
+    command_retries: int = 0  # commands sent a second time after no reply
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -83,6 +95,7 @@ class TimeSyncExchange:
     device_rx_us: int
     device_tx_us: int
     host_received: float
+    epoch: int = 0  # the sensor's connection epoch the device times belong to
 
     @property
     def round_trip(self) -> float:
@@ -105,10 +118,11 @@ class ClockSync:
 @dataclass
 class _Waiter:
     accepts: tuple[int, ...]  # reply type ids this waiter takes
-    seq: int | None  # command seq an ACK/NACK must name
+    seqs: set[int] | None  # command seqs (one per attempt) an ACK/NACK may name
     event: threading.Event = field(default_factory=threading.Event)
     reply: Message | None = None
     host_time: float = 0.0
+    mismatches: int = 0  # frames of another major seen before it was sent
 
 
 class Sensor:
@@ -149,6 +163,9 @@ class Sensor:
         self._waiters: list[_Waiter] = []
         self._unwrap = Unwrapper()
         self._last_sample_seq: int | None = None
+        #: connections so far minus one: samples and time syncs carry it (see SAMPLE_RECORD)
+        self.epoch = 0
+        self._mismatches_seen = 0  # frames of another major so far (the decoder counts them)
         self._closed = False
         self._lost: DeviceError | None = None
         self._streaming = False
@@ -156,6 +173,7 @@ class Sensor:
         self.info: m.Info = m.Info()
         self.config_id = 0
         self._listeners: list[FrameListener] = []
+        self._epoch_listeners: list[EpochListener] = []
         # Reader state; _link_lock orders link changes (reconnect) against close().
         self._link_lock = threading.Lock()
         self._link: Link | None = None  # on the shared I/O thread
@@ -194,7 +212,9 @@ class Sensor:
         while True:
             remaining = deadline - time.monotonic()
             try:
-                info = self._request(m.GetInfo(), (m.Info.TYPE_ID,), timeout=min(0.5, remaining))
+                info = self._request(
+                    m.GetInfo(), (m.Info.TYPE_ID,), timeout=min(0.5, remaining), attempts=1
+                )
                 break
             except DeviceTimeoutError:
                 if deadline - time.monotonic() <= 0:
@@ -222,7 +242,7 @@ class Sensor:
             if self._strict_hash:
                 raise ProtocolMismatchError(text, device, host)
             log.warning(text)
-        self.info = info
+        self.info = _printable_info(info)
 
     def close(self) -> None:
         """Stop reading and close the link. Safe to call more than once."""
@@ -261,6 +281,14 @@ class Sensor:
 
     def remove_listener(self, listener: FrameListener) -> None:
         self._listeners = [x for x in self._listeners if x is not listener]
+
+    def add_epoch_listener(self, listener: EpochListener) -> None:
+        """Call `listener(epoch, host_time)` when a reconnect starts a new epoch, before
+        any frame of the new connection reaches the frame listeners."""
+        self._epoch_listeners = [*self._epoch_listeners, listener]
+
+    def remove_epoch_listener(self, listener: EpochListener) -> None:
+        self._epoch_listeners = [x for x in self._epoch_listeners if x is not listener]
 
     # ------------------------------------------------------------------ commands
     def configure(
@@ -319,9 +347,11 @@ class Sensor:
         self._streaming = True
 
     def stop(self) -> None:
-        """Stop streaming; no sample is produced after the device's acknowledgement."""
-        self._command(m.Stop())
+        """Stop streaming; no sample is produced after the device's acknowledgement.
+        Idempotent: it always asks the device (a device may stream although the host
+        thinks it stopped), and a reconnect never restarts a stream stopped here."""
         self._streaming = False
+        self._command(m.Stop())
 
     def status(self) -> m.Status:
         reply = self._request(m.GetStatus(), (m.Status.TYPE_ID,))
@@ -341,9 +371,10 @@ class Sensor:
         done: list[TimeSyncExchange] = []
         for i in range(exchanges):
             sent = time.monotonic()
-            reply = self._request(
+            reply = self._request(  # not resent: a resend would void the timestamps
                 m.TimeSyncRequest(exchange_id=i, host_time_ns=int(sent * 1e9)),
                 (m.TimeSyncReply.TYPE_ID,),
+                attempts=1,
             )
             assert isinstance(reply, m.TimeSyncReply)
             received = self._last_reply_time
@@ -354,6 +385,7 @@ class Sensor:
                     rx,
                     rx + ((reply.device_tx_us - reply.device_rx_us) & 0xFFFF_FFFF),
                     received,
+                    self.epoch,
                 )
             )
         self.time_sync.extend(done)
@@ -372,10 +404,10 @@ class Sensor:
         with self._write_lock:
             seq = self._next_seq()
             match = m.Ack.TYPE_ID in accepts or m.Nack.TYPE_ID in accepts
-            waiter = _Waiter(accepts, seq if match else None)
+            waiter = _Waiter(accepts, {seq} if match else None)
             with self._cond:
                 self._waiters.append(waiter)
-            self._transport.write(encode_raw(type_id, payload, seq, version))
+            self._transport.write(b"\x00" + encode_raw(type_id, payload, seq, version))
         return self._await(waiter, f"frame type 0x{type_id:02X}")
 
     def write_raw(self, data: bytes) -> None:
@@ -413,7 +445,11 @@ class Sensor:
                 if remaining <= 0:
                     break
                 self._cond.wait(remaining)
-        return to_array(out)
+            try:
+                return to_array(out)
+            except (OverflowError, ValueError):
+                self._buffer.extendleft(reversed(out))  # nothing received is lost
+                raise
 
     def __iter__(self) -> Iterator[Sample]:
         """Samples one by one until the link is lost or the sensor closed."""
@@ -427,6 +463,11 @@ class Sensor:
                     self._cond.wait(0.5)
                 sample = self._buffer.popleft()
             yield sample
+
+    @property
+    def auto_reconnect(self) -> bool:
+        """True if opened with reconnect=True: a lost link is reopened (a new epoch)."""
+        return self._reconnect
 
     @property
     def buffered(self) -> int:
@@ -465,30 +506,64 @@ class Sensor:
         accepts: tuple[int, ...],
         match_seq: bool = False,
         timeout: float | None = None,
+        attempts: int = 2,
     ) -> Message:
+        """Send `msg` and wait for its reply; with no reply within `timeout`, send it once
+        more (`attempts` = 2) with a new seq. Every frame starts with 0x00 so that stray
+        bytes on the line end there instead of swallowing the command. A reply to either
+        attempt counts (the first one may only have been late)."""
         msg.validate()
+        waiter = _Waiter(accepts, set() if match_seq else None, mismatches=self._mismatches_seen)
+        for attempt in range(attempts):
+            self._send_for(waiter, msg)
+            if attempt:
+                self.stats.command_retries += 1
+            reply = self._await(waiter, msg.NAME, timeout, last=attempt == attempts - 1)
+            if reply is not None:
+                return reply
+        raise AssertionError("unreachable: the last attempt raises or returns")
+
+    def _send_for(self, waiter: _Waiter, msg: Message) -> None:
         with self._write_lock:  # one seq per frame, in order on the wire
             seq = self._next_seq()
-            waiter = _Waiter(accepts, seq if match_seq else None)
             with self._cond:
                 if self._lost is not None and not self._reconnect:
                     raise self._lost
-                self._waiters.append(waiter)
+                if waiter.seqs is not None:
+                    waiter.seqs.add(seq)
+                if waiter not in self._waiters:
+                    self._waiters.append(waiter)
             try:
-                self._transport.write(encode_frame(msg, seq, validate=False))
+                self._transport.write(b"\x00" + encode_frame(msg, seq, validate=False))
             except DisconnectedError:
                 self._drop_waiter(waiter)
                 raise
-        return self._await(waiter, msg.NAME, timeout)
 
-    def _await(self, waiter: _Waiter, what: str, timeout: float | None = None) -> Message:
+    def _await(
+        self, waiter: _Waiter, what: str, timeout: float | None = None, last: bool = True
+    ) -> Message | None:
+        """The reply; None if none came in time and this was not the `last` attempt."""
         timeout = self.timeout if timeout is None else timeout
         if not waiter.event.wait(timeout):
-            self._drop_waiter(waiter)
             if self._lost is not None:
+                self._drop_waiter(waiter)
                 raise self._lost
+            remote = self._decoder.stats.remote_version
+            if self._mismatches_seen > waiter.mismatches and remote is not None:
+                self._drop_waiter(waiter)  # the reply may have come in another major version
+                host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
+                raise ProtocolMismatchError(
+                    f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
+                    f"{host[0]}.{host[1]}: update the library or reflash the firmware",
+                    remote,
+                    host,
+                )
+            if not last:
+                return None
+            self._drop_waiter(waiter)
+            tries = "" if waiter.seqs is None or len(waiter.seqs) < 2 else " (sent twice)"
             raise DeviceTimeoutError(
-                f"no reply to {what} from {self.url} within {timeout:.1f} s: is the "
+                f"no reply to {what}{tries} from {self.url} within {timeout:.1f} s: is the "
                 f"device powered, running SpectraTac firmware, and on this port/baud rate?"
             )
         if waiter.reply is None:
@@ -545,10 +620,10 @@ class Sensor:
         d = self._decoder.stats
         st = self.stats
         st.crc_errors, st.cobs_errors = d.bad_crc, d.bad_cobs
-        st.other_frame_errors = d.too_short + d.oversize + d.unknown_type
+        st.other_frame_errors = d.too_short + d.oversize + d.unknown_type + d.short_payload
         st.frame_gaps = d.seq_gaps
-        if d.version_mismatch and d.remote_version:
-            self._fail_waiters_version(d.remote_version)
+        # counted, not fatal: a command that then gets no reply raises ProtocolMismatchError
+        st.version_mismatches = self._mismatches_seen = d.version_mismatch
         samples: list[Sample] = []
         for listener in self._listeners:
             try:
@@ -564,6 +639,7 @@ class Sensor:
                 samples.append(self._to_sample(msg, now))
             elif isinstance(msg, m.Log):
                 st.logs += 1
+                msg = dataclasses.replace(msg, text=printable(msg.text))
                 self.logs.append(msg)
                 log.log(10 + 10 * min(msg.level, 3), "%s: %s", self.url, msg.text)
             else:
@@ -579,7 +655,15 @@ class Sensor:
             st.sample_gaps += msg.sample_seq - last - 1
         self._last_sample_seq = msg.sample_seq
         end = self._unwrap(msg.t_end_us)
-        start = end - ((msg.t_end_us - msg.t_start_us) & 0xFFFF_FFFF)
+        span = (msg.t_end_us - msg.t_start_us) & 0xFFFF_FFFF
+        flags = 0
+        if span >= 0x8000_0000:  # start after end: no real integration is half a wrap long
+            flags, span = SAMPLE_TIME_INVERTED, 0
+        elif span > end:
+            flags, span = SAMPLE_WINDOW_CLIPPED, end
+        if flags:
+            st.sample_time_errors += 1
+        start = end - span
         return Sample(
             end,
             start,
@@ -589,6 +673,8 @@ class Sensor:
             msg.config_id,
             msg.counts,
             msg.sensor_status,
+            self.epoch,
+            flags,
         )
 
     def _enqueue(self, samples: list[Sample]) -> None:
@@ -610,13 +696,13 @@ class Sensor:
             for waiter in self._waiters:
                 if msg.TYPE_ID not in waiter.accepts:
                     continue
-                if waiter.seq is not None:
+                if waiter.seqs is not None:
                     named = (
                         msg.acked_seq
                         if isinstance(msg, m.Ack)
                         else getattr(msg, "rejected_seq", None)
                     )
-                    if named != waiter.seq:
+                    if named not in waiter.seqs:
                         continue
                 waiter.reply, waiter.host_time = msg, now
                 self._waiters.remove(waiter)
@@ -624,17 +710,6 @@ class Sensor:
                 return
         if isinstance(msg, m.Nack):
             log.warning("%s: unsolicited NACK %s", self.url, msg)
-
-    def _fail_waiters_version(self, remote: tuple[int, int]) -> None:
-        host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
-        self._lost = ProtocolMismatchError(  # reported to readers like a loss
-            f"{self.url} speaks protocol {remote[0]}.{remote[1]}, this host library "
-            f"{host[0]}.{host[1]}: update the library or reflash the firmware",
-            remote,
-            host,
-        )
-        for waiter in self._take_waiters():
-            waiter.event.set()
 
     def _handle_loss(self, exc: DisconnectedError, transport: Transport) -> None:
         """Record the loss (readers see it once the buffer is drained); with reconnect=True
@@ -671,12 +746,27 @@ class Sensor:
                     transport.close()
                     return
                 self._transport = transport
-                self._decoder.reset()
+                self._new_epoch()
                 self._lost = None
                 self.stats.reconnects += 1
                 self._start_reader()
             self._resume()
             return
+
+    def _new_epoch(self) -> None:
+        """A new connection: the device may have restarted, so its clock and sequence
+        numbers start afresh; forget the old ones and tell listeners (a recorder marks it)."""
+        self._decoder.reset()  # keeps its counts: link health adds up over epochs
+        with self._cond:
+            self._unwrap = Unwrapper()
+            self._last_sample_seq = None
+            self.epoch += 1
+        for listener in self._epoch_listeners:
+            try:
+                listener(self.epoch, time.monotonic())
+            except Exception:
+                log.exception("%s: epoch listener %r failed; removed", self.url, listener)
+                self.remove_epoch_listener(listener)
 
     def _resume(self) -> None:
         """After a reconnect: handshake again and restore configuration and streaming."""
@@ -688,3 +778,9 @@ class Sensor:
                 self._command(m.Start())
         except Exception as exc:  # the reader reports the next loss; log why resuming failed
             log.warning("%s: resuming after reconnect failed: %s", self.url, exc)
+
+
+def _printable_info(info: m.Info) -> m.Info:
+    """INFO with its text fields made safe to print (a device names itself)."""
+    text = {f.name: printable(getattr(info, f.name)) for f in info.FIELDS if f.type == "char"}
+    return dataclasses.replace(info, **text)

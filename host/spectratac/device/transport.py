@@ -46,6 +46,38 @@ DEFAULT_BAUD = 921_600
 ENTRY_POINTS = "spectratac.transports"
 
 
+class BadAddressError(DeviceError):
+    """A device URL is malformed (e.g. a socket:// URL without a numeric port)."""
+
+
+def check_socket_url(url: str) -> None:
+    """Raise BadAddressError unless `url` is socket://HOST:PORT with a port 1..65535.
+
+    >>> check_socket_url("socket://localhost:notaport")
+    Traceback (most recent call last):
+    ...
+    spectratac.device.transport.BadAddressError: 'socket://localhost:notaport': port ...
+    """
+    parts = urlsplit(url)
+    fix = (
+        "give socket://HOST:PORT, e.g. socket://localhost:5555 "
+        "(`spectratac sim serve --tcp 0` prints the address it listens on)"
+    )
+    try:
+        port = parts.port
+    except ValueError:
+        text = parts.netloc.rpartition(":")[2]
+        if text.isdigit():
+            raise BadAddressError(f"{url!r}: port {text} is out of range 1..65535; {fix}") from None
+        raise BadAddressError(f"{url!r}: port {text!r} is not a number; {fix}") from None
+    if not parts.hostname:
+        raise BadAddressError(f"{url!r}: no host; {fix}")
+    if port is None:
+        raise BadAddressError(f"{url!r}: no port; {fix}")
+    if not 1 <= port <= 65535:
+        raise BadAddressError(f"{url!r}: port {port} is out of range 1..65535; {fix}")
+
+
 class Transport(Protocol):
     """What Sensor needs from a link.
 
@@ -81,6 +113,8 @@ class SerialTransport:
 
     def __init__(self, url: str, baudrate: int = DEFAULT_BAUD) -> None:
         self.url = url
+        if urlsplit(url).scheme == "socket":
+            check_socket_url(url)  # pyserial's own message names no fix
         try:
             self._port = serial.serial_for_url(url, baudrate=baudrate, timeout=0.05)
         except serial.SerialException as exc:

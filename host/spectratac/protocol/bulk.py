@@ -118,16 +118,20 @@ def _classify(raw: bytes, encoded_len: int) -> str:
         return "too_short"
     if crc32c(raw) != CRC_RESIDUE:
         return "bad_crc"
-    major, _minor, type_id, _seq = HEADER.unpack_from(raw)
+    major, minor, type_id, _seq = HEADER.unpack_from(raw)
     if major != m.PROTOCOL_MAJOR:
         return "version_mismatch"
-    if type_id == m.Sample.TYPE_ID:
-        return "sample"
-    return "other" if type_id in m.MESSAGES_BY_ID else "unknown_type"
+    cls = m.MESSAGES_BY_ID.get(type_id)
+    if cls is None:
+        return "unknown_type"
+    if len(raw) - MIN_FRAME < cls.required_size(minor):
+        return "short_payload"
+    return "sample" if cls is m.Sample else "other"
 
 
 def _fit_sample(raw: bytes) -> bytes:
-    """Minor-version rule on a sample frame: cut unknown trailing bytes, zero-fill missing."""
+    """Minor-version rule on a sample frame that holds its sender's fields: cut unknown
+    trailing bytes, zero-fill the fields newer than the sender."""
     body = raw[HEADER.size : -4]
     payload = m.Sample.unpack(body).pack()
     return raw[: HEADER.size] + payload + raw[-4:]

@@ -61,6 +61,21 @@ class TooShortError(FrameError):
     kind = "too_short"
 
 
+class ShortPayloadError(FrameError):
+    """A payload shorter than the fields its sender's version has (SPEC.md, section 8)."""
+
+    kind = "short_payload"
+
+    def __init__(self, name: str, got: int, need: int, version: tuple[int, int]) -> None:
+        super().__init__(
+            f"{name} payload of {got} B from a {version[0]}.{version[1]} sender is shorter "
+            f"than the {need} B that version sends; dropped (a sender bug or a damaged frame "
+            f"that passed the CRC)"
+        )
+        self.got = got
+        self.need = need
+
+
 class UnknownTypeError(FrameError):
     kind = "unknown_type"
 
@@ -145,6 +160,9 @@ def parse_body(body: bytes) -> Frame:
     cls = m.MESSAGES_BY_ID.get(type_id)
     if cls is None:
         raise UnknownTypeError(type_id, seq)
+    need = cls.required_size(minor)
+    if len(body) - HEADER.size < need:
+        raise ShortPayloadError(cls.NAME, len(body) - HEADER.size, need, (major, minor))
     return Frame(
         (major, minor), seq, cls.unpack(body[HEADER.size :]), body + CRC.pack(crc32c(body))
     )

@@ -167,6 +167,8 @@ class GetInfo(Message):
     NAME: ClassVar[str] = "GET_INFO"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -188,6 +190,8 @@ class Configure(Message):
     NAME: ClassVar[str] = "CONFIGURE"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 153
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (153,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(
             "integration_ms",
@@ -341,6 +345,8 @@ class Start(Message):
     NAME: ClassVar[str] = "START"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -362,6 +368,8 @@ class Stop(Message):
     NAME: ClassVar[str] = "STOP"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -383,6 +391,8 @@ class TimeSyncRequest(Message):
     NAME: ClassVar[str] = "TIME_SYNC_REQUEST"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 12
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (12,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("exchange_id", "u32", (), "", "Chosen by the host, echoed in the reply."),
         FieldSpec(
@@ -418,6 +428,8 @@ class GetStatus(Message):
     NAME: ClassVar[str] = "GET_STATUS"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -439,6 +451,8 @@ class GetConfig(Message):
     NAME: ClassVar[str] = "GET_CONFIG"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -460,6 +474,8 @@ class ResetStats(Message):
     NAME: ClassVar[str] = "RESET_STATS"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
 
     def pack(self) -> bytes:
@@ -481,6 +497,8 @@ class Info(Message):
     NAME: ClassVar[str] = "INFO"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 70
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (70,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(
             "protocol_major", "u8", (), "", "Protocol major version the firmware implements."
@@ -601,6 +619,8 @@ class Ack(Message):
     NAME: ClassVar[str] = "ACK"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 5
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (5,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("acked_type", "u8", (), "", "Type id of the accepted command."),
         FieldSpec("acked_seq", "u16", (), "", "Header sequence number of the accepted command."),
@@ -643,6 +663,8 @@ class Nack(Message):
     NAME: ClassVar[str] = "NACK"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 6
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (6,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("rejected_type", "u8", (), "", "Type id of the refused command."),
         FieldSpec("rejected_seq", "u16", (), "", "Header sequence number of the refused command."),
@@ -688,6 +710,8 @@ class Sample(Message):
     NAME: ClassVar[str] = "SAMPLE"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 48
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (48,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(
             "sample_seq",
@@ -760,6 +784,8 @@ class Status(Message):
     NAME: ClassVar[str] = "STATUS"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 60
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (60,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("uptime_ms", "u32", (), "ms", "Time since boot (wraps after 49.7 days)."),
         FieldSpec("device_time_us", "u32", (), "µs", "Device clock when the message was built."),
@@ -848,6 +874,8 @@ class TimeSyncReply(Message):
     NAME: ClassVar[str] = "TIME_SYNC_REPLY"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 20
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (20,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("exchange_id", "u32", (), "", "Echo of the request's exchange_id."),
         FieldSpec("host_time_ns", "u64", (), "ns", "Echo of the request's host_time_ns."),
@@ -895,6 +923,8 @@ class Log(Message):
     NAME: ClassVar[str] = "LOG"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 69
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (69,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("level", "u8", (), "", "Severity."),
         FieldSpec("device_time_us", "u32", (), "µs", "Device time of the event."),
@@ -931,6 +961,8 @@ class Config(Message):
     NAME: ClassVar[str] = "CONFIG"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 155
+    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (155,)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("config_id", "u16", (), "", "Configuration id."),
         FieldSpec(

@@ -48,7 +48,9 @@ class FieldSpec:
 
 
 def fit_payload(payload: bytes, size: int) -> bytes:
-    """Apply the minor-version rule: ignore unknown trailing bytes, zero-fill missing ones."""
+    """Apply the minor-version rule to a payload already checked against
+    Message.required_size: ignore unknown trailing bytes, zero-fill the fields newer than the
+    sender."""
     if len(payload) > size:
         return payload[:size]
     return payload + bytes(size - len(payload))
@@ -73,7 +75,21 @@ class Message:
     NAME: ClassVar[str]
     DIRECTION: ClassVar[str]
     PAYLOAD_SIZE: ClassVar[int]
+    LAYOUT_SIZES: ClassVar[tuple[int, ...]]
     FIELDS: ClassVar[tuple[FieldSpec, ...]]
+
+    @classmethod
+    def required_size(cls, minor: int) -> int:
+        """The fewest payload bytes a sender of protocol minor version `minor` may send: every
+        field it knows. Only fields newer than the sender are zero-filled; a shorter payload
+        is malformed (SPEC.md, compatibility rules).
+
+        >>> from spectratac.protocol.messages import Sample
+        >>> Sample.required_size(0) == Sample.PAYLOAD_SIZE, Sample.required_size(7) > 0
+        (True, True)
+        """
+        sizes = cls.LAYOUT_SIZES
+        return sizes[min(minor, len(sizes) - 1)]
 
     def pack(self) -> bytes:  # overridden by every generated class
         raise TypeError(f"{type(self).__name__} is not a generated message class")

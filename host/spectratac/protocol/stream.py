@@ -45,6 +45,7 @@ class DecoderStats:
     too_short: int = 0
     oversize: int = 0
     unknown_type: int = 0
+    short_payload: int = 0  # shorter than the fields of the sender's version: not zero-filled
     version_mismatch: int = 0
     seq_gaps: int = 0  # frames missing according to the sender's sequence numbers
     seq_restarts: int = 0  # the sender's sequence jumped back (it restarted)
@@ -59,6 +60,7 @@ class DecoderStats:
             + self.too_short
             + self.oversize
             + self.unknown_type
+            + self.short_payload
             + self.version_mismatch
         )
 
@@ -126,6 +128,9 @@ class StreamDecoder:
             cls = by_id.get(type_id)
             if cls is None:
                 stats.unknown_type += 1
+                continue
+            if len(raw) - MIN_FRAME < cls.required_size(v_minor):
+                stats.short_payload += 1
                 continue
             out.append(Frame((v_major, v_minor), seq, cls.unpack(raw[5:-4]), raw))
         self._last_seq = last_seq

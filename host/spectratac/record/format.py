@@ -35,11 +35,12 @@ FT_SAMPLES = "/ft/samples"  # a batch of FT_RECORD rows, raw little-endian bytes
 FT_INFO = "/ft/info"  # the reference sensor's FTInfo and URL
 LABELS = "/labels"  # one region-label event per message
 GROUND_TRUTH = "/spectratac/ground_truth"  # truth of a batch of samples (simulated links)
+EPOCH = "/spectratac/epoch"  # a connection to the device began: its clock and seq start afresh
 
 FRAME_ENCODING = "spectratac.frame"
 FT_ENCODING = "spectratac.ft_record"
 GROUND_TRUTH_ENCODING = "spectratac.ground_truth"
-JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS)
+JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS, EPOCH)
 JSON_SCHEMA = b'{"type": "object"}'
 
 #: One row per SAMPLE frame of a link with ground truth: the sample's identity (its

@@ -40,6 +40,7 @@ from spectratac.record.errors import RecordingError, TruncatedRecordingWarning
 from spectratac.record.format import (
     CONFIG,
     END,
+    EPOCH,
     FORMAT,
     FRAMES,
     FT_INFO,
@@ -78,6 +79,7 @@ class Recording:
     configs: dict[int, dict[str, Any]] = field(default_factory=dict)  # by config id
     ft_info: dict[str, Any] | None = None
     labels: list[dict[str, Any]] = field(default_factory=list)
+    epochs: list[dict[str, Any]] = field(default_factory=list)  # EPOCH messages, in order
     # GROUND_TRUTH_RECORD rows (dtype from the file); None: the link carried no ground truth
     ground_truth: np.ndarray | None = None
     stats: dict[str, Any] | None = None  # the last stats message
@@ -176,6 +178,8 @@ def _take_json(rec: Recording, topic: str, obj: Any) -> None:
         rec.ft_info = obj
     elif topic == LABELS:
         rec.labels.append(obj)
+    elif topic == EPOCH:
+        rec.epochs.append(obj)
     elif topic == STATS:
         rec.stats = obj
     elif topic == END:

@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from spectratac.device import Sensor
+from spectratac.device import DeviceTimeoutError, DisconnectedError, Sensor
 from spectratac.device.ground_truth import GroundTruth
 from spectratac.device.records import Unwrapper
 from spectratac.errors import SpectraTacError
@@ -43,6 +43,7 @@ from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
     CONFIG,
     END,
+    EPOCH,
     FT_INFO,
     GROUND_TRUTH_RECORD,
     INFO,
@@ -156,7 +157,8 @@ class Recorder:
             self.scene_end_s = ground_truth.duration_s  # a scene that ends ends the session
         self.guided = guided
         self.clock = clock
-        self._frames: collections.deque[tuple[Frame, float]] = collections.deque()
+        # frames as they arrive, and (new epoch, host time) where a reconnect began one
+        self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
         self._samples = 0
         self._ft_rows = 0
@@ -196,6 +198,9 @@ class Recorder:
             ground_truth=self.ground_truth is not None,
             flush_s=opts.flush_s,
         )
+        now = time.monotonic()
+        writer.json(EPOCH, _epoch_event(self.sensor.epoch, "start", now), now)
+        self.sensor.add_epoch_listener(self._on_epoch)
         self.sensor.add_listener(self._on_frame)
         t_begin = time.monotonic()
         stopped_by: StopReason = "error"
@@ -284,7 +289,12 @@ class Recorder:
             self._move(writer)
             now = time.monotonic()
             if now >= next_sync:
-                self._sync(writer)
+                try:
+                    self._sync(writer)
+                except (DisconnectedError, DeviceTimeoutError):
+                    if not self.sensor.auto_reconnect:
+                        raise
+                    # the sensor is reconnecting: the session goes on in a new epoch
                 next_sync = now + opts.sync_every_s
             self._label(writer)
             if writer.maybe_flush():
@@ -317,6 +327,7 @@ class Recorder:
             with contextlib.suppress(SpectraTacError):
                 self._count_samples()
             self.sensor.remove_listener(self._on_frame)
+            self.sensor.remove_epoch_listener(self._on_epoch)
             self._move_frames(writer)
             if self.labeler is not None:
                 self._write_labels(writer, self.labeler.due(self._scene_now))
@@ -342,11 +353,26 @@ class Recorder:
     def _on_frame(self, frame: Frame, host_time: float) -> None:
         self._frames.append((frame, host_time))  # reader thread: keep it this small
 
+    def _on_epoch(self, epoch: int, host_time: float) -> None:
+        self._frames.append((epoch, host_time))  # in line with the frames around it
+
     def _move_frames(self, writer: RecordingWriter) -> None:
         q = self._frames
         n = len(q)
-        if n:
-            batch = [q.popleft() for _ in range(n)]
+        batch: list[tuple[Frame, float]] = []
+        for _ in range(n):
+            item, host_time = q.popleft()
+            if isinstance(item, Frame):
+                batch.append((item, host_time))
+                continue
+            self._write_frames(writer, batch)  # the old connection's, then the break
+            batch = []
+            writer.json(EPOCH, _epoch_event(item, "reconnect", host_time), host_time)
+            self._unwrap = Unwrapper()  # the device clock may have restarted
+        self._write_frames(writer, batch)
+
+    def _write_frames(self, writer: RecordingWriter, batch: list[tuple[Frame, float]]) -> None:
+        if batch:
             if self.ground_truth is not None:
                 rows = self._truth(self.ground_truth, [f for f, _ in batch])
                 writer.ground_truth(rows, batch[0][1])
@@ -449,6 +475,10 @@ class Recorder:
 
 
 _LOOP_FIELDS = ("duration_s", "samples", "sync_every_s", "sync_exchanges", "flush_s", "poll_s")
+
+
+def _epoch_event(epoch: int, reason: str, host_time: float) -> dict[str, Any]:
+    return {"epoch": epoch, "reason": reason, "host_time": host_time}
 
 
 def _listify(leds: Any) -> Any:

@@ -162,13 +162,14 @@ TEST(cmd_configure_accepted_and_reported) {
 
 TEST(cmd_short_and_long_payloads) {
     boot();
-    /* A CONFIGURE cut short: missing bytes read as zero, so integration_ms 0 is refused. */
+    /* A CONFIGURE cut short of the 1.0 layout is malformed: never zero-filled. */
     uint8_t p[STAC_CONFIGURE_SIZE + 8];
     memset(p, 0, sizeof p);
     fake_send(&g_b, STAC_MSG_CONFIGURE, 1, p, 1);
     int n = pass();
     stac_nack_t m = last_nack(n);
-    CHECK_EQ(m.error, STAC_BAD_INTEGRATION_TIME);
+    CHECK_EQ(m.error, STAC_MALFORMED);
+    CHECK_EQ(m.rejected_seq, 1);
     /* A longer one (a future minor version) is accepted; the extra bytes are ignored. */
     stac_configure_t c;
     stac_default_config(&c);
@@ -338,6 +339,63 @@ TEST(cmd_configure_stream_flag_starts) {
     }
 }
 
+TEST(cmd_payload_shorter_than_the_senders_version_is_malformed) {
+    boot();
+    stac_time_sync_request_t r = {.exchange_id = 7u, .host_time_ns = 9u};
+    uint8_t p[STAC_TIME_SYNC_REQUEST_SIZE];
+    stac_time_sync_request_pack(&r, p);
+    static const size_t lengths[] = {0u, 2u, STAC_TIME_SYNC_REQUEST_SIZE - 1u};
+    for (size_t i = 0; i < 3u; i++) {
+        fake_send(&g_b, STAC_MSG_TIME_SYNC_REQUEST, (uint16_t)(20u + i), p, lengths[i]);
+        const int n = pass();
+        CHECK_EQ(g_frames[n - 1].h.type, STAC_MSG_NACK); /* not a zero-filled reply */
+        const stac_nack_t m = last_nack(n);
+        CHECK_EQ(m.rejected_type, STAC_MSG_TIME_SYNC_REQUEST);
+        CHECK_EQ(m.rejected_seq, 20u + i);
+        CHECK_EQ(m.error, STAC_MALFORMED);
+    }
+    CHECK_EQ(g_app.stats.command_errors, 3);
+    CHECK_EQ(fake_count(g_frames, h_frames(&g_b), STAC_MSG_TIME_SYNC_REPLY), 0);
+    /* The whole 1.0 layout is served. */
+    fake_send(&g_b, STAC_MSG_TIME_SYNC_REQUEST, 30, p, sizeof p);
+    const int n = pass();
+    CHECK_EQ(g_frames[n - 1].h.type, STAC_MSG_TIME_SYNC_REPLY);
+}
+
+TEST(cmd_stop_is_idempotent) {
+    boot();
+    h_send_empty(&g_b, STAC_MSG_STOP, 1); /* while idle */
+    h_send_empty(&g_b, STAC_MSG_START, 2);
+    fake_run_until(&g_b, &g_app, g_b.now + 300000u, 100u);
+    h_send_empty(&g_b, STAC_MSG_STOP, 3);
+    h_send_empty(&g_b, STAC_MSG_STOP, 4); /* a resend whose first ACK was lost */
+    fake_run_until(&g_b, &g_app, g_b.now + 300000u, 100u);
+    const int n = h_frames(&g_b);
+    int acks = 0;
+    int last_ack = -1;
+    int last_sample = -1;
+    for (int i = 0; i < n; i++) {
+        if (g_frames[i].h.type == STAC_MSG_ACK) {
+            stac_ack_t a;
+            stac_ack_unpack(&a, g_frames[i].payload, g_frames[i].len);
+            CHECK_EQ(a.acked_seq, (uint16_t)(acks + 1));
+            acks++;
+            last_ack = i;
+        } else if (g_frames[i].h.type == STAC_MSG_SAMPLE) {
+            last_sample = i;
+        }
+    }
+    CHECK_EQ(acks, 4);
+    CHECK(last_sample >= 0 && last_sample < last_ack); /* nothing after the STOPs */
+    CHECK(!g_app.streaming);
+    CHECK_EQ(g_app.stats.command_errors, 0);
+    /* START after the repeated STOPs streams again. */
+    h_send_empty(&g_b, STAC_MSG_START, 5);
+    fake_run_until(&g_b, &g_app, g_b.now + 300000u, 100u);
+    CHECK(fake_count(g_frames, h_frames(&g_b), STAC_MSG_SAMPLE) > fake_count(g_frames, n,
+                                                                           STAC_MSG_SAMPLE));
+}
+
 const test_case_t g_cmd_tests[] = {
     {"cmd_get_info", cmd_get_info},
     {"cmd_default_config", cmd_default_config},
@@ -351,5 +409,8 @@ const test_case_t g_cmd_tests[] = {
     {"cmd_status_and_reset_stats", cmd_status_and_reset_stats},
     {"cmd_bad_input_does_not_stop_streaming", cmd_bad_input_does_not_stop_streaming},
     {"cmd_configure_stream_flag_starts", cmd_configure_stream_flag_starts},
+    {"cmd_payload_shorter_than_the_senders_version_is_malformed",
+     cmd_payload_shorter_than_the_senders_version_is_malformed},
+    {"cmd_stop_is_idempotent", cmd_stop_is_idempotent},
     {NULL, NULL},
 };

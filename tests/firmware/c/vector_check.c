@@ -73,6 +73,8 @@ int main(void) {
             kind = "version_mismatch";
         } else if (st == STAC_FRAME_OK && stac_payload_size(h.type) < 0) {
             kind = "unknown_type";
+        } else if (st == STAC_FRAME_OK && plen < (size_t)stac_payload_min_size(h.type, h.minor)) {
+            kind = "short_payload";
         }
         printf("%s %u %u %u %u ", kind, h.major, h.minor, h.type, h.seq);
         if (strcmp(kind, "ok") != 0) {
