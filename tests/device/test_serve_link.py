@@ -30,7 +30,7 @@ def serve_until_announced(link: Path) -> list[str]:
     def run() -> None:
         try:
             serve_pty(OPTS, link=link, announce=announce, stop=stop)
-        except BaseException as exc:  # noqa: BLE001 - handed to the test thread
+        except BaseException as exc:  # handed to the test thread
             errors.append(exc)
 
     thread = threading.Thread(target=run)
