@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output
+from spectratac.cli.options import add_output, npz_name, refuse_overwrite
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,6 +58,8 @@ def _build(args: argparse.Namespace) -> int:
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:
         raise SpectraTacError("--max-gap-ms must be > 0")
+    if not args.split:  # refuse before the work; --split's names are known only after it
+        refuse_overwrite(npz_name(args.output), args.force)
     bar = None
     if not (args.no_progress or args.json) and len(args.recordings) > 1:
         from tqdm import tqdm
@@ -85,8 +87,10 @@ def _build(args: argparse.Namespace) -> int:
     for note in notes:
         if not args.json:
             print(f"warning: {note}", file=sys.stderr)
+    paths = split_paths(args.output, datasets)
+    refuse_overwrite([npz_name(p) for p in paths], args.force)
     written = []
-    for ds, path in zip(datasets, split_paths(args.output, datasets), strict=True):
+    for ds, path in zip(datasets, paths, strict=True):
         ds.save(path)
         written.append({"path": str(path), **summary(ds)})
     if args.json:

@@ -236,7 +236,23 @@ def load_any(
             with np.load(p, allow_pickle=False) as z:
                 is_dataset = "meta" in z.files and "inputs" in z.files
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-            raise DatasetError(f"cannot read {p}: {exc}") from None
+            raise DatasetError(f"cannot read dataset {p}: {exc}") from None
         if is_dataset:
             return Dataset.load(p)
     return load_table(p, inputs, targets, classes)
+
+
+def load_data(
+    paths: Sequence[str | Path],
+    inputs: Sequence[str] | None = None,
+    targets: Sequence[str] | None = None,
+    classes: Sequence[str] | None = None,
+) -> Dataset:
+    """Every file `spectratac train` and `spectratac evaluate` read (SpectraTac dataset .npz,
+    generic CSV, column .npz; see `load_any`), joined row-wise when there are several."""
+    from spectratac.dataset.schema import concat
+
+    if not paths:
+        raise DatasetError("no data files given")
+    sets = [load_any(p, inputs, targets, classes) for p in paths]
+    return sets[0] if len(sets) == 1 else concat(sets)
