@@ -44,8 +44,9 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.bench import config_from_args, run_with_progress
 
     out = Path(args.out)
+    config = config_from_args(args)  # bad settings first: they say more than "it exists"
     refuse_overwrite(out, args.force)
-    res = run_with_progress(config_from_args(args), out, args.variants, show=not args.no_progress)
+    res = run_with_progress(config, out, args.variants, show=not args.no_progress)
     name = "decoder_variants" if args.variants else "decoder_speed"
     if args.json:
         print(json.dumps(res))

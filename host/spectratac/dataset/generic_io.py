@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 import io
 import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,8 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
         try:
             with np.load(source, allow_pickle=False) as z:
                 cols = {k: np.asarray(z[k]) for k in z.files}
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
             raise DatasetError(f"cannot read {source}: {exc}") from None
         bad = [k for k, v in cols.items() if v.ndim != 1]
         if bad:
@@ -235,7 +237,8 @@ def load_any(
         try:
             with np.load(p, allow_pickle=False) as z:
                 is_dataset = "meta" in z.files and "inputs" in z.files
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
             raise DatasetError(f"cannot read dataset {p}: {exc}") from None
         if is_dataset:
             return Dataset.load(p)

@@ -170,7 +170,8 @@ class Dataset:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files if k != "meta"}
                 meta = json.loads(str(z["meta"])) if "meta" in z.files else None
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
             raise DatasetError(f"cannot read dataset {path}: {exc}") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise DatasetError(

@@ -54,7 +54,9 @@ except ImportError:  # pragma: no cover - mcap's writer needs zstandard anyway
     ZstdError = McapError  # type: ignore[misc,assignment]
 
 MAGIC = b"\x89MCAP0\r\n"
-READ_ERRORS = (McapError, struct.error, ValueError, EOFError, zlib.error, ZstdError, KeyError)
+#: What parsing damaged bytes can raise (a garbled length can ask for absurd sizes).
+READ_ERRORS = (McapError, struct.error, ValueError, EOFError, zlib.error, ZstdError, KeyError,
+               IndexError, OverflowError, MemoryError)  # fmt: skip
 _KNOWN = {int(op) for op in Opcode}
 _READERS = {
     Opcode.HEADER: Header.read,
@@ -106,14 +108,16 @@ def salvage(buf: bytes | memoryview) -> Salvage:
         end = pos + 9 + length
         if op not in _KNOWN or end > n:
             nxt = _resync(buf, pos + 1)
-            if nxt is None and op in _KNOWN:
+            if nxt is None:  # nothing readable follows: the file ends early
                 out.truncated = True
-                out.problem = f"the file ends inside a {Opcode(op).name} record"
+                out.problem = (
+                    f"the file ends inside a {Opcode(op).name} record"
+                    if op in _KNOWN
+                    else f"the file ends in {n - pos} unreadable bytes"
+                )
                 break
             out.corrupted_chunks += 1
             out.lost_uncounted = True
-            if nxt is None:
-                break
             pos, counting = nxt, False
             continue
         try:
@@ -127,6 +131,8 @@ def salvage(buf: bytes | memoryview) -> Salvage:
         pos = end
         if isinstance(record, Footer):
             out.finished = True
+            if bytes(buf[end : end + 8]) != MAGIC:
+                out.truncated, out.problem = True, "the file ends inside its closing magic"
             break  # only the closing magic follows
         if out.finished:  # the summary: channels again, and the message counts
             if isinstance(record, Channel):
