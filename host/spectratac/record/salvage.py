@@ -80,7 +80,8 @@ class Salvage:
     corrupted_chunks: int = 0  # damaged chunks skipped (a garbled stretch counts as one)
     lost_by_channel: Counter[int] = field(default_factory=Counter)
     lost_uncounted: bool = False  # damage whose message count no index or statistics tells
-    finished: bool = False  # the data section's end was reached
+    data_complete: bool = False  # the data section's end was reached
+    finished: bool = False  # the footer and the closing magic were reached
     truncated: bool = False
     problem: str = ""  # why reading stopped early
 
@@ -102,14 +103,13 @@ def salvage(buf: bytes | memoryview) -> Salvage:
     pos, counting, stats = 8, False, None
     while pos < n:
         if n - pos < 9:
-            out.truncated, out.problem = True, "the file ends inside a record header"
+            out.problem = "the file ends inside a record header"
             break
         op, length = buf[pos], struct.unpack_from("<Q", buf, pos + 1)[0]
         end = pos + 9 + length
         if op not in _KNOWN or end > n:
             nxt = _resync(buf, pos + 1)
             if nxt is None:  # nothing readable follows: the file ends early
-                out.truncated = True
                 out.problem = (
                     f"the file ends inside a {Opcode(op).name} record"
                     if op in _KNOWN
@@ -130,11 +130,9 @@ def salvage(buf: bytes | memoryview) -> Salvage:
             record = None
         pos = end
         if isinstance(record, Footer):
-            out.finished = True
-            if bytes(buf[end : end + 8]) != MAGIC:
-                out.truncated, out.problem = True, "the file ends inside its closing magic"
+            out.finished = bytes(buf[end : end + 8]) == MAGIC
             break  # only the closing magic follows
-        if out.finished:  # the summary: channels again, and the message counts
+        if out.data_complete:  # the summary: channels again, and the message counts
             if isinstance(record, Channel):
                 out.summary_channels.append(record)
             elif isinstance(record, Statistics):
@@ -154,9 +152,14 @@ def salvage(buf: bytes | memoryview) -> Salvage:
             if counting:
                 out.lost_by_channel[record.channel_id] += len(record.records)
         elif isinstance(record, DataEnd):
-            out.finished = True
+            out.data_complete = True
         elif record is not None:
             out.records.append(record)
+    if not out.finished:
+        out.truncated = True
+        out.problem = out.problem or "the file ends without an MCAP footer"
+        if out.data_complete:
+            out.problem += " (after its data section: every message was read)"
     if stats is not None and out.corrupted_chunks:
         read = Counter(m.channel_id for m in out.messages())
         out.lost_by_channel = Counter(
