@@ -125,3 +125,12 @@ def test_a_zip_without_meta_is_not_a_dataset(tmp_path: Path) -> None:
         z.writestr("inputs.npy", b"junk")
     with pytest.raises(DatasetError):
         Dataset.load(tmp_path / "z.npz")
+
+
+def test_a_generic_csv_that_is_not_utf8_is_a_dataset_error(tmp_path: Path) -> None:
+    from spectratac.dataset.generic_io import load_any
+
+    path = tmp_path / "latin1.csv"
+    path.write_bytes("a,b,Fz\n1,2,3\n4,5,\xb06\n".encode("latin-1"))
+    with pytest.raises(DatasetError, match=r"not UTF-8 text \(a byte 0xb0 at offset 17\)"):
+        load_any(path)

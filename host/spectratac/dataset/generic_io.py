@@ -68,6 +68,13 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
                 rows = _csv_rows(source)
         except OSError as exc:
             raise DatasetError(f"cannot read {source}: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise DatasetError(
+                f"{source} is not UTF-8 text (a byte {exc.object[exc.start]:#04x} at offset "
+                f"{exc.start}); save it as UTF-8 CSV"
+            ) from None
+        except csv.Error as exc:
+            raise DatasetError(f"{source}: not a readable CSV file ({exc})") from None
         if not rows:
             raise DatasetError(f"{source}: empty file; the first row must name the columns")
         header = [h.strip() for h in rows[0]]
