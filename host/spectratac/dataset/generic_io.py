@@ -62,16 +62,17 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
     else:
         try:
             if isinstance(source, (str, Path)):
-                with open(source, newline="", encoding="utf-8") as f:
-                    rows = _csv_rows(f)
+                raw = Path(source).read_bytes()
+                rows = _csv_rows(io.StringIO(raw.decode("utf-8"), newline=""))
             else:
                 rows = _csv_rows(source)
         except OSError as exc:
             raise DatasetError(f"cannot read {source}: {exc}") from None
         except UnicodeDecodeError as exc:
+            line = exc.object[: exc.start].count(b"\n") + 1
             raise DatasetError(
-                f"{source} is not UTF-8 text (a byte {exc.object[exc.start]:#04x} at offset "
-                f"{exc.start}); save it as UTF-8 CSV"
+                f"{source} is not UTF-8 text (byte {exc.object[exc.start]:#04x} on line {line}); "
+                f"save it as UTF-8 CSV"
             ) from None
         except csv.Error as exc:
             raise DatasetError(f"{source}: not a readable CSV file ({exc})") from None
