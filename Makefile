@@ -20,7 +20,8 @@ $(STAMP): pyproject.toml requirements/lock.txt
 
 # The main job on the built-in simulated sensor (real firmware core on the digital twin).
 demo: $(STAMP)
-	$(BIN)/spectratac demo
+	# --force: demo-output/ is the demo's own folder, rewritten on every run.
+	$(BIN)/spectratac demo --force
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

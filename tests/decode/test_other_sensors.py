@@ -148,3 +148,29 @@ def test_torque_columns_spelled_m_load_as_t(tmp_path) -> None:
     assert auto.input_names == ["ch0"] and auto.target_names == ["Fz", "Ty"]
     with pytest.raises(DatasetError, match="columns Ty and My are the same torque"):
         load_table(io.StringIO("ch0,Ty,My\n1,0.5,0.1\n"))
+
+
+def test_evaluate_reads_every_format_train_reads(tmp_path, capsys) -> None:
+    write_csv(tmp_path / "train.csv", four_channel(300))
+    out = tmp_path / "m.stac"
+    argv = ["train", str(tmp_path / "train.csv"), "--targets", "Fz,position", "-o", str(out),
+            "--epochs", "3", "--hidden", "16", "--blocks", "1", "--threads", "1", "--no-progress",
+            "--inputs", "ch0,ch1,ch2,ch3"]  # fmt: skip
+    assert main(argv) == 0
+    assert main(argv) == 3 and "already exists; pass --force" in capsys.readouterr().err
+    assert main([*argv, "--force"]) == 0
+    capsys.readouterr()
+    fresh = four_channel(120, seed=1)
+    write_csv(tmp_path / "fresh.csv", fresh)
+    np.savez(tmp_path / "fresh_columns.npz", **fresh)
+    for data in ("fresh.csv", "fresh_columns.npz"):
+        rc = main(["evaluate", str(out), str(tmp_path / data), "-o", str(tmp_path / data[:-4]),
+                   "--oracle-samples", "0", "--no-progress", "--json"])  # fmt: skip
+        assert rc == 0, capsys.readouterr().err
+        rep = json.loads(capsys.readouterr().out)
+        assert rep["sections"]["all"]["n_rows"] == 120
+        assert rep["sections"]["all"]["decoder"]["components"]["Fz"]["mae"] < 2.5
+    del fresh["ch3"]
+    write_csv(tmp_path / "short.csv", fresh)
+    rc = main(["evaluate", str(out), str(tmp_path / "short.csv"), "-o", str(tmp_path / "s")])
+    assert rc == 3 and "['ch3']" in capsys.readouterr().err

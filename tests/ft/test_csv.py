@@ -7,7 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.ft import FTConfigError, FTNotFoundError, FTURLError, open_ft
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from spectratac.ft import FTConfigError, FTError, FTNotFoundError, FTURLError, open_ft
 
 
 def write(path: Path, header: str, rows: list[str]) -> str:
@@ -89,3 +91,67 @@ def test_clear_errors(tmp_path: Path) -> None:
         open_ft(url + "?speeed=2")
     with pytest.raises(FTURLError, match="no file"):
         open_ft("csv://")
+
+
+HEADER = "t,Fx,Fy,Fz,Tx,Ty,Tz,sequence"
+
+
+def test_a_non_utf8_byte_spoils_only_its_row(tmp_path: Path) -> None:
+    path = tmp_path / "ft.csv"
+    path.write_bytes(
+        f"{HEADER}\n0,1,0,0,0,0,0,0\n0.1,\xff2,0,0,0,0,0,1\n0.2,3,0,0,0,0,0,2\n".encode("latin-1")
+    )
+    with open_ft(f"csv://{path}") as ft:
+        rows = ft.read(5, timeout=1)
+        assert rows["wrench"][:, 0].tolist() == [1.0, 3.0]
+        assert ft.stats.bad_frames == 1
+
+
+def test_a_header_only_file_is_refused_by_name(tmp_path: Path) -> None:
+    url = write(tmp_path / "ft.csv", HEADER, [])
+    with pytest.raises(FTConfigError, match="no sample rows"):
+        open_ft(url)
+
+
+def test_a_file_without_one_good_row_is_refused(tmp_path: Path) -> None:
+    url = write(tmp_path / "ft.csv", HEADER, ["x,y", "0,nan,0,0,0,0,0,0"])
+    with pytest.raises(FTConfigError, match="none of its 2 rows is a valid sample"):
+        open_ft(url)
+
+
+@pytest.mark.parametrize("sequence", ["nan", "inf", "-1", "1.5", "1e300"])
+def test_a_sequence_that_is_not_a_count_makes_its_row_bad(tmp_path: Path, sequence: str) -> None:
+    url = write(tmp_path / "ft.csv", HEADER, ["0,1,0,0,0,0,0,0", f"0.1,2,0,0,0,0,0,{sequence}",
+                                              "0.2,3,0,0,0,0,0,1"])  # fmt: skip
+    with open_ft(url) as ft:
+        rows = ft.read(5, timeout=1)
+        assert rows["sequence"].tolist() == [0, 1]
+        assert (ft.stats.bad_frames, ft.stats.lost) == (1, 0)
+
+
+@pytest.mark.parametrize("option", ["rate=nan", "rate=inf", "speed=nan", "speed=-inf"])
+def test_non_finite_pacing_is_refused(tmp_path: Path, option: str) -> None:
+    url = write(tmp_path / "ft.csv", HEADER, ["0,1,0,0,0,0,0,0"])
+    with pytest.raises(FTURLError, match="must be a finite number"):
+        open_ft(f"{url}?{option}")
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    body=st.binary(max_size=300),
+    line=st.lists(st.sampled_from(["0", "1.5", "nan", "-1", "x", "", "1e400", "\xff"]), max_size=9),
+)
+def test_any_file_gives_samples_or_a_typed_error(
+    tmp_path: Path, body: bytes, line: list[str]
+) -> None:
+    path = tmp_path / "fuzz.csv"
+    path.write_bytes(f"{HEADER}\n".encode() + ",".join(line).encode("latin-1") + b"\n" + body)
+    try:
+        with open_ft(f"csv://{path}") as ft:
+            rows = ft.read(10_000, timeout=1)
+    except FTError:
+        return
+    assert np.all(np.isfinite(rows["wrench"])) and np.all(np.isfinite(rows["sensor_time"]))
+    assert ft.stats.lost < 2**53 and len(rows) >= 1

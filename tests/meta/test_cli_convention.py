@@ -1,5 +1,6 @@
 """Every verb follows one command-line convention, checked on the argparse tree itself so that a
-new verb cannot drift: -o/--output for what it writes, one spelling per setting across verbs,
+new verb cannot drift: -o/--output for what it writes, --force wherever it could overwrite
+something (refused with exit code 3 otherwise), one spelling per setting across verbs,
 URL + --timeout wherever a device is opened, exit codes from ExitCode, and old spellings that
 still work (hidden, with a warning)."""
 
@@ -22,6 +23,19 @@ OUTPUT_SPELLINGS = {"--out", "--output", "--report", "--outdir", "--output-dir",
 # bench decoder's options are shared with tools/bench/decoder*.py (add_options), which keep
 # their own --out; the one exception to -o/--output.
 OUTPUT_EXCEPTIONS = {("bench decoder", "out")}
+# Verbs whose output folder only ever gains new, uniquely named files (never overwrites).
+NEVER_OVERWRITES = {"live"}
+# Verbs that refuse an existing output: argv ({out}: the output) and what the output is: a
+# file (refused when it exists) or a folder (refused when it holds anything).
+WRITING_VERBS = {
+    "record": (["record", "sim://?scene=idle", "-o", "{out}", "--no-progress"], "x.mcap"),
+    "dataset build": (["dataset", "build", "missing.mcap", "-o", "{out}"], "x.npz"),
+    "train": (["train", "missing.npz", "-o", "{out}"], "x.stac"),
+    "evaluate": (["evaluate", "missing.stac", "missing.npz", "-o", "{out}"], "folder"),
+    "twin generate": (["twin", "generate", "--scene", "idle", "-o", "{out}"], "x.npz"),
+    "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
+    "bench decoder": (["bench", "decoder", "--quick", "--out", "{out}"], "folder"),
+}
 # Verb modules whose returns are checked for literal exit codes (bench_cmd is shared with
 # tools/bench and returns its codes there).
 EXIT_CODE_MODULES = sorted(p for p in CLI.glob("*_cmd.py") if p.name != "bench_cmd.py")
@@ -66,6 +80,33 @@ def test_output_paths_are_spelled_o_output(verb: str) -> None:
         if action.dest in ("out", "output", "report") or names & OUTPUT_SPELLINGS:
             assert action.option_strings == ["-o", "--output"], (verb, action.option_strings)
             assert action.dest == "output"
+
+
+@pytest.mark.parametrize("verb", sorted(VERBS))
+def test_verbs_that_write_take_force(verb: str) -> None:
+    dests = {a.dest: a for a in visible(VERBS[verb])}
+    if not {"output", "out"} & set(dests) or verb in NEVER_OVERWRITES:
+        return
+    force = dests.get("force")
+    assert force is not None, f"{verb} writes -o/--output: give it --force (add_output does)"
+    assert force.option_strings == ["--force"] and force.const is True and force.default is False
+    assert verb in WRITING_VERBS, f"{verb}: add it to WRITING_VERBS so its refusal is tested"
+
+
+@pytest.mark.parametrize("verb", sorted(WRITING_VERBS))
+def test_an_existing_output_is_refused_with_exit_3_and_kept(
+    verb: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv, kind = WRITING_VERBS[verb]
+    out = tmp_path / kind
+    keep = out / "keep.txt" if kind == "folder" else out
+    keep.parent.mkdir(exist_ok=True)
+    keep.write_text("the user's work")
+    assert main([a.replace("{out}", str(out)) for a in argv]) == ExitCode.ERROR
+    assert "already exists; pass --force" in capsys.readouterr().err
+    assert keep.read_text() == "the user's work"
+    assert [p.name for p in out.parent.iterdir()] == [out.name]  # nothing else written
 
 
 @pytest.mark.parametrize("verb", sorted(VERBS))

@@ -18,6 +18,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from spectratac.cli.options import add_force, refuse_overwrite
 from spectratac.evaluate.bench.options import add_options
 
 
@@ -32,6 +33,7 @@ def register(subparsers: Any) -> None:
     d = sub.add_parser("decoder", help="speed against error (default) or --variants")
     d.add_argument("--variants", action="store_true", help="improvements vs the paper's recipe")
     add_options(d)
+    add_force(d)
     d.add_argument("--json", action="store_true", help="print the result as one JSON object")
     d.add_argument("--no-progress", action="store_true")
     d.set_defaults(func=run)
@@ -42,7 +44,9 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.bench import config_from_args, run_with_progress
 
     out = Path(args.out)
-    res = run_with_progress(config_from_args(args), out, args.variants, show=not args.no_progress)
+    config = config_from_args(args)  # bad settings first: they say more than "it exists"
+    refuse_overwrite(out, args.force)
+    res = run_with_progress(config, out, args.variants, show=not args.no_progress)
     name = "decoder_variants" if args.variants else "decoder_speed"
     if args.json:
         print(json.dumps(res))

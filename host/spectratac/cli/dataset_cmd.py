@@ -2,6 +2,11 @@
 
 spectratac dataset build s1.mcap s2.mcap -o data.npz [--split] [--max-gap-ms 5]
 spectratac dataset info data.npz [--json]
+
+A truncated recording (the recorder was killed) contributes its readable prefix: a warning,
+exit code 0. A damaged recording (chunks whose CRC fails) contributes every intact chunk; the
+dataset is still written, but the damage is reported as an error line per recording (and
+under "corrupted" with --json) and the exit code is 1, so that scripts notice the loss.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output
+from spectratac.cli.options import add_output, npz_name, refuse_overwrite
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -55,9 +60,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _build(args: argparse.Namespace) -> int:
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
     from spectratac.errors import SpectraTacError
+    from spectratac.record.errors import CorruptedRecordingWarning
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:
         raise SpectraTacError("--max-gap-ms must be > 0")
+    if not args.split:  # refuse before the work; --split's names are known only after it
+        refuse_overwrite(npz_name(args.output), args.force)
     bar = None
     if not (args.no_progress or args.json) and len(args.recordings) > 1:
         from tqdm import tqdm
@@ -85,12 +93,19 @@ def _build(args: argparse.Namespace) -> int:
     for note in notes:
         if not args.json:
             print(f"warning: {note}", file=sys.stderr)
+    paths = split_paths(args.output, datasets)
+    refuse_overwrite([npz_name(p) for p in paths], args.force)
     written = []
-    for ds, path in zip(datasets, split_paths(args.output, datasets), strict=True):
+    for ds, path in zip(datasets, paths, strict=True):
         ds.save(path)
         written.append({"path": str(path), **summary(ds)})
+    damaged = [
+        {"path": w.message.path, "chunks": w.message.chunks, "lost": w.message.lost}
+        for w in caught
+        if isinstance(w.message, CorruptedRecordingWarning)
+    ]
     if args.json:
-        print(json.dumps({"outputs": written, "warnings": notes}))
+        print(json.dumps({"outputs": written, "warnings": notes, "corrupted": damaged}))
     else:
         for w in written:
             print(
@@ -98,7 +113,14 @@ def _build(args: argparse.Namespace) -> int:
                 f"{w['target_valid'] * 100:.1f} % with F/T targets, {w['presses']} presses, "
                 f"labels {w['labels']}"
             )
-    return ExitCode.OK
+        for d in damaged:
+            lost = ", ".join(f"{k} {t}" for t, k in d["lost"].items()) or "an uncounted number"
+            print(
+                f"error: {d['path']} is damaged: {d['chunks']} chunk(s) skipped, messages "
+                f"lost: {lost}; the dataset holds the rest",
+                file=sys.stderr,
+            )
+    return ExitCode.FAILURE if damaged else ExitCode.OK
 
 
 def summary(ds: Any) -> dict[str, Any]:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_duration, add_output, add_renamed
+from spectratac.cli.options import add_duration, add_output, add_renamed, refuse_overwrite
 from spectratac.cli.output import Table
 
 
@@ -46,6 +46,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         return _demo(args)
     from spectratac.apps.calibration_demo import DemoOptions, run_demo
 
+    refuse_overwrite(args.output, args.force)
     opts = DemoOptions(
         out=args.output,
         scene_s=args.duration or 600.0,

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output
+from spectratac.cli.options import add_output, column_names, refuse_overwrite
 from spectratac.evaluate.metrics import COVERAGE_LEVELS
 
 
@@ -28,7 +28,7 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="decoder file (.stac)")
-    p.add_argument("data", help="dataset file (.npz)")
+    p.add_argument("data", help="dataset .npz, or CSV / column .npz (as train reads them)")
     add_output(p, required=True, help="folder for the report", renamed_from=("--report",))
     p.add_argument(
         "--split",
@@ -36,6 +36,10 @@ def register(subparsers: Any) -> None:
         default="both",
         help="which split(s) to report when the data is the model's training set",
     )
+    p.add_argument(
+        "--inputs", help="input channel columns of CSV / generic data (default: the model's)"
+    )
+    p.add_argument("--classes", help="class column of CSV / generic data (default: auto; '' none)")
     p.add_argument("--baseline", metavar="MODEL", help="another decoder scored on the same rows")
     p.add_argument(
         "--oracle-samples",
@@ -53,7 +57,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from spectratac.dataset import Dataset
+    from spectratac.dataset.generic_io import load_data
     from spectratac.decode import Decoder
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.holdout import fingerprint
@@ -64,8 +68,11 @@ def run(args: argparse.Namespace) -> int:
         from spectratac.errors import SpectraTacError
 
         raise SpectraTacError("--oracle-samples must be >= 0")
-    dataset = Dataset.load(args.data)
+    refuse_overwrite(args.output, args.force)
     model = Decoder.load(args.model)
+    inputs = column_names(args.inputs) or list(model.layout.channels)
+    classes = None if args.classes is None else (column_names(args.classes) or [])
+    dataset = load_data([args.data], inputs, None, classes)
     companions = load_companions(model, args.model, Decoder.load)
     baseline = Decoder.load(args.baseline) if args.baseline else None
     kinds = ("random", "blocked") if args.split == "both" else (args.split,)

@@ -1,6 +1,7 @@
 """Exit codes of every `spectratac` verb, and which errors map to which.
 
-    0 ok, 1 a check failed, 2 usage, 3 an error (bad input, missing device), 130 Ctrl-C
+    0 ok, 1 a check failed, 2 usage, 3 an error (bad input, missing device, an output that
+    already exists without --force), 130 Ctrl-C
 
 >>> int(ExitCode.ERROR), exit_code_for(UsageError("-o/--output is required"))
 (3, <ExitCode.USAGE: 2>)

@@ -1,6 +1,9 @@
 """The options several verbs share, spelled once: a device URL with its --timeout, the output
-path (-o/--output), the row formats of the streaming verbs, and old spellings of renamed
-options (hidden, still accepted for one release, with a warning on stderr).
+path (-o/--output) with its --force, the row formats of the streaming verbs, and old spellings
+of renamed options (hidden, still accepted for one release, with a warning on stderr).
+
+A verb never overwrites what a user may care about: an existing output file, or an output
+folder that already holds files, is refused (OutputExistsError, exit code 3) unless --force.
 
 >>> p = argparse.ArgumentParser(prog="spectratac x")
 >>> add_output(p, help="file to write", renamed_from=("--out",))
@@ -13,9 +16,11 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import UsageError
+from spectratac.errors import SpectraTacError
 
 DEVICE_URL_HELP = "serial port, socket://host:port, rfc2217://…, or sim://…"
 DEFAULT_TIMEOUT_S = 2.0
@@ -74,7 +79,8 @@ def add_output(
     type: Any = None,
     renamed_from: Sequence[str] = (),
 ) -> None:
-    """-o/--output: where a verb writes its file or folder (the one spelling for every verb).
+    """-o/--output: where a verb writes its file or folder (the one spelling for every verb),
+    and --force to overwrite it (check with refuse_overwrite before writing anything).
     Old spellings in `renamed_from` stay accepted; `required` is then checked by require()."""
     parser.add_argument(
         "-o",
@@ -89,6 +95,62 @@ def add_output(
         add_renamed(parser, old, "output", "-o/--output", type=type)
     if required and renamed_from:
         parser.set_defaults(**{REQUIRED_KEY: {"output": "-o/--output"}})
+    add_force(parser)
+
+
+class OutputExistsError(SpectraTacError):
+    """The output file (or a non-empty output folder) is already there and --force was not
+    given; nothing was written."""
+
+
+def add_force(parser: argparse._ActionsContainer) -> None:
+    """--force: let a verb overwrite its existing output (see refuse_overwrite)."""
+    parser.add_argument(
+        "--force", action="store_true", help="overwrite the output if it already exists"
+    )
+
+
+def refuse_overwrite(paths: Path | str | Sequence[Path | str], force: bool) -> None:
+    """Raise OutputExistsError for an existing file, or a folder holding anything, among
+    `paths`, unless `force`.
+
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> refuse_overwrite(folder, force=False)  # an empty folder holds nothing to lose
+    >>> _ = (folder / "model.stac").write_text("weights")
+    >>> refuse_overwrite(folder / "model.stac", force=False)
+    Traceback (most recent call last):
+    ...
+    spectratac.cli.options.OutputExistsError: file ... already exists; pass --force to ...
+    """
+    if force:
+        return
+    for path in [paths] if isinstance(paths, (str, Path)) else paths:
+        path = Path(path)
+        if path.is_dir() and not any(path.iterdir()):
+            continue
+        if path.exists() or path.is_symlink():
+            what = "folder" if path.is_dir() else "file"
+            raise OutputExistsError(
+                f"{what} {path} already exists; pass --force to overwrite it, or choose "
+                f"another -o/--output"
+            )
+
+
+def column_names(text: str | None) -> list[str] | None:
+    """A comma list of names (--inputs Fx,Fy), or None when not given or empty.
+
+    >>> column_names(" a, b,,c"), column_names("")
+    (['a', 'b', 'c'], None)
+    """
+    return [t.strip() for t in text.split(",") if t.strip()] if text else None
+
+
+def npz_name(path: Path | str) -> Path:
+    """The file NumPy's savez (and Dataset.save) writes for `path`: .npz is appended unless
+    the name ends in it."""
+    path = Path(path)
+    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
 
 
 def require(args: argparse.Namespace) -> None:

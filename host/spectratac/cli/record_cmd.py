@@ -20,6 +20,7 @@ from spectratac.cli.options import (
     add_duration,
     add_output,
     add_renamed,
+    refuse_overwrite,
 )
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.veml3328 import GAINS, INTEGRATION_MS
@@ -106,6 +107,7 @@ def _record(args: argparse.Namespace) -> int:
         sync_every_s=args.sync_every,
     )
     options.validate()
+    refuse_overwrite(args.output, args.force)
     guided = None
     if args.guided is not None:
         guided = GuidedProtocol(

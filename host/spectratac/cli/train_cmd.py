@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output
+from spectratac.cli.options import add_output, column_names, refuse_overwrite
 
 RECIPES = ("paper", "best")
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
@@ -45,10 +45,6 @@ SPEC_OPTIONS = {
     "threads": "threads",
 }
 EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt", "c": ".h"}
-
-
-def _names(text: str | None) -> list[str] | None:
-    return [t.strip() for t in text.split(",") if t.strip()] if text else None
 
 
 def register(subparsers: Any) -> None:
@@ -89,25 +85,23 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=_train)
 
 
-def load_datasets(paths: list[str], inputs: Any, targets: Any, classes: Any) -> Any:
-    from spectratac.dataset import concat
-    from spectratac.dataset.generic_io import load_any
-
-    sets = [load_any(p, inputs, targets, classes) for p in paths]
-    return sets[0] if len(sets) == 1 else concat(sets)
-
-
 def _train(args: argparse.Namespace) -> int:
+    from spectratac.dataset.generic_io import load_data
     from spectratac.decode import DecoderError, TrainSpec, train
     from spectratac.decode.export import FORMATS
 
-    exports = _names(args.export) or []
+    exports = column_names(args.export) or []
     unknown = [f for f in exports if f not in FORMATS]
     if unknown:
         raise DecoderError(f"--export {','.join(unknown)}: choose from {', '.join(FORMATS)}")
-    targets = _names(args.targets)
-    classes = None if args.classes is None else (_names(args.classes) or [])
-    ds = load_datasets(args.data, _names(args.inputs), targets, classes)
+    out = Path(args.output)
+    refuse_overwrite(
+        [out, *(out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports)],
+        args.force,
+    )
+    targets = column_names(args.targets)
+    classes = None if args.classes is None else (column_names(args.classes) or [])
+    ds = load_data(args.data, column_names(args.inputs), targets, classes)
     if targets is None:
         targets = list(ds.target_names)
         if np.any(ds.region > 0):
@@ -120,7 +114,7 @@ def _train(args: argparse.Namespace) -> int:
     if args.dilated:
         changes["context_dilated"] = True
     if args.ema:
-        changes["context_ema"] = tuple(float(v) for v in _names(args.ema) or ())
+        changes["context_ema"] = tuple(float(v) for v in column_names(args.ema) or ())
     if args.uncertainty:
         changes["uncertainty"] = True
     spec = getattr(TrainSpec, args.recipe)(**changes)
@@ -135,7 +129,6 @@ def _train(args: argparse.Namespace) -> int:
         from spectratac.evaluate.holdout import mark
 
         mark(dec, ds, split)
-    out = Path(args.output)
     dec.save(out)
     written = {"model": str(out)}
     for fmt in exports:

@@ -15,7 +15,14 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode, UsageError
-from spectratac.cli.options import RenamedOption, add_duration, add_output, add_renamed
+from spectratac.cli.options import (
+    RenamedOption,
+    add_duration,
+    add_output,
+    add_renamed,
+    npz_name,
+    refuse_overwrite,
+)
 from spectratac.hardware.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 
 SCENES = ("calibration", "idle", "drift", "press")
@@ -111,6 +118,7 @@ def _generate(args: argparse.Namespace) -> int:
         return ExitCode.OK
     if args.output is None:
         raise UsageError("the following arguments are required: -o/--output")
+    refuse_overwrite(npz_name(args.output), args.force)
     settings: dict[str, Any] = {}
     if args.scene == "calibration":
         scene = scenes.calibration_session(args.seed, args.duration or scenes.CAL_DURATION_S)

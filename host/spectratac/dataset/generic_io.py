@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 import io
 import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,8 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
         try:
             with np.load(source, allow_pickle=False) as z:
                 cols = {k: np.asarray(z[k]) for k in z.files}
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
             raise DatasetError(f"cannot read {source}: {exc}") from None
         bad = [k for k, v in cols.items() if v.ndim != 1]
         if bad:
@@ -60,12 +62,20 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
     else:
         try:
             if isinstance(source, (str, Path)):
-                with open(source, newline="", encoding="utf-8") as f:
-                    rows = _csv_rows(f)
+                raw = Path(source).read_bytes()
+                rows = _csv_rows(io.StringIO(raw.decode("utf-8"), newline=""))
             else:
                 rows = _csv_rows(source)
         except OSError as exc:
             raise DatasetError(f"cannot read {source}: {exc}") from None
+        except UnicodeDecodeError as exc:
+            line = exc.object[: exc.start].count(b"\n") + 1
+            raise DatasetError(
+                f"{source} is not UTF-8 text (byte {exc.object[exc.start]:#04x} on line {line}); "
+                f"save it as UTF-8 CSV"
+            ) from None
+        except csv.Error as exc:
+            raise DatasetError(f"{source}: not a readable CSV file ({exc})") from None
         if not rows:
             raise DatasetError(f"{source}: empty file; the first row must name the columns")
         header = [h.strip() for h in rows[0]]
@@ -235,8 +245,25 @@ def load_any(
         try:
             with np.load(p, allow_pickle=False) as z:
                 is_dataset = "meta" in z.files and "inputs" in z.files
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-            raise DatasetError(f"cannot read {p}: {exc}") from None
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
+            raise DatasetError(f"cannot read dataset {p}: {exc}") from None
         if is_dataset:
             return Dataset.load(p)
     return load_table(p, inputs, targets, classes)
+
+
+def load_data(
+    paths: Sequence[str | Path],
+    inputs: Sequence[str] | None = None,
+    targets: Sequence[str] | None = None,
+    classes: Sequence[str] | None = None,
+) -> Dataset:
+    """Every file `spectratac train` and `spectratac evaluate` read (SpectraTac dataset .npz,
+    generic CSV, column .npz; see `load_any`), joined row-wise when there are several."""
+    from spectratac.dataset.schema import concat
+
+    if not paths:
+        raise DatasetError("no data files given")
+    sets = [load_any(p, inputs, targets, classes) for p in paths]
+    return sets[0] if len(sets) == 1 else concat(sets)

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -149,10 +150,18 @@ class Dataset:
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> Path:
-        """Write a compressed .npz (arrays plus the JSON metadata)."""
+        """Write a compressed .npz (arrays plus the JSON metadata). The file appears under
+        its name only once complete: a crash while writing leaves no half-written dataset."""
         path = Path(path)
-        np.savez_compressed(path, meta=np.array(json.dumps(self.meta)), **self.arrays)
-        return path if path.suffix == ".npz" else path.with_suffix(path.suffix + ".npz")
+        final = path if path.suffix == ".npz" else path.with_suffix(path.suffix + ".npz")
+        tmp = final.with_name(final.name + ".tmp")
+        try:
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, meta=np.array(json.dumps(self.meta)), **self.arrays)
+            tmp.replace(final)
+        finally:
+            tmp.unlink(missing_ok=True)
+        return final
 
     @classmethod
     def load(cls, path: str | Path) -> Dataset:
@@ -161,19 +170,35 @@ class Dataset:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files if k != "meta"}
                 meta = json.loads(str(z["meta"])) if "meta" in z.files else None
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
+                NotImplementedError) as exc:  # fmt: skip
             raise DatasetError(f"cannot read dataset {path}: {exc}") from None
-        if meta is None or meta.get("format") != FORMAT:
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise DatasetError(
                 f"{path} is not a SpectraTac dataset (no meta with format {FORMAT!r}); build "
                 f"one with `spectratac dataset build`"
             )
-        if meta.get("version", 0) > VERSION:
+        version = meta.get("version", 0)
+        if not isinstance(version, int):
+            raise DatasetError(f"{path}: meta version {version!r} is not a whole number")
+        if version > VERSION:
             raise DatasetError(
                 f"{path} is dataset version {meta['version']}; this library reads up to "
                 f"{VERSION}: update spectratac"
             )
-        return cls(arrays, meta)
+        for names in ("input_names", "target_names"):
+            value = meta.get(names)
+            if not isinstance(value, list) or not all(isinstance(n, str) for n in value):
+                raise DatasetError(
+                    f"{path}: meta[{names!r}] is {value!r}, not a list of column names; the "
+                    f"file is damaged: rebuild it with `spectratac dataset build`"
+                )
+        if not all(isinstance(a, np.ndarray) and a.ndim >= 1 for a in arrays.values()):
+            raise DatasetError(f"{path}: an array is a bare scalar; the file is damaged")
+        try:
+            return cls(arrays, meta)
+        except (ValueError, TypeError, OverflowError) as exc:  # e.g. text where numbers belong
+            raise DatasetError(f"{path}: arrays do not fit the dataset schema ({exc})") from None
 
     # ------------------------------------------------------------------ building
     @classmethod

@@ -176,6 +176,10 @@ class Decoder:
         out = np.full((n, heads.n_out), np.nan)
         if valid.any():
             out[valid] = self.runtime.run(u[valid])
+        # a non-finite output (damaged weights, overflow) is no estimate: invalid, all NaN
+        valid = valid & np.all(np.isfinite(out), axis=1)
+        out[~valid] = np.nan
+        est.invalid = ~valid
         s = heads.slices()
         est.targets = out[:, s["targets"]].astype(np.float64)
         if heads.uncertainty:
@@ -228,7 +232,8 @@ class Decoder:
 
     def _one(self, sample: Any, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any) -> Estimate:
         heads = self.heads
-        if not ok:
+        out = run1(u).astype(np.float64) if ok else None
+        if out is None or not np.all(np.isfinite(out)):  # no estimate: invalid, all NaN
             nan3 = np.full(3, np.nan)
             return Estimate(
                 float(sample.host_time),
@@ -242,7 +247,6 @@ class Decoder:
                 True,
                 np.full(heads.n_reg, np.nan),
             )
-        out = run1(u).astype(np.float64)
         tg = out[s["targets"]]
         force = np.array([tg[i] if i >= 0 else np.nan for i in fi])
         torque = np.array([tg[i] if i >= 0 else np.nan for i in ti])

@@ -71,6 +71,17 @@ class Guard:
     def header(self) -> dict[str, Any]:
         return {"saturation": self.saturation, "dark_cols": self.dark_cols}
 
+    def validate(self, n_inputs: int, n_targets: int) -> None:
+        """ValueError unless the ranges fit `n_inputs` current inputs and `n_targets` targets
+        and hold no NaN (a NaN bound would silently never flag anything)."""
+        for name, n in (("in_lo", n_inputs), ("in_hi", n_inputs), ("t_lo", n_targets),
+                        ("t_hi", n_targets)):  # fmt: skip
+            a = np.asarray(getattr(self, name))
+            if a.shape != (n,) or not np.issubdtype(a.dtype, np.number) or np.isnan(a).any():
+                raise ValueError(f"guard range {name} is {a.shape} {a.dtype}; expected ({n},)")
+        if any(not 0 <= c < n_inputs for c in self.dark_cols):
+            raise ValueError(f"guard dark_cols {self.dark_cols} outside 0..{n_inputs - 1}")
+
     @classmethod
     def from_parts(cls, header: dict[str, Any], arrays: dict[str, F64]) -> Guard:
         return cls(

@@ -36,13 +36,14 @@ from numpy.typing import NDArray
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.feature_matrices import FeatureSet
 from spectratac.decode.heads import Heads, postprocess
-from spectratac.decode.networks import Arch, Weights, forward
+from spectratac.decode.networks import Arch, Weights, forward, layer_shapes, norm_names
 from spectratac.decode.scaling import Standardizer
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
 RUNTIME_FORMAT = "spectratac.runtime"
 RUNTIME_VERSION = 1
+ARCH_KINDS = ("linear", "mlp", "resmlp")
 
 
 @dataclass
@@ -150,7 +151,7 @@ class Runtime:
             header["feature_names"],
         )
         arch = (str(header["arch"][0]), int(header["arch"][1]), int(header["arch"][2]))
-        return cls(
+        runtime = cls(
             feats,
             arrays["center"],
             Standardizer(arrays["f_mean"], arrays["f_std"]),
@@ -160,6 +161,48 @@ class Runtime:
             arrays["y_scale"],
             arrays["std_scale"],
         )
+        runtime.validate()
+        return runtime
+
+    def validate(self) -> None:
+        """Raise DecoderFileError unless every array has the shape the architecture needs
+        and holds only finite numbers (checked at load, not at the first prediction)."""
+        d, f = self.n_inputs, self.features.n_features
+        want: dict[str, tuple[int, ...]] = {
+            "center": (d,),
+            "feat/L": (self.features.L.shape[0], d),
+            "feat/P": (self.features.P.shape[0], d),
+            "feat/Q": (self.features.P.shape[0], d),
+            "f_mean": (f,),
+            "f_std": (f,),
+            "y_scale": (self.heads.n_reg,),
+            "std_scale": (self.heads.n_reg,),
+        }
+        damaged = "the file is damaged: retrain or re-copy it"
+        if self.arch[0] not in ARCH_KINDS:
+            raise DecoderFileError(f"unknown architecture {self.arch[0]!r}; {damaged}")
+        for name, o, i in layer_shapes(self.arch, f, self.heads.n_out):
+            want[f"w/{name}.weight"], want[f"w/{name}.bias"] = (o, i), (o,)
+        for name in norm_names(self.arch):
+            want[f"w/{name}.weight"] = want[f"w/{name}.bias"] = (self.arch[1],)
+        have = {f"w/{k}": v for k, v in self.weights.items()}
+        have.update({f"feat/{k}": v for k, v in self.features.to_arrays().items()})
+        have.update(center=self.center, f_mean=self.scaler.mean, f_std=self.scaler.std,
+                    y_scale=self.y_scale, std_scale=self.std_scale)  # fmt: skip
+        if len(self.features.names) != f:
+            raise DecoderFileError(
+                f"{len(self.features.names)} feature names for {f} features; {damaged}"
+            )
+        for key, shape in want.items():
+            a = have.get(key)
+            if a is None:
+                raise DecoderFileError(f"array {key!r} is missing; {damaged}")
+            if a.shape != shape:
+                raise DecoderFileError(
+                    f"array {key!r} has shape {a.shape}, expected {shape}; {damaged}"
+                )
+            if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)):
+                raise DecoderFileError(f"array {key!r} holds NaN or inf values; {damaged}")
 
     def save(self, path: str | Path) -> Path:
         """One .npz: arrays plus the JSON header under key "header"."""
@@ -177,4 +220,9 @@ class Runtime:
             raise DecoderFileError(f"cannot read runtime file {path}: {exc}") from None
         if "header" not in arrays:
             raise DecoderFileError(f"{path} is not a SpectraTac runtime file (no header)")
-        return cls.from_parts(json.loads(str(arrays.pop("header"))), arrays)
+        try:
+            return cls.from_parts(json.loads(str(arrays.pop("header"))), arrays)
+        except DecoderFileError as exc:
+            raise DecoderFileError(f"{path}: {exc}") from None
+        except (KeyError, IndexError, ValueError, TypeError, AttributeError) as exc:
+            raise DecoderFileError(f"{path} is damaged ({exc!r}): re-export it") from None

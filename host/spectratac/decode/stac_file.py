@@ -5,7 +5,8 @@ meta (spec, features, targets, config, unit_id, n_train, train_seconds, history,
 input layout, the runtime header (feature kind and names, architecture, heads, outputs)
 and the OOD guard's settings. arrays.npz: the runtime's arrays (feature matrices,
 normalisation, weights, scales) and the guard's ranges. A newer major version is refused;
-a newer minor version loads (fields it adds are ignored).
+a newer minor version loads (fields it adds are ignored). Every array's shape and
+finiteness is checked at load: a damaged file of any kind raises DecoderFileError.
 
 >>> VERSION
 '1.0'
@@ -16,6 +17,7 @@ from __future__ import annotations
 import io
 import json
 import zipfile
+import zlib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +33,9 @@ if TYPE_CHECKING:
 
 FORMAT = "spectratac.decoder"
 VERSION = "1.0"
+#: What reading a damaged zip, npz or JSON part can raise (all become DecoderFileError).
+_DAMAGE = (OSError, EOFError, KeyError, IndexError, ValueError, TypeError, AttributeError,
+           NotImplementedError, zipfile.BadZipFile, zlib.error)  # fmt: skip
 #: Torque names of generic datasets before Tx Ty Tz became the only spelling.
 RETIRED_TORQUE_NAMES = ("Mx", "My", "Mz")
 
@@ -76,11 +81,11 @@ def read_meta(path: str | Path) -> dict[str, Any]:
             meta = json.loads(z.read("meta.json"))
     except FileNotFoundError:
         raise DecoderFileError(f"no model file at {path}") from None
-    except (OSError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
+    except _DAMAGE as exc:
         raise DecoderFileError(
             f"{path} is not a SpectraTac model file ({exc}); train one with `spectratac train`"
         ) from None
-    if meta.get("format") != FORMAT:
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise DecoderFileError(f"{path} is not a SpectraTac model file (format {FORMAT!r})")
     try:
         major = int(str(meta.get("version", "0")).split(".")[0])
@@ -108,12 +113,17 @@ def read_model(path: str | Path) -> Decoder:
             meta["guard"], {k[6:]: v for k, v in arrays.items() if k.startswith("guard/")}
         )
         layout = Layout.from_dict(meta["layout"])
-    except DecoderFileError:
-        raise
-    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+        if layout.size != runtime.n_inputs:
+            raise ValueError(f"layout of {layout.size} inputs, runtime of {runtime.n_inputs}")
+        guard.validate(layout.base, runtime.heads.n_reg)
+        if not isinstance(meta["decoder"], dict):
+            raise TypeError(f"decoder meta is {type(meta['decoder']).__name__}, not an object")
+        dec = Decoder(runtime, layout, guard, meta["decoder"])
+        old = [n for n in dec.target_names if n in RETIRED_TORQUE_NAMES]
+    except DecoderFileError as exc:
+        raise DecoderFileError(f"{path}: {exc}") from None
+    except _DAMAGE as exc:
         raise DecoderFileError(f"{path} is damaged ({exc!r}): retrain or re-copy it") from None
-    dec = Decoder(runtime, layout, guard, meta["decoder"])
-    old = [n for n in dec.target_names if n in RETIRED_TORQUE_NAMES]
     if old:
         raise DecoderFileError(
             f"{path} names torque targets {old}; torques are Tx Ty Tz now: retrain the "

@@ -9,7 +9,9 @@ Format: a header row, then one sample per row. Columns by name, any order:
   sequence, status       integers (optional; default: row number and 0)
 Pacing: as fast as possible by default; rate=HZ paces rows at HZ; realtime=1 paces them by
 their t column (times speed=S). Rows that do not parse are skipped and counted in
-stats.bad_frames; gaps in `sequence` count as lost.
+stats.bad_frames (so are rows with a byte that is not UTF-8, a non-finite value, or a
+`sequence`/`status` that is not a whole number >= 0); gaps in `sequence` count as lost. A file
+without a single good row is refused (FTConfigError).
 
 >>> import tempfile, os
 >>> path = os.path.join(tempfile.mkdtemp(), "ft.csv")
@@ -44,6 +46,9 @@ _ALIASES = {
 }
 _WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
 _CHUNK = 65536
+#: Largest sequence number taken as is; the FT_RECORD field is u8 but a float column holds
+#: integers exactly only up to 2**53.
+_MAX_SEQUENCE = 2**53
 
 
 def csv_path(url: str) -> tuple[Path, str]:
@@ -58,8 +63,8 @@ def csv_path(url: str) -> tuple[Path, str]:
 def load_csv(path: Path) -> tuple[np.ndarray, int, bool]:
     """FT_RECORD rows of a CSV file (host_time NaN where absent), bad row count, and whether
     it had a host_time column."""
-    try:
-        text = path.read_text(encoding="utf-8")
+    try:  # a stray non-UTF-8 byte spoils its row only (it no longer parses as a number)
+        text = path.read_bytes().decode("utf-8", errors="replace")
     except FileNotFoundError:
         raise FTNotFoundError(f"no such F/T CSV file: {path}") from None
     except OSError as exc:
@@ -73,6 +78,8 @@ def load_csv(path: Path) -> tuple[np.ndarray, int, bool]:
             f"need t, Fx, Fy, Fz, Tx, Ty, Tz (optional host_time, sequence, status)"
         )
     lines = [ln for ln in body.splitlines() if ln.strip()]
+    if not lines:
+        raise FTConfigError(f"{path}: has a header but no sample rows; nothing to replay")
     try:
         table = np.loadtxt(io.StringIO("\n".join(lines)), delimiter=",", ndmin=2)
         bad = 0
@@ -89,9 +96,19 @@ def load_csv(path: Path) -> tuple[np.ndarray, int, bool]:
         table = np.array(good, dtype=np.float64).reshape(-1, len(names))
     if table.shape[1] != len(names):
         raise FTConfigError(f"{path}: rows have {table.shape[1]} values, header {len(names)}")
-    finite = np.all(np.isfinite(table[:, [names.index(c) for c in ("t", *_WRENCH)]]), axis=1)
-    bad += int(np.count_nonzero(~finite))
-    table = table[finite]
+    good = np.all(np.isfinite(table[:, [names.index(c) for c in ("t", *_WRENCH)]]), axis=1)
+    for counter, top in (("sequence", _MAX_SEQUENCE), ("status", 2**32 - 1)):
+        if counter in names:
+            v = table[:, names.index(counter)]
+            with np.errstate(invalid="ignore"):
+                good &= np.isfinite(v) & (v >= 0) & (v <= top) & (v == np.round(v))
+    bad += int(np.count_nonzero(~good))
+    table = table[good]
+    if not len(table):
+        raise FTConfigError(
+            f"{path}: none of its {len(lines)} rows is a valid sample (numbers, finite, "
+            f"one per header column); check the file's columns and encoding"
+        )
     col = {n: table[:, i] for i, n in enumerate(names)}
     rows = np.zeros(len(table), dtype=FT_RECORD)
     rows["sensor_time"] = col["t"]

@@ -11,6 +11,7 @@ spectratac.ft.errors.FTURLError: netft://h?cpf=1e6&x=1: unknown option(s) x; kno
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from spectratac.ft.errors import FTURLError
@@ -37,9 +38,12 @@ class Options:
         if raw is None:
             return default
         try:
-            return float(raw)
+            value = float(raw)
         except (TypeError, ValueError):
             raise FTURLError(f"{self.url}: option {name}={raw!r} is not a number") from None
+        if not math.isfinite(value):  # nan slips through every `<= 0` check; inf never ends
+            raise FTURLError(f"{self.url}: option {name}={raw!r} must be a finite number")
+        return value
 
     def integer(self, name: str, default: int | None = None) -> int | None:
         raw = self._raw(name)

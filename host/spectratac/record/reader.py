@@ -2,7 +2,11 @@
 
 A file that ends early (SIGKILL, power loss, disk full) yields its readable prefix, every
 complete chunk, and a `TruncatedRecordingWarning` saying how much was read; `truncated` and
-`problem` on the result say the same for programs.
+`problem` on the result say the same for programs. A damaged chunk inside the file (a flipped
+bit: its CRC no longer matches) is skipped and the chunks after it are kept; a
+`CorruptedRecordingWarning` and `corrupted_chunks` / `lost_messages` (by topic) say how much
+was lost. Damage and truncation are reported apart: one is expected of a killed recorder,
+the other is not.
 
 >>> import tempfile, warnings
 >>> path = tempfile.mkdtemp() + "/cut.mcap"
@@ -24,19 +28,19 @@ complete chunk, and a `TruncatedRecordingWarning` saying how much was read; `tru
 from __future__ import annotations
 
 import json
-import struct
 import warnings
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mcap.exceptions import McapError
-from mcap.records import Channel, Footer, Message
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Message
 
-from spectratac.record.errors import RecordingError, TruncatedRecordingWarning
+from spectratac.record.errors import (
+    CorruptedRecordingWarning,
+    RecordingError,
+    TruncatedRecordingWarning,
+)
 from spectratac.record.format import (
     CONFIG,
     END,
@@ -56,13 +60,7 @@ from spectratac.record.format import (
     HostClock,
     dtype_from_json,
 )
-
-try:  # zstd errors are raised by the decompressor, not wrapped by mcap
-    from zstandard import ZstdError
-except ImportError:  # pragma: no cover - mcap's writer needs zstandard anyway
-    ZstdError = McapError  # type: ignore[misc,assignment]
-
-_READ_ERRORS = (McapError, struct.error, ValueError, EOFError, zlib.error, ZstdError)
+from spectratac.record.salvage import READ_ERRORS, salvage
 
 
 @dataclass
@@ -86,6 +84,9 @@ class Recording:
     end: dict[str, Any] | None = None  # present when the recorder finished cleanly
     truncated: bool = False
     problem: str = ""  # why reading stopped early
+    corrupted_chunks: int = 0  # damaged chunks skipped inside the file
+    lost_messages: dict[str, int] = field(default_factory=dict)  # by topic, in those chunks
+    corruption: str = ""  # what the damage cost, in words ("" when none)
 
     @property
     def clock(self) -> HostClock:
@@ -97,46 +98,56 @@ def read_recording(path: str | Path) -> Recording:
     path = Path(path)
     rec = Recording(path)
     try:
-        f = open(path, "rb")  # noqa: SIM115
+        found = salvage(path.read_bytes())
     except OSError as exc:
         raise RecordingError(f"cannot open recording {path}: {exc}") from None
-    topics: dict[int, Channel] = {}
+    rec.truncated, rec.problem = found.truncated, found.problem
+    if not found.finished and not rec.truncated:
+        rec.truncated, rec.problem = True, "the file ends without an MCAP footer"
+    topics: dict[int, Channel] = {c.id: c for c in found.summary_channels}
+    topics.update({r.id: r for r in found.records if isinstance(r, Channel)})
     log_times: list[int] = []
     ft_parts: list[bytes] = []
-    ft_dtype: np.dtype | None = None
     truth_parts: list[bytes] = []
-    truth_dtype: np.dtype | None = None
-    finished = False
-    with f:
-        try:
-            for record in StreamReader(f, skip_magic=False, validate_crcs=True).records:
-                if isinstance(record, Message):
-                    channel = topics.get(record.channel_id)
-                    if channel is None:
-                        continue
-                    topic = channel.topic
-                    if topic == FRAMES:
-                        rec.frames.append(record.data)
-                        log_times.append(record.log_time)
-                    elif topic == FT_SAMPLES:
-                        ft_parts.append(record.data)
-                    elif topic == GROUND_TRUTH:
-                        truth_parts.append(record.data)
-                    elif topic in JSON_TOPICS:
-                        _take_json(rec, topic, json.loads(record.data))
-                    # other topics come from a newer minor revision: ignored
-                elif isinstance(record, Channel):
-                    topics[record.id] = record
-                    if record.topic == FT_SAMPLES:
-                        ft_dtype = dtype_from_json(record.metadata["dtype"])
-                    elif record.topic == GROUND_TRUTH:
-                        truth_dtype = dtype_from_json(record.metadata["dtype"])
-                elif isinstance(record, Footer):
-                    finished = True
-        except _READ_ERRORS as exc:
-            rec.truncated, rec.problem = True, f"{type(exc).__name__}: {exc}"
-    if not finished and not rec.truncated:
-        rec.truncated, rec.problem = True, "the file ends without an MCAP footer"
+    unreadable: dict[str, int] = {}  # messages intact on disk that do not parse: counted, skipped
+    for record in found.records:
+        if not isinstance(record, Message) or record.channel_id not in topics:
+            continue
+        topic = topics[record.channel_id].topic
+        if topic == FRAMES:
+            rec.frames.append(record.data)
+            log_times.append(record.log_time)
+        elif topic == FT_SAMPLES:
+            ft_parts.append(record.data)
+        elif topic == GROUND_TRUTH:
+            truth_parts.append(record.data)
+        elif topic in JSON_TOPICS:
+            try:
+                _take_json(rec, topic, json.loads(record.data))
+            except (*READ_ERRORS, TypeError, AttributeError):
+                unreadable[topic] = unreadable.get(topic, 0) + 1
+        # other topics come from a newer minor revision: ignored
+    ft_dtype = _dtype_of(topics, FT_SAMPLES, path)
+    truth_dtype = _dtype_of(topics, GROUND_TRUTH, path)
+    for topic, parts, dtype in ((FT_SAMPLES, ft_parts, ft_dtype),
+                                (GROUND_TRUTH, truth_parts, truth_dtype)):  # fmt: skip
+        whole = [b for b in parts if dtype is not None and len(b) % dtype.itemsize == 0]
+        if len(whole) < len(parts):
+            unreadable[topic] = unreadable.get(topic, 0) + len(parts) - len(whole)
+            parts[:] = whole
+    if found.corrupted_chunks or unreadable:
+        rec.corrupted_chunks = found.corrupted_chunks
+        rec.lost_messages = {
+            topics[c].topic if c in topics else f"channel {c}": k
+            for c, k in sorted(found.lost_by_channel.items())
+        }
+        for topic, k in unreadable.items():
+            rec.lost_messages[topic] = rec.lost_messages.get(topic, 0) + k
+        lost = ", ".join(f"{k} {t}" for t, k in rec.lost_messages.items()) or "none counted"
+        rec.corruption = (
+            f"{rec.corrupted_chunks} damaged chunk(s) skipped; messages lost: {lost}"
+            + (" (and an uncounted number more)" if found.lost_uncounted else "")
+        )
     if not rec.session:
         why = f" ({rec.problem})" if rec.truncated else ""
         raise RecordingError(
@@ -145,7 +156,8 @@ def read_recording(path: str | Path) -> Recording:
         )
     if rec.session.get("format") != FORMAT:
         raise RecordingError(f"{path} is an MCAP file but not a SpectraTac recording")
-    if rec.session.get("version", VERSION) > VERSION:
+    version = rec.session.get("version", VERSION)
+    if not isinstance(version, int) or version > VERSION:
         raise RecordingError(
             f"{path} is recording format version {rec.session['version']}; this library "
             f"reads up to {VERSION}: update spectratac"
@@ -155,6 +167,17 @@ def read_recording(path: str | Path) -> Recording:
         rec.ft = np.frombuffer(b"".join(ft_parts), dtype=ft_dtype)
     if truth_dtype is not None:
         rec.ground_truth = np.frombuffer(b"".join(truth_parts), dtype=truth_dtype)
+    if rec.corruption:
+        warnings.warn(
+            CorruptedRecordingWarning(
+                f"{path} is damaged: {rec.corruption}; the chunks after the damage are "
+                f"kept: {len(rec.frames)} frames read. Re-copy it if another copy exists",
+                str(path),
+                rec.corrupted_chunks,
+                rec.lost_messages,
+            ),
+            stacklevel=2,
+        )
     if rec.truncated:
         warnings.warn(
             f"{path} is truncated ({rec.problem}); using its readable prefix: "
@@ -165,7 +188,20 @@ def read_recording(path: str | Path) -> Recording:
     return rec
 
 
+def _dtype_of(topics: dict[int, Channel], topic: str, path: Path) -> np.dtype | None:
+    """The record dtype a binary channel declares; None when the file has no such channel."""
+    channel = next((c for c in topics.values() if c.topic == topic), None)
+    if channel is None:
+        return None
+    try:
+        return dtype_from_json(channel.metadata["dtype"])
+    except (KeyError, ValueError, TypeError) as exc:
+        raise RecordingError(f"{path}: channel {topic} has no usable dtype ({exc})") from None
+
+
 def _take_json(rec: Recording, topic: str, obj: Any) -> None:
+    if not isinstance(obj, dict):
+        raise TypeError(f"a {topic} message is a JSON {type(obj).__name__}, not an object")
     if topic == SESSION:
         rec.session = obj
     elif topic == TIME_SYNC:

@@ -6,7 +6,9 @@
 The pty behaves like a USB-serial adapter: the device is silent until asked, and bytes the
 device sends while nobody reads are dropped (counted by the firmware). SIGUSR1 simulates
 unplugging the adapter: the pty disappears, and after --replug-after seconds a new one
-(a freshly booted device) appears behind the same --link path.
+(a freshly booted device) appears behind the same --link path. --link only ever replaces a
+symlink (never a regular file or folder someone keeps there) and is removed when serving ends,
+by SIGINT, SIGTERM or an error.
 """
 
 from __future__ import annotations
@@ -23,11 +25,33 @@ import tty
 from collections.abc import Callable
 from pathlib import Path
 
+from spectratac.errors import SpectraTacError
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import SimOptions
+
+
+class LinkPathTaken(SpectraTacError):
+    """--link names something that is not a symlink: serving would destroy it."""
+
+
+def check_link_path(link: Path) -> None:
+    """Refuse a --link path that exists and is not a symlink (a file, folder, device...)."""
+    if link.is_symlink() or not os.path.lexists(link):
+        return
+    raise LinkPathTaken(
+        f"--link {link} exists and is not a symlink; sim serve only replaces a symlink it may "
+        f"have left: move that file away or choose another --link path"
+    )
+
+
+def _remove_link(link: Path, target: str | None) -> None:
+    """Remove `link` if it is still the symlink this server made (to `target`)."""
+    with contextlib.suppress(OSError):
+        if link.is_symlink() and (target is None or os.readlink(link) == target):
+            link.unlink()
 
 
 class _Endpoint:
@@ -99,6 +123,7 @@ def _open_pty(link: Path | None) -> tuple[int, str]:
     os.close(slave)  # the host opens it by name; keeping it closed lets EIO signal "no host"
     os.set_blocking(master, False)
     if link is not None:
+        check_link_path(link)  # again: something may have been put there while unplugged
         tmp = link.with_name(link.name + ".new")
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
@@ -114,44 +139,57 @@ def serve_pty(
     announce: Callable[[str], None] = print,
     stop: threading.Event | None = None,
 ) -> None:
-    """Serve until SIGINT/SIGTERM (or `stop` is set); SIGUSR1 unplugs and replugs."""
+    """Serve until SIGINT/SIGTERM (or `stop` is set); SIGUSR1 unplugs and replugs. `link`
+    must not be an existing non-symlink (LinkPathTaken); it is removed when serving ends."""
+    if link is not None:
+        check_link_path(link)
     stop = stop or threading.Event()
     unplug = threading.Event()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGUSR1, lambda *_: unplug.set())
         signal.signal(signal.SIGTERM, lambda *_: stop.set())
     endpoint = _Endpoint(opts.speed == MAX)
-    while not stop.is_set():
-        master, path = _open_pty(link)
-        endpoint.fd = master
-        runner = _boot(opts, endpoint)
-        announce(path)
+    path: str | None = None
+    try:
+        while not stop.is_set():
+            master, path = _open_pty(link)
+            endpoint.fd = master
+            runner = _boot(opts, endpoint)
+            announce(path)
+            try:
+                _pump_pty(master, runner, stop, unplug)
+            finally:
+                runner.stop()
+                with endpoint.lock:
+                    endpoint.fd = None
+                    os.close(master)
+            if unplug.is_set():
+                unplug.clear()
+                if link is not None:
+                    _remove_link(link, path)
+                stop.wait(replug_after)
+    finally:  # SIGINT (KeyboardInterrupt), SIGTERM (stop) or an error: leave no link behind
+        if link is not None and path is not None:
+            _remove_link(link, path)
+
+
+def _pump_pty(
+    master: int, runner: DeviceRunner, stop: threading.Event, unplug: threading.Event
+) -> None:
+    while not stop.is_set() and not unplug.is_set():
+        readable, _, _ = select.select([master], [], [], 0.1)
+        if not readable:
+            continue
         try:
-            while not stop.is_set() and not unplug.is_set():
-                readable, _, _ = select.select([master], [], [], 0.1)
-                if not readable:
-                    continue
-                try:
-                    data = os.read(master, 65536)
-                except BlockingIOError:
-                    continue
-                except OSError as exc:  # EIO: no host has the pty open right now
-                    if exc.errno != errno.EIO:
-                        raise
-                    time.sleep(0.02)
-                    continue
-                runner.write(data)
-        finally:
-            runner.stop()
-            with endpoint.lock:
-                endpoint.fd = None
-                os.close(master)
-        if unplug.is_set():
-            unplug.clear()
-            if link is not None:
-                with contextlib.suppress(FileNotFoundError):
-                    link.unlink()
-            stop.wait(replug_after)
+            data = os.read(master, 65536)
+        except BlockingIOError:
+            continue
+        except OSError as exc:  # EIO: no host has the pty open right now
+            if exc.errno != errno.EIO:
+                raise
+            time.sleep(0.02)
+            continue
+        runner.write(data)
 
 
 def serve_tcp(

@@ -36,6 +36,8 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
         assert done.wait(120)
         csv_clip = session.save(1.5, "csv")
         mcap_clip = session.save(1.5, "mcap")
+        again = session.save(1.5, "csv")  # same second, same length: a new name, not over it
+        assert again["path"] != csv_clip["path"]
         with pytest.raises(SpectraTacError, match="format"):
             session.save(1.0, "xlsx")
         with pytest.raises(SpectraTacError, match="seconds"):

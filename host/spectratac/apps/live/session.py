@@ -13,6 +13,7 @@ Torch is never imported: decoding runs on the model file's NumPy runtime.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -202,6 +203,10 @@ class LiveSession:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         stamp = time.strftime("%Y%m%d-%H%M%S")
         path = self.out_dir / f"live-{stamp}-{seconds:g}s.{fmt}"
+        for n in itertools.count(2):  # two clips within a second: never overwrite the first
+            if not path.exists():
+                break
+            path = self.out_dir / f"live-{stamp}-{seconds:g}s-{n}.{fmt}"
         if fmt == "csv":
             n = self.history.save_csv(path, seconds)
             what = "rows"

@@ -1,0 +1,136 @@
+"""Damaged inputs to the dataset layer: a recording with a corrupted chunk still builds (from
+what survived) but says so and exits 1; a dataset file with a malformed `meta` or damaged bytes
+is a DatasetError, never another exception; a dataset is written under its name only once
+complete."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from mcap.reader import make_reader
+from spectratac.cli import main
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.dataset import Dataset, DatasetError
+from spectratac.record.format import FRAMES
+
+
+def damage_a_middle_chunk(src: Path, dst: Path) -> None:
+    data = bytearray(src.read_bytes())
+    with open(src, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    middle = chunks[len(chunks) // 2]
+    data[middle.chunk_start_offset + middle.chunk_length // 2] ^= 0x40
+    dst.write_bytes(bytes(data))
+
+
+def test_a_damaged_recording_builds_what_survived_and_exits_1(
+    tour_mcap: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    damaged = tmp_path / "damaged.mcap"
+    damage_a_middle_chunk(tour_mcap, damaged)
+    out = tmp_path / "d.npz"
+    argv = ["dataset", "build", str(damaged), "-o", str(out), "--json", "--no-progress"]
+    assert main(argv) == ExitCode.FAILURE
+    report = json.loads(capsys.readouterr().out)
+    [bad] = report["corrupted"]
+    assert bad["path"] == str(damaged) and bad["chunks"] == 1 and bad["lost"][FRAMES] > 0
+    assert main(["dataset", "build", str(tour_mcap), "-o", str(tmp_path / "full.npz")]) == 0
+    part, full = Dataset.load(out), Dataset.load(tmp_path / "full.npz")
+    assert 0 < full.n - part.n <= bad["lost"][FRAMES]  # only the damaged chunk's samples go
+    assert part.sequence[-1] == full.sequence[-1]  # the chunks after the damage are kept
+    assert not part.meta["sessions"][0]["truncated"]
+    assert main([*argv[:-2], "--force"]) == ExitCode.FAILURE
+    assert "damaged: 1 chunk(s) skipped" in capsys.readouterr().err
+
+
+def save_with_meta(path: Path, meta: object) -> Path:
+    ds = Dataset.generic(np.ones((3, 2)), np.zeros((3, 1)), ["a", "b"], ["Fz"])
+    np.savez(path, meta=np.array(json.dumps(meta)), **ds.arrays)
+    return path
+
+
+GOOD = {"format": "spectratac.dataset", "version": 1, "input_names": ["a", "b"],
+        "target_names": ["Fz"]}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "meta",
+    [
+        ["format", "spectratac.dataset"],
+        "spectratac.dataset",
+        {**GOOD, "version": "1"},
+        {**GOOD, "input_names": 2},
+        {**GOOD, "input_names": None},
+        {**GOOD, "target_names": [1]},
+        {k: v for k, v in GOOD.items() if k != "target_names"},
+    ],
+    ids=repr,
+)
+def test_a_malformed_meta_is_a_dataset_error(tmp_path: Path, meta: object) -> None:
+    with pytest.raises(DatasetError):
+        Dataset.load(save_with_meta(tmp_path / "m.npz", meta))
+
+
+def test_text_where_numbers_belong_is_a_dataset_error(tmp_path: Path) -> None:
+    path = save_with_meta(tmp_path / "m.npz", GOOD)
+    arrays = dict(np.load(path))
+    arrays["t_start"] = np.array(["x", "y", "z"])
+    np.savez(path, **arrays)
+    with pytest.raises(DatasetError, match=r"t_start|schema"):
+        Dataset.load(path)
+
+
+def test_a_crash_while_saving_leaves_no_half_written_dataset(tmp_path: Path, monkeypatch) -> None:
+    ds = Dataset.generic(np.ones((3, 2)), np.zeros((3, 1)), ["a", "b"], ["Fz"])
+    old = ds.save(tmp_path / "d.npz")
+
+    def crash(file, *args, **kwargs) -> None:
+        file.write(b"PK\x03\x04 half a zip")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", crash)
+    with pytest.raises(OSError, match="disk full"):
+        ds.save(tmp_path / "new.npz")
+    with pytest.raises(OSError, match="disk full"):
+        ds.save(old)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npz"]
+    assert Dataset.load(old).n == 3
+
+
+@settings(
+    max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(data=st.data())
+def test_any_damaged_dataset_file_is_a_dataset_error_or_loads(tmp_path: Path, data) -> None:
+    ds = Dataset.generic(np.arange(20.0).reshape(10, 2), np.zeros((10, 1)), ["a", "b"], ["Fz"])
+    raw = bytearray(ds.save(tmp_path / "d.npz").read_bytes())
+    for _ in range(data.draw(st.integers(1, 4))):
+        raw[data.draw(st.integers(0, len(raw) - 1))] ^= data.draw(st.integers(1, 255))
+    (tmp_path / "x.npz").write_bytes(bytes(raw))
+    try:
+        back = Dataset.load(tmp_path / "x.npz")
+    except DatasetError:
+        return
+    assert back.n == 10 and back.input_names == ["a", "b"]
+
+
+def test_a_zip_without_meta_is_not_a_dataset(tmp_path: Path) -> None:
+    with zipfile.ZipFile(tmp_path / "z.npz", "w") as z:
+        z.writestr("inputs.npy", b"junk")
+    with pytest.raises(DatasetError):
+        Dataset.load(tmp_path / "z.npz")
+
+
+def test_a_generic_csv_that_is_not_utf8_is_a_dataset_error(tmp_path: Path) -> None:
+    from spectratac.dataset.generic_io import load_any
+
+    path = tmp_path / "latin1.csv"
+    path.write_bytes("a,b,Fz\n1,2,3\n4,5,\xb06\n".encode("latin-1"))
+    with pytest.raises(DatasetError, match=r"not UTF-8 text \(byte 0xb0 on line 3\)"):
+        load_any(path)
