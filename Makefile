@@ -19,8 +19,8 @@ $(STAMP): pyproject.toml requirements/lock.txt
 	touch $@
 
 # The main job on the built-in simulated sensor (real firmware core on the digital twin).
+# --force: demo-output/ is the demo's own folder, rewritten on every run.
 demo: $(STAMP)
-	# --force: demo-output/ is the demo's own folder, rewritten on every run.
 	$(BIN)/spectratac demo --force
 
 test: $(STAMP)
