@@ -99,7 +99,7 @@ def target_names(description: Path = DESCRIPTION) -> list[str]:
     """The targets a description defines.
 
     >>> target_names()
-    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench']
+    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench', 'fuzz-core']
     """
     return list(tomllib.loads(description.read_text(encoding="utf-8")).get("targets", {}))
 
