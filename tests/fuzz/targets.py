@@ -290,7 +290,7 @@ TARGETS: dict[str, Target] = {
             lambda d: seeds.protocol_frames(),
             _protocol_stream,
             _reframe,
-            per_second=8000,
+            per_second=16000,
             weight=1.0,
         ),
         Target(
@@ -298,36 +298,36 @@ TARGETS: dict[str, Target] = {
             lambda d: seeds.protocol_frames(),
             _protocol_frames,
             _reframe,
-            per_second=25000,
+            per_second=50000,
             weight=0.5,
         ),
-        Target("stac_file", seeds.stac_files, _stac, _zip, per_second=250),
-        Target("dataset_npz", seeds.dataset_files, _dataset, _zip, per_second=400),
+        Target("stac_file", seeds.stac_files, _stac, _zip, per_second=500),
+        Target("dataset_npz", seeds.dataset_files, _dataset, _zip, per_second=800),
         Target(
             "generic_table",
             seeds.generic_tables,
             _generic_table,
             lambda m, d, p: _zip(m, d, p) if d[:2] == b"PK" else _text(m, d, p),
-            per_second=500,
+            per_second=1000,
         ),
-        Target("recording_mcap", seeds.recordings, _recording, _mcap, per_second=250),
-        Target("ft_csv", lambda d: seeds.ft_csv(), _ft_csv, _text, per_second=600),
-        Target("bota_stream", lambda d: seeds.bota_streams(), _bota, _bytes, per_second=800),
-        Target("netft_rdt", lambda d: seeds.rdt_packets(), _netft, _bytes, per_second=6000),
+        Target("recording_mcap", seeds.recordings, _recording, _mcap, per_second=500),
+        Target("ft_csv", lambda d: seeds.ft_csv(), _ft_csv, _text, per_second=1200),
+        Target("bota_stream", lambda d: seeds.bota_streams(), _bota, _bytes, per_second=1600),
+        Target("netft_rdt", lambda d: seeds.rdt_packets(), _netft, _bytes, per_second=12000),
         Target(
             "sim_url",
             lambda d: seeds.sim_urls(),
             _sim_url,
             _text,
-            per_second=25000,
+            per_second=50000,
             weight=0.3,
             allowed=(ValueError,),
         ),
         Target(
-            "ft_url", lambda d: seeds.ft_url_queries(), _ft_url, _text, per_second=1000, weight=0.5
+            "ft_url", lambda d: seeds.ft_url_queries(), _ft_url, _text, per_second=2000, weight=0.5
         ),
         Target(
-            "device_url", lambda d: seeds.sim_urls(), _device_url, _text, per_second=40, weight=0.5
+            "device_url", lambda d: seeds.sim_urls(), _device_url, _text, per_second=80, weight=0.5
         ),
     ]
 }
