@@ -16,11 +16,12 @@ gap; status holds the sensor's status bits (botaframe.STATUS_*). The latest boar
 temperature is in `temperature_c`.
 
 Plausibility: force_range= (N) and torque_range= (N*m) are the sensor's rated measurement
-range from its datasheet (default DEFAULT_FORCE_RANGE_N / DEFAULT_TORQUE_RANGE_NM, above the
-rating of any Bota serial model). A frame whose CRC holds but whose values are non-finite or
-beyond RANGE_MARGIN times the range is line noise that passed the 16-bit CRC (one in 65536
-damaged frames does): it is dropped and counted in stats.implausible. Readings slightly beyond
-the rating still pass; the sensor flags those itself (botaframe.STATUS_OVERRANGE).
+range from its datasheet (default DEFAULT_FORCE_RANGE_N / DEFAULT_TORQUE_RANGE_NM, 5 kN and
+500 N*m: generous, so that no real reading is lost when the range is not given). A frame
+whose CRC holds but whose values are non-finite or beyond RANGE_MARGIN times the range is line
+noise that passed the 16-bit CRC (one in 65536 damaged frames does): it is dropped and
+counted in stats.implausible. Readings slightly beyond the rating still pass; the sensor
+flags those itself (botaframe.STATUS_OVERRANGE).
 """
 
 from __future__ import annotations
@@ -51,8 +52,8 @@ from spectratac.ft.sequence import SequenceTracker, Unwrapper
 
 BAUD_CODES = {9600: 0, 57600: 1, 115200: 2, 230400: 3, 460800: 4}
 SINC_CLOCK_HZ = 51200.0  # sample period = sinc length / 51200 s (vendor example)
-#: Defaults for force_range= / torque_range=: at or above the rating of every Bota serial
-#: sensor (the largest are rated in the low kN and a few hundred N*m), so only noise fails.
+#: Defaults for force_range= / torque_range=: deliberately generous, so a sensor opened
+#: without its datasheet range loses no reading; give the range to catch smaller noise.
 DEFAULT_FORCE_RANGE_N = 5000.0
 DEFAULT_TORQUE_RANGE_NM = 500.0
 #: Strain gauges saturate not far past the rating; values beyond this multiple are not readings.
