@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import os
 import traceback
+import tracemalloc
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,11 @@ REGRESSIONS = Path(__file__).resolve().with_name("regressions")
 BUDGET_ENV = "SPECTRATAC_FUZZ_SECONDS"
 SEED_ENV = "SPECTRATAC_FUZZ_SEED"
 DEFAULT_SECONDS = 60.0
+#: Every MEMORY_EVERY-th input runs under tracemalloc: its peak allocation must stay within
+#: the target's memory_base + MEMORY_PER_BYTE x its size (bounded work: no header or length
+#: field may make a reader allocate gigabytes).
+MEMORY_EVERY = 16
+MEMORY_PER_BYTE = 256
 #: The host readers' share of the budget; the native libFuzzer run (test_native_fuzz) the rest.
 PYTHON_SHARE = 0.75
 #: libFuzzer runs per second of the core harness on the CI machine (measured: 12-25k).
@@ -64,16 +70,27 @@ class Finding:
     error: str
 
 
-def check_one(target: Target, data: bytes, workdir: Path) -> str | None:
-    """None if `target` answered `data` with a result or an allowed error; else the error."""
+def check_one(
+    target: Target, data: bytes, workdir: Path, *, measure_memory: bool = False
+) -> str | None:
+    """None if `target` answered `data` with a result or an allowed error (within the memory
+    bound when `measure_memory`); else what went wrong."""
+    if measure_memory:
+        tracemalloc.start()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are answers too (e.g. unit mismatch)
             target.run(data, workdir)
     except target.allowed:
-        return None
+        pass
     except Exception:  # the property under test: nothing else may escape
         return traceback.format_exc(limit=-3)
+    finally:
+        if measure_memory:
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+    if measure_memory and peak > target.memory_base + MEMORY_PER_BYTE * len(data):
+        return f"MemoryBound: peak allocation {peak / 1e6:.0f} MB for {len(data)} input bytes"
     return None
 
 
@@ -96,13 +113,14 @@ def fuzz(target: Target, workdir: Path, count: int, seed: int = 0) -> list[Findi
         error = check_one(target, data, workdir)
         if error is not None:
             findings.append(Finding(target.name, save_regression(target, data), error))
-    for _ in range(count):
+    for i in range(count):
         base = mutator.rng.choice(pool)
         data = target.mutate(mutator, base, pool)
-        error = check_one(target, data, workdir)
+        error = check_one(target, data, workdir, measure_memory=i % MEMORY_EVERY == 0)
         if error is None:
             continue
-        where = error.strip().splitlines()[-1].split(":")[0] + error.strip().splitlines()[-3]
+        lines = error.strip().splitlines()
+        where = lines[-1].split(":")[0] + (lines[-3] if len(lines) >= 3 else "")
         if where in seen:
             continue
         seen.add(where)

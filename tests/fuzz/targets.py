@@ -35,6 +35,7 @@ class Target:
     mutate: Mutate
     per_second: float  # iterations per second on the CI machine (measured)
     weight: float = 1.0  # share of the fuzz budget
+    memory_base: int = 64 << 20  # peak allocation allowed whatever the input (bytes)
     allowed: tuple[type[BaseException], ...] = (SpectraTacError,)
 
 
@@ -327,7 +328,13 @@ TARGETS: dict[str, Target] = {
             "ft_url", lambda d: seeds.ft_url_queries(), _ft_url, _text, per_second=2000, weight=0.5
         ),
         Target(
-            "device_url", lambda d: seeds.sim_urls(), _device_url, _text, per_second=80, weight=0.5
+            "device_url",
+            lambda d: seeds.sim_urls(),
+            _device_url,
+            _text,
+            per_second=80,
+            weight=0.5,
+            memory_base=256 << 20,  # a sim:// world builds its twin (~90 MB)
         ),
     ]
 }

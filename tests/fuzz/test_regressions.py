@@ -15,5 +15,5 @@ CASES = regression_inputs()
 
 @pytest.mark.parametrize(("target", "path"), CASES, ids=[f"{t}/{p.name}" for t, p in CASES])
 def test_regression_input_is_answered(target: str, path: Path, tmp_path: Path) -> None:
-    error = check_one(TARGETS[target], path.read_bytes(), tmp_path)
+    error = check_one(TARGETS[target], path.read_bytes(), tmp_path, measure_memory=True)
     assert error is None, f"{path}:\n{error}"
