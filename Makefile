@@ -26,9 +26,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
-# The inner loop: everything but training, processes, firmware builds, QEMU and KiCad
-# (markers in pyproject.toml; tests/conftest.py applies most of them).
-FAST := not (train or subprocess or qemu or firmware or kicad or slow)
+# The inner loop: everything but training, processes, firmware builds, QEMU, KiCad and the
+# fuzz suite (markers in pyproject.toml; tests/conftest.py applies most of them).
+FAST := not (train or subprocess or qemu or firmware or kicad or slow or fuzz)
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -m "$(FAST)"
 

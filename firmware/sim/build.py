@@ -47,6 +47,7 @@ class Target(NamedTuple):
     defines: tuple[tuple[str, str], ...]
     flags: tuple[str, ...]
     link_flags: tuple[str, ...]
+    compiler: str | None = None  # a compiler this target needs (e.g. clang for libFuzzer)
 
     def headers(self) -> list[Path]:
         """Every header in the include folders (what a source may depend on)."""
@@ -99,7 +100,7 @@ def target_names(description: Path = DESCRIPTION) -> list[str]:
     """The targets a description defines.
 
     >>> target_names()
-    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench', 'usb-tests']
+    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench', 'usb-tests', 'fuzz-core']
     """
     return list(tomllib.loads(description.read_text(encoding="utf-8")).get("targets", {}))
 
@@ -135,6 +136,7 @@ def target(name: str, description: Path = DESCRIPTION, root: Path = REPO) -> Tar
         defines=tuple((k, str(v)) for k, v in spec.get("defines", {}).items()),
         flags=tuple(_expand(spec.get("flags", []), lists, where)),
         link_flags=tuple(_expand(spec.get("link_flags", []), lists, where)),
+        compiler=spec.get("compiler"),
     )
 
 
@@ -151,9 +153,12 @@ def build(name: str, out: Path = DEFAULT_OUT) -> Path:
     inputs = [*chosen.sources, *chosen.headers(), DESCRIPTION, Path(__file__)]
     if output.exists() and all(p.stat().st_mtime <= output.stat().st_mtime for p in inputs):
         return output
-    cc = compiler()
+    cc = shutil.which(chosen.compiler) if chosen.compiler else compiler()
     if cc is None:
-        raise RuntimeError("no C compiler found (Debian: apt install build-essential; or set CC)")
+        raise RuntimeError(
+            f"no {chosen.compiler or 'C compiler'} found for target {name!r} (Debian: apt install "
+            f"{'clang libclang-rt-14-dev' if chosen.compiler == 'clang' else 'build-essential'})"
+        )
     out.mkdir(parents=True, exist_ok=True)
     partial = output.with_name(output.name + ".partial")
     cmd = chosen.command(cc, partial)

@@ -3,6 +3,7 @@ against a scripted port that sends garbage, damaged frames, or nothing at all.""
 
 from __future__ import annotations
 
+import re
 import threading
 
 import numpy as np
@@ -177,3 +178,62 @@ def test_reader_thread_is_safe_with_concurrent_readers() -> None:
         assert sorted(seqs.tolist()) == list(range(1000))  # each record exactly once
     finally:
         port.close()
+
+
+def test_line_noise_values_are_dropped_and_counted(capsys: pytest.CaptureFixture[str]) -> None:
+    """Frames whose CRC holds but whose values are not measurements (1e35 N, NaN, a
+    temperature no board reaches) never reach the records; stats and `ft stream` count them."""
+    from spectratac.cli import main
+
+    n = 6
+    forces = np.zeros((n, 6))
+    forces[:, 2] = -np.arange(n)
+    forces[1, 0] = 1e35  # line noise that passed the CRC
+    forces[2, 4] = np.nan
+    forces[3, 2] = 3000.0  # beyond RANGE_MARGIN (4) x the 500 N given below
+    temperature = np.full(n, 30.0)
+    temperature[4] = 9e9
+    ts = np.arange(n) * 1000 + 500
+    wire = botaframe.encode_frames(np.zeros(n), forces, ts, temperature)
+    port = FakePort()
+    try:
+        ft = open_ft(f"bota://{port.path}?configure=0&rate=1000&force_range=500&torque_range=10")
+        ft.start()
+        port.write(wire)
+        with ft:
+            rows = ft.read(n, timeout=5.0)
+            assert ft.read(1, timeout=0.2).size == 0
+            stats = ft.stats
+        assert (-rows["wrench"][:, 2]).astype(int).tolist() == [0, 5]
+        assert stats.implausible == 4 and stats.crc_errors == 0
+        assert np.isfinite(rows["wrench"]).all()
+    finally:
+        port.close()
+    port = FakePort()
+    done = threading.Event()
+
+    def send() -> None:  # the port flushes input on open: keep sending until the CLI is done
+        k = 0
+        while not done.is_set():
+            port.write(botaframe.encode_frames(np.zeros(n), forces, ts + k * n * 1000, temperature))
+            k += 1
+            done.wait(0.05)
+
+    sender = threading.Thread(target=send)
+    sender.start()
+    try:
+        main(["ft", "stream", f"bota://{port.path}?configure=0&rate=1000", "--count", "6"])
+    finally:
+        done.set()
+        sender.join()
+        port.close()
+    err = capsys.readouterr().err
+    # the default range keeps the 3000 N frame and drops the other three of each repetition
+    dropped = int(re.search(r"implausible (\d+)", err).group(1))  # type: ignore[union-attr]
+    assert dropped >= 3
+
+
+def test_range_options_are_checked() -> None:
+    for bad in ("force_range=0", "torque_range=-1", "force_range=nan", "torque_range=inf"):
+        with pytest.raises(FTURLError, match="rated range"):
+            open_ft(f"bota:///dev/ttyNOPE?{bad}")

@@ -135,3 +135,63 @@ def test_parser_keeps_every_undamaged_frame(n: int, damage: list, chunks: list, 
     assert set(got) <= {int(t) for t in ts}
     # damaged frames never come out (a 1-in-65536 CRC collision aside, not at these sizes)
     assert not (set(got) - set(expected))
+
+
+def _crc_rows_for(data: bytes, monkeypatch: pytest.MonkeyPatch) -> int:
+    """CRC rows the parser computes to parse `data` fed in one chunk (its unit of work)."""
+    rows = 0
+    real = botaframe.crc16_x25_rows
+
+    def counting(block: np.ndarray) -> np.ndarray:
+        nonlocal rows
+        rows += block.shape[0]
+        return real(block)
+
+    monkeypatch.setattr(botaframe, "crc16_x25_rows", counting)
+    botaframe.FrameParser().feed(data)
+    monkeypatch.setattr(botaframe, "crc16_x25_rows", real)
+    return rows
+
+
+def test_parser_work_is_linear_in_garbage(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Garbage dense with false headers: each candidate header costs a bounded check, not a
+    check of every frame slot to the end of the buffer (which made a 1 MB chunk take seconds)."""
+    rng = np.random.default_rng(3)
+
+    def garbage(size: int) -> bytes:
+        noise = rng.integers(0, 256, size, dtype=np.uint8)
+        noise[rng.random(size) < 0.05] = botaframe.HEADER
+        return noise.tobytes()
+
+    small, large = garbage(20_000), garbage(80_000)
+    work_small, work_large = _crc_rows_for(small, monkeypatch), _crc_rows_for(large, monkeypatch)
+    headers = large.count(botaframe.HEADER)
+    assert work_large <= headers + 2 * len(large) // botaframe.FRAME_SIZE
+    assert work_large <= 5 * work_small
+
+
+def test_parser_work_is_linear_in_good_frames(monkeypatch: pytest.MonkeyPatch) -> None:
+    n = 4000
+    wire = botaframe.encode_frames(np.zeros(n), np.ones((n, 6)), np.arange(n), np.full(n, 25.0))
+    damaged = bytearray(wire)
+    for i in range(0, n, 97):  # one damaged frame in a hundred
+        damaged[i * botaframe.FRAME_SIZE + 5] ^= 0xFF
+    assert _crc_rows_for(wire, monkeypatch) <= 2 * n
+    assert _crc_rows_for(bytes(damaged), monkeypatch) <= 4 * n
+
+
+def test_parser_drops_non_finite_and_out_of_range_values() -> None:
+    forces = np.zeros((5, 6), dtype=np.float32)
+    forces[1, 0] = 1e35
+    forces[2, 3] = np.inf
+    forces[3, 5] = 30.0  # 30 N*m against a 20 N*m limit
+    temperature = [25.0, 25.0, 25.0, 25.0, np.nan]
+    wire = botaframe.encode_frames(np.zeros(5), forces, np.arange(5), temperature)
+    bounded = botaframe.FrameParser(limits=[1000, 1000, 1000, 20, 20, 20])
+    assert bounded.feed(wire)["timestamp"].tolist() == [0]
+    assert bounded.implausible == 4 and bounded.crc_errors == 0 and bounded.frames == 1
+    unbounded = botaframe.FrameParser()  # finite values pass whatever their size
+    assert unbounded.feed(wire)["timestamp"].tolist() == [0, 1, 3]
+    assert unbounded.implausible == 2
+    with pytest.raises(ValueError, match="six positive"):
+        botaframe.FrameParser(limits=[1, 2, 3])

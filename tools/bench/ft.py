@@ -6,6 +6,10 @@ Figures, each beside a reference measured in the same run:
 - Bota driver parse (resync-capable frame parser + records, 4 KiB chunks, in memory), in
   records/s, as a ratio to an unchecked NumPy decode of the same bytes (aligned frames, no
   CRC, no resync: the least any decoder does);
+- Bota frame parser fed 1 MiB chunks beside the same bytes in 4 KiB chunks (1.0 when the
+  parser's work is linear in the chunk size; a whole-buffer rescan per damaged frame made
+  a 1 MB chunk take seconds), and line noise dense with false headers (bytes/s) beside
+  good frames (bytes/s);
 - Bota driver over a pty (reader thread, end to end) beside a raw read of the same bytes
   from the same kind of pty;
 - Net F/T driver parse (packets -> records: sequence, loss, scaling, 256 packets a poll),
@@ -114,6 +118,22 @@ def bota_driver_parse(data: bytes) -> tuple[callable, callable]:
     return subject, reference
 
 
+def parse_chunks(data: bytes, chunk: int) -> int:
+    """Bytes through a fresh FrameParser fed `chunk` bytes at a time."""
+    p = botaframe.FrameParser()
+    for i in range(0, len(data), chunk):
+        p.feed(data[i : i + chunk])
+    return len(data)
+
+
+def line_noise(size: int) -> bytes:
+    """Random bytes with one in 20 a false header (0xAA): the parser's worst case."""
+    rng = np.random.default_rng(4)
+    noise = rng.integers(0, 256, size, dtype=np.uint8)
+    noise[rng.random(size) < 0.05] = botaframe.HEADER
+    return noise.tobytes()
+
+
 def bota_over_pty(data: bytes) -> tuple[callable, callable]:
     n = len(data) // botaframe.FRAME_SIZE
 
@@ -215,6 +235,19 @@ def main() -> int:
             "bota parse vs link", s, "records/s", "460800 Bd link", BOTA_LINK_FPS, s / BOTA_LINK_FPS
         )
     )
+    mixed = bytearray(data)
+    mixed[5 :: 37 * 50] = bytes(len(mixed[5 :: 37 * 50]))  # a damaged frame in fifty
+    s, r = side_by_side(
+        lambda: parse_chunks(bytes(mixed), 1 << 20),
+        lambda: parse_chunks(bytes(mixed), 4096),
+        args.rounds,
+    )
+    figures.append(Figure("bota parse, 1 MiB chunks", s, "bytes/s", "4 KiB chunks", r, s / r))
+    noise = line_noise(len(data))
+    s, r = side_by_side(
+        lambda: parse_chunks(noise, 1 << 20), lambda: parse_chunks(data, 1 << 20), args.rounds
+    )
+    figures.append(Figure("bota parse of line noise", s, "bytes/s", "good frames", r, s / r))
     sub, ref = bota_over_pty(data)
     s, r = side_by_side(sub, ref, max(1, args.rounds // 2))
     figures.append(Figure("bota driver over pty", s, "records/s", "raw pty read", r, s / r))

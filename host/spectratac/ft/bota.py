@@ -1,4 +1,5 @@
-"""Bota Systems serial F/T driver: bota:///dev/ttyUSB0?baud=460800&rate=&sinc=&configure=1.
+"""Bota Systems serial F/T driver: bota:///dev/ttyUSB0?baud=460800&rate=&sinc=&configure=1
+&force_range=&torque_range=.
 
 Opening follows the vendor's serial procedure: send 'C' (configuration mode, the sensor
 stops streaming and answers "r,0,C,0"; retried every 0.5 s, FTTimeoutError after `timeout`),
@@ -13,6 +14,14 @@ counter, so sequence is the timestamp divided by the sample period (rate=, or 51
 with sinc=, else estimated from the first frames), and a lost or damaged frame shows as a
 gap; status holds the sensor's status bits (botaframe.STATUS_*). The latest board
 temperature is in `temperature_c`.
+
+Plausibility: force_range= (N) and torque_range= (N*m) are the sensor's rated measurement
+range from its datasheet (default DEFAULT_FORCE_RANGE_N / DEFAULT_TORQUE_RANGE_NM, 5 kN and
+500 N*m: generous, so that no real reading is lost when the range is not given). A frame
+whose CRC holds but whose values are non-finite or beyond RANGE_MARGIN times the range is line
+noise that passed the 16-bit CRC (one in 65536 damaged frames does): it is dropped and
+counted in stats.implausible. Readings slightly beyond the rating still pass; the sensor
+flags those itself (botaframe.STATUS_OVERRANGE).
 """
 
 from __future__ import annotations
@@ -43,6 +52,21 @@ from spectratac.ft.sequence import SequenceTracker, Unwrapper
 
 BAUD_CODES = {9600: 0, 57600: 1, 115200: 2, 230400: 3, 460800: 4}
 SINC_CLOCK_HZ = 51200.0  # sample period = sinc length / 51200 s (vendor example)
+#: Defaults for force_range= / torque_range=: deliberately generous, so a sensor opened
+#: without its datasheet range loses no reading; give the range to catch smaller noise.
+DEFAULT_FORCE_RANGE_N = 5000.0
+DEFAULT_TORQUE_RANGE_NM = 500.0
+#: Strain gauges saturate not far past the rating; values beyond this multiple are not readings.
+RANGE_MARGIN = 4.0
+
+
+def plausible_limits(force_range_n: float, torque_range_nm: float) -> np.ndarray:
+    """Largest magnitude accepted per axis (Fx Fy Fz N, Tx Ty Tz N*m) for a rated range.
+
+    >>> plausible_limits(500, 10).tolist()
+    [2000.0, 2000.0, 2000.0, 40.0, 40.0, 40.0]
+    """
+    return RANGE_MARGIN * np.repeat([float(force_range_n), float(torque_range_nm)], 3)
 
 
 def ack(command: str) -> bytes:
@@ -67,6 +91,8 @@ class BotaSensor(FTSensor):
         sinc = opts.integer("sinc")
         configure = opts.flag("configure", True)
         temp_comp = opts.flag("temperature_compensation", False)
+        force_range = opts.number("force_range", DEFAULT_FORCE_RANGE_N)
+        torque_range = opts.number("torque_range", DEFAULT_TORQUE_RANGE_NM)
         opts.done()
         if baud not in BAUD_CODES:
             raise FTURLError(f"{url}: baud={baud}: the sensor supports {sorted(BAUD_CODES)}")
@@ -74,15 +100,28 @@ class BotaSensor(FTSensor):
             raise FTURLError(f"{url}: rate must be > 0")
         if sinc is not None and not 1 <= sinc <= 4096:
             raise FTURLError(f"{url}: sinc={sinc}: give the filter's sinc length, 1..4096")
+        for name, value in (("force_range", force_range), ("torque_range", torque_range)):
+            if value is None or not 0 < value < float("inf"):
+                raise FTURLError(
+                    f"{url}: {name}={value}: give the sensor's rated range from its datasheet "
+                    f"(N for force_range, N*m for torque_range), > 0"
+                )
+        assert force_range is not None and torque_range is not None
         if rate is None and sinc is not None:
             rate = SINC_CLOCK_HZ / sinc
         port = _open_port(url, path, baud)
         info = FTInfo("bota", model="Bota Systems serial F/T", serial=path, rate_hz=rate or 0.0)
-        info.extra.update(path=path, baud=baud, configured=configure)
+        info.extra.update(
+            path=path,
+            baud=baud,
+            configured=configure,
+            force_range_n=force_range,
+            torque_range_nm=torque_range,
+        )
         sensor = cls(url, info, timeout=timeout, buffer_size=buffer_size)
         sensor._port = port
         sensor._fd = port.fileno()
-        sensor._parser = FrameParser()
+        sensor._parser = FrameParser(plausible_limits(force_range, torque_range))
         sensor._unwrap = Unwrapper(32)
         sensor._tracker = SequenceTracker(sensor.stats)
         sensor._configure = configure
@@ -167,6 +206,7 @@ class BotaSensor(FTSensor):
         frames = self._parser.feed(data)
         self.stats.crc_errors = self._parser.crc_errors
         self.stats.bad_frames = self._parser.lost_sync
+        self.stats.implausible = self._parser.implausible
         if len(frames) == 0:
             return np.empty(0, dtype=FT_RECORD)
         self.temperature_c = float(frames["temperature"][-1])

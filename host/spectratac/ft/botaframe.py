@@ -42,6 +42,10 @@ STATUS_OVERRANGE = 1 << 1
 STATUS_INVALID = 1 << 2
 STATUS_RAW = 1 << 3
 
+#: Board temperatures a working sensor can report (°C); anything else is line noise.
+TEMPERATURE_RANGE_C = (-100.0, 200.0)
+_HEADER_BYTE = bytes([HEADER])
+
 #: CRC-16/X-25: poly 0x1021 reflected, init 0xFFFF, xorout 0xFFFF; check(b"123456789") 0x906E.
 crc16_x25 = crcmod.predefined.mkPredefinedCrcFun("x-25")
 
@@ -85,30 +89,58 @@ def encode_frames(
     return out.tobytes()
 
 
+def _frame_ok(raw: bytes, pos: int) -> bool:
+    """Whether one frame starts at pos: a cheap scalar check before the vectorised run check
+    (in line noise most candidate headers fail it)."""
+    end = pos + FRAME_SIZE
+    return raw[pos] == HEADER and crc16_x25(raw[pos + 1 : end - 2]) == int.from_bytes(
+        raw[end - 2 : end], "little"
+    )
+
+
 class FrameParser:
     """Incremental parser: feed() bytes as they arrive, get DATA_DTYPE rows of good frames.
 
     Counters: crc_errors (a header where a frame was expected, with a bad CRC), lost_sync
     (no header where a frame was expected), skipped_bytes (bytes that belonged to no good
-    frame: garbage, damaged frames, text replies)."""
+    frame: garbage, damaged frames, text replies), implausible (frames whose CRC held but
+    whose values cannot be measurements: non-finite, beyond `limits`, or a temperature
+    outside TEMPERATURE_RANGE_C; they are dropped, since line noise passes a 16-bit CRC once
+    in 65536 tries). `limits` is the largest magnitude accepted per axis (Fx Fy Fz in N,
+    Tx Ty Tz in N*m); None checks only that values are finite and temperatures plausible.
 
-    def __init__(self) -> None:
-        self._pending = np.empty(0, dtype=np.uint8)
+    Work is linear in the bytes fed: a run of frames is checked in windows that double while
+    they hold (so a damaged frame costs one window, not the rest of the buffer), and the
+    next header is found by a scan that stops at the first hit.
+
+    >>> wire = encode_frames([0, 0], [[1, 2, 3, 0, 0, 0], [1e35, 0, 0, 0, 0, 0]], [1, 2], [25, 25])
+    >>> p = FrameParser(limits=[500, 500, 1000, 20, 20, 20])
+    >>> p.feed(wire)["timestamp"].tolist(), p.implausible
+    ([1], 1)
+    """
+
+    def __init__(self, limits: ArrayLike | None = None) -> None:
+        self._pending = b""
         self._synced = False
+        self._limits = None if limits is None else np.asarray(limits, dtype=np.float64)
+        if self._limits is not None and (
+            self._limits.shape != (6,) or not np.all(self._limits > 0)
+        ):
+            raise ValueError(f"limits {limits!r}: give six positive magnitudes, N and N*m")
         self.crc_errors = 0
         self.lost_sync = 0
         self.skipped_bytes = 0
+        self.implausible = 0
         self.frames = 0
 
     def feed(self, data: bytes) -> np.ndarray:
-        buf = np.frombuffer(data, dtype=np.uint8)
-        if len(self._pending):
-            buf = np.concatenate([self._pending, buf])
+        raw = self._pending + bytes(data) if self._pending else bytes(data)
+        buf = np.frombuffer(raw, dtype=np.uint8)
         out: list[np.ndarray] = []
         pos = 0
         n = len(buf)
         while n - pos >= FRAME_SIZE:
-            run = self._good_run(buf, pos)
+            run = self._good_run(buf, pos) if _frame_ok(raw, pos) else 0
             if run:
                 end = pos + run * FRAME_SIZE
                 frames = buf[pos:end].reshape(run, FRAME_SIZE)
@@ -122,28 +154,47 @@ class FrameParser:
                 else:
                     self.lost_sync += 1
                 self._synced = False
-            nxt = self._next_header(buf, pos + 1)
+            nxt = raw.find(_HEADER_BYTE, pos + 1)
+            nxt = n if nxt < 0 else nxt
             self.skipped_bytes += nxt - pos
             pos = nxt
-        self._pending = buf[pos:].copy()
+        self._pending = raw[pos:]
         if not out:
             return np.empty(0, dtype=DATA_DTYPE)
-        result = np.concatenate(out) if len(out) > 1 else out[0]
+        result = self._plausible(np.concatenate(out) if len(out) > 1 else out[0])
         self.frames += len(result)
         return result
 
-    @staticmethod
-    def _next_header(buf: NDArray[np.uint8], start: int) -> int:
-        hits = np.flatnonzero(buf[start:] == HEADER)
-        return start + int(hits[0]) if len(hits) else len(buf)
+    def _plausible(self, rows: np.ndarray) -> np.ndarray:
+        forces = rows["forces"].astype(np.float64)
+        temperature = rows["temperature"].astype(np.float64)
+        ok = np.isfinite(forces).all(axis=1) & np.isfinite(temperature)
+        low, high = TEMPERATURE_RANGE_C
+        ok &= (temperature >= low) & (temperature <= high)
+        if self._limits is not None:
+            ok &= (np.abs(np.nan_to_num(forces)) <= self._limits).all(axis=1)
+        if ok.all():
+            return rows
+        self.implausible += int(np.count_nonzero(~ok))
+        return rows[ok]
 
     @staticmethod
     def _good_run(buf: NDArray[np.uint8], pos: int) -> int:
-        """How many consecutive good frames start at pos (0 if the first is bad)."""
-        count = (len(buf) - pos) // FRAME_SIZE
-        frames = buf[pos : pos + count * FRAME_SIZE].reshape(count, FRAME_SIZE)
-        ok = frames[:, 0] == HEADER
-        crc = frames[:, -2].astype(np.uint16) | (frames[:, -1].astype(np.uint16) << 8)
-        ok &= crc16_x25_rows(frames[:, 1 : 1 + DATA_SIZE]) == crc
-        bad = np.flatnonzero(~ok)
-        return int(bad[0]) if len(bad) else count
+        """How many consecutive good frames start at pos (0 if the first is bad), checked in
+        windows of 1, 2, 4... frames so the work is at most twice the frames accepted + 1."""
+        available = (len(buf) - pos) // FRAME_SIZE
+        good = 0
+        window = 1
+        while good < available:
+            count = min(window, available - good)
+            start = pos + good * FRAME_SIZE
+            frames = buf[start : start + count * FRAME_SIZE].reshape(count, FRAME_SIZE)
+            ok = frames[:, 0] == HEADER
+            crc = frames[:, -2].astype(np.uint16) | (frames[:, -1].astype(np.uint16) << 8)
+            ok &= crc16_x25_rows(frames[:, 1 : 1 + DATA_SIZE]) == crc
+            bad = np.flatnonzero(~ok)
+            if len(bad):
+                return good + int(bad[0])
+            good += count
+            window *= 2
+        return good

@@ -62,6 +62,7 @@ class FTStats:
     duplicates: int = 0  # records whose sequence was already delivered (dropped)
     crc_errors: int = 0  # frames with a bad checksum (Bota)
     bad_frames: int = 0  # packets/frames/lines of the wrong size or shape
+    implausible: int = 0  # records dropped: non-finite or far beyond the sensor's range
     overflows: int = 0  # records discarded because the buffer was full (oldest first)
 
     def as_dict(self) -> dict[str, int]:

@@ -32,6 +32,7 @@ from typing import Literal
 import numpy as np
 
 from spectratac.sim import native
+from spectratac.sim.native_abi import RX_CAPACITY
 from spectratac.twin.electronics import SD_ALS, SensorConfig
 from spectratac.twin.errors import I2CNack
 from spectratac.twin.rig import TwinRig, WindowPlan
@@ -129,10 +130,14 @@ class SimDevice:
         return steps
 
     def feed(self, data: bytes) -> None:
-        """Bytes from the host; steps the core at the current time if its buffer fills."""
+        """Bytes from the host; steps the core at the current time if its buffer fills.
+
+        Offers at most one receive buffer's worth per call, so the bytes copied stay linear in
+        `data` however large it is (offering the whole rest each time copied it per chunk)."""
         view = memoryview(data)
         while view:
-            taken = self.lib.stac_sim_rx_feed(self._ptr, bytes(view), len(view))
+            offer = view[:RX_CAPACITY]
+            taken = self.lib.stac_sim_rx_feed(self._ptr, bytes(offer), len(offer))
             view = view[taken:]
             if view:
                 self.step(self.now_us)
