@@ -24,7 +24,6 @@ from __future__ import annotations
 import csv
 import io
 import zipfile
-import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -32,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.dataset.schema import Dataset, DatasetError
 
 SPECIAL = {"t": "t", "time": "t", "session": "session", "press": "press", "contact": "contact"}
@@ -48,10 +48,8 @@ def read_columns(source: str | Path | io.TextIOBase) -> dict[str, NDArray[Any]]:
     strings (CSV) or their stored dtype (npz)."""
     if isinstance(source, (str, Path)) and str(source).endswith(".npz"):
         try:
-            with np.load(source, allow_pickle=False) as z:
-                cols = {k: np.asarray(z[k]) for k in z.files}
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
-                NotImplementedError) as exc:  # fmt: skip
+            cols = read_npz(source)
+        except NpzDamageError as exc:
             raise DatasetError(f"cannot read {source}: {exc}") from None
         bad = [k for k, v in cols.items() if v.ndim != 1]
         if bad:
@@ -243,11 +241,11 @@ def load_any(
     p = Path(path)
     if p.suffix == ".npz":
         try:
-            with np.load(p, allow_pickle=False) as z:
-                is_dataset = "meta" in z.files and "inputs" in z.files
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
-                NotImplementedError) as exc:  # fmt: skip
+            with zipfile.ZipFile(p) as z:  # the member names say which kind it is
+                names = {Path(n).stem for n in z.namelist()}
+        except (OSError, zipfile.BadZipFile, NotImplementedError) as exc:  # a zip of the future
             raise DatasetError(f"cannot read dataset {p}: {exc}") from None
+        is_dataset = {"meta", "inputs"} <= names
         if is_dataset:
             return Dataset.load(p)
     return load_table(p, inputs, targets, classes)

@@ -43,8 +43,6 @@ generic data), ``sessions`` (one dict each: source, scene, seed, ft_url, …) an
 from __future__ import annotations
 
 import json
-import zipfile
-import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,6 +51,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.errors import SpectraTacError
 
 FORMAT = "spectratac.dataset"
@@ -167,11 +166,10 @@ class Dataset:
     def load(cls, path: str | Path) -> Dataset:
         """Read a dataset file; raises DatasetError saying what is wrong with it."""
         try:
-            with np.load(path, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files if k != "meta"}
-                meta = json.loads(str(z["meta"])) if "meta" in z.files else None
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error,
-                NotImplementedError) as exc:  # fmt: skip
+            arrays = read_npz(path)
+            meta_text = arrays.pop("meta", None)
+            meta = json.loads(str(meta_text)) if meta_text is not None else None
+        except (NpzDamageError, ValueError) as exc:  # ValueError: meta is not JSON
             raise DatasetError(f"cannot read dataset {path}: {exc}") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise DatasetError(

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.guard import Guard
 from spectratac.decode.layout import Layout
@@ -35,7 +36,7 @@ FORMAT = "spectratac.decoder"
 VERSION = "1.0"
 #: What reading a damaged zip, npz or JSON part can raise (all become DecoderFileError).
 _DAMAGE = (OSError, EOFError, KeyError, IndexError, ValueError, TypeError, AttributeError,
-           NotImplementedError, zipfile.BadZipFile, zlib.error)  # fmt: skip
+           NotImplementedError, zipfile.BadZipFile, zlib.error, NpzDamageError)  # fmt: skip
 #: Torque names of generic datasets before Tx Ty Tz became the only spelling.
 RETIRED_TORQUE_NAMES = ("Mx", "My", "Mz")
 
@@ -106,8 +107,7 @@ def read_model(path: str | Path) -> Decoder:
     try:
         with zipfile.ZipFile(path) as z:
             data = z.read("arrays.npz")
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
+        arrays = read_npz(io.BytesIO(data))
         runtime = Runtime.from_parts(meta["runtime"], arrays)
         guard = Guard.from_parts(
             meta["guard"], {k[6:]: v for k, v in arrays.items() if k.startswith("guard/")}

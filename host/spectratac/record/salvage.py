@@ -48,10 +48,9 @@ from mcap.records import (
 )
 from mcap.stream_reader import breakup_chunk
 
-try:  # zstd errors are raised by the decompressor, not wrapped by mcap
-    from zstandard import ZstdError
-except ImportError:  # pragma: no cover - mcap's writer needs zstandard anyway
-    ZstdError = McapError  # type: ignore[misc,assignment]
+# zstandard comes with mcap's writer; its errors are raised by the decompressor, unwrapped
+from zstandard import ZstdError
+from zstandard import frame_content_size as zstd_frame_content_size
 
 MAGIC = b"\x89MCAP0\r\n"
 #: What parsing damaged bytes can raise (a garbled length can ask for absurd sizes).
@@ -140,6 +139,7 @@ def salvage(buf: bytes | memoryview) -> Salvage:
             continue
         if isinstance(record, Chunk):
             try:
+                _check_chunk_size(record)
                 out.records += breakup_chunk(record, validate_crc=True)
                 counting = False
             except READ_ERRORS:
@@ -167,6 +167,27 @@ def salvage(buf: bytes | memoryview) -> Salvage:
         )
         out.lost_uncounted = False
     return out
+
+
+#: The most a chunk may claim to grow on decompression: far above what zstd gives recorded
+#: frames (~1.5x), far below what a damaged size field can ask the decompressor to allocate.
+MAX_CHUNK_RATIO = 64
+MAX_CHUNK_FLOOR = 16 << 20
+
+
+def _check_chunk_size(chunk: Chunk) -> None:
+    """Refuse (McapError) a chunk whose claimed size cannot be real, before decompressing:
+    zstd allocates what the frame header claims, whatever the chunk says (1.4 GB seen from a
+    damaged 273-byte chunk)."""
+    limit = max(MAX_CHUNK_RATIO * len(chunk.data), MAX_CHUNK_FLOOR)
+    claimed = [chunk.uncompressed_size]
+    if chunk.compression == "zstd":
+        size = zstd_frame_content_size(chunk.data)
+        if size >= 0 and size != chunk.uncompressed_size:
+            raise McapError(f"zstd frame of {size} bytes in a chunk of {chunk.uncompressed_size}")
+        claimed.append(size)
+    if max(claimed) > limit:
+        raise McapError(f"a chunk of {len(chunk.data)} bytes claims {max(claimed)} uncompressed")
 
 
 def _resync(buf: bytes | memoryview, start: int) -> int | None:
