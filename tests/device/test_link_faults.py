@@ -188,3 +188,22 @@ def test_a_reply_in_another_major_fails_that_command_only() -> None:
             sensor.status()
         assert sensor.get_config().config_id == 0  # the sensor still works
         assert sensor.stats.version_mismatches == 1 and sensor.stats.command_retries == 0
+
+
+def _without_first_sample(frame: Frame) -> bytes:
+    """The first SAMPLE of every stream (sample_seq 0) lost on the line."""
+    if isinstance(frame.message, m.Sample) and frame.message.sample_seq == 0:
+        return b""
+    return encode_frame(frame.message, frame.seq, frame.version)
+
+
+def test_a_sample_lost_at_the_start_of_a_stream_is_counted() -> None:
+    link = RewritingTransport(SimTransport("sim://?scene=idle&speed=max"), _without_first_sample)
+    with Sensor.attach(link) as sensor:
+        for _ in range(2):  # every START counts from sample_seq 0 again
+            sensor.start()
+            got = sensor.read(10, timeout=30)
+            sensor.stop()
+            sensor.read(100_000, timeout=0.3)
+            assert got["sequence"][0] == 1
+        assert sensor.stats.sample_gaps == 2

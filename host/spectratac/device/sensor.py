@@ -343,6 +343,10 @@ class Sensor:
 
     def start(self) -> None:
         """Start streaming; samples then arrive in the buffer."""
+        if not self._streaming:
+            # a new stream counts from sample_seq 0 (SPEC): a lost first sample is a gap too
+            with self._cond:
+                self._last_sample_seq = -1
         self._command(m.Start())
         self._streaming = True
 
