@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from spectratac.dataset.build import build_datasets
+from spectratac.dataset.frames import recorded_samples
 from spectratac.device import DeviceError, ProtocolMismatchError, Sensor
 from spectratac.device import sensor as sensor_module
 from spectratac.device.records import SAMPLE_TIME_INVERTED, SAMPLE_WINDOW_CLIPPED
@@ -17,6 +19,7 @@ from spectratac.device.transport import open_transport
 from spectratac.protocol import Frame, encode_frame
 from spectratac.protocol import messages as m
 from spectratac.record import Recorder, RecordOptions
+from spectratac.record.reader import read_recording
 from spectratac.sim.transport import SimTransport
 
 from .faults import LineNoiseTransport, RewritingTransport
@@ -94,6 +97,16 @@ def test_record_keeps_going_over_inverted_windows(tmp_path: Path) -> None:
     assert summary.stopped_by == "samples" and summary.error is None
     assert summary.samples >= 30
     assert summary.sensor_stats["sample_time_errors"] >= 6
+    # the dataset keeps those samples, with empty windows and no target, never a window
+    # reaching 2^32 us back
+    rec = read_recording(tmp_path / "s.mcap")
+    table = recorded_samples(rec.frames, rec.frame_host_times)
+    bad = table["sequence"] % 5 == 2
+    assert np.all(table["flags"][bad] == SAMPLE_TIME_INVERTED) and not table["flags"][~bad].any()
+    assert np.all(table["t_start_us"][bad] == table["t_end_us"][bad])
+    assert np.all(table["t_end_us"] - table["t_start_us"] <= 60_000)
+    [ds] = build_datasets([tmp_path / "s.mcap"])
+    assert ds.n == len(table) and np.all(np.abs(ds.t_end - ds.t_start) < 1.0)
 
 
 def test_one_frame_of_another_major_does_not_kill_the_sensor() -> None:

@@ -96,6 +96,7 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     samples, windows = _timed_samples(rec, scale, device_clock=bool(sim) and not paced)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
+    valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
     if source == "scene":

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 from cobs import cobs
 
+from spectratac.device.records import SAMPLE_TIME_INVERTED, SAMPLE_WINDOW_CLIPPED
 from spectratac.protocol import messages as m
 from spectratac.protocol.bulk import decode_samples
 
@@ -33,6 +34,7 @@ RECORDED_SAMPLE = np.dtype(
         ("config_id", "<u2"),
         ("counts", "<u2", (3, 5)),
         ("status", "u1", (3,)),
+        ("flags", "u1"),  # SAMPLE_TIME_INVERTED / SAMPLE_WINDOW_CLIPPED, as Sensor flags them
     ]
 )
 _WRAP = 1 << 32
@@ -65,10 +67,17 @@ def recorded_samples(frames: Sequence[bytes], host_times: np.ndarray) -> np.ndar
     out = np.empty(len(picked), dtype=RECORDED_SAMPLE)
     out["host_time"] = host_times[picked]
     end = unwrap_us(samples["t_end_us"])
-    out["t_end_us"] = end
-    out["t_start_us"] = end - (
-        (samples["t_end_us"].astype(np.int64) - samples["t_start_us"]) % _WRAP
+    span = (samples["t_end_us"].astype(np.int64) - samples["t_start_us"]) % _WRAP
+    # the rules of Sensor._to_sample: a window ending before it starts (a clock fault) is
+    # empty, one reaching back before the first time seen is clipped; both are flagged
+    inverted = span >= _WRAP >> 1
+    clipped = ~inverted & (span > end)
+    span = np.where(inverted, 0, np.where(clipped, end, span))
+    out["flags"] = np.where(inverted, SAMPLE_TIME_INVERTED, 0) | np.where(
+        clipped, SAMPLE_WINDOW_CLIPPED, 0
     )
+    out["t_end_us"] = end
+    out["t_start_us"] = end - span
     out["sequence"] = samples["sample_seq"]
     out["frame_seq"] = samples["seq"]
     out["step"] = samples["led_step"]

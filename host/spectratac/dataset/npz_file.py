@@ -15,8 +15,8 @@ read). `read_npz` turns all of them into `NpzDamageError` with the reason, so ea
 >>> try:
 ...     read_npz(io.BytesIO(b"PK not really"))
 ... except NpzDamageError as exc:
-...     print("damaged:", type(exc.__cause__).__name__)
-damaged: BadZipFile
+...     print(type(exc).__name__, "instead of", type(exc.__cause__).__name__)
+NpzDamageError instead of ValueError
 """
 
 from __future__ import annotations
