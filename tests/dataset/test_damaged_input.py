@@ -134,3 +134,14 @@ def test_a_generic_csv_that_is_not_utf8_is_a_dataset_error(tmp_path: Path) -> No
     path.write_bytes("a,b,Fz\n1,2,3\n4,5,\xb06\n".encode("latin-1"))
     with pytest.raises(DatasetError, match=r"not UTF-8 text \(byte 0xb0 on line 3\)"):
         load_any(path)
+
+
+def test_dataset_info_never_prints_the_files_control_characters(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    crafted = {**GOOD, "unit_id": "u\x1b]0;owned\x07\x1b[2J", "labels": "\x9b31m"}
+    path = save_with_meta(tmp_path / "m.npz", crafted)
+    assert main(["dataset", "info", str(path)]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out and "\x9b" not in out
+    assert "\\x1b]0;owned" in out  # shown, escaped

@@ -22,6 +22,7 @@ import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, npz_name, refuse_overwrite
+from spectratac.errors import printable
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -162,22 +163,25 @@ def _info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"path": args.dataset, **s}))
         return ExitCode.OK
+    def say(text: str) -> None:  # the file's own strings (unit, sources): never raw
+        print(printable(text))
+
     cfg = s["config"]
-    print(f"{args.dataset}: {s['n']} samples, {s['kind']}, {s['sessions']} session(s)")
-    print(f"  unit             {s['unit_id']}")
-    print(
+    say(f"{args.dataset}: {s['n']} samples, {s['kind']}, {s['sessions']} session(s)")
+    say(f"  unit             {s['unit_id']}")
+    say(
         f"  firmware         {s['firmware_version']}, protocol {s['protocol_version']}, "
         f"definitions {s['definition_hash']}"
     )
     if isinstance(cfg, dict):
-        print(
+        say(
             f"  configuration    {cfg['integration_ms']} ms, gain x{cfg['gain']:g}, digital "
             f"x{cfg['digital_gain']}, {cfg['sensitivity']} sensitivity, "
             f"{len(cfg['leds'])} LED step(s)"
         )
     else:
-        print(f"  configuration    {cfg}")
-    print(
+        say(f"  configuration    {cfg}")
+    say(
         f"  targets          {s['target_valid'] * 100:.1f} % valid; in contact "
         f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; span {s['duration_s']:.1f} s"
     )
@@ -185,9 +189,9 @@ def _info(args: argparse.Namespace) -> int:
         ranges = ", ".join(
             f"{k} {s['target_min'][k]:.2f}..{s['target_max'][k]:.2f}" for k in s["target_min"]
         )
-        print(f"  target ranges    {ranges}")
+        say(f"  target ranges    {ranges}")
     regions = " ".join(f"{r}:{c}" for r, c in s["regions"].items())
-    print(f"  regions          {regions}   (labels: {s['labels']})")
+    say(f"  regions          {regions}   (labels: {s['labels']})")
     for src in s["session_sources"]:
-        print(f"  session          {src}")
+        say(f"  session          {src}")
     return ExitCode.OK

@@ -21,7 +21,7 @@ import numpy as np
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_count, add_device_url, add_renamed, add_row_format
 from spectratac.cli.output import RowWriter, reader_gone
-from spectratac.errors import SpectraTacError
+from spectratac.errors import SpectraTacError, printable
 
 URL_HELP = "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, or sim://?…&ft=netft|bota"
 COLUMNS = ("sensor_time", "host_time", "sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status")
@@ -81,11 +81,12 @@ def _info(args: argparse.Namespace) -> int:
         print(json.dumps(report, default=str))
         return ExitCode.OK
     info = report["info"]
-    print(f"{args.url}: {info['model']} ({info['kind']}) {info['serial']}".rstrip())
+    # model, serial and extras come from the device: never let them drive the terminal
+    print(printable(f"{args.url}: {info['model']} ({info['kind']}) {info['serial']}".rstrip()))
     print(f"  rate             {info['rate_hz']:g} Hz")
     print(f"  counts per unit  {info['counts_per_force']:g} /N, {info['counts_per_torque']:g} /N·m")
     for key, value in info["extra"].items():
-        print(f"  {key:<16} {value}")
+        print(printable(f"  {key:<16} {value}"))
     if rows is not None:
         mean = " ".join(f"{v:+.3f}" for v in report["mean_wrench"])
         print(
