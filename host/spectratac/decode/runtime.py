@@ -181,6 +181,13 @@ class Runtime:
         damaged = "the file is damaged: retrain or re-copy it"
         if self.arch[0] not in ARCH_KINDS:
             raise DecoderFileError(f"unknown architecture {self.arch[0]!r}; {damaged}")
+        # every block has its weights in the file: a larger count (a damaged number) would
+        # have the shape check below list billions of layers before it found one missing
+        if not 0 <= self.arch[2] <= len(self.weights) or self.arch[1] < 0:
+            raise DecoderFileError(
+                f"architecture {self.arch!r} does not fit the {len(self.weights)} weight "
+                f"arrays in the file; {damaged}"
+            )
         for name, o, i in layer_shapes(self.arch, f, self.heads.n_out):
             want[f"w/{name}.weight"], want[f"w/{name}.bias"] = (o, i), (o,)
         for name in norm_names(self.arch):
