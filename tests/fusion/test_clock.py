@@ -69,6 +69,19 @@ def test_optical_device_aligns_within_1ms_with_exchanges(seed: int) -> None:
     assert np.max(np.abs(alone.to_host(s) - truth)) <= 1e-3
 
 
+@pytest.mark.parametrize("seed", [15, 174, 1383])
+def test_exchanges_alone_follow_the_drift_when_one_burst_has_the_shortest_trips(seed: int) -> None:
+    """Seeds where the session's shortest round trips all fell in one burst: picked globally,
+    those few milliseconds of device time set the drift (0.02 instead of 1e-4, ~1 s off)."""
+    rng = np.random.default_rng(seed)
+    s = 77.0 + np.arange(0.0, 60.0, 0.05)
+    truth = OFFSET + (1 + DRIFT) * s
+    latency(rng, s.size, floor=0.6e-3)  # the same draws as the property test above
+    alone = fit_clock([], [], exchanges=exchanges(rng, OFFSET, DRIFT, 77.0))
+    assert np.max(np.abs(alone.to_host(s) - truth)) <= 1e-3
+    assert alone.drift == pytest.approx(DRIFT, abs=2e-5)
+
+
 def test_exchanges_remove_the_latency_floor_that_arrivals_cannot() -> None:
     rng = np.random.default_rng(5)
     s = np.arange(0.0, 60.0, 0.05)

@@ -244,6 +244,12 @@ def _piecewise(
 
 
 # ---------------------------------------------------------------------------- exchanges
+#: Stretches of device time in which the shortest round trips are picked (see below), and
+#: how much longer than the session's shortest a round trip may be and still be used.
+_SYNC_BINS = 16
+_SYNC_WORST = 20.0
+
+
 def _exchange_points(
     exchanges: Sequence[Exchange], ratio: float = 1.0
 ) -> tuple[F64, F64, F64] | None:
@@ -261,9 +267,21 @@ def _exchange_points(
     if not ok.any():
         raise ClockFitError("no time-sync exchange has a non-negative round trip")
     best = float(np.min(rtt[ok]))
-    use = ok & (rtt <= 1.5 * best + 50e-6)
+    # "shortest" is judged per stretch of time: a globally best burst would otherwise be the
+    # only one kept, and one burst (milliseconds of device time) cannot show the drift
+    mid = (rx + tx) / 2e6
+    span = float(np.ptp(mid[ok]))
+    where = np.zeros(len(mid), dtype=np.int64)
+    if span > 0:
+        where = np.minimum(
+            ((mid - mid[ok].min()) / span * _SYNC_BINS).astype(np.int64), _SYNC_BINS - 1
+        )
+        where = np.where(ok, where, 0)
+    local = np.full(_SYNC_BINS, np.inf)
+    np.minimum.at(local, where[ok], rtt[ok])
+    use = ok & (rtt <= 1.5 * local[where] + 50e-6) & (rtt <= _SYNC_WORST * best + 1e-3)
     weight = 1.0 / (rtt[use] + 1e-5)
-    return (rx[use] + tx[use]) / 2e6, (host_sent[use] + host_recv[use]) / 2, weight
+    return mid[use], (host_sent[use] + host_recv[use]) / 2, weight
 
 
 def _fit_exchanges_only(s: F64, h: F64, w: F64) -> ClockModel:
