@@ -3,6 +3,7 @@
 #ifndef CHECK_H
 #define CHECK_H
 
+#include <stddef.h>
 #include <stdio.h>
 
 typedef void (*test_fn_t)(void);
@@ -12,6 +13,9 @@ typedef struct test_case {
 } test_case_t;
 
 extern int g_check_failed;
+
+/* Runs the tests of `tables` (check_runner.c): all, `--list`, or the one named `only`. */
+int check_main(const test_case_t *const *tables, size_t n_tables, const char *only);
 
 #define TEST(name) static void name(void)
 

@@ -11,7 +11,6 @@
 #include "usb_desc.h"
 #include "usb_dev.h"
 
-int g_check_failed;
 
 static const uint8_t k_uid[12] = {0x12, 0x34, 0x56, 0x78, 0x9A, 0xBC,
                                   0xDE, 0xF0, 0x01, 0x23, 0x45, 0x67};
@@ -784,30 +783,6 @@ int main(int argc, char **argv) {
     if (only != NULL && strcmp(only, "--descriptors") == 0) {
         return dump_descriptors();
     }
-    const int list = only != NULL && strcmp(only, "--list") == 0;
-    int ran = 0;
-    int failed = 0;
-    for (const test_case_t *c = k_tests; c->name != NULL; c++) {
-        if (list) {
-            printf("%s\n", c->name);
-            continue;
-        }
-        if (only != NULL && strcmp(only, c->name) != 0) {
-            continue;
-        }
-        g_check_failed = 0;
-        c->fn();
-        ran++;
-        failed += g_check_failed;
-        printf("%s %s\n", g_check_failed ? "FAIL" : "PASS", c->name);
-    }
-    if (list) {
-        return 0;
-    }
-    if (ran == 0) {
-        printf("no test named %s\n", only != NULL ? only : "(any)");
-        return 2;
-    }
-    printf("%d tests, %d failed\n", ran, failed);
-    return failed != 0;
+    static const test_case_t *const tables[] = {k_tests};
+    return check_main(tables, 1, only);
 }
