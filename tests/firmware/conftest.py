@@ -32,6 +32,27 @@ def need(tool: str, package: str) -> None:
         pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")
 
 
+C_TEST_TIMEOUT_S = 120  # a hung C test fails instead of blocking the suite
+
+
+def listed_c_tests(binary: Path) -> list[str]:
+    """The tests a C test program (tests/firmware/c/check_runner.c) names with --list."""
+    return subprocess.run(
+        [str(binary), "--list"], capture_output=True, text=True, timeout=C_TEST_TIMEOUT_S
+    ).stdout.split()
+
+
+def run_c_test(binary: Path, name: str) -> None:
+    """Run one C test; fail with its output unless it passed with no sanitizer report."""
+    result = subprocess.run(
+        [str(binary), name], capture_output=True, text=True, timeout=C_TEST_TIMEOUT_S
+    )
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    assert f"PASS {name}" in result.stdout, output
+    assert "runtime error" not in output, output  # UBSan report
+
+
 def build_image(env: str, elf: Path) -> Path:
     need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
     result = pio.run(["run", "-e", env], timeout=BUILD_TIMEOUT_S)

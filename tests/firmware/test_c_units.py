@@ -5,15 +5,15 @@ sequencer and scheduler timing, command validation, codec, and random bytes into
 from __future__ import annotations
 
 import re
-import subprocess
 from pathlib import Path
 
 import pytest
 
+from .conftest import listed_c_tests, run_c_test
+
 pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 
 C_DIR = Path(__file__).resolve().parent / "c"
-TIMEOUT_S = 120  # a hang fails the test instead of blocking the suite
 
 
 def registered_tests() -> list[str]:
@@ -29,19 +29,10 @@ NAMES = registered_tests()
 
 
 def test_every_c_test_is_collected(unit_binary: Path) -> None:
-    listed = subprocess.run(
-        [str(unit_binary), "--list"], capture_output=True, text=True, timeout=TIMEOUT_S
-    ).stdout.split()
-    assert sorted(listed) == sorted(NAMES)
+    assert sorted(listed_c_tests(unit_binary)) == sorted(NAMES)
     assert len(NAMES) >= 40
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_c(unit_binary: Path, name: str) -> None:
-    result = subprocess.run(
-        [str(unit_binary), name], capture_output=True, text=True, timeout=TIMEOUT_S
-    )
-    output = result.stdout + result.stderr
-    assert result.returncode == 0, output
-    assert f"PASS {name}" in result.stdout, output
-    assert "runtime error" not in output, output  # UBSan report
+    run_c_test(unit_binary, name)

@@ -12,38 +12,31 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import BUILD_TIMEOUT_S, need, pio
+from .conftest import BUILD_TIMEOUT_S, C_TEST_TIMEOUT_S, listed_c_tests, need, pio, run_c_test
 
 pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 
 SOURCE = Path(__file__).resolve().parent / "usb" / "test_usb.c"
-TIMEOUT_S = 120  # a hang fails the test instead of blocking the suite
 
 NAMES = re.findall(r'^\s*\{"(usb_\w+)",', SOURCE.read_text(), flags=re.M)
 
 
 def test_every_usb_test_is_collected(usb_binary: Path) -> None:
-    listed = subprocess.run(
-        [str(usb_binary), "--list"], capture_output=True, text=True, timeout=TIMEOUT_S
-    ).stdout.split()
-    assert sorted(listed) == sorted(NAMES)
+    assert sorted(listed_c_tests(usb_binary)) == sorted(NAMES)
     assert len(NAMES) >= 20
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_usb(usb_binary: Path, name: str) -> None:
-    result = subprocess.run(
-        [str(usb_binary), name], capture_output=True, text=True, timeout=TIMEOUT_S
-    )
-    output = result.stdout + result.stderr
-    assert result.returncode == 0, output
-    assert f"PASS {name}" in result.stdout, output
-    assert "runtime error" not in output, output  # UBSan report
+    run_c_test(usb_binary, name)
 
 
 def test_unknown_test_name_fails(usb_binary: Path) -> None:
     result = subprocess.run(
-        [str(usb_binary), "usb_no_such_test"], capture_output=True, text=True, timeout=TIMEOUT_S
+        [str(usb_binary), "usb_no_such_test"],
+        capture_output=True,
+        text=True,
+        timeout=C_TEST_TIMEOUT_S,
     )
     assert result.returncode == 2 and "no test named" in result.stdout
 
