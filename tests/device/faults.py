@@ -39,32 +39,6 @@ class CorruptingTransport:
         self.inner.close()
 
 
-class FutureMajorTransport:
-    """Re-frames every device frame as protocol major 2: a firmware from another major."""
-
-    def __init__(self, inner: Transport) -> None:
-        self.inner = inner
-        self.url = inner.url
-        self._pending = b""
-
-    def read(self, timeout: float) -> bytes:
-        *frames, self._pending = (self._pending + self.inner.read(timeout)).split(b"\x00")
-        out = b""
-        for encoded in frames:
-            try:
-                frame = decode_frame(encoded)
-            except FrameError:
-                continue
-            out += encode_raw(frame.message.TYPE_ID, frame.message.pack(), frame.seq, (2, 1))
-        return out
-
-    def write(self, data: bytes) -> None:
-        self.inner.write(data)
-
-    def close(self) -> None:
-        self.inner.close()
-
-
 class RewritingTransport:
     """Passes every device frame through `rewrite(frame) -> wire bytes` (with its 0x00):
     a device that sends frames the way the test needs them (bad times, another major)."""
@@ -117,3 +91,13 @@ class LineNoiseTransport:
 
     def close(self) -> None:
         self.inner.close()
+
+
+class FutureMajorTransport(RewritingTransport):
+    """Re-frames every device frame as protocol major 2: a firmware from another major."""
+
+    def __init__(self, inner: Transport) -> None:
+        super().__init__(
+            inner,
+            lambda f: encode_raw(f.message.TYPE_ID, f.message.pack(), f.seq, (2, 1)),
+        )
