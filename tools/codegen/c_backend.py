@@ -173,18 +173,31 @@ static uint32_t get_u32(const uint8_t *p) {
 static uint64_t get_u64(const uint8_t *p) {
     return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32);
 }
+static void put_f32(uint8_t *p, float v) {
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits); /* IEEE 754 binary32, sent little-endian like integers */
+    put_u32(p, bits);
+}
+static float get_f32(const uint8_t *p) {
+    const uint32_t bits = get_u32(p);
+    float v;
+    memcpy(&v, &bits, sizeof v);
+    return v;
+}
 """
 
 
 def render_source(d: Definition) -> str:
     used = {f.type for m in d.messages for f in m.fields if not f.is_text}
-    unsupported = used - {"u8", "u16", "u32", "u64"}
+    unsupported = used - {"u8", "u16", "u32", "u64", "f32"}
     if unsupported:
         raise ValueError(f"C backend lacks helpers for {sorted(unsupported)}")
     helpers = [
         line
         for line in HELPERS.splitlines()
-        if not any(f"_{t}(" in line.split("{")[0] for t in {"u8", "u16", "u32", "u64"} - used)
+        if not any(
+            f"_{t}(" in line.split("{")[0] for t in {"u8", "u16", "u32", "u64", "f32"} - used
+        )
     ]
     out = [BANNER, '#include "stac_messages.h"', "", "#include <string.h>", ""]
     out += helpers

@@ -23,6 +23,17 @@ static uint32_t get_u32(const uint8_t *p) {
 static uint64_t get_u64(const uint8_t *p) {
     return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32);
 }
+static void put_f32(uint8_t *p, float v) {
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits); /* IEEE 754 binary32, sent little-endian like integers */
+    put_u32(p, bits);
+}
+static float get_f32(const uint8_t *p) {
+    const uint32_t bits = get_u32(p);
+    float v;
+    memcpy(&v, &bits, sizeof v);
+    return v;
+}
 
 size_t stac_configure_pack(const stac_configure_t *m, uint8_t *out) {
     size_t o = 0;
@@ -128,7 +139,7 @@ uint16_t stac_configure_validate(const stac_configure_t *m, uint8_t *field_index
         const uint8_t *p = &m->flags;
         for (size_t i = 0; i < 1u; i++) {
             const uint32_t v = p[i];
-            if ((v & ~0x1u) != 0u) {
+            if ((v & ~0x7u) != 0u) {
                 *field_index = 4u;
                 return STAC_BAD_FLAGS;
             }
@@ -188,6 +199,97 @@ void stac_time_sync_request_unpack(stac_time_sync_request_t *m, const uint8_t *i
     o += 4u;
     m->host_time_ns = get_u64(b + o);
     o += 8u;
+    (void)o;
+}
+
+size_t stac_model_begin_pack(const stac_model_begin_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u32(out + o, m->model_id);
+    o += 4u;
+    put_u32(out + o, m->size);
+    o += 4u;
+    put_u32(out + o, m->crc);
+    o += 4u;
+    return o;
+}
+
+void stac_model_begin_unpack(stac_model_begin_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_MODEL_BEGIN_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->model_id = get_u32(b + o);
+    o += 4u;
+    m->size = get_u32(b + o);
+    o += 4u;
+    m->crc = get_u32(b + o);
+    o += 4u;
+    (void)o;
+}
+
+size_t stac_model_chunk_pack(const stac_model_chunk_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u32(out + o, m->offset);
+    o += 4u;
+    put_u8(out + o, m->length);
+    o += 1u;
+    memcpy(out + o, m->data, 224u);
+    o += 224u;
+    return o;
+}
+
+void stac_model_chunk_unpack(stac_model_chunk_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_MODEL_CHUNK_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->offset = get_u32(b + o);
+    o += 4u;
+    m->length = get_u8(b + o);
+    o += 1u;
+    memcpy(m->data, b + o, 224u);
+    o += 224u;
+    (void)o;
+}
+
+uint16_t stac_model_chunk_validate(const stac_model_chunk_t *m, uint8_t *field_index) {
+    *field_index = 255u;
+    {
+        const uint8_t *p = &m->length;
+        for (size_t i = 0; i < 1u; i++) {
+            const uint32_t v = p[i];
+            if (v < 1 || v > 224u) {
+                *field_index = 1u;
+                return STAC_MODEL_BAD_CHUNK;
+            }
+        }
+    }
+    return STAC_OK;
+}
+
+size_t stac_model_commit_pack(const stac_model_commit_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u32(out + o, m->model_id);
+    o += 4u;
+    return o;
+}
+
+void stac_model_commit_unpack(stac_model_commit_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_MODEL_COMMIT_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->model_id = get_u32(b + o);
+    o += 4u;
     (void)o;
 }
 
@@ -661,7 +763,7 @@ uint16_t stac_config_validate(const stac_config_t *m, uint8_t *field_index) {
         const uint8_t *p = &m->flags;
         for (size_t i = 0; i < 1u; i++) {
             const uint32_t v = p[i];
-            if ((v & ~0x1u) != 0u) {
+            if ((v & ~0x7u) != 0u) {
                 *field_index = 5u;
                 return STAC_BAD_FLAGS;
             }
@@ -700,6 +802,138 @@ uint16_t stac_config_validate(const stac_config_t *m, uint8_t *field_index) {
     return STAC_OK;
 }
 
+size_t stac_model_info_pack(const stac_model_info_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u8(out + o, m->present);
+    o += 1u;
+    put_u32(out + o, m->model_id);
+    o += 4u;
+    put_u32(out + o, m->size);
+    o += 4u;
+    put_u32(out + o, m->crc);
+    o += 4u;
+    put_u8(out + o, m->weight_format);
+    o += 1u;
+    put_u8(out + o, m->led_steps);
+    o += 1u;
+    put_u16(out + o, m->n_inputs);
+    o += 2u;
+    put_u32(out + o, m->capacity);
+    o += 4u;
+    put_u16(out + o, m->max_inputs);
+    o += 2u;
+    put_u16(out + o, m->max_hidden);
+    o += 2u;
+    return o;
+}
+
+void stac_model_info_unpack(stac_model_info_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_MODEL_INFO_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->present = get_u8(b + o);
+    o += 1u;
+    m->model_id = get_u32(b + o);
+    o += 4u;
+    m->size = get_u32(b + o);
+    o += 4u;
+    m->crc = get_u32(b + o);
+    o += 4u;
+    m->weight_format = get_u8(b + o);
+    o += 1u;
+    m->led_steps = get_u8(b + o);
+    o += 1u;
+    m->n_inputs = get_u16(b + o);
+    o += 2u;
+    m->capacity = get_u32(b + o);
+    o += 4u;
+    m->max_inputs = get_u16(b + o);
+    o += 2u;
+    m->max_hidden = get_u16(b + o);
+    o += 2u;
+    (void)o;
+}
+
+size_t stac_estimate_pack(const stac_estimate_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u32(out + o, m->sample_seq);
+    o += 4u;
+    put_u32(out + o, m->t_end_us);
+    o += 4u;
+    put_u16(out + o, m->config_id);
+    o += 2u;
+    put_u32(out + o, m->model_id);
+    o += 4u;
+    put_u8(out + o, m->flags);
+    o += 1u;
+    {
+        const float *p = &m->force[0];
+        for (size_t i = 0; i < 3u; i++) {
+            put_f32(out + o, p[i]);
+            o += 4u;
+        }
+    }
+    {
+        const float *p = &m->torque[0];
+        for (size_t i = 0; i < 3u; i++) {
+            put_f32(out + o, p[i]);
+            o += 4u;
+        }
+    }
+    put_u8(out + o, m->region);
+    o += 1u;
+    put_f32(out + o, m->region_prob);
+    o += 4u;
+    put_u16(out + o, m->decode_us);
+    o += 2u;
+    return o;
+}
+
+void stac_estimate_unpack(stac_estimate_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_ESTIMATE_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->sample_seq = get_u32(b + o);
+    o += 4u;
+    m->t_end_us = get_u32(b + o);
+    o += 4u;
+    m->config_id = get_u16(b + o);
+    o += 2u;
+    m->model_id = get_u32(b + o);
+    o += 4u;
+    m->flags = get_u8(b + o);
+    o += 1u;
+    {
+        float *p = &m->force[0];
+        for (size_t i = 0; i < 3u; i++) {
+            p[i] = get_f32(b + o);
+            o += 4u;
+        }
+    }
+    {
+        float *p = &m->torque[0];
+        for (size_t i = 0; i < 3u; i++) {
+            p[i] = get_f32(b + o);
+            o += 4u;
+        }
+    }
+    m->region = get_u8(b + o);
+    o += 1u;
+    m->region_prob = get_f32(b + o);
+    o += 4u;
+    m->decode_us = get_u16(b + o);
+    o += 2u;
+    (void)o;
+}
+
 int stac_payload_size(uint8_t type) {
     switch (type) {
     case STAC_MSG_GET_INFO: return (int)STAC_GET_INFO_SIZE;
@@ -710,6 +944,11 @@ int stac_payload_size(uint8_t type) {
     case STAC_MSG_GET_STATUS: return (int)STAC_GET_STATUS_SIZE;
     case STAC_MSG_GET_CONFIG: return (int)STAC_GET_CONFIG_SIZE;
     case STAC_MSG_RESET_STATS: return (int)STAC_RESET_STATS_SIZE;
+    case STAC_MSG_MODEL_BEGIN: return (int)STAC_MODEL_BEGIN_SIZE;
+    case STAC_MSG_MODEL_CHUNK: return (int)STAC_MODEL_CHUNK_SIZE;
+    case STAC_MSG_MODEL_COMMIT: return (int)STAC_MODEL_COMMIT_SIZE;
+    case STAC_MSG_MODEL_CLEAR: return (int)STAC_MODEL_CLEAR_SIZE;
+    case STAC_MSG_GET_MODEL: return (int)STAC_GET_MODEL_SIZE;
     case STAC_MSG_INFO: return (int)STAC_INFO_SIZE;
     case STAC_MSG_ACK: return (int)STAC_ACK_SIZE;
     case STAC_MSG_NACK: return (int)STAC_NACK_SIZE;
@@ -718,12 +957,14 @@ int stac_payload_size(uint8_t type) {
     case STAC_MSG_TIME_SYNC_REPLY: return (int)STAC_TIME_SYNC_REPLY_SIZE;
     case STAC_MSG_LOG: return (int)STAC_LOG_SIZE;
     case STAC_MSG_CONFIG: return (int)STAC_CONFIG_SIZE;
+    case STAC_MSG_MODEL_INFO: return (int)STAC_MODEL_INFO_SIZE;
+    case STAC_MSG_ESTIMATE: return (int)STAC_ESTIMATE_SIZE;
     default: return -1;
     }
 }
 
 int stac_payload_min_size(uint8_t type, uint8_t minor) {
-    (void)minor; /* every field is 1.0: one layout for every sender */
+    const uint8_t v = minor < 1u ? minor : (uint8_t)1u;
     switch (type) {
     case STAC_MSG_GET_INFO: return 0;
     case STAC_MSG_CONFIGURE: return 153;
@@ -733,6 +974,11 @@ int stac_payload_min_size(uint8_t type, uint8_t minor) {
     case STAC_MSG_GET_STATUS: return 0;
     case STAC_MSG_GET_CONFIG: return 0;
     case STAC_MSG_RESET_STATS: return 0;
+    case STAC_MSG_MODEL_BEGIN: return 12;
+    case STAC_MSG_MODEL_CHUNK: return 229;
+    case STAC_MSG_MODEL_COMMIT: return 4;
+    case STAC_MSG_MODEL_CLEAR: return 0;
+    case STAC_MSG_GET_MODEL: return 0;
     case STAC_MSG_INFO: return 70;
     case STAC_MSG_ACK: return 5;
     case STAC_MSG_NACK: return 6;
@@ -741,6 +987,8 @@ int stac_payload_min_size(uint8_t type, uint8_t minor) {
     case STAC_MSG_TIME_SYNC_REPLY: return 20;
     case STAC_MSG_LOG: return 69;
     case STAC_MSG_CONFIG: return 155;
+    case STAC_MSG_MODEL_INFO: return 25;
+    case STAC_MSG_ESTIMATE: return 46;
     default: return -1;
     }
 }
@@ -761,6 +1009,13 @@ const char *stac_error_name(uint16_t code) {
     case STAC_BAD_SETTLE_TIME: return "BAD_SETTLE_TIME";
     case STAC_MALFORMED: return "MALFORMED";
     case STAC_INTERNAL: return "INTERNAL";
+    case STAC_MODEL_TOO_LARGE: return "MODEL_TOO_LARGE";
+    case STAC_MODEL_BAD_CHUNK: return "MODEL_BAD_CHUNK";
+    case STAC_MODEL_BAD_CRC: return "MODEL_BAD_CRC";
+    case STAC_MODEL_INVALID: return "MODEL_INVALID";
+    case STAC_NO_MODEL: return "NO_MODEL";
+    case STAC_MODEL_MISMATCH: return "MODEL_MISMATCH";
+    case STAC_FLASH_ERROR: return "FLASH_ERROR";
     default: return "?";
     }
 }

@@ -12,8 +12,8 @@ extern "C" {
 #endif
 
 #define STAC_PROTOCOL_MAJOR 1u
-#define STAC_PROTOCOL_MINOR 0u
-#define STAC_DEFINITION_HASH 0xA7314832u
+#define STAC_PROTOCOL_MINOR 1u
+#define STAC_DEFINITION_HASH 0x25455525u
 #define STAC_MAX_PAYLOAD 240u
 #define STAC_HEADER_SIZE 5u
 #define STAC_CRC_SIZE 4u
@@ -41,6 +41,13 @@ typedef enum stac_error {
     STAC_BAD_SETTLE_TIME = 11, /* led_settle_us exceeds 10000 µs. */
     STAC_MALFORMED = 12, /* The payload is longer than max_payload or otherwise unusable. */
     STAC_INTERNAL = 13, /* The device could not carry out a valid request. */
+    STAC_MODEL_TOO_LARGE = 14, /* MODEL_BEGIN announced a model larger than the device's model store. */
+    STAC_MODEL_BAD_CHUNK = 15, /* A MODEL_CHUNK arrived without MODEL_BEGIN, out of order, or past the announced size. */
+    STAC_MODEL_BAD_CRC = 16, /* The uploaded bytes do not match MODEL_BEGIN's size or CRC-32C. */
+    STAC_MODEL_INVALID = 17, /* The model file is damaged, of an unknown format version, or exceeds the firmware's limits (inputs, features, hidden units). */
+    STAC_NO_MODEL = 18, /* Estimates were asked for but no valid model is stored. */
+    STAC_MODEL_MISMATCH = 19, /* The stored model was trained for another LED step count than the configuration asks for. */
+    STAC_FLASH_ERROR = 20, /* Erasing or programming the model store failed. */
 } stac_error_t;
 
 /* VEML3328 analogue gain (CONF bits 11:10). */
@@ -85,9 +92,19 @@ typedef enum stac_log_level {
 #define STAC_CAP_LOG (1u << 3) /* LOG messages. */
 #define STAC_CAP_IR_CHANNEL (1u << 4) /* IR counts are measured (otherwise 0). */
 #define STAC_CAP_SIMULATED (1u << 5) /* This device is simulated (the digital twin answers its sensor buses). */
+#define STAC_CAP_ESTIMATE (1u << 6) /* On-device decoding: ESTIMATE messages and GET_MODEL/MODEL_INFO (protocol 1.1). */
+#define STAC_CAP_MODEL_UPLOAD (1u << 7) /* Decoders can be uploaded into flash (MODEL_BEGIN/CHUNK/COMMIT/CLEAR, protocol 1.1). */
 
 /* CONFIGURE.flags bits. */
 #define STAC_CONFIG_STREAM (1u << 0) /* Start streaming once the configuration is applied (same as a following START). */
+#define STAC_CONFIG_ESTIMATE (1u << 1) /* Also send an ESTIMATE after every SAMPLE, decoded on the device by the stored model (protocol 1.1; NACK NO_MODEL without one). */
+#define STAC_CONFIG_ESTIMATE_ONLY (1u << 2) /* With CONFIG_ESTIMATE: send ESTIMATE instead of SAMPLE (a sixth of the bytes; samples are then only counted). */
+
+/* ESTIMATE.flags bits: how far the estimate can be trusted. */
+#define STAC_EST_CONTACT (1u << 0) /* The model says something touches the sensor (contact head, or |F| above the model's contact threshold). */
+#define STAC_EST_INVALID (1u << 1) /* No usable estimate: an input was saturated, dark, stale, from a faulty bus, or not finite; force and torque are NaN. */
+#define STAC_EST_OOD (1u << 2) /* Inputs or outputs lie outside the ranges seen in training: the numbers are extrapolated. */
+#define STAC_EST_WARMUP (1u << 3) /* The model's temporal context or no-contact baseline is not yet filled (first samples after START or CONFIGURE). */
 
 /* Message type ids. */
 #define STAC_MSG_GET_INFO 0x01u
@@ -98,6 +115,11 @@ typedef enum stac_log_level {
 #define STAC_MSG_GET_STATUS 0x06u
 #define STAC_MSG_GET_CONFIG 0x07u
 #define STAC_MSG_RESET_STATS 0x08u
+#define STAC_MSG_MODEL_BEGIN 0x09u
+#define STAC_MSG_MODEL_CHUNK 0x0Au
+#define STAC_MSG_MODEL_COMMIT 0x0Bu
+#define STAC_MSG_MODEL_CLEAR 0x0Cu
+#define STAC_MSG_GET_MODEL 0x0Du
 #define STAC_MSG_INFO 0x81u
 #define STAC_MSG_ACK 0x82u
 #define STAC_MSG_NACK 0x83u
@@ -106,6 +128,8 @@ typedef enum stac_log_level {
 #define STAC_MSG_TIME_SYNC_REPLY 0x86u
 #define STAC_MSG_LOG 0x87u
 #define STAC_MSG_CONFIG 0x88u
+#define STAC_MSG_MODEL_INFO 0x89u
+#define STAC_MSG_ESTIMATE 0x8Au
 
 /* GET_INFO (host to device): Ask for INFO. The first message a host sends; the device answers even while streaming. */
 #define STAC_GET_INFO_SIZE 0u
@@ -154,6 +178,48 @@ void stac_time_sync_request_unpack(stac_time_sync_request_t *m, const uint8_t *i
 
 /* RESET_STATS (host to device): Zero the statistics counters. Answered by ACK. */
 #define STAC_RESET_STATS_SIZE 0u
+
+/* MODEL_BEGIN (host to device): Start uploading a decoder into the model store (protocol 1.1). Invalidates the stored model at once, so a half-written store is never used. Answered by ACK, or NACK MODEL_TOO_LARGE / FLASH_ERROR. */
+#define STAC_MODEL_BEGIN_SIZE 12u
+typedef struct stac_model_begin {
+    uint32_t model_id; /* Chosen by the host (the model file's id); echoed by MODEL_INFO and every ESTIMATE. */
+    uint32_t size; /* Length of the model image that follows in MODEL_CHUNKs. [B] */
+    uint32_t crc; /* CRC-32C of the whole model image. */
+} stac_model_begin_t;
+/* Writes exactly STAC_MODEL_BEGIN_SIZE bytes; returns that size. */
+size_t stac_model_begin_pack(const stac_model_begin_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_model_begin_unpack(stac_model_begin_t *m, const uint8_t *in, size_t len);
+
+/* MODEL_CHUNK (host to device): Part of the model image, in order (protocol 1.1). Answered by ACK, or NACK MODEL_BAD_CHUNK / FLASH_ERROR. */
+#define STAC_MODEL_CHUNK_SIZE 229u
+typedef struct stac_model_chunk {
+    uint32_t offset; /* Position of data[0] in the image; must equal the bytes received so far. [B] */
+    uint8_t length; /* Bytes of data used (1..224). */
+    uint8_t data[224]; /* Image bytes; those past length are ignored and should be 0. */
+} stac_model_chunk_t;
+/* Writes exactly STAC_MODEL_CHUNK_SIZE bytes; returns that size. */
+size_t stac_model_chunk_pack(const stac_model_chunk_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_model_chunk_unpack(stac_model_chunk_t *m, const uint8_t *in, size_t len);
+/* Returns STAC_OK or the error code; *field_index names the field (255: none). */
+uint16_t stac_model_chunk_validate(const stac_model_chunk_t *m, uint8_t *field_index);
+
+/* MODEL_COMMIT (host to device): Finish an upload (protocol 1.1): the device checks size and CRC, validates the image, then marks it valid in flash so that it survives reset. Answered by ACK, or NACK MODEL_BAD_CRC / MODEL_INVALID / FLASH_ERROR. */
+#define STAC_MODEL_COMMIT_SIZE 4u
+typedef struct stac_model_commit {
+    uint32_t model_id; /* Must equal MODEL_BEGIN's model_id. */
+} stac_model_commit_t;
+/* Writes exactly STAC_MODEL_COMMIT_SIZE bytes; returns that size. */
+size_t stac_model_commit_pack(const stac_model_commit_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_model_commit_unpack(stac_model_commit_t *m, const uint8_t *in, size_t len);
+
+/* MODEL_CLEAR (host to device): Erase the stored model (protocol 1.1); a built-in model, if the firmware has one, takes its place. Answered by ACK. */
+#define STAC_MODEL_CLEAR_SIZE 0u
+
+/* GET_MODEL (host to device): Ask for MODEL_INFO (protocol 1.1). */
+#define STAC_GET_MODEL_SIZE 0u
 
 /* INFO (device to host): Identity, versions and limits of the device. Sent in answer to GET_INFO. Its first two fields keep their place in every major version so that any host can name a mismatch. */
 #define STAC_INFO_SIZE 70u
@@ -287,6 +353,44 @@ size_t stac_config_pack(const stac_config_t *m, uint8_t *out);
 void stac_config_unpack(stac_config_t *m, const uint8_t *in, size_t len);
 /* Returns STAC_OK or the error code; *field_index names the field (255: none). */
 uint16_t stac_config_validate(const stac_config_t *m, uint8_t *field_index);
+
+/* MODEL_INFO (device to host): The decoder the device runs, in answer to GET_MODEL (protocol 1.1). */
+#define STAC_MODEL_INFO_SIZE 25u
+typedef struct stac_model_info {
+    uint8_t present; /* 0: no model; 1: uploaded model in flash; 2: built-in model compiled into the firmware. */
+    uint32_t model_id; /* Id of the model in use (0 when none). */
+    uint32_t size; /* Length of its image. [B] */
+    uint32_t crc; /* CRC-32C of its image. */
+    uint8_t weight_format; /* 0 float32, 1 float16, 2 int8 (per-row scales). */
+    uint8_t led_steps; /* LED step count the model was trained with. */
+    uint16_t n_inputs; /* Assembled inputs per estimate (channels x steps, plus context). */
+    uint32_t capacity; /* Size of the model store: the largest image MODEL_BEGIN accepts. [B] */
+    uint16_t max_inputs; /* Largest n_inputs this firmware decodes. */
+    uint16_t max_hidden; /* Largest hidden width this firmware decodes. */
+} stac_model_info_t;
+/* Writes exactly STAC_MODEL_INFO_SIZE bytes; returns that size. */
+size_t stac_model_info_pack(const stac_model_info_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_model_info_unpack(stac_model_info_t *m, const uint8_t *in, size_t len);
+
+/* ESTIMATE (device to host): Force, torque and contact region decoded on the device from the newest SAMPLE (protocol 1.1; sent when CONFIGURE set CONFIG_ESTIMATE). */
+#define STAC_ESTIMATE_SIZE 46u
+typedef struct stac_estimate {
+    uint32_t sample_seq; /* sample_seq of the SAMPLE this estimate ends with. */
+    uint32_t t_end_us; /* That sample's t_end_us. [µs] */
+    uint16_t config_id; /* Configuration that produced the sample. */
+    uint32_t model_id; /* Model that produced the estimate. */
+    uint8_t flags; /* EST_* bits. */
+    float force[3]; /* Fx, Fy, Fz in board axes; NaN when EST_INVALID or when the model has no such target. [N] */
+    float torque[3]; /* Tx, Ty, Tz; NaN when EST_INVALID or when the model has no such target. [N·m] */
+    uint8_t region; /* Most probable contact region 1..9; 0 when the model has no region head or EST_INVALID. */
+    float region_prob; /* Its probability (softmax), NaN without a region head. */
+    uint16_t decode_us; /* Time the device spent decoding this estimate (assembly and network), saturating at 65535. [µs] */
+} stac_estimate_t;
+/* Writes exactly STAC_ESTIMATE_SIZE bytes; returns that size. */
+size_t stac_estimate_pack(const stac_estimate_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_estimate_unpack(stac_estimate_t *m, const uint8_t *in, size_t len);
 
 /* Payload size of a known message type, or -1 for an unknown type. */
 int stac_payload_size(uint8_t type);
