@@ -34,7 +34,7 @@ def configure(**overrides: object) -> messages.Configure:
         ({"sensitivity": 2}, "sensitivity", "0, 1"),
         ({"led_step_count": 9}, "led_step_count", "1..8"),
         ({"led_step_count": 0}, "led_step_count", "1..8"),
-        ({"flags": 0x80}, "flags", "mask: 0x1"),
+        ({"flags": 0x80}, "flags", "mask: 0x7"),
         ({"led_settle_us": 20000}, "led_settle_us", "0..10000"),
         ({"led_duty": ((((1001, 0, 0),) * 3),) * 8}, "led_duty", "0..1000"),
         ({"led_duty": ((0, 0),)}, "led_duty", "shape (8, 3, 3)"),
@@ -57,7 +57,10 @@ def test_text_fields_checked() -> None:
 
 def test_major_mismatch_names_both_versions() -> None:
     wire = encode_raw(messages.Info.TYPE_ID, messages.Info().pack(), seq=0, version=(2, 7))
-    with pytest.raises(VersionMismatchError, match=r"peer speaks 2\.7.*this host speaks 1\.0"):
+    with pytest.raises(
+        VersionMismatchError,
+        match=rf"peer speaks 2\.7.*this host speaks 1\.{messages.PROTOCOL_MINOR}",
+    ):
         decode_frame(wire[:-1])
     decoder = StreamDecoder()
     assert decoder.feed(wire) == []

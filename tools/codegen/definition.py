@@ -75,6 +75,7 @@ class Message:
     direction: str
     doc: str
     fields: tuple[Field, ...]
+    since: int = 0  # the protocol minor version that added this message
 
     @property
     def payload_size(self) -> int:
@@ -181,7 +182,14 @@ def load(path: Path) -> Definition:
         fields = [_field(f, f"{m['name']}.{f['name']}") for f in m.get("fields", [])]
         if "include" in m:
             fields += list(by_name[m["include"]].fields)
-        msg = Message(m["name"], m["id"], m["direction"], m.get("doc", ""), tuple(fields))
+        msg = Message(
+            m["name"], m["id"], m["direction"], m.get("doc", ""), tuple(fields), m.get("since", 0)
+        )
+        if not 0 <= msg.since <= raw["protocol"]["minor"]:
+            raise DefinitionError(
+                f"{msg.name}: 'since' values must be minor versions 0..protocol.minor "
+                f"({raw['protocol']['minor']}); the message says {msg.since}"
+            )
         if msg.id in ids:
             raise DefinitionError(f"{msg.name}: duplicate type id 0x{msg.id:02X}")
         if msg.direction not in ("host_to_device", "device_to_host"):
@@ -222,6 +230,7 @@ def wire_hash(d: Definition) -> int:
         "flags": {n: [(v.name, v.value) for v in vals] for n, (_, vals) in d.flags.items()},
         "messages": [
             [m.name, m.id, m.direction]
+            + ([["since", m.since]] if m.since else [])  # 1.0 messages: the hash 1.0 always had
             + [
                 [f.name, f.type, list(f.shape), f.enum, f.allowed, f.min, f.max, f.bits, f.error]
                 + ([f.since] if f.since else [])  # 1.0 fields: the hash 1.0 always had

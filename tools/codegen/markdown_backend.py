@@ -45,14 +45,21 @@ def render(d: Definition) -> str:
         "",
         "## Messages",
         "",
-        "| id | message | direction | payload bytes |",
-        "|---|---|---|---|",
+        "| id | message | direction | payload bytes | added in |",
+        "|---|---|---|---|---|",
     ]
+    major = p["major"]
     for m in d.messages:
         arrow = "host → device" if m.direction == "host_to_device" else "device → host"
-        out.append(f"| 0x{m.id:02X} | [{m.name}](#{m.name.lower()}) | {arrow} | {m.payload_size} |")
+        out.append(
+            f"| 0x{m.id:02X} | [{m.name}](#{m.name.lower()}) | {arrow} | {m.payload_size} "
+            f"| {major}.{m.since} |"
+        )
     for m in d.messages:
-        out += ["", f"### {m.name}", "", f"Type 0x{m.id:02X}. {m.doc}", ""]
+        added = (
+            f" Added in {major}.{m.since}: a {major}.0 peer does not know it." if m.since else ""
+        )
+        out += ["", f"### {m.name}", "", f"Type 0x{m.id:02X}.{added} {m.doc}", ""]
         if not m.fields:
             out.append("Empty payload.")
             continue
@@ -62,8 +69,9 @@ def render(d: Definition) -> str:
         ]
         offset = 0
         for f in m.fields:
+            doc = f"(added in {major}.{f.since}) {f.doc}" if f.since > m.since else f.doc
             out.append(
-                f"| {offset} | `{f.name}` | {_type(f)} | {f.unit} | {_constraint(d, f)} | {f.doc} |"
+                f"| {offset} | `{f.name}` | {_type(f)} | {f.unit} | {_constraint(d, f)} | {doc} |"
             )
             offset += f.size
     out += ["", "## Error codes (NACK.error)", "", "| code | name | meaning | what to do |"]

@@ -113,6 +113,7 @@ def _message(d: Definition, m: Message) -> str:
         f"    NAME: ClassVar[str] = {m.name!r}",
         f"    DIRECTION: ClassVar[str] = {m.direction!r}",
         f"    PAYLOAD_SIZE: ClassVar[int] = {m.payload_size}",
+        f"    SINCE: ClassVar[int] = {m.since}  # protocol minor version that added the message",
         "    #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)",
         f"    LAYOUT_SIZES: ClassVar[tuple[int, ...]] = {_layout_sizes(d, m)!r}",
         "    FIELDS: ClassVar[tuple[FieldSpec, ...]] = (",

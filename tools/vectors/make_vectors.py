@@ -9,6 +9,7 @@ independent reference implementation, and review the diff of protocol/vectors/ l
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from cobs import cobs
 from spectratac.protocol import messages as m
 from spectratac.protocol.framing import HEADER, crc32c, encode_frame, encode_raw
 from spectratac.protocol.schema import Message
+from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
 
 OUT = Path(__file__).resolve().parents[2] / "protocol" / "vectors"
 WHITE = ((500, 500, 500),) * 3
@@ -31,18 +33,25 @@ def mono(colour: int, duty: int) -> tuple[tuple[int, int, int], ...]:
     return tuple(tuple(duty if c == colour else 0 for c in range(3)) for _ in range(3))
 
 
+V1_0 = (1, 0)  # the vectors written for protocol 1.0 stay 1.0 frames: a 1.1 receiver reads them
+V1_1 = (1, 1)
+
+
 def meaning(msg: Message, seq: int, version: tuple[int, int]) -> dict[str, Any]:
-    return msg.to_dict() | {"seq": seq, "version": list(version)}
+    # the decoded form: float32 fields hold what the wire holds, not the float64 written here
+    return type(msg).unpack(msg.pack()).to_dict() | {"seq": seq, "version": list(version)}
 
 
-def valid(name: str, msg: Message, seq: int, doc: str) -> dict[str, Any]:
-    wire = encode_frame(msg, seq)
+def valid(
+    name: str, msg: Message, seq: int, doc: str, version: tuple[int, int] = V1_0
+) -> dict[str, Any]:
+    wire = encode_frame(msg, seq, version)
     return {
         "name": name,
         "doc": doc,
         "hex": wire.hex(),
         "valid": True,
-        "message": meaning(msg, seq, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)),
+        "message": meaning(msg, seq, version),
     }
 
 
@@ -74,7 +83,7 @@ def build() -> list[dict[str, Any]]:
     info = m.Info(
         protocol_major=1,
         protocol_minor=0,
-        definition_hash=m.DEFINITION_HASH,
+        definition_hash=RELEASED_DEFINITION_HASHES[0],
         firmware_version=(0, 1, 0),
         build_id="v0.1.0-3-gabc123",
         device_uid=bytes(range(1, 13)),
@@ -314,7 +323,208 @@ def build() -> list[dict[str, Any]]:
             "A 1.0 SAMPLE with an empty payload and a good CRC: malformed, not a zero sample.",
         ),
     ]
-    return vectors
+    return vectors + build_1_1(info, sample)
+
+
+def nack(rejected: type[Message], seq: int, error: m.Error, field_index: int = 255) -> m.Nack:
+    return m.Nack(
+        rejected_type=rejected.TYPE_ID, rejected_seq=seq, error=error, field_index=field_index
+    )
+
+
+def build_1_1(info: m.Info, sample: m.Sample) -> list[dict[str, Any]]:
+    """Protocol 1.1 (on-device decoding): model upload, model info, estimates, their NACKs."""
+    image_crc = 0x1C29_1CA3  # any value: a device checks it against the image at MODEL_COMMIT
+    full = bytes((i * 37 + 11) % 255 + 1 for i in range(224))  # no zero byte: longest COBS run
+    last = bytes(range(1, 97)) + bytes(224 - 96)
+    estimate = m.Estimate(
+        sample_seq=sample.sample_seq,
+        t_end_us=sample.t_end_us,
+        config_id=sample.config_id,
+        model_id=0x5EC7_A7AC,
+        flags=m.EstimateFlags.EST_CONTACT,
+        force=(0.375, -1.25, 4.5),
+        torque=(0.001953125, -0.0078125, 0.0),
+        region=5,
+        region_prob=0.875,
+        decode_us=812,
+    )
+    nan = math.nan
+    info_1_1 = m.Info(
+        **{f.name: getattr(info, f.name) for f in m.Info.FIELDS}
+        | {
+            "protocol_minor": 1,
+            "definition_hash": m.DEFINITION_HASH,
+            "capabilities": info.capabilities
+            | m.Capabilities.CAP_ESTIMATE
+            | m.Capabilities.CAP_MODEL_UPLOAD,
+        }
+    )
+    return [
+        valid(
+            "info_1_1",
+            info_1_1,
+            20,
+            "A 1.1 device that decodes on board and accepts uploaded models.",
+            V1_1,
+        ),
+        valid(
+            "model_begin",
+            m.ModelBegin(model_id=0x5EC7_A7AC, size=4096, crc=image_crc),
+            21,
+            "Announce a 4 KiB model image.",
+            V1_1,
+        ),
+        valid(
+            "model_chunk_max",
+            m.ModelChunk(offset=224 * 18, length=224, data=full),
+            22,
+            "A full chunk (224 bytes, none zero): the longest host-to-device frame.",
+            V1_1,
+        ),
+        valid(
+            "model_chunk_last",
+            m.ModelChunk(offset=4000, length=96, data=last),
+            23,
+            "The image's last 96 bytes; the unused rest of data is zero.",
+            V1_1,
+        ),
+        valid("model_commit", m.ModelCommit(model_id=0x5EC7_A7AC), 24, "Finish the upload.", V1_1),
+        valid("model_clear", m.ModelClear(), 25, "Erase the stored model.", V1_1),
+        valid("get_model", m.GetModel(), 26, "Ask which model the device runs.", V1_1),
+        valid(
+            "model_info",
+            m.ModelInfo(
+                present=1,
+                model_id=0x5EC7_A7AC,
+                size=4096,
+                crc=image_crc,
+                weight_format=1,
+                led_steps=3,
+                n_inputs=135,
+                capacity=128 * 1024,
+                max_inputs=256,
+                max_hidden=128,
+            ),
+            27,
+            "An uploaded float16 model for three LED steps.",
+            V1_1,
+        ),
+        valid(
+            "model_info_none",
+            m.ModelInfo(capacity=128 * 1024, max_inputs=256, max_hidden=128),
+            28,
+            "No model stored: only the limits are given.",
+            V1_1,
+        ),
+        valid(
+            "estimate_typical",
+            estimate,
+            29,
+            "A contact estimate with dyadic values (exact in float32).",
+            V1_1,
+        ),
+        valid(
+            "estimate_invalid_nan",
+            m.Estimate(
+                sample_seq=1235,
+                t_end_us=5_100_000,
+                config_id=2,
+                model_id=0x5EC7_A7AC,
+                flags=m.EstimateFlags.EST_INVALID | m.EstimateFlags.EST_WARMUP,
+                force=(nan, nan, nan),
+                torque=(nan, nan, nan),
+                region=0,
+                region_prob=nan,
+                decode_us=0xFFFF,
+            ),
+            30,
+            "No usable estimate: every float is the quiet NaN 0x7FC00000; decode_us saturated.",
+            V1_1,
+        ),
+        valid(
+            "estimate_force_only",
+            m.Estimate(
+                sample_seq=0xFFFF_FFFF,
+                t_end_us=0x0000_C250,
+                config_id=0xFFFF,
+                model_id=1,
+                flags=m.EstimateFlags.EST_CONTACT | m.EstimateFlags.EST_OOD,
+                force=(-0.5, 0.25, 12.0),
+                torque=(nan, nan, nan),
+                region=0,
+                region_prob=nan,
+                decode_us=95,
+            ),
+            31,
+            "A force-only model without region head: torque and region_prob NaN.",
+            V1_1,
+        ),
+        valid(
+            "nack_model_too_large",
+            nack(m.ModelBegin, 21, m.Error.MODEL_TOO_LARGE),
+            32,
+            "MODEL_BEGIN refused: larger than the model store.",
+            V1_1,
+        ),
+        valid(
+            "nack_model_bad_chunk",
+            nack(m.ModelChunk, 22, m.Error.MODEL_BAD_CHUNK, field_index=0),
+            33,
+            "MODEL_CHUNK refused: offset out of order.",
+            V1_1,
+        ),
+        valid(
+            "nack_model_bad_crc",
+            nack(m.ModelCommit, 24, m.Error.MODEL_BAD_CRC),
+            34,
+            "MODEL_COMMIT refused: the bytes do not match MODEL_BEGIN's CRC.",
+            V1_1,
+        ),
+        valid(
+            "nack_model_invalid",
+            nack(m.ModelCommit, 24, m.Error.MODEL_INVALID),
+            35,
+            "MODEL_COMMIT refused: the image fails validation.",
+            V1_1,
+        ),
+        valid(
+            "nack_no_model",
+            nack(m.Configure, 1, m.Error.NO_MODEL, field_index=4),
+            36,
+            "CONFIGURE with CONFIG_ESTIMATE refused: no model stored.",
+            V1_1,
+        ),
+        valid(
+            "nack_model_mismatch",
+            nack(m.Configure, 2, m.Error.MODEL_MISMATCH, field_index=6),
+            37,
+            "CONFIGURE refused: the model was trained for another LED step count.",
+            V1_1,
+        ),
+        valid(
+            "nack_flash_error",
+            nack(m.ModelChunk, 22, m.Error.FLASH_ERROR),
+            38,
+            "MODEL_CHUNK refused: programming the model store failed.",
+            V1_1,
+        ),
+        valid(
+            "configure_estimate_only",
+            m.Configure(
+                integration_ms=50,
+                flags=m.ConfigureFlags.CONFIG_STREAM
+                | m.ConfigureFlags.CONFIG_ESTIMATE
+                | m.ConfigureFlags.CONFIG_ESTIMATE_ONLY,
+                led_settle_us=1000,
+                led_step_count=1,
+                led_duty=steps(WHITE),
+            ),
+            39,
+            "Stream estimates instead of samples.",
+            V1_1,
+        ),
+    ]
 
 
 def _kind(encoded: bytes) -> str:

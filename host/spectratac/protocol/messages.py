@@ -14,7 +14,7 @@ from spectratac.protocol.schema import FieldSpec, Message, fit_payload
 
 PROTOCOL_MAJOR = 1
 PROTOCOL_MINOR = 1
-DEFINITION_HASH = 0x25455525
+DEFINITION_HASH = 0xF8BFB43E
 
 MAX_PAYLOAD = 240
 HEADER_SIZE = 5
@@ -233,6 +233,7 @@ class GetInfo(Message):
     NAME: ClassVar[str] = "GET_INFO"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -256,6 +257,7 @@ class Configure(Message):
     NAME: ClassVar[str] = "CONFIGURE"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 153
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (153, 153)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -411,6 +413,7 @@ class Start(Message):
     NAME: ClassVar[str] = "START"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -434,6 +437,7 @@ class Stop(Message):
     NAME: ClassVar[str] = "STOP"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -457,6 +461,7 @@ class TimeSyncRequest(Message):
     NAME: ClassVar[str] = "TIME_SYNC_REQUEST"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 12
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (12, 12)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -494,6 +499,7 @@ class GetStatus(Message):
     NAME: ClassVar[str] = "GET_STATUS"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -517,6 +523,7 @@ class GetConfig(Message):
     NAME: ClassVar[str] = "GET_CONFIG"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -540,6 +547,7 @@ class ResetStats(Message):
     NAME: ClassVar[str] = "RESET_STATS"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -563,6 +571,7 @@ class ModelBegin(Message):
     NAME: ClassVar[str] = "MODEL_BEGIN"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 12
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (12, 12)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -609,6 +618,7 @@ class ModelChunk(Message):
     NAME: ClassVar[str] = "MODEL_CHUNK"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 229
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (229, 229)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -668,6 +678,7 @@ class ModelCommit(Message):
     NAME: ClassVar[str] = "MODEL_COMMIT"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 4
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (4, 4)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -700,6 +711,7 @@ class ModelClear(Message):
     NAME: ClassVar[str] = "MODEL_CLEAR"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -723,6 +735,7 @@ class GetModel(Message):
     NAME: ClassVar[str] = "GET_MODEL"
     DIRECTION: ClassVar[str] = "host_to_device"
     PAYLOAD_SIZE: ClassVar[int] = 0
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (0, 0)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = ()
@@ -746,6 +759,7 @@ class Info(Message):
     NAME: ClassVar[str] = "INFO"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 70
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (70, 70)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -868,6 +882,7 @@ class Ack(Message):
     NAME: ClassVar[str] = "ACK"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 5
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (5, 5)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -912,6 +927,7 @@ class Nack(Message):
     NAME: ClassVar[str] = "NACK"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 6
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (6, 6)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -959,6 +975,7 @@ class Sample(Message):
     NAME: ClassVar[str] = "SAMPLE"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 48
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (48, 48)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1033,6 +1050,7 @@ class Status(Message):
     NAME: ClassVar[str] = "STATUS"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 60
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (60, 60)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1123,6 +1141,7 @@ class TimeSyncReply(Message):
     NAME: ClassVar[str] = "TIME_SYNC_REPLY"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 20
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (20, 20)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1172,6 +1191,7 @@ class Log(Message):
     NAME: ClassVar[str] = "LOG"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 69
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (69, 69)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1210,6 +1230,7 @@ class Config(Message):
     NAME: ClassVar[str] = "CONFIG"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 155
+    SINCE: ClassVar[int] = 0  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (155, 155)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1369,6 +1390,7 @@ class ModelInfo(Message):
     NAME: ClassVar[str] = "MODEL_INFO"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 25
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (25, 25)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (
@@ -1457,6 +1479,7 @@ class Estimate(Message):
     NAME: ClassVar[str] = "ESTIMATE"
     DIRECTION: ClassVar[str] = "device_to_host"
     PAYLOAD_SIZE: ClassVar[int] = 46
+    SINCE: ClassVar[int] = 1  # protocol minor version that added the message
     #: payload bytes a sender of minor version 0, 1, ... sends (Message.required_size)
     LAYOUT_SIZES: ClassVar[tuple[int, ...]] = (46, 46)
     FIELDS: ClassVar[tuple[FieldSpec, ...]] = (

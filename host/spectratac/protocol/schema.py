@@ -75,6 +75,7 @@ class Message:
     NAME: ClassVar[str]
     DIRECTION: ClassVar[str]
     PAYLOAD_SIZE: ClassVar[int]
+    SINCE: ClassVar[int] = 0  # the protocol minor version that added the message
     LAYOUT_SIZES: ClassVar[tuple[int, ...]]
     FIELDS: ClassVar[tuple[FieldSpec, ...]]
 

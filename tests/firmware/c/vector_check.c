@@ -44,6 +44,11 @@ static size_t canonical(uint8_t type, const uint8_t *in, size_t len, uint8_t *ou
     case STAC_MSG_TIME_SYNC_REPLY: ROUNDTRIP(stac_time_sync_reply_t, stac_time_sync_reply)
     case STAC_MSG_LOG: ROUNDTRIP(stac_log_t, stac_log)
     case STAC_MSG_CONFIG: ROUNDTRIP(stac_config_t, stac_config)
+    case STAC_MSG_MODEL_BEGIN: ROUNDTRIP(stac_model_begin_t, stac_model_begin)
+    case STAC_MSG_MODEL_CHUNK: ROUNDTRIP(stac_model_chunk_t, stac_model_chunk)
+    case STAC_MSG_MODEL_COMMIT: ROUNDTRIP(stac_model_commit_t, stac_model_commit)
+    case STAC_MSG_MODEL_INFO: ROUNDTRIP(stac_model_info_t, stac_model_info)
+    case STAC_MSG_ESTIMATE: ROUNDTRIP(stac_estimate_t, stac_estimate)
     default: return 0u; /* messages without fields */
     }
 #undef ROUNDTRIP
