@@ -9,17 +9,27 @@ from spectratac.device.errors import (
     DeviceNotFoundError,
     DeviceTimeoutError,
     DisconnectedError,
+    MissingCapabilityError,
+    ModelUploadError,
     PermissionDeniedError,
     ProtocolMismatchError,
 )
+from spectratac.device.estimate_records import ESTIMATE_RECORD, EstimateRow
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
+from spectratac.device.model_store import ModelInfo
 from spectratac.device.records import (
     SAMPLE_RECORD,
     SAMPLE_TIME_INVERTED,
     SAMPLE_WINDOW_CLIPPED,
     Sample,
 )
-from spectratac.device.sensor import ClockSync, Sensor, SensorStats, TimeSyncExchange
+from spectratac.device.sensor import (
+    ClockSync,
+    EstimatesMode,
+    Sensor,
+    SensorStats,
+    TimeSyncExchange,
+)
 from spectratac.device.transport import (
     BadAddressError,
     TransportOpener,
@@ -31,6 +41,7 @@ from spectratac.device.transport import register_scheme as register_transport_sc
 
 __all__ = [
     "CONTACT_TRUTH",
+    "ESTIMATE_RECORD",
     "SAMPLE_RECORD",
     "SAMPLE_TIME_INVERTED",
     "SAMPLE_WINDOW_CLIPPED",
@@ -42,7 +53,12 @@ __all__ = [
     "DeviceNotFoundError",
     "DeviceTimeoutError",
     "DisconnectedError",
+    "EstimateRow",
+    "EstimatesMode",
     "GroundTruth",
+    "MissingCapabilityError",
+    "ModelInfo",
+    "ModelUploadError",
     "PermissionDeniedError",
     "ProtocolMismatchError",
     "Sample",

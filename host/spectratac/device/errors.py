@@ -42,6 +42,7 @@ class CommandRejectedError(DeviceError):
         self.code = code
         self.name = name
         self.meaning = meaning
+        self.action = action
 
 
 class DisconnectedError(DeviceError):
@@ -50,3 +51,22 @@ class DisconnectedError(DeviceError):
 
 class BufferOverflowError(DeviceError):
     """Samples were discarded because the host read them too slowly (policy 'error')."""
+
+
+class MissingCapabilityError(DeviceError):
+    """The device lacks an optional feature (a CAP_* bit of INFO) that was asked for; nothing
+    was sent to it. `capability` names the bit."""
+
+    def __init__(self, message: str, capability: str) -> None:
+        super().__init__(message)
+        self.capability = capability
+
+
+class ModelUploadError(DeviceError):
+    """Uploading a model failed (after one retry where a retry can help). `name` is the NACK's
+    error name (e.g. MODEL_BAD_CRC) or TIMEOUT, `action` what to do about it."""
+
+    def __init__(self, message: str, name: str, action: str) -> None:
+        super().__init__(f"{message}: {action}" if action else message)
+        self.name = name
+        self.action = action

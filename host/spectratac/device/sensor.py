@@ -11,6 +11,11 @@
     >>> bool((batch["config_id"] == config_id).all())
     True
 
+On-device decoding (protocol 1.1): `configure(..., estimates="beside")` asks the device for an
+ESTIMATE after every SAMPLE (samples keep flowing unchanged), `estimates="instead"` for
+estimates only; `read_estimates` returns them as ESTIMATE_RECORD rows. `model_info`,
+`upload_model` and `clear_model` manage the model the device decodes with.
+
 The link is read in the background: serial ports, ptys and sockets by the process's one
 shared I/O thread (spectratac.device.iohub, a selector over every link), other links (sim://,
 rfc2217://, wrapped transports) by a thread of their own. Frames are decoded and samples put
@@ -33,6 +38,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from spectratac.device import model_store
 from spectratac.device.errors import (
     BufferOverflowError,
     CommandRejectedError,
@@ -41,7 +47,9 @@ from spectratac.device.errors import (
     DisconnectedError,
     ProtocolMismatchError,
 )
+from spectratac.device.estimate_records import EstimateGaps, EstimateRow, to_estimate_array
 from spectratac.device.iohub import Link, shared_hub
+from spectratac.device.model_store import ModelInfo, Progress
 from spectratac.device.records import (
     SAMPLE_TIME_INVERTED,
     SAMPLE_WINDOW_CLIPPED,
@@ -55,10 +63,17 @@ from spectratac.hardware.veml3328 import INTEGRATION_MS as INTEGRATION_TIMES
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
 from spectratac.protocol.schema import Message
+from spectratac.protocol.versions import expected_definition_hash
 
 log = logging.getLogger("spectratac.device")
 
 OverflowPolicy = Literal["drop_oldest", "drop_newest", "error"]
+EstimatesMode = Literal["off", "beside", "instead"]
+_ESTIMATE_FLAGS: dict[str, int] = {
+    "off": 0,
+    "beside": m.ConfigureFlags.CONFIG_ESTIMATE,
+    "instead": m.ConfigureFlags.CONFIG_ESTIMATE | m.ConfigureFlags.CONFIG_ESTIMATE_ONLY,
+}
 FrameListener = Callable[[Frame, float], None]  # (accepted frame, host receive time)
 EpochListener = Callable[[int, float], None]  # (new epoch, host time of the reconnect)
 _GAINS = {1.0: m.Gain.GAIN_X1, 2.0: m.Gain.GAIN_X2, 4.0: m.Gain.GAIN_X4, 0.5: m.Gain.GAIN_X0_5}
@@ -82,6 +97,10 @@ class SensorStats:
     sample_time_errors: int = 0  # samples flagged SAMPLE_TIME_INVERTED or _WINDOW_CLIPPED
     version_mismatches: int = 0  # frames of another protocol major version, dropped
     command_retries: int = 0  # commands sent a second time after no reply
+    estimates_received: int = 0  # ESTIMATE frames (protocol 1.1)
+    estimate_gaps: int = 0  # estimates missing by ESTIMATE.sample_seq
+    estimate_overflows: int = 0  # estimates discarded by the overflow policy
+    model_upload_retries: int = 0  # model uploads restarted from MODEL_BEGIN
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -154,6 +173,11 @@ class Sensor:
         self._strict_hash = strict_hash
         self._overflow = overflow
         self._buffer: collections.deque[Sample] = collections.deque()
+        self._estimates: collections.deque[EstimateRow] = collections.deque()
+        self._estimate_gaps = EstimateGaps()
+        self._estimates_overflowed = False
+        #: what the configuration in force asks of the device: "off", "beside" or "instead"
+        self.estimates: EstimatesMode = "off"
         self._buffer_size = buffer_size
         self._overflowed = False
         self._cond = threading.Condition()
@@ -233,11 +257,13 @@ class Sensor:
                 device,
                 host,
             )
-        if info.definition_hash != m.DEFINITION_HASH:
+        # compare with the hash of the device's own minor version; a newer one is a superset
+        expected = expected_definition_hash(info.protocol_minor)
+        if expected is not None and info.definition_hash != expected:
             text = (
                 f"{self.url} was built from other protocol definitions (hash "
-                f"0x{info.definition_hash:08X}, host 0x{m.DEFINITION_HASH:08X}) although both "
-                f"say {device[0]}.{device[1]}: rebuild firmware and host from one checkout"
+                f"0x{info.definition_hash:08X}, protocol {device[0]}.{device[1]} has "
+                f"0x{expected:08X}): rebuild firmware and host from one checkout"
             )
             if self._strict_hash:
                 raise ProtocolMismatchError(text, device, host)
@@ -300,13 +326,23 @@ class Sensor:
         leds: Sequence[Sequence[Sequence[int]]] | np.ndarray | None = None,
         settle_us: int = 1000,
         stream: bool = False,
+        estimates: EstimatesMode = "off",
     ) -> int:
         """Validate locally, send CONFIGURE, wait for ACK; return the new configuration id.
 
         `leds` is a list of 1..8 steps, each 3 LEDs x (R, G, B) duties in permille (0..1000);
-        default: one white step at 500 ‰. Raises ValueError naming the bad argument, or
-        CommandRejectedError with the device's reason.
+        default: one white step at 500 ‰. `estimates` asks a device with CAP_ESTIMATE to
+        decode on board: "beside" sends an ESTIMATE after every SAMPLE, "instead" estimates
+        only (read them with read_estimates). Raises ValueError naming the bad argument,
+        MissingCapabilityError for estimates from a device without CAP_ESTIMATE, or
+        CommandRejectedError with the device's reason (e.g. NO_MODEL, MODEL_MISMATCH).
         """
+        if estimates not in _ESTIMATE_FLAGS:
+            raise ValueError(f"estimates={estimates!r}: allowed 'off', 'beside' or 'instead'")
+        stride = 1
+        if estimates != "off":
+            model_store.require(self, m.Capabilities.CAP_ESTIMATE, "send estimates")
+            stride = self.model_info().led_steps
         if integration_ms not in INTEGRATION_TIMES:
             raise ValueError(f"integration_ms={integration_ms}: allowed {INTEGRATION_TIMES}")
         if gain not in _GAINS:
@@ -329,7 +365,7 @@ class Sensor:
             gain=int(_GAINS[gain]),
             digital_gain=int(_DG[digital_gain]),
             sensitivity=0 if sensitivity == "high" else 1,
-            flags=m.ConfigureFlags.CONFIG_STREAM if stream else 0,
+            flags=(m.ConfigureFlags.CONFIG_STREAM if stream else 0) | _ESTIMATE_FLAGS[estimates],
             led_settle_us=settle_us,
             led_step_count=len(duties),
             led_duty=tuple(tuple(tuple(int(v) for v in led) for led in step) for step in table),
@@ -337,6 +373,9 @@ class Sensor:
         ack = self._command(msg)
         self._configure_msg = msg
         self.config_id = ack.config_id
+        self.estimates = estimates
+        with self._cond:
+            self._estimate_gaps.restart(stride)
         if stream:
             self._streaming = True
         return ack.config_id
@@ -347,6 +386,7 @@ class Sensor:
             # a new stream counts from sample_seq 0 (SPEC): a lost first sample is a gap too
             with self._cond:
                 self._last_sample_seq = -1
+                self._estimate_gaps.restart()
         self._command(m.Start())
         self._streaming = True
 
@@ -395,6 +435,28 @@ class Sensor:
         self.time_sync.extend(done)
         best = min(done, key=lambda e: e.round_trip)
         return ClockSync(best.offset, best.round_trip, tuple(done))
+
+    # ------------------------------------------------------------------ model store (1.1)
+    def model_info(self) -> ModelInfo:
+        """The model the device decodes with and its limits (GET_MODEL). Raises
+        MissingCapabilityError for a device without CAP_ESTIMATE."""
+        return model_store.read_info(self)
+
+    def upload_model(
+        self, image: bytes, model_id: int, progress: Progress | None = None
+    ) -> ModelInfo:
+        """Upload a model image (`spectratac.decode.export.model_image.encode(decoder)`) as
+        `model_id` into the device's flash, in acknowledged chunks of 224 B; `progress(done,
+        total)` is called after each. On a NACK or a timeout the upload is restarted from
+        MODEL_BEGIN once. Returns the device's MODEL_INFO afterwards. Raises
+        MissingCapabilityError (no CAP_MODEL_UPLOAD) or ModelUploadError carrying the NACK's
+        error name and what to do."""
+        model_store.upload(self, image, model_id, progress)
+        return self.model_info()
+
+    def clear_model(self) -> None:
+        """Erase the uploaded model; a built-in one, if the firmware has one, takes over."""
+        model_store.clear(self)
 
     def request_raw(
         self,
@@ -455,6 +517,43 @@ class Sensor:
                 self._buffer.extendleft(reversed(out))  # nothing received is lost
                 raise
 
+    def read_estimates(self, n: int, timeout: float | None = None) -> np.ndarray:
+        """Up to `n` on-device estimates as ESTIMATE_RECORD rows, waiting up to `timeout` s
+        (default: the sensor's timeout) for all n; fewer on timeout. Like read(), it raises
+        DisconnectedError only once every estimate received before a loss has been read."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        out: list[EstimateRow] = []
+        with self._cond:
+            while True:
+                while self._estimates and len(out) < n:
+                    out.append(self._estimates.popleft())
+                if len(out) >= n:
+                    break
+                if self._estimates_overflowed and self._overflow == "error":
+                    self._estimates_overflowed = False
+                    if not out:
+                        raise BufferOverflowError(
+                            f"{self.stats.estimate_overflows} estimates were discarded: read "
+                            f"more often or open with a larger buffer_size"
+                        )
+                    break
+                if self._lost is not None and not self._reconnect:
+                    if out:
+                        break
+                    raise self._lost
+                if self._closed:
+                    break
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._cond.wait(remaining)
+        return to_estimate_array(out)
+
+    @property
+    def buffered_estimates(self) -> int:
+        with self._cond:
+            return len(self._estimates)
+
     def __iter__(self) -> Iterator[Sample]:
         """Samples one by one until the link is lost or the sensor closed."""
         while True:
@@ -489,8 +588,10 @@ class Sensor:
         with self._write_lock:
             self._transport.write(data)
 
-    def _command(self, msg: Message) -> m.Ack:
-        reply = self._request(msg, (m.Ack.TYPE_ID, m.Nack.TYPE_ID), match_seq=True)
+    def _command(self, msg: Message, attempts: int = 2, timeout: float | None = None) -> m.Ack:
+        reply = self._request(
+            msg, (m.Ack.TYPE_ID, m.Nack.TYPE_ID), True, timeout=timeout, attempts=attempts
+        )
         if isinstance(reply, m.Nack):
             code = m.Error(reply.error) if reply.error in m.Error._value2member_map_ else None
             meaning, action = (
@@ -629,6 +730,7 @@ class Sensor:
         # counted, not fatal: a command that then gets no reply raises ProtocolMismatchError
         st.version_mismatches = self._mismatches_seen = d.version_mismatch
         samples: list[Sample] = []
+        estimates: list[EstimateRow] = []
         for listener in self._listeners:
             try:
                 for frame in frames:
@@ -641,6 +743,8 @@ class Sensor:
             msg = frame.message
             if isinstance(msg, m.Sample):
                 samples.append(self._to_sample(msg, now))
+            elif isinstance(msg, m.Estimate):
+                estimates.append(self._to_estimate(msg, now))
             elif isinstance(msg, m.Log):
                 st.logs += 1
                 msg = dataclasses.replace(msg, text=printable(msg.text))
@@ -650,6 +754,8 @@ class Sensor:
                 self._deliver(msg, now)
         if samples:
             self._enqueue(samples)
+        if estimates:
+            self._enqueue_estimates(estimates)
 
     def _to_sample(self, msg: m.Sample, now: float) -> Sample:
         st = self.stats
@@ -680,6 +786,40 @@ class Sensor:
             self.epoch,
             flags,
         )
+
+    def _to_estimate(self, msg: m.Estimate, now: float) -> EstimateRow:
+        self.stats.estimates_received += 1
+        with self._cond:
+            self._estimate_gaps.see(msg.sample_seq)
+            self.stats.estimate_gaps = self._estimate_gaps.lost
+        return EstimateRow(
+            self._unwrap(msg.t_end_us),
+            now,
+            msg.sample_seq,
+            msg.config_id,
+            msg.model_id,
+            msg.flags,
+            msg.force,
+            msg.torque,
+            msg.region,
+            msg.region_prob,
+            msg.decode_us,
+            self.epoch,
+        )
+
+    def _enqueue_estimates(self, rows: list[EstimateRow]) -> None:
+        with self._cond:
+            buf = self._estimates
+            for row in rows:
+                if len(buf) >= self._buffer_size:
+                    self.stats.estimate_overflows += 1
+                    self._estimates_overflowed = True
+                    if self._overflow == "drop_oldest":
+                        buf.popleft()
+                    else:
+                        continue
+                buf.append(row)
+            self._cond.notify_all()
 
     def _enqueue(self, samples: list[Sample]) -> None:
         with self._cond:
@@ -764,6 +904,7 @@ class Sensor:
         with self._cond:
             self._unwrap = Unwrapper()
             self._last_sample_seq = None
+            self._estimate_gaps.restart()
             self.epoch += 1
         for listener in self._epoch_listeners:
             try:
