@@ -236,8 +236,8 @@ def render_source(d: Definition) -> str:
     out += ["    default: return -1;", "    }", "}"]
     out += ["", "int stac_payload_min_size(uint8_t type, uint8_t minor) {"]
     newest = d.protocol["minor"]
-    if newest == 0:
-        out.append("    (void)minor; /* every field is 1.0: one layout for every sender */")
+    if all(len({m.size_at(minor) for minor in range(newest + 1)}) == 1 for m in d.messages):
+        out.append("    (void)minor; /* no message grew: one layout for every sender */")
     else:
         out.append(f"    const uint8_t v = minor < {newest}u ? minor : (uint8_t){newest}u;")
     out.append("    switch (type) {")

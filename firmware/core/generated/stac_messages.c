@@ -964,7 +964,7 @@ int stac_payload_size(uint8_t type) {
 }
 
 int stac_payload_min_size(uint8_t type, uint8_t minor) {
-    const uint8_t v = minor < 1u ? minor : (uint8_t)1u;
+    (void)minor; /* no message grew: one layout for every sender */
     switch (type) {
     case STAC_MSG_GET_INFO: return 0;
     case STAC_MSG_CONFIGURE: return 153;
