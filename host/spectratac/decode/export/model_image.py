@@ -78,7 +78,7 @@ LIMITS = {
     "MAX_OUTPUTS": 32,
     "MAX_DARK": 16,
 }
-_HEADER = struct.Struct("<4sHHII4B4B2H2H2H2H2H6BHfffddI12x")
+_HEADER = struct.Struct("<4sHHII4B4B2H2H2H2H2H6BHff4xddI4xd")
 _crc32c = crcmod.predefined.mkCrcFun("crc-32c")
 COUNT_LO, COUNT_HI = -1.0, 65536.0  # beyond every 16-bit count: bounds clamp to these
 
@@ -287,7 +287,7 @@ def encode(dec: Decoder, weights: str = "f32") -> bytes:
         rt.n_inputs, rt.features.n_features, fs_rows(dec)[0], fs_rows(dec)[1],
         hidden, blocks, heads.n_out, heads.n_reg, heads.n_classes, len(guard.dark_cols),
         *tmap, N_SECTIONS,
-        float(guard.saturation or 0.0), DARK_COUNTS, CONTACT_FORCE_N, TAU, GATE, STUCK,
+        float(guard.saturation or 0.0), DARK_COUNTS, TAU, GATE, STUCK, CONTACT_FORCE_N,
     )  # fmt: skip
     table_bytes = b"".join(struct.pack("<II", o, n) for o, n in table)
     image = header + table_bytes + bytes(body)
