@@ -85,7 +85,9 @@ def parse(raw: bytes) -> tuple[NDArray[Any], NDArray[Any]]:
     return rec[:-1], rec[-1]
 
 
-def run_native(binary: Path, image: bytes, session: Session, work: Path) -> subprocess.CompletedProcess:
+def run_native(
+    binary: Path, image: bytes, session: Session, work: Path
+) -> subprocess.CompletedProcess:
     work.mkdir(parents=True, exist_ok=True)
     (work / "model.bin").write_bytes(image)
     (work / IN_NAME).write_bytes(session.records())
@@ -150,9 +152,9 @@ def reference(dec: Any, session: Session) -> Reference:
     est = dec.predict_inputs(x, step=step, status=session.status)
     out = np.full((len(step), dec.heads.n_out), np.nan)
     out[valid] = dec.runtime.run(u[valid])
-    flags = (
-        est.contact * EST_CONTACT + est.ood * EST_OOD + est.invalid * EST_INVALID
-    ).astype(np.uint32)
+    flags = (est.contact * EST_CONTACT + est.ood * EST_OOD + est.invalid * EST_INVALID).astype(
+        np.uint32
+    )
     region = np.where(est.region > 0, est.region, 0)
     return Reference(valid, out, flags, region)
 
@@ -170,7 +172,7 @@ def errors(dec: Any, got: NDArray[Any], ref: Reference) -> dict[str, Any]:
     scale = {n: float(np.max(np.abs(ref.out[ok, i]), initial=0.0)) for i, n in enumerate(names)}
     flag_mask = EST_CONTACT | EST_OOD | EST_INVALID
     return {
-        "n": int(len(ret)),
+        "n": len(ret),
         "n_estimates": int(ok.sum()),
         "returns_agree": bool(np.array_equal(have, ref.valid)),
         "flags_disagree": int(np.sum((got["flags"][ok] & flag_mask) != ref.flags[ok])),
