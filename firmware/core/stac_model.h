@@ -77,9 +77,12 @@ typedef struct {
     uint16_t n_dark, hist;
     uint8_t target_map[6]; /* Fx Fy Fz Tx Ty Tz -> regression index, 0xFF when absent */
     float saturation;      /* inputs at or above it are out of distribution; 0: none */
-    float dark_counts, contact_force;
+    float dark_counts;     /* a guarded Clear column below it is dark: out of distribution */
+    double contact_force;  /* |F| above it is contact (models without a contact head) */
+    double base_tau, base_gate; /* baseline time constant (samples) and no-contact gate */
+    uint32_t base_stuck;        /* samples out of the gate before the baseline follows */
+    double ema_alpha[STAC_MODEL_MAX_EMAS];
     const uint16_t *lags;
-    const double *ema_alpha;
     const float *center, *f_mean, *f_std;
     stac_model_csr_t lin, rat_p, rat_q;
     stac_model_layer_t layers[STAC_MODEL_MAX_LAYERS];
@@ -126,7 +129,9 @@ void stac_model_reset(const stac_model_t *m, stac_model_state_t *st);
 /* Feed one sample (the LED step that lit it, counts[sensor][R G B C IR], SENSOR_* status).
  * Returns 1 when `out` holds an estimate, 0 (state unchanged apart from the step's latest
  * counts) until every LED step of the model has been seen since the reset. A step beyond
- * the model's steps gives 1 with EST_INVALID and leaves the state unchanged. */
+ * the model's steps gives 1 with EST_INVALID and leaves the state unchanged. C11 does not
+ * convert uint16_t (*)[5] to const uint16_t (*)[5] implicitly (-pedantic warns): pass a
+ * non-const array as (const uint16_t(*)[5])counts. */
 int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_step,
                     const uint16_t counts[3][5], const uint8_t sensor_status[3],
                     stac_model_output_t *out);

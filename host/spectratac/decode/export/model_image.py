@@ -78,7 +78,7 @@ LIMITS = {
     "MAX_OUTPUTS": 32,
     "MAX_DARK": 16,
 }
-_HEADER = struct.Struct("<4sHHII4B4B2H2H2H2H2H6BHfffddI12x")
+_HEADER = struct.Struct("<4sHHII4B4B2H2H2H2H2H6BHff4xddI4xd")
 _crc32c = crcmod.predefined.mkCrcFun("crc-32c")
 COUNT_LO, COUNT_HI = -1.0, 65536.0  # beyond every 16-bit count: bounds clamp to these
 
@@ -251,11 +251,12 @@ def _sections(dec: Decoder, weights: str) -> dict[str, bytes]:
     return s
 
 
-def encode(dec: Decoder, weights: str = "f32") -> bytes:
+def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_BYTES) -> bytes:
     """The model image of `dec` with network weights in `weights` ("f32", "f16", "i8").
 
     Raises ModelImageError when the firmware cannot run the decoder or the image exceeds
-    MAX_IMAGE_BYTES."""
+    `limit` bytes (default: the model store; None for a model compiled into the firmware,
+    where only the flash left by the firmware bounds it)."""
     _check_format(weights)
     check_runnable(dec)
     rt, lay, heads, guard = dec.runtime, dec.layout, dec.heads, dec.guard
@@ -272,9 +273,9 @@ def encode(dec: Decoder, weights: str = "f32") -> bytes:
         body += data + b"\0" * pad
         offset += len(data) + pad
     total = offset + 4
-    if total > MAX_IMAGE_BYTES:
+    if limit is not None and total > limit:
         raise ModelImageError(
-            f"the image takes {total} bytes; the model store holds {MAX_IMAGE_BYTES}: use "
+            f"the image takes {total} bytes; the model store holds {limit}: use "
             f"weights='f16' or 'i8', or train a smaller decoder"
         )
     targets = heads.regression
@@ -287,7 +288,7 @@ def encode(dec: Decoder, weights: str = "f32") -> bytes:
         rt.n_inputs, rt.features.n_features, fs_rows(dec)[0], fs_rows(dec)[1],
         hidden, blocks, heads.n_out, heads.n_reg, heads.n_classes, len(guard.dark_cols),
         *tmap, N_SECTIONS,
-        float(guard.saturation or 0.0), DARK_COUNTS, CONTACT_FORCE_N, TAU, GATE, STUCK,
+        float(guard.saturation or 0.0), DARK_COUNTS, TAU, GATE, STUCK, CONTACT_FORCE_N,
     )  # fmt: skip
     table_bytes = b"".join(struct.pack("<II", o, n) for o, n in table)
     image = header + table_bytes + bytes(body)
