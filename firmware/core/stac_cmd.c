@@ -5,6 +5,9 @@
 #include "stac_sched.h"
 
 #define NO_FIELD 255u
+/* Indices of CONFIGURE's fields named by a NACK about estimates (protocol/messages.toml). */
+#define CONFIGURE_FLAGS_FIELD 4u
+#define CONFIGURE_STEPS_FIELD 6u
 
 static void send_ack(stac_app_t *app, const stac_frame_header_t *h) {
     const stac_ack_t ack = {.acked_type = h->type, .acked_seq = h->seq,
@@ -85,12 +88,32 @@ static void send_config(stac_app_t *app) {
     (void)stac_app_send(app, STAC_MSG_CONFIG, p, stac_config_pack(&m, p));
 }
 
+/* Estimates need a model, and one trained for the LED step count asked for. */
+static uint16_t check_estimate(const stac_app_t *app, const stac_configure_t *c, uint8_t *field) {
+    if ((c->flags & STAC_CONFIG_ESTIMATE) == 0u) {
+        return STAC_OK;
+    }
+    const stac_model_t *m = stac_store_model(&app->store);
+    if (m == NULL) {
+        *field = CONFIGURE_FLAGS_FIELD;
+        return STAC_NO_MODEL;
+    }
+    if (m->steps != c->led_step_count) {
+        *field = CONFIGURE_STEPS_FIELD;
+        return STAC_MODEL_MISMATCH;
+    }
+    return STAC_OK;
+}
+
 static void handle_configure(stac_app_t *app, const stac_frame_header_t *h, const uint8_t *payload,
                              size_t len) {
     stac_configure_t c;
     stac_configure_unpack(&c, payload, len);
     uint8_t field = NO_FIELD;
-    const uint16_t err = stac_configure_validate(&c, &field);
+    uint16_t err = stac_configure_validate(&c, &field);
+    if (err == STAC_OK) {
+        err = check_estimate(app, &c, &field);
+    }
     if (err != STAC_OK) {
         send_nack(app, h, err, field);
         return;
@@ -104,6 +127,7 @@ static void handle_configure(stac_app_t *app, const stac_frame_header_t *h, cons
         app->cfg_id = app->latest_id;
         app->has_pending = false;
         app->acq.step = 0u;
+        stac_state_estimator_reset(app);
     }
     send_ack(app, h);
     if ((c.flags & STAC_CONFIG_STREAM) != 0u) {
@@ -122,6 +146,67 @@ static void handle_time_sync(stac_app_t *app, const uint8_t *payload, size_t len
     uint8_t p[STAC_TIME_SYNC_REPLY_SIZE];
     rep.device_tx_us = stac_app_clock(app); /* taken last: only framing separates it from tx */
     (void)stac_app_send(app, STAC_MSG_TIME_SYNC_REPLY, p, stac_time_sync_reply_pack(&rep, p));
+}
+
+static void send_model_info(stac_app_t *app) {
+    const stac_model_store_t *st = &app->store;
+    stac_model_info_t m;
+    memset(&m, 0, sizeof m);
+    m.present = st->present;
+    m.capacity = stac_store_capacity(&app->hal);
+    m.max_inputs = (uint16_t)STAC_MODEL_MAX_INPUTS;
+    m.max_hidden = (uint16_t)STAC_MODEL_MAX_HIDDEN;
+    const stac_model_t *model = stac_store_model(st);
+    if (model != NULL) {
+        m.model_id = st->model_id;
+        m.size = st->size;
+        m.crc = st->crc;
+        m.weight_format = model->weight_format;
+        m.led_steps = model->steps;
+        m.n_inputs = model->n_in;
+    }
+    uint8_t p[STAC_MODEL_INFO_SIZE];
+    (void)stac_app_send(app, STAC_MSG_MODEL_INFO, p, stac_model_info_pack(&m, p));
+}
+
+/* MODEL_BEGIN / CHUNK / COMMIT / CLEAR: the store's answer, ACK or NACK. The session of the
+ * model in use starts over whenever that model may have changed. */
+static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const uint8_t *payload,
+                         size_t len) {
+    uint16_t err = STAC_OK;
+    uint8_t field = NO_FIELD;
+    switch (h->type) {
+    case STAC_MSG_MODEL_BEGIN: {
+        stac_model_begin_t m;
+        stac_model_begin_unpack(&m, payload, len);
+        err = stac_store_begin(&app->store, &app->hal, m.model_id, m.size, m.crc);
+        break;
+    }
+    case STAC_MSG_MODEL_CHUNK: {
+        stac_model_chunk_t m;
+        stac_model_chunk_unpack(&m, payload, len);
+        err = stac_model_chunk_validate(&m, &field);
+        if (err == STAC_OK) {
+            err = stac_store_chunk(&app->store, &app->hal, m.offset, m.data, m.length);
+        }
+        break;
+    }
+    case STAC_MSG_MODEL_COMMIT: {
+        stac_model_commit_t m;
+        stac_model_commit_unpack(&m, payload, len);
+        err = stac_store_commit(&app->store, &app->hal, m.model_id);
+        break;
+    }
+    default: err = stac_store_clear(&app->store, &app->hal); break;
+    }
+    if (h->type != STAC_MSG_MODEL_CHUNK) {
+        stac_state_estimator_reset(app);
+    }
+    if (err != STAC_OK) {
+        send_nack(app, h, err, field);
+    } else {
+        send_ack(app, h);
+    }
 }
 
 static void reset_stats(stac_app_t *app) {
@@ -175,6 +260,11 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
         reset_stats(app);
         send_ack(app, &h);
         break;
+    case STAC_MSG_MODEL_BEGIN:
+    case STAC_MSG_MODEL_CHUNK:
+    case STAC_MSG_MODEL_COMMIT:
+    case STAC_MSG_MODEL_CLEAR: handle_model(app, &h, payload, plen); break;
+    case STAC_MSG_GET_MODEL: send_model_info(app); break;
     default:
         /* A host-to-device type in the generated table that this firmware does not serve. */
         send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);

@@ -22,6 +22,17 @@ enum {
 
 #define STAC_UID_SIZE 12u
 
+/* Result of one model-store (flash) operation. */
+enum {
+    STAC_FLASH_OK = 0,
+    STAC_FLASH_FAILED = 1,  /* the controller reported an error, or a read-back differs */
+    STAC_FLASH_TIMEOUT = 2, /* the operation did not finish within its bound */
+    STAC_FLASH_BAD_ARG = 3  /* offset or length unaligned or outside the store */
+};
+
+/* store_program takes whole words: offset and length are multiples of this. */
+#define STAC_FLASH_WORD 4u
+
 typedef struct stac_hal {
     void *ctx; /* passed back unchanged as the first argument of every call */
 
@@ -45,6 +56,19 @@ typedef struct stac_hal {
 
     /* The 96-bit unique id of the device. */
     void (*unique_id)(void *ctx, uint8_t uid[STAC_UID_SIZE]);
+
+    /* Model store: a flash region that keeps an uploaded decoder across resets. A port
+     * without one leaves all four NULL (the core then reports a capacity of 0).
+     * store_capacity: its size in bytes (a multiple of STAC_FLASH_WORD).
+     * store_data: the region, memory-mapped for reading (erased bytes read 0xFF).
+     * store_erase: set every byte to 0xFF; a STAC_FLASH_* code within a bounded time.
+     * store_program: write len bytes at offset (both multiples of STAC_FLASH_WORD, inside the
+     * region); programming only clears bits, so the bytes must have been erased (or the
+     * write must only clear bits). A STAC_FLASH_* code within a bounded time. */
+    uint32_t (*store_capacity)(void *ctx);
+    const uint8_t *(*store_data)(void *ctx);
+    int32_t (*store_erase)(void *ctx);
+    int32_t (*store_program)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len);
 } stac_hal_t;
 
 #ifdef __cplusplus

@@ -95,6 +95,7 @@ static void apply_pending(stac_app_t *app) {
     app->cfg_id = app->latest_id;
     app->has_pending = false;
     app->acq.step = 0u;
+    stac_state_estimator_reset(app);
 }
 
 void stac_sched_start(stac_app_t *app) {
@@ -109,6 +110,7 @@ void stac_sched_start(stac_app_t *app) {
     app->sample_seq = 0u;
     app->acq.step = 0u;
     app->acq.state = STAC_ACQ_IDLE;
+    stac_state_estimator_reset(app);
 }
 
 void stac_sched_stop(stac_app_t *app) {
@@ -181,6 +183,32 @@ static void poll(stac_app_t *app) {
     }
 }
 
+/* Decode a sample with the model in use; send the ESTIMATE when it completes one. */
+static void estimate(stac_app_t *app, const stac_sample_t *s) {
+    const uint32_t t0 = stac_app_clock(app);
+    stac_model_output_t out;
+    const int ready = stac_model_push(&app->store.model, &app->est, s->led_step, s->counts,
+                                      s->sensor_status, &out);
+    const uint32_t took = stac_app_clock(app) - t0;
+    if (ready != 1) {
+        return;
+    }
+    stac_estimate_t e;
+    memset(&e, 0, sizeof e);
+    e.sample_seq = s->sample_seq;
+    e.t_end_us = s->t_end_us;
+    e.config_id = s->config_id;
+    e.model_id = app->store.model_id;
+    e.flags = out.flags;
+    memcpy(e.force, out.force, sizeof e.force);
+    memcpy(e.torque, out.torque, sizeof e.torque);
+    e.region = out.region;
+    e.region_prob = out.region_prob;
+    e.decode_us = (uint16_t)(took > 0xFFFFu ? 0xFFFFu : took);
+    uint8_t payload[STAC_ESTIMATE_SIZE];
+    (void)stac_app_send(app, STAC_MSG_ESTIMATE, payload, stac_estimate_pack(&e, payload));
+}
+
 /* Read the finished sensors and hand the SAMPLE to the UART, all in this pass. */
 static void finish(stac_app_t *app) {
     stac_acq_t *acq = &app->acq;
@@ -222,9 +250,15 @@ static void finish(stac_app_t *app) {
     s.led_step = acq->step;
     s.config_id = app->cfg_id;
     app->stats.samples_taken++;
-    uint8_t payload[STAC_SAMPLE_SIZE];
-    const size_t n = stac_sample_pack(&s, payload);
-    (void)stac_app_send(app, STAC_MSG_SAMPLE, payload, n);
+    const bool estimating = stac_state_estimating(app);
+    if (!estimating || (app->cfg.flags & STAC_CONFIG_ESTIMATE_ONLY) == 0u) {
+        uint8_t payload[STAC_SAMPLE_SIZE];
+        const size_t n = stac_sample_pack(&s, payload);
+        (void)stac_app_send(app, STAC_MSG_SAMPLE, payload, n);
+    }
+    if (estimating) {
+        estimate(app, &s);
+    }
 
     acq->pending = 0u;
     acq->step = (uint8_t)((acq->step + 1u) % app->cfg.led_step_count);

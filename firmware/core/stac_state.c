@@ -39,6 +39,19 @@ void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity
     stac_rx_reset(&app->rx);
     app->log_tokens = LOG_BURST;
     app->log_refill_at = now_us + LOG_REFILL_US;
+    stac_store_boot(&app->store, &app->hal);
+    stac_state_estimator_reset(app);
+}
+
+bool stac_state_estimating(const stac_app_t *app) {
+    return (app->cfg.flags & STAC_CONFIG_ESTIMATE) != 0u && stac_store_model(&app->store) != NULL;
+}
+
+void stac_state_estimator_reset(stac_app_t *app) {
+    const stac_model_t *m = stac_store_model(&app->store);
+    if (m != NULL) {
+        stac_model_reset(m, &app->est);
+    }
 }
 
 void stac_state_advance(stac_app_t *app, uint32_t now_us) {

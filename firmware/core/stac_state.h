@@ -15,6 +15,7 @@
 #include "stac_frame.h"
 #include "stac_hal.h"
 #include "stac_leds.h"
+#include "stac_model_store.h"
 
 #define STAC_FW_VERSION_MAJOR 0u
 #define STAC_FW_VERSION_MINOR 1u
@@ -26,6 +27,9 @@
 #define STAC_CAPS_CORE \
     (STAC_CAP_LED_SEQUENCE | STAC_CAP_TIME_SYNC | STAC_CAP_STATUS | STAC_CAP_LOG | \
      STAC_CAP_IR_CHANNEL)
+
+/* Capabilities of a build whose HAL has a model store: on-device decoding and uploads. */
+#define STAC_CAPS_MODEL (STAC_CAP_ESTIMATE | STAC_CAP_MODEL_UPLOAD)
 
 /* What INFO reports about the board; supplied by the port. */
 typedef struct stac_identity {
@@ -92,6 +96,9 @@ typedef struct stac_app {
     stac_rx_t rx;
     uint16_t tx_seq;
 
+    stac_model_store_t store; /* the decoder in use and the upload in progress */
+    stac_model_state_t est;   /* its session: context, averages, baseline, scratch */
+
     uint8_t log_tokens; /* LOG rate limit: a burst of a few, then one per second */
     uint32_t log_refill_at;
 
@@ -99,7 +106,8 @@ typedef struct stac_app {
 } stac_app_t;
 
 /* Fresh state: default configuration in force and pending, LEDs and receiver reset, full LOG
- * budget, not streaming. The HAL is stored and asked for the unique id; nothing else runs. */
+ * budget, not streaming. The HAL is stored and asked for the unique id, and the model store is
+ * validated (stac_store_boot); nothing else runs. */
 void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity_t *id,
                      uint32_t now_us);
 
@@ -114,6 +122,12 @@ void stac_app_log(stac_app_t *app, uint8_t level, const char *text);
 
 /* Fresh clock reading (the HAL's) for timestamps taken within a pass. */
 uint32_t stac_app_clock(const stac_app_t *app);
+
+/* True when the configuration in force asks for estimates and a model is there to make them. */
+bool stac_state_estimating(const stac_app_t *app);
+
+/* Start a new decoding session (START, a configuration applied, another model in use). */
+void stac_state_estimator_reset(stac_app_t *app);
 
 /* Default configuration at boot: 50 ms, ×1, DG ×1, high sensitivity, one step at 500 ‰,
  * settle 1000 µs, not streaming. */

@@ -2,6 +2,7 @@
  * core's HAL, one instance per device. The ABI (stac_sim.h) is generated from stac_sim.toml. */
 #include "stac_sim.h"
 
+#include <stdio.h>
 #include <string.h>
 
 #include "stac_app.h"
@@ -18,6 +19,9 @@ _Static_assert(STAC_SIM_I2C_OK == VEML_MODEL_OK && STAC_SIM_I2C_NACK == VEML_MOD
                "model results are I2C results");
 
 #define SENSORS 3u
+#define STORE_PATH_MAX 4096u
+
+_Static_assert(STAC_SIM_STORE_CAPACITY % STAC_FLASH_WORD == 0u, "the store holds whole words");
 
 struct stac_sim {
     stac_app_t app;
@@ -36,6 +40,10 @@ struct stac_sim {
     uint32_t rx_len; /* bytes waiting in rx; consumed from rx_pos */
     uint32_t rx_pos;
     uint8_t rx[STAC_SIM_RX_CAPACITY];
+    /* Model store: the flash region, mirrored to store_path when one is set. */
+    uint32_t flash_fail_in; /* operations until the injected fault (0: none) */
+    char store_path[STORE_PATH_MAX];
+    _Alignas(8) uint8_t store[STAC_SIM_STORE_CAPACITY];
 };
 
 static uint32_t hal_clock(void *ctx) {
@@ -120,6 +128,72 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     memcpy(uid, sim->uid, STAC_UID_SIZE);
 }
 
+/* Write store bytes [offset, offset + len) through to the file, if there is one. */
+static int32_t store_write_through(const stac_sim_t *sim, uint32_t offset, uint32_t len) {
+    if (sim->store_path[0] == '\0') {
+        return STAC_FLASH_OK;
+    }
+    FILE *f = fopen(sim->store_path, "r+b");
+    if (f == NULL) {
+        return STAC_FLASH_FAILED;
+    }
+    const int ok = fseek(f, (long)offset, SEEK_SET) == 0 &&
+                   fwrite(sim->store + offset, 1u, len, f) == len;
+    return (fclose(f) == 0 && ok) ? STAC_FLASH_OK : STAC_FLASH_FAILED;
+}
+
+/* One flash operation: true when the injected fault makes it fail. */
+static int flash_fault_now(stac_sim_t *sim) {
+    if (sim->flash_fail_in == 0u) {
+        return 0;
+    }
+    if (sim->flash_fail_in > 1u) {
+        sim->flash_fail_in--;
+        return 0;
+    }
+    return 1; /* stays at 1: every later operation fails too */
+}
+
+static uint32_t hal_store_capacity(void *ctx) {
+    (void)ctx;
+    return STAC_SIM_STORE_CAPACITY;
+}
+
+static const uint8_t *hal_store_data(void *ctx) {
+    return ((const stac_sim_t *)ctx)->store;
+}
+
+static int32_t hal_store_erase(void *ctx) {
+    stac_sim_t *sim = (stac_sim_t *)ctx;
+    if (flash_fault_now(sim)) {
+        return STAC_FLASH_FAILED;
+    }
+    memset(sim->store, 0xFF, sizeof sim->store);
+    return store_write_through(sim, 0u, STAC_SIM_STORE_CAPACITY);
+}
+
+static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
+    stac_sim_t *sim = (stac_sim_t *)ctx;
+    if (offset % STAC_FLASH_WORD != 0u || len % STAC_FLASH_WORD != 0u ||
+        offset > STAC_SIM_STORE_CAPACITY || len > STAC_SIM_STORE_CAPACITY - offset) {
+        return STAC_FLASH_BAD_ARG;
+    }
+    const int fail = flash_fault_now(sim);
+    const uint32_t n = fail ? (len / STAC_FLASH_WORD / 2u) * STAC_FLASH_WORD : len;
+    int32_t rc = STAC_FLASH_OK;
+    for (uint32_t i = 0u; i < n; i++) {
+        sim->store[offset + i] &= data[i]; /* NOR flash: programming only clears bits */
+        if (sim->store[offset + i] != data[i]) {
+            rc = STAC_FLASH_FAILED; /* the read-back a driver does after programming */
+        }
+    }
+    const int32_t wt = store_write_through(sim, offset, n);
+    if (fail) {
+        return STAC_FLASH_FAILED;
+    }
+    return rc != STAC_FLASH_OK ? rc : wt;
+}
+
 uint32_t stac_sim_abi_version(void) {
     return STAC_SIM_ABI_VERSION;
 }
@@ -129,7 +203,45 @@ uint32_t stac_sim_sizeof(void) {
 }
 
 uint32_t stac_sim_default_capabilities(void) {
-    return STAC_CAPS_CORE | STAC_CAP_SIMULATED;
+    return STAC_CAPS_CORE | STAC_CAPS_MODEL | STAC_CAP_SIMULATED;
+}
+
+/* Read the store from path, or create the file erased; 0 or -1. */
+static int32_t load_store(stac_sim_t *sim, const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        f = fopen(path, "wb");
+        if (f == NULL) {
+            return -1;
+        }
+        const int ok = fwrite(sim->store, 1u, sizeof sim->store, f) == sizeof sim->store;
+        return (fclose(f) == 0 && ok) ? 0 : -1;
+    }
+    const size_t got = fread(sim->store, 1u, sizeof sim->store, f);
+    const int longer = fgetc(f) != EOF;
+    const int failed = ferror(f);
+    (void)fclose(f);
+    return (got == sizeof sim->store && !longer && !failed) ? 0 : -1;
+}
+
+int32_t stac_sim_model_store(stac_sim_t *sim, const char *path) {
+    if (sim == NULL || path == NULL || path[0] == '\0' || strlen(path) >= STORE_PATH_MAX) {
+        return -1;
+    }
+    const int32_t rc = load_store(sim, path);
+    if (rc == 0) {
+        memcpy(sim->store_path, path, strlen(path) + 1u);
+    } else {
+        memset(sim->store, 0xFF, sizeof sim->store);
+        sim->store_path[0] = '\0';
+    }
+    stac_store_boot(&sim->app.store, &sim->app.hal); /* as at power-up, with this flash */
+    stac_state_estimator_reset(&sim->app);
+    return rc;
+}
+
+void stac_sim_flash_fault(stac_sim_t *sim, uint32_t countdown) {
+    sim->flash_fail_in = countdown;
 }
 
 static void copy_text(char dst[STAC_TEXT_SIZE], const char *src) {
@@ -159,7 +271,12 @@ static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
         .uart_read = hal_read,
         .clock_us = hal_clock,
         .unique_id = hal_uid,
+        .store_capacity = hal_store_capacity,
+        .store_data = hal_store_data,
+        .store_erase = hal_store_erase,
+        .store_program = hal_store_program,
     };
+    memset(sim->store, 0xFF, sizeof sim->store);
     stac_app_init(&sim->app, &hal, &id, now_us);
 }
 

@@ -166,6 +166,26 @@ STAC_SIM_API int32_t stac_sim_sensor_transfer(stac_sim_t *sim, uint8_t bus, uint
                                               const uint8_t *wr, uint32_t wr_len, uint8_t *rd,
                                               uint32_t rd_len);
 
+/* Model store (protocol 1.1): the flash region an uploaded decoder is kept in, STORE_CAPACITY
+ * bytes like the STM32 port's sector 7. It lives in the instance (erased at init) and, once
+ * stac_sim_model_store names a file, also in that file: read when attached, every erase and
+ * program written through, so a model survives the simulated device's reset and re-open. Like
+ * NOR flash, programming only clears bits; a program that would set one reads back wrong and
+ * fails. */
+/* bytes of the model store (the image capacity is 64 less: the commit record) */
+#define STAC_SIM_STORE_CAPACITY 131072u
+
+/* Keep the model store in the file at path (NUL-terminated, shorter than 4096 bytes): read it,
+ * or create it erased (all 0xFF) when missing, then validate it as the firmware does at boot.
+ * Call after init and before the first step. Returns 0; -1 if the file cannot be read, created
+ * or written, or is not STORE_CAPACITY bytes long (the store is then left erased, in memory). */
+STAC_SIM_API int32_t stac_sim_model_store(stac_sim_t *sim, const char *path);
+
+/* Fault injection: the countdown-th flash operation from now (1: the next; erase or program)
+ * and every one after it fail until this is called again; 0 ends the fault. A failing program
+ * writes the first half of its words (a write cut short), a failing erase changes nothing. */
+STAC_SIM_API void stac_sim_flash_fault(stac_sim_t *sim, uint32_t countdown);
+
 #ifdef __cplusplus
 }
 #endif

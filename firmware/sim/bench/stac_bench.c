@@ -138,7 +138,8 @@ int main(void) {
     /* The pass that ends an integration, vs an idle pass. */
     static bench_board_t board;
     static stac_app_t app;
-    const stac_hal_t hal = {&board, b_i2c, b_pwm, b_write, b_read, b_clock, b_uid};
+    const stac_hal_t hal = {&board, b_i2c, b_pwm, b_write, b_read, b_clock, b_uid,
+                            NULL, NULL, NULL, NULL}; /* no model store */
     stac_identity_t id;
     memset(&id, 0, sizeof id);
     board.now = 1000u;

@@ -27,6 +27,8 @@ PLAN_MAX = 256
 SHARED_WINDOWS = 8
 #: CONF bits a window's counts depend on: IT, SENS, gain, DG, SD_ALS
 WINDOW_BITS = 0x7C70
+#: bytes of the model store (the image capacity is 64 less: the commit record)
+STORE_CAPACITY = 131072
 
 #: stac_sim_i2c_fn
 I2C_FN = ctypes.CFUNCTYPE(
@@ -116,6 +118,8 @@ SIGNATURES: dict[str, tuple[Any, list[Any]]] = {
         c_int32,
         [c_void_p, c_uint8, c_uint64, c_char_p, c_uint32, c_void_p, c_uint32],
     ),
+    "stac_sim_model_store": (c_int32, [c_void_p, c_char_p]),
+    "stac_sim_flash_fault": (None, [c_void_p, c_uint32]),
 }
 
 

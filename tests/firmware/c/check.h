@@ -46,5 +46,6 @@ extern const test_case_t g_driver_tests[];
 extern const test_case_t g_sched_tests[];
 extern const test_case_t g_cmd_tests[];
 extern const test_case_t g_fuzz_tests[];
+extern const test_case_t g_store_tests[];
 
 #endif /* CHECK_H */

@@ -162,6 +162,64 @@ static void fake_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     }
 }
 
+static uint32_t fake_store_capacity(void *ctx) {
+    (void)ctx;
+    return FAKE_FLASH_SIZE;
+}
+
+static const uint8_t *fake_store_data(void *ctx) {
+    return ((const fake_board_t *)ctx)->flash;
+}
+
+/* Counts an operation; true when it is the one made to fail. */
+static bool fake_flash_fails(fake_board_t *b) {
+    const uint32_t op = b->flash_erases + b->flash_programs;
+    return b->flash_fail_at != 0u && op >= b->flash_fail_at;
+}
+
+static int32_t fake_store_erase(void *ctx) {
+    fake_board_t *b = (fake_board_t *)ctx;
+    b->flash_erases++;
+    if (b->flash_dead || fake_flash_fails(b)) {
+        return STAC_FLASH_FAILED;
+    }
+    memset(b->flash, 0xFF, sizeof b->flash);
+    return STAC_FLASH_OK;
+}
+
+static int32_t fake_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
+    fake_board_t *b = (fake_board_t *)ctx;
+    if (offset % STAC_FLASH_WORD != 0u || len % STAC_FLASH_WORD != 0u ||
+        offset > FAKE_FLASH_SIZE || len > FAKE_FLASH_SIZE - offset) {
+        return STAC_FLASH_BAD_ARG;
+    }
+    b->flash_programs++;
+    if (b->flash_dead) {
+        return STAC_FLASH_FAILED;
+    }
+    const bool fail = fake_flash_fails(b);
+    int32_t rc = fail ? STAC_FLASH_FAILED : STAC_FLASH_OK;
+    for (uint32_t w = 0u; w < len / STAC_FLASH_WORD; w++) {
+        if (fail && w >= len / STAC_FLASH_WORD / 2u) {
+            break; /* a failed write gets half-way */
+        }
+        if (b->flash_power_cut) {
+            if (b->flash_cut_words == 0u) {
+                b->flash_dead = true;
+                return STAC_FLASH_FAILED;
+            }
+            b->flash_cut_words--;
+        }
+        for (uint32_t i = w * STAC_FLASH_WORD; i < (w + 1u) * STAC_FLASH_WORD; i++) {
+            b->flash[offset + i] &= data[i];
+            if (b->flash[offset + i] != data[i]) {
+                rc = STAC_FLASH_FAILED;
+            }
+        }
+    }
+    return rc;
+}
+
 void fake_init(fake_board_t *b) {
     memset(b, 0, sizeof *b);
     b->now = 1000u;
@@ -179,6 +237,11 @@ void fake_init(fake_board_t *b) {
     b->hal.uart_read = fake_read;
     b->hal.clock_us = fake_clock;
     b->hal.unique_id = fake_uid;
+    b->hal.store_capacity = fake_store_capacity;
+    b->hal.store_data = fake_store_data;
+    b->hal.store_erase = fake_store_erase;
+    b->hal.store_program = fake_store_program;
+    memset(b->flash, 0xFF, sizeof b->flash);
 }
 
 void fake_boot(fake_board_t *b, stac_app_t *app) {
@@ -186,7 +249,7 @@ void fake_boot(fake_board_t *b, stac_app_t *app) {
     memset(&id, 0, sizeof id);
     memcpy(id.board, "fake-board", 10);
     memcpy(id.build_id, "test", 4);
-    id.capabilities = STAC_CAPS_CORE;
+    id.capabilities = STAC_CAPS_CORE | STAC_CAPS_MODEL;
     id.baud = 921600u;
     stac_app_init(app, &b->hal, &id, b->now);
 }

@@ -49,6 +49,9 @@ typedef struct fake_window {
     uint8_t bus;
 } fake_window_t;
 
+/* The model store: NOR-like flash (program only clears bits, read back and compared). */
+#define FAKE_FLASH_SIZE 32768u
+
 #define FAKE_MAX_PWM 4096
 #define FAKE_MAX_WINDOWS 4096
 #define FAKE_TX_CAP 65536
@@ -73,6 +76,12 @@ typedef struct fake_board {
     uint32_t tx_done_pass[1024];/* per captured frame: done_pass at that moment */
     uint8_t rx[FAKE_RX_CAP];
     size_t rx_len, rx_pos;
+    _Alignas(8) uint8_t flash[FAKE_FLASH_SIZE];
+    uint32_t flash_erases, flash_programs; /* operations run */
+    uint32_t flash_fail_at;    /* operation number (erases + programs, 1-based) that fails; 0 none */
+    bool flash_power_cut;      /* with flash_cut_words: the supply fails during programming */
+    uint32_t flash_cut_words;  /* words programmed before the power cut */
+    bool flash_dead;           /* the cut happened: nothing more reaches the flash */
     stac_hal_t hal;
 } fake_board_t;
 

@@ -42,7 +42,7 @@ TEST(cmd_get_info) {
     stac_info_t m;
     stac_info_unpack(&m, g_frames[0].payload, g_frames[0].len);
     CHECK_EQ(m.protocol_major, 1);
-    CHECK_EQ(m.protocol_minor, 0);
+    CHECK_EQ(m.protocol_minor, 1);
     CHECK_EQ(m.definition_hash, STAC_DEFINITION_HASH);
     CHECK(strcmp(m.board, "fake-board") == 0);
     CHECK(strcmp(m.build_id, "test") == 0);
@@ -51,7 +51,7 @@ TEST(cmd_get_info) {
     CHECK_EQ(m.sensor_count, 3);
     CHECK_EQ(m.sensor_present, 7);
     CHECK_EQ(m.channels_per_sensor, 5);
-    CHECK_EQ(m.capabilities, STAC_CAPS_CORE);
+    CHECK_EQ(m.capabilities, STAC_CAPS_CORE | STAC_CAPS_MODEL);
     CHECK_EQ(m.max_led_steps, 8);
     CHECK_EQ(m.duty_full_scale, 1000);
     CHECK_EQ(m.integration_times_mask, 0x0F);

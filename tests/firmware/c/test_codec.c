@@ -87,7 +87,7 @@ TEST(frame_roundtrip) {
     size_t plen = 0;
     CHECK_EQ(stac_frame_decode(wire, n - 1, raw, &h, &p, &plen), STAC_FRAME_OK);
     CHECK_EQ(h.major, 1);
-    CHECK_EQ(h.minor, 0);
+    CHECK_EQ(h.minor, STAC_PROTOCOL_MINOR);
     CHECK_EQ(h.type, STAC_MSG_ACK);
     CHECK_EQ(h.seq, 41);
     CHECK_EQ(plen, 5);

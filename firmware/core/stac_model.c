@@ -1,0 +1,543 @@
+/* Interpreter of model images: see stac_model.h. Mirrors, step by step, what the Python
+ * reference computes (decode/assemble.py, feature_matrices.py, networks.py, heads.py,
+ * guard.py, decoder.py): tests feed whole sessions through both and compare sample by
+ * sample. */
+#include "stac_model.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "generated/stac_messages.h"
+#include "stac_crc32c.h"
+
+/* The writer's layout (spectratac.decode.export.model_image). */
+enum {
+    SEC_LAGS, SEC_EMA_ALPHA, SEC_CENTER,
+    SEC_LIN_PTR, SEC_LIN_IDX, SEC_LIN_VAL, SEC_P_PTR, SEC_P_IDX, SEC_P_VAL,
+    SEC_Q_PTR, SEC_Q_IDX, SEC_Q_VAL,
+    SEC_F_MEAN, SEC_F_STD, SEC_WEIGHTS, SEC_W_SCALE, SEC_BIAS, SEC_NORMS,
+    SEC_Y_SCALE, SEC_STD_MUL, SEC_T_LO, SEC_T_HI, SEC_IN_LO, SEC_IN_HI, SEC_DARK_COLS,
+    N_SECTIONS
+};
+
+#define FEATURE_EPS 1e-5f  /* paper_features.EPS: ratio denominators stay positive */
+#define LN_EPS 1e-5f       /* networks.LN_EPS */
+#define GELU_K 0.7978845608028654f
+#define STATUS_BAD 0x0Fu   /* guard.STATUS_BAD: saturated, bus fault, stale, absent */
+#define N_SENSORS 3u
+#define SENSOR_CHANNELS 5u /* counts per sensor on the wire: R G B C IR */
+#define PER_SENSOR 4u      /* of which the decoder uses R G B C */
+
+static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
+
+static uint32_t rd32(const uint8_t *p) {
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+
+static float rdf32(const uint8_t *p) {
+    uint32_t bits = rd32(p);
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+static double rdf64(const uint8_t *p) {
+    uint64_t bits = (uint64_t)rd32(p) | ((uint64_t)rd32(p + 4) << 32);
+    double d;
+    memcpy(&d, &bits, sizeof d);
+    return d;
+}
+
+/* ------------------------------------------------------------------ open */
+
+typedef struct {
+    const uint8_t *image;
+    uint32_t size, table_end;
+    int ok;
+} reader_t;
+
+/* Pointer to section `id` if it holds exactly `bytes` bytes, lies inside the image (before
+ * the CRC) and is 4-byte aligned; NULL (and the reader marked bad) otherwise. An empty
+ * section gives a valid pointer that must not be read. */
+static const uint8_t *section(reader_t *r, unsigned id, uint32_t bytes) {
+    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + 8u * id;
+    uint32_t off = rd32(e), len = rd32(e + 4);
+    if (len != bytes || off < r->table_end || (off & 3u) != 0u || off > r->size - 4u ||
+        len > r->size - 4u - off) {
+        r->ok = 0;
+        return r->image;
+    }
+    return r->image + off;
+}
+
+static int csr_ok(const stac_model_csr_t *c, uint16_t rows, uint32_t nnz, uint16_t n_cols) {
+    if (c->ptr[0] != 0u || c->ptr[rows] != nnz) return 0;
+    for (uint32_t r = 0; r < rows; ++r)
+        if (c->ptr[r + 1u] < c->ptr[r]) return 0;
+    for (uint32_t k = 0; k < nnz; ++k)
+        if (c->idx[k] >= n_cols) return 0;
+    return 1;
+}
+
+/* Reads one CSR matrix of `rows` rows; the non-zero count comes from the index section's
+ * length, which the pointer section then has to agree with. */
+static void open_csr(reader_t *r, unsigned id, uint16_t rows, uint16_t n_cols,
+                     stac_model_csr_t *c) {
+    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + 8u * (id + 1u);
+    uint32_t nnz = rd32(e + 4) / 2u;
+    c->ptr = (const uint16_t *)(const void *)section(r, id, 2u * ((uint32_t)rows + 1u));
+    c->idx = (const uint16_t *)(const void *)section(r, id + 1u, 2u * nnz);
+    c->val = (const float *)(const void *)section(r, id + 2u, 4u * nnz);
+    if (r->ok && !csr_ok(c, rows, nnz, n_cols)) r->ok = 0;
+}
+
+static uint16_t fail(stac_model_t *m) {
+    memset(m, 0, sizeof *m);
+    return STAC_MODEL_INVALID;
+}
+
+static int all_finite(const float *a, uint32_t n) {
+    for (uint32_t i = 0; i < n; ++i)
+        if (!isfinite(a[i])) return 0;
+    return 1;
+}
+
+uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
+    memset(m, 0, sizeof *m);
+    const uint32_t table_end = STAC_MODEL_HEADER_SIZE + 8u * N_SECTIONS;
+    if (image == NULL || ((uintptr_t)image & 3u) != 0u || size < table_end + 4u) return fail(m);
+    if (rd32(image) != STAC_MODEL_MAGIC || rd16(image + 4) != STAC_MODEL_VERSION ||
+        rd16(image + 6) != STAC_MODEL_HEADER_SIZE || rd32(image + 12) != size ||
+        rd16(image + 50) != N_SECTIONS)
+        return fail(m);
+    const uint32_t crc = rd32(image + size - 4u);
+    if (stac_crc32c(image, size - 4u) != crc) return fail(m);
+
+    m->image = image;
+    m->size = size;
+    m->crc = crc;
+    m->model_id = rd32(image + 8);
+    m->weight_format = image[16];
+    m->arch = image[17];
+    m->steps = image[18];
+    m->n_lags = image[20];
+    m->n_emas = image[21];
+    m->drift = image[22];
+    m->uncertainty = (uint8_t)(image[23] & 1u);
+    m->contact_head = (uint8_t)((image[23] >> 1) & 1u);
+    m->n_in = rd16(image + 24);
+    m->n_feat = rd16(image + 26);
+    m->n_lin = rd16(image + 28);
+    m->n_rat = rd16(image + 30);
+    m->hidden = rd16(image + 32);
+    m->blocks = rd16(image + 34);
+    m->n_out = rd16(image + 36);
+    m->n_reg = rd16(image + 38);
+    m->n_classes = rd16(image + 40);
+    m->n_dark = rd16(image + 42);
+    memcpy(m->target_map, image + 44, 6);
+    m->saturation = rdf32(image + 52);
+    m->dark_counts = rdf32(image + 56);
+    m->base_tau = rdf64(image + 64);
+    m->base_gate = rdf64(image + 72);
+    m->base_stuck = rd32(image + 80);
+    m->contact_force = rdf64(image + 88);
+    m->n_base = (uint16_t)(m->steps * STAC_MODEL_CHANNELS);
+
+    /* dimensions: the limits, and the sizes the layout implies */
+    const uint32_t n_std = m->uncertainty ? m->n_reg : 0u;
+    const uint32_t per = 1u + m->n_lags + m->n_emas + (m->drift ? 1u : 0u);
+    if (m->weight_format > STAC_MODEL_W_I8 || m->arch > STAC_MODEL_ARCH_RESMLP ||
+        image[19] != STAC_MODEL_CHANNELS || m->steps < 1u || m->steps > STAC_MODEL_MAX_STEPS ||
+        m->n_lags > STAC_MODEL_MAX_LAGS || m->n_emas > STAC_MODEL_MAX_EMAS || m->drift > 1u ||
+        m->n_in != m->n_base * per || m->n_in > STAC_MODEL_MAX_INPUTS ||
+        m->n_feat > STAC_MODEL_MAX_FEATURES || m->n_feat != m->n_lin + m->n_rat ||
+        m->n_feat == 0u || m->hidden > STAC_MODEL_MAX_HIDDEN ||
+        m->blocks > STAC_MODEL_MAX_BLOCKS || m->n_out > STAC_MODEL_MAX_OUTPUTS ||
+        m->n_out != m->n_reg + n_std + m->n_classes + m->contact_head || m->n_out == 0u ||
+        m->n_dark > STAC_MODEL_MAX_DARK || (image[23] & ~3u) != 0u)
+        return fail(m);
+    if (m->arch == STAC_MODEL_ARCH_LINEAR ? (m->hidden != 0u || m->blocks != 0u)
+                                          : m->hidden == 0u)
+        return fail(m);
+    if (m->arch == STAC_MODEL_ARCH_MLP && m->blocks == 0u) return fail(m);
+    for (unsigned i = 0; i < 6u; ++i)
+        if (m->target_map[i] != 0xFFu && m->target_map[i] >= m->n_reg) return fail(m);
+    if (!(m->base_tau >= 1.0) || !(m->base_gate >= 0.0) || !isfinite(m->base_gate) ||
+        !isfinite(m->base_tau) || !(m->saturation >= 0.0f) || !isfinite(m->dark_counts) ||
+        !isfinite(m->contact_force) || rd32(image + 60) != 0u || rd32(image + 84) != 0u)
+        return fail(m);
+
+    reader_t r = {image, size, table_end, 1};
+    m->lags = (const uint16_t *)(const void *)section(&r, SEC_LAGS, 2u * m->n_lags);
+    const uint8_t *alpha = section(&r, SEC_EMA_ALPHA, 8u * m->n_emas);
+    m->center = (const float *)(const void *)section(&r, SEC_CENTER, 4u * m->n_in);
+    open_csr(&r, SEC_LIN_PTR, m->n_lin, m->n_in, &m->lin);
+    open_csr(&r, SEC_P_PTR, m->n_rat, m->n_in, &m->rat_p);
+    open_csr(&r, SEC_Q_PTR, m->n_rat, m->n_in, &m->rat_q);
+    m->f_mean = (const float *)(const void *)section(&r, SEC_F_MEAN, 4u * m->n_feat);
+    m->f_std = (const float *)(const void *)section(&r, SEC_F_STD, 4u * m->n_feat);
+    if (!r.ok) return fail(m);
+
+    /* the linear layers, in networks.layer_shapes order */
+    uint16_t dims[STAC_MODEL_MAX_LAYERS][2];
+    const uint16_t n_hidden_layers = m->arch == STAC_MODEL_ARCH_LINEAR ? 0u
+                                     : m->arch == STAC_MODEL_ARCH_MLP  ? (uint16_t)(m->blocks - 1u)
+                                                                       : (uint16_t)(2u * m->blocks);
+    uint16_t nl = 0;
+    dims[nl][0] = m->n_feat;
+    dims[nl][1] = m->arch == STAC_MODEL_ARCH_LINEAR ? m->n_out : m->hidden;
+    ++nl;
+    for (uint16_t k = 0; k < n_hidden_layers; ++k, ++nl) {
+        dims[nl][0] = m->hidden;
+        dims[nl][1] = m->hidden;
+    }
+    if (m->arch != STAC_MODEL_ARCH_LINEAR) {
+        dims[nl][0] = m->hidden;
+        dims[nl][1] = m->n_out;
+        ++nl;
+    }
+    const uint32_t esize = m->weight_format == STAC_MODEL_W_F32   ? 4u
+                           : m->weight_format == STAC_MODEL_W_F16 ? 2u
+                                                                  : 1u;
+    uint32_t n_w = 0, n_rows = 0;
+    for (uint16_t l = 0; l < nl; ++l) {
+        n_w += (uint32_t)dims[l][0] * dims[l][1];
+        n_rows += dims[l][1];
+    }
+    const uint8_t *w = section(&r, SEC_WEIGHTS, esize * n_w);
+    const uint32_t n_scale = m->weight_format == STAC_MODEL_W_I8 ? n_rows : 0u;
+    const float *scale = (const float *)(const void *)section(&r, SEC_W_SCALE, 4u * n_scale);
+    const float *bias = (const float *)(const void *)section(&r, SEC_BIAS, 4u * n_rows);
+    const uint32_t n_norm = m->arch == STAC_MODEL_ARCH_RESMLP
+                                ? 2u * ((uint32_t)m->blocks + 1u) * m->hidden
+                                : 0u;
+    m->norms = (const float *)(const void *)section(&r, SEC_NORMS, 4u * n_norm);
+    m->y_scale = (const float *)(const void *)section(&r, SEC_Y_SCALE, 4u * m->n_reg);
+    m->std_mul = (const float *)(const void *)section(&r, SEC_STD_MUL, 4u * n_std);
+    m->t_lo = (const float *)(const void *)section(&r, SEC_T_LO, 4u * m->n_reg);
+    m->t_hi = (const float *)(const void *)section(&r, SEC_T_HI, 4u * m->n_reg);
+    m->in_lo = (const float *)(const void *)section(&r, SEC_IN_LO, 4u * m->n_base);
+    m->in_hi = (const float *)(const void *)section(&r, SEC_IN_HI, 4u * m->n_base);
+    m->dark_cols = (const uint16_t *)(const void *)section(&r, SEC_DARK_COLS, 2u * m->n_dark);
+    if (!r.ok) return fail(m);
+    for (uint16_t l = 0, row = 0; l < nl; ++l) {
+        stac_model_layer_t *L = &m->layers[l];
+        L->n_in = dims[l][0];
+        L->n_out = dims[l][1];
+        L->w = w;
+        L->scale = n_scale ? scale + row : NULL;
+        L->bias = bias + row;
+        w += esize * (uint32_t)L->n_in * L->n_out;
+        row = (uint16_t)(row + L->n_out);
+    }
+    m->n_layers = nl;
+
+    /* contents: lags and moving averages usable, every float parameter finite */
+    for (uint16_t k = 0; k < m->n_lags; ++k)
+        if (m->lags[k] == 0u || m->lags[k] >= STAC_MODEL_MAX_HIST) return fail(m);
+    m->hist = 1u;
+    for (uint16_t k = 0; k < m->n_lags; ++k)
+        if (m->lags[k] + 1u > m->hist) m->hist = (uint16_t)(m->lags[k] + 1u);
+    for (uint16_t e = 0; e < m->n_emas; ++e) {
+        m->ema_alpha[e] = rdf64(alpha + 8u * e);
+        if (!(m->ema_alpha[e] > 0.0 && m->ema_alpha[e] <= 1.0)) return fail(m);
+    }
+    for (uint16_t k = 0; k < m->n_dark; ++k)
+        if (m->dark_cols[k] >= m->n_base) return fail(m);
+    for (uint16_t f = 0; f < m->n_feat; ++f)
+        if (!(m->f_std[f] > 0.0f)) return fail(m);
+    if (!all_finite(m->center, m->n_in) || !all_finite(m->lin.val, m->lin.ptr[m->n_lin]) ||
+        !all_finite(m->rat_p.val, m->rat_p.ptr[m->n_rat]) ||
+        !all_finite(m->rat_q.val, m->rat_q.ptr[m->n_rat]) ||
+        !all_finite(m->f_mean, m->n_feat) || !all_finite(m->f_std, m->n_feat) ||
+        !all_finite(scale, n_scale) || !all_finite(bias, n_rows) ||
+        !all_finite(m->norms, n_norm) || !all_finite(m->y_scale, m->n_reg) ||
+        !all_finite(m->std_mul, n_std))
+        return fail(m);
+    if (m->weight_format == STAC_MODEL_W_F32 &&
+        !all_finite((const float *)(const void *)m->layers[0].w, n_w))
+        return fail(m);
+    return STAC_OK;
+}
+
+/* ------------------------------------------------------------------ network */
+
+/* IEEE half to float, bit by bit (no __fp16 on every target). */
+static float half_to_float(uint16_t h) {
+    const uint32_t sign = (uint32_t)(h & 0x8000u) << 16;
+    uint32_t exp = (h >> 10) & 0x1Fu, man = h & 0x3FFu, bits;
+    if (exp == 0u) {
+        if (man == 0u) {
+            bits = sign;
+        } else { /* subnormal: normalise */
+            exp = 113u;
+            while ((man & 0x400u) == 0u) {
+                man <<= 1;
+                --exp;
+            }
+            bits = sign | (exp << 23) | ((man & 0x3FFu) << 13);
+        }
+    } else if (exp == 31u) {
+        bits = sign | 0x7F800000u | (man << 13);
+    } else {
+        bits = sign | ((exp + 112u) << 23) | (man << 13);
+    }
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+/* y = W x + b in the image's weight format. */
+static void linear(const stac_model_t *m, const stac_model_layer_t *L, const float *x, float *y) {
+    const uint32_t n_in = L->n_in;
+    for (uint32_t o = 0; o < L->n_out; ++o) {
+        float acc = 0.0f;
+        if (m->weight_format == STAC_MODEL_W_F32) {
+            const float *row = (const float *)(const void *)L->w + o * n_in;
+            for (uint32_t i = 0; i < n_in; ++i) acc += row[i] * x[i];
+            y[o] = acc + L->bias[o];
+        } else if (m->weight_format == STAC_MODEL_W_F16) {
+            const uint16_t *row = (const uint16_t *)(const void *)L->w + o * n_in;
+            for (uint32_t i = 0; i < n_in; ++i) acc += half_to_float(row[i]) * x[i];
+            y[o] = acc + L->bias[o];
+        } else {
+            const int8_t *row = (const int8_t *)(const void *)L->w + o * n_in;
+            for (uint32_t i = 0; i < n_in; ++i) acc += (float)row[i] * x[i];
+            y[o] = acc * L->scale[o] + L->bias[o];
+        }
+    }
+}
+
+static float gelu(float x) {
+    return 0.5f * x * (1.0f + tanhf(GELU_K * (x + 0.044715f * x * x * x)));
+}
+
+static void layer_norm(const float *x, const float *g, const float *b, uint32_t n, float *y) {
+    float mu = 0.0f, var = 0.0f;
+    for (uint32_t i = 0; i < n; ++i) mu += x[i];
+    mu /= (float)n;
+    for (uint32_t i = 0; i < n; ++i) var += (x[i] - mu) * (x[i] - mu);
+    var /= (float)n;
+    const float inv = 1.0f / sqrtf(var + LN_EPS);
+    for (uint32_t i = 0; i < n; ++i) y[i] = (x[i] - mu) * inv * g[i] + b[i];
+}
+
+/* Features of st->u into st->z (feature_matrices.FeatureSet.apply, then the scaler). */
+static void features(const stac_model_t *m, stac_model_state_t *st) {
+    const float *u = st->u;
+    for (uint32_t f = 0; f < m->n_lin; ++f) {
+        float acc = 0.0f;
+        for (uint32_t k = m->lin.ptr[f]; k < m->lin.ptr[f + 1u]; ++k) {
+            const uint16_t i = m->lin.idx[k];
+            acc += m->lin.val[k] * (u[i] - m->center[i]);
+        }
+        st->z[f] = acc;
+    }
+    for (uint32_t f = 0; f < m->n_rat; ++f) {
+        float num = 0.0f, den = 0.0f;
+        for (uint32_t k = m->rat_p.ptr[f]; k < m->rat_p.ptr[f + 1u]; ++k)
+            num += m->rat_p.val[k] * u[m->rat_p.idx[k]];
+        for (uint32_t k = m->rat_q.ptr[f]; k < m->rat_q.ptr[f + 1u]; ++k)
+            den += m->rat_q.val[k] * fabsf(u[m->rat_q.idx[k]]);
+        st->z[m->n_lin + f] = num / (den + FEATURE_EPS);
+    }
+    for (uint32_t f = 0; f < m->n_feat; ++f) st->z[f] = (st->z[f] - m->f_mean[f]) / m->f_std[f];
+}
+
+/* The network on st->z; raw head values into st->out. */
+static void network(const stac_model_t *m, stac_model_state_t *st) {
+    const uint32_t H = m->hidden;
+    if (m->arch == STAC_MODEL_ARCH_LINEAR) {
+        linear(m, &m->layers[0], st->z, st->out);
+        return;
+    }
+    linear(m, &m->layers[0], st->z, st->h);
+    for (uint32_t i = 0; i < H; ++i) st->h[i] = gelu(st->h[i]);
+    if (m->arch == STAC_MODEL_ARCH_MLP) {
+        for (uint32_t l = 1; l < m->blocks; ++l) {
+            linear(m, &m->layers[l], st->h, st->t);
+            for (uint32_t i = 0; i < H; ++i) st->h[i] = gelu(st->t[i]);
+        }
+        linear(m, &m->layers[m->blocks], st->h, st->out);
+        return;
+    }
+    for (uint32_t k = 0; k < m->blocks; ++k) {
+        const float *g = m->norms + 2u * k * H;
+        layer_norm(st->h, g, g + H, H, st->n);
+        linear(m, &m->layers[1u + 2u * k], st->n, st->t);
+        for (uint32_t i = 0; i < H; ++i) st->t[i] = gelu(st->t[i]);
+        linear(m, &m->layers[2u + 2u * k], st->t, st->n);
+        for (uint32_t i = 0; i < H; ++i) st->h[i] += st->n[i];
+    }
+    const float *g = m->norms + 2u * m->blocks * H;
+    layer_norm(st->h, g, g + H, H, st->n);
+    linear(m, &m->layers[m->n_layers - 1u], st->n, st->out);
+}
+
+/* heads.postprocess, in place on st->out */
+static void heads(const stac_model_t *m, stac_model_state_t *st) {
+    float *o = st->out;
+    for (uint32_t r = 0; r < m->n_reg; ++r) o[r] *= m->y_scale[r];
+    uint32_t at = m->n_reg;
+    if (m->uncertainty) {
+        for (uint32_t r = 0; r < m->n_reg; ++r) o[at + r] = expf(o[at + r]) * m->std_mul[r];
+        at += m->n_reg;
+    }
+    if (m->n_classes) {
+        float mx = o[at], sum = 0.0f;
+        for (uint32_t c = 1; c < m->n_classes; ++c) mx = o[at + c] > mx ? o[at + c] : mx;
+        for (uint32_t c = 0; c < m->n_classes; ++c) {
+            o[at + c] = expf(o[at + c] - mx);
+            sum += o[at + c];
+        }
+        for (uint32_t c = 0; c < m->n_classes; ++c) o[at + c] /= sum;
+        at += m->n_classes;
+    }
+    if (m->contact_head) o[at] = 0.5f * (1.0f + tanhf(0.5f * o[at]));
+}
+
+/* ------------------------------------------------------------------ assembly */
+
+void stac_model_reset(const stac_model_t *m, stac_model_state_t *st) {
+    (void)m;
+    memset(st, 0, sizeof *st);
+}
+
+/* assemble.Assembler.push after the latest sample of every step is known: history, lags,
+ * moving averages (the past only), baseline (as it was before the sample). */
+static void assemble(const stac_model_t *m, stac_model_state_t *st) {
+    const uint32_t B = m->n_base, H = m->hist;
+    const float *cur = st->latest;
+    if (st->n_assembled == 0u) { /* early lags repeat the oldest sample there is */
+        for (uint32_t k = 0; k < H; ++k) memcpy(st->hist[k], cur, B * sizeof(float));
+    }
+    st->hist_head = (uint16_t)((st->hist_head + 1u) % H);
+    memcpy(st->hist[st->hist_head], cur, B * sizeof(float));
+    if (st->n_assembled < UINT32_MAX) ++st->n_assembled;
+    memcpy(st->u, cur, B * sizeof(float));
+    for (uint32_t k = 0; k < m->n_lags; ++k) {
+        const float *h = st->hist[(st->hist_head + H - m->lags[k]) % H];
+        memcpy(st->u + (1u + k) * B, h, B * sizeof(float));
+    }
+    if (m->n_emas && !st->ema_ready) {
+        for (uint32_t e = 0; e < m->n_emas; ++e)
+            for (uint32_t i = 0; i < B; ++i) st->ema[e][i] = (double)cur[i];
+        st->ema_ready = 1u;
+    }
+    for (uint32_t e = 0; e < m->n_emas; ++e) {
+        float *dst = st->u + (1u + m->n_lags + e) * B;
+        for (uint32_t i = 0; i < B; ++i) {
+            dst[i] = (float)st->ema[e][i];
+            st->ema[e][i] += m->ema_alpha[e] * ((double)cur[i] - st->ema[e][i]);
+        }
+    }
+    if (m->drift) {
+        float *dst = st->u + m->n_in - B;
+        if (!st->base_ready) {
+            for (uint32_t i = 0; i < B; ++i) {
+                st->base[i] = (double)cur[i];
+                dst[i] = cur[i];
+            }
+            st->base_ready = 1u;
+            return;
+        }
+        double sum_abs = 0.0, dev2 = 0.0;
+        for (uint32_t i = 0; i < B; ++i) {
+            dst[i] = (float)st->base[i];
+            sum_abs += fabs(st->base[i]);
+        }
+        const double floor_ = 1e-6 + 0.01 * sum_abs / (double)B;
+        for (uint32_t i = 0; i < B; ++i) {
+            const double dev = ((double)cur[i] - st->base[i]) / (fabs(st->base[i]) + floor_);
+            dev2 += dev * dev;
+        }
+        const double rel = sqrt(dev2 / (double)B);
+        st->out_of_gate = rel < m->base_gate ? 0u : st->out_of_gate + 1u;
+        if (st->out_of_gate == 0u || st->out_of_gate > m->base_stuck)
+            for (uint32_t i = 0; i < B; ++i)
+                st->base[i] += ((double)cur[i] - st->base[i]) / m->base_tau;
+    }
+}
+
+/* ------------------------------------------------------------------ one sample */
+
+static void no_estimate(stac_model_output_t *out, uint8_t flags) {
+    for (unsigned i = 0; i < 3u; ++i) out->force[i] = out->torque[i] = NAN;
+    out->region = 0u;
+    out->region_prob = NAN;
+    out->contact_prob = NAN;
+    out->flags = flags;
+}
+
+int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_step,
+                    const uint16_t counts[3][5], const uint8_t sensor_status[3],
+                    stac_model_output_t *out) {
+    if (m->image == NULL || led_step >= m->steps) {
+        no_estimate(out, STAC_EST_INVALID);
+        return 1;
+    }
+    float *x = st->latest + (uint32_t)led_step * STAC_MODEL_CHANNELS;
+    for (uint32_t s = 0; s < N_SENSORS; ++s)
+        for (uint32_t c = 0; c < PER_SENSOR; ++c) x[s * PER_SENSOR + c] = (float)counts[s][c];
+    st->seen[led_step] = 1u;
+    for (uint32_t s = 0; s < m->steps; ++s)
+        if (!st->seen[s]) return 0;
+    assemble(m, st);
+    features(m, st);
+    network(m, st);
+    heads(m, st);
+
+    uint8_t flags = st->n_assembled < m->hist ? (uint8_t)STAC_EST_WARMUP : 0u;
+    for (uint32_t i = 0; i < m->n_out; ++i)
+        if (!isfinite(st->out[i])) { /* damaged weights or overflow: no estimate */
+            no_estimate(out, (uint8_t)(flags | STAC_EST_INVALID));
+            return 1;
+        }
+    /* guard.Guard.check on the current sample, the targets and the status */
+    int ood = 0;
+    for (uint32_t i = 0; i < m->n_base; ++i) {
+        const float v = st->u[i];
+        if (v < m->in_lo[i] || v > m->in_hi[i]) ood = 1;
+        if (m->saturation > 0.0f && v >= m->saturation) ood = 1;
+    }
+    for (uint32_t k = 0; k < m->n_dark; ++k)
+        if (st->u[m->dark_cols[k]] < m->dark_counts) ood = 1;
+    for (uint32_t r = 0; r < m->n_reg; ++r)
+        if (st->out[r] < m->t_lo[r] || st->out[r] > m->t_hi[r]) ood = 1;
+    for (uint32_t s = 0; s < N_SENSORS; ++s)
+        if (sensor_status[s] & STATUS_BAD) ood = 1;
+    if (ood) flags |= STAC_EST_OOD;
+
+    double f2 = 0.0; /* decoder.py: |F| from the float32 outputs in float64 */
+    int any_force = 0;
+    for (unsigned i = 0; i < 3u; ++i) {
+        const uint8_t fi = m->target_map[i], ti = m->target_map[3u + i];
+        out->force[i] = fi == 0xFFu ? NAN : st->out[fi];
+        out->torque[i] = ti == 0xFFu ? NAN : st->out[ti];
+        if (fi != 0xFFu) {
+            f2 += (double)out->force[i] * (double)out->force[i];
+            any_force = 1;
+        }
+    }
+    const uint32_t cls = m->n_reg + (m->uncertainty ? m->n_reg : 0u);
+    out->region = 0u;
+    out->region_prob = NAN;
+    if (m->n_classes) {
+        uint32_t best = 0;
+        for (uint32_t c = 1; c < m->n_classes; ++c)
+            if (st->out[cls + c] > st->out[cls + best]) best = c;
+        out->region = (uint8_t)(best + 1u);
+        out->region_prob = st->out[cls + best];
+    }
+    if (m->contact_head) {
+        out->contact_prob = st->out[m->n_out - 1u];
+        if (out->contact_prob > 0.5f) flags |= STAC_EST_CONTACT;
+    } else {
+        out->contact_prob = NAN;
+        if (any_force && sqrt(f2) > m->contact_force) flags |= STAC_EST_CONTACT;
+    }
+    out->flags = flags;
+    return 1;
+}

@@ -1,0 +1,110 @@
+"""Model images (decode/export/model_image.py): layout, ids, refusals, damage detection."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
+from spectratac.decode import Decoder
+from spectratac.decode.export import model_image as mi
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def dataset(n: int = 50, seed: int = 1) -> Dataset:
+    rng = np.random.default_rng(seed)
+    raw = rng.integers(500, 30000, (n, 12)).astype(np.float64)
+    return Dataset.generic(raw, rng.normal(size=(n, 2)), list(SPECTRATAC_INPUTS), ["Fx", "Fz"])
+
+
+@pytest.fixture(scope="module")
+def dec() -> Decoder:
+    return Decoder.untrained(
+        dataset(), features="paper33", targets=("Fx", "Fz", "region"), arch=("resmlp", 16, 2)
+    )
+
+
+def test_limits_equal_the_interpreters() -> None:
+    assert mi.header_limits(REPO / "firmware" / "core" / "stac_model.h") == mi.LIMITS
+
+
+@pytest.mark.parametrize("weights", mi.WEIGHT_FORMATS)
+def test_layout_and_description(dec, weights) -> None:
+    image = mi.encode(dec, weights)
+    d = mi.describe(image)
+    assert image[:4] == b"STMI" and len(image) % 4 == 0
+    assert d["size"] == len(image) and d["weight_format"] == weights
+    assert (d["arch"], d["hidden"], d["blocks"]) == ("resmlp", 16, 2)
+    assert (d["n_inputs"], d["n_features"], d["n_outputs"]) == (12, 33, 2 + 9)
+    n_weights = 33 * 16 + 4 * 16 * 16 + 16 * 11
+    assert d["sections"]["weights"] == n_weights * {"f32": 4, "f16": 2, "i8": 1}[weights]
+    assert d["sections"]["w_scale"] == (4 * (16 * 5 + 11) if weights == "i8" else 0)
+    # the paper's feature rows are sparse: one or two non-zeros each
+    assert d["sections"]["lin_idx"] == 2 * (12 + 2 * 12)
+    offsets = [struct.unpack_from("<I", image, mi.HEADER_SIZE + 8 * i)[0] for i in range(25)]
+    assert all(o % 4 == 0 for o in offsets) and offsets == sorted(offsets)
+
+
+def test_ids_follow_content_and_format(dec) -> None:
+    a, b = mi.encode(dec), mi.encode(dec)
+    assert a == b and mi.model_id(a) == mi.decoder_model_id(dec) != 0
+    assert len({mi.model_id(mi.encode(dec, w)) for w in mi.WEIGHT_FORMATS}) == 3
+    other = Decoder.untrained(dataset(), features="paper33", targets=("Fx", "Fz", "region"),
+                              arch=("resmlp", 16, 2), seed=1)  # fmt: skip
+    assert mi.model_id(mi.encode(other)) != mi.model_id(a)
+
+
+def test_stored_weights_are_the_rounded_ones(dec) -> None:
+    w = dec.runtime.weights["blocks.0.fc1.weight"]
+    f16 = mi.as_stored(dec, "f16").runtime.weights["blocks.0.fc1.weight"]
+    i8 = mi.as_stored(dec, "i8").runtime.weights["blocks.0.fc1.weight"]
+    np.testing.assert_array_equal(f16, w.astype(np.float16).astype(np.float32))
+    step = np.abs(w).max(axis=1, keepdims=True) / 127
+    assert np.all(np.abs(i8 - w) <= step / 2 + 1e-7) and not np.array_equal(i8, w)
+    assert mi.as_stored(dec, "f32").runtime.weights["blocks.0.fc1.weight"] is not None
+
+
+def test_damage_is_detected(dec) -> None:
+    image = bytearray(mi.encode(dec))
+    image[400] ^= 0x01
+    with pytest.raises(mi.ModelImageError, match="CRC"):
+        mi.describe(bytes(image))
+    with pytest.raises(mi.ModelImageError, match="truncated"):
+        mi.model_id(mi.encode(dec)[:-8])
+    with pytest.raises(mi.ModelImageError, match="STMI"):
+        mi.model_id(b"\0" * 400)
+
+
+def test_guard_bounds_decide_like_float64() -> None:
+    lo, hi = mi._count_bounds(np.array([-np.inf, 10.5, 3.0]), np.array([7.2, np.inf, 1e9]))
+    assert np.frombuffer(lo, "<f4").tolist() == [-1.0, 11.0, 3.0]
+    assert np.frombuffer(hi, "<f4").tolist() == [7.0, 65536.0, 65536.0]
+    t_lo, t_hi = mi._target_bounds(np.array([0.1]), np.array([0.1]))
+    lo32, hi32 = np.frombuffer(t_lo, "<f4")[0], np.frombuffer(t_hi, "<f4")[0]
+    assert np.float64(lo32) >= 0.1 >= np.float64(hi32)
+    assert (
+        np.float64(np.nextafter(lo32, np.float32(0)))
+        < 0.1
+        < np.float64(np.nextafter(hi32, np.float32(1)))
+    )
+
+
+def test_what_the_firmware_cannot_run_is_refused(dec) -> None:
+    generic = Dataset.generic(np.ones((4, 2)), np.zeros((4, 1)), ["a", "b"], ["Fz"])
+    with pytest.raises(mi.ModelImageError, match="12 SpectraTac inputs"):
+        mi.encode(Decoder.untrained(generic))
+    wide = Decoder.untrained(dataset(), features="paper33", arch=("resmlp", 300, 1))
+    with pytest.raises(mi.ModelImageError, match="300 hidden units; the firmware runs at most 256"):
+        mi.encode(wide)
+    with pytest.raises(mi.ModelImageError, match="model store holds"):
+        mi.encode(dec, limit=1000)
+    with pytest.raises(mi.ModelImageError, match="f32, f16, i8"):
+        mi.encode(dec, "bf16")
+    big = Decoder.untrained(dataset(), features="paper33", arch=("resmlp", 128, 2))
+    assert len(mi.encode(big, "i8")) < mi.MAX_IMAGE_BYTES
+    with pytest.raises(mi.ModelImageError, match="weights='f16' or 'i8'"):
+        mi.encode(big, "f32")
+    assert len(mi.encode(big, "f32", limit=None)) > mi.MAX_IMAGE_BYTES

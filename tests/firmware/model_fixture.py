@@ -1,0 +1,47 @@
+"""The model image the C tests upload and decode with (tests/firmware/c/model_fixture.c): an
+untrained paper33 ResMLP decoder for one LED step, made the same way every time so that a test
+can check the committed C array against a fresh export."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[2]
+C_FIXTURE = REPO / "tests" / "firmware" / "c" / "model_fixture.c"
+SYMBOL = "test_model_image"
+
+
+def fixture_image() -> bytes:
+    from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
+    from spectratac.decode import Decoder
+    from spectratac.decode.export.model_image import encode
+
+    ds = Dataset.generic(
+        np.arange(1.0, 37.0).reshape(3, 12) * 100.0,
+        np.zeros((3, 1)),
+        list(SPECTRATAC_INPUTS),
+        ["Fz"],
+    )
+    return encode(Decoder.untrained(ds, features="paper33"), weights="f32")
+
+
+def builtin_model_tool() -> ModuleType:
+    path = REPO / "tools" / "firmware" / "builtin_model.py"
+    spec = importlib.util.spec_from_file_location("builtin_model", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def render_fixture() -> str:
+    return builtin_model_tool().render(fixture_image(), SYMBOL, "tests/firmware/model_fixture.py")
+
+
+if __name__ == "__main__":
+    C_FIXTURE.write_text(render_fixture())
+    print(f"wrote {C_FIXTURE}")
