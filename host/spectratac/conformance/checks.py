@@ -15,11 +15,13 @@ import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from spectratac.device import Sensor
 from spectratac.protocol import messages as m
+from spectratac.protocol.versions import expected_definition_hash
 
 WHITE = [[[500, 500, 500]] * 3]
 RGB_STEPS = [[[(c == k and 1000) or 0 for c in range(3)]] * 3 for k in range(3)]
@@ -32,6 +34,7 @@ class Outcome:
 
 
 Check = Callable[[Sensor], Outcome]
+Target = TypeVar("Target")  # what a check is given: a Sensor, or a model_checks.ModelSession
 
 
 def _configure_payload(**overrides: int) -> bytes:
@@ -63,7 +66,9 @@ def _configure_payload(**overrides: int) -> bytes:
 
 def handshake(s: Sensor) -> Outcome:
     i = s.info
-    ok = i.protocol_major == m.PROTOCOL_MAJOR and i.definition_hash == m.DEFINITION_HASH
+    expected = expected_definition_hash(i.protocol_minor)
+    # the hash of the device's own minor version; a newer minor cannot be checked (SPEC.md)
+    ok = i.protocol_major == m.PROTOCOL_MAJOR and expected in (None, i.definition_hash)
     return Outcome(
         ok,
         f"protocol {i.protocol_major}.{i.protocol_minor}, hash "
@@ -296,10 +301,10 @@ CHECKS: list[tuple[str, Check]] = [
 ]
 
 
-def run_check(sensor: Sensor, check: Check) -> Outcome:
+def run_check(target: Target, check: Callable[[Target], Outcome]) -> Outcome:
     started = time.monotonic()
     try:
-        outcome = check(sensor)
+        outcome = check(target)
     except Exception as exc:  # a failing device must give a failed row, not a traceback
         outcome = Outcome(False, f"{type(exc).__name__}: {exc}")
     outcome.detail += f" [{time.monotonic() - started:.1f} s]"

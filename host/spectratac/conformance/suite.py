@@ -5,7 +5,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from spectratac.conformance import model_checks
 from spectratac.conformance.checks import CHECKS, Outcome, run_check
+from spectratac.conformance.model_checks import ModelSession, TestModel
 from spectratac.device import Sensor
 from spectratac.device.errors import DeviceError, DeviceNotFoundError, PermissionDeniedError
 
@@ -31,7 +33,11 @@ def run_suite(
     url: str,
     timeout: float = 2.0,
     progress: Callable[[str, Outcome], None] | None = None,
+    model: TestModel | None = None,
 ) -> SuiteResult:
+    """Every check of checks.CHECKS, then the model checks the device's capabilities call for
+    (model_checks; they upload `model`, by default the packaged TestModel, and erase it at
+    the end)."""
     result = SuiteResult(url)
     try:
         sensor = Sensor.open(url, timeout=timeout)
@@ -43,10 +49,30 @@ def run_suite(
         if progress:
             progress(result.rows[0][0], outcome)
         return result
-    with sensor:
+    session = ModelSession(sensor, model or TestModel.packaged(), lambda: _reopen(session, timeout))
+    try:
         for name, check in CHECKS:
-            outcome = run_check(sensor, check)
-            result.rows.append((name, outcome))
-            if progress:
-                progress(name, outcome)
+            _record(result, name, run_check(session.sensor, check), progress)
+        for name, model_check in model_checks.applicable(sensor.info.capabilities):
+            _record(result, name, run_check(session, model_check), progress)
+    finally:
+        session.sensor.close()
     return result
+
+
+def _record(
+    result: SuiteResult,
+    name: str,
+    outcome: Outcome,
+    progress: Callable[[str, Outcome], None] | None,
+) -> None:
+    result.rows.append((name, outcome))
+    if progress:
+        progress(name, outcome)
+
+
+def _reopen(session: ModelSession, timeout: float) -> Sensor:
+    """Close the link and connect again (a simulated device boots afresh)."""
+    url = session.sensor.url
+    session.sensor.close()
+    return Sensor.open(url, timeout=timeout)

@@ -464,9 +464,11 @@ class Sensor:
         payload: bytes,
         accepts: tuple[int, ...] = (m.Ack.TYPE_ID, m.Nack.TYPE_ID),
         version: tuple[int, int] = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR),
+        timeout: float | None = None,
     ) -> Message:
         """Send a frame with any type, payload and version, unvalidated, and return the reply
-        (for conformance tests and debugging). ACK/NACK replies are matched by sequence."""
+        within `timeout` s (default: the sensor's), for conformance tests and debugging.
+        ACK/NACK replies are matched by sequence."""
         with self._write_lock:
             seq = self._next_seq()
             match = m.Ack.TYPE_ID in accepts or m.Nack.TYPE_ID in accepts
@@ -474,7 +476,7 @@ class Sensor:
             with self._cond:
                 self._waiters.append(waiter)
             self._transport.write(b"\x00" + encode_raw(type_id, payload, seq, version))
-        return self._await(waiter, f"frame type 0x{type_id:02X}")
+        return self._await(waiter, f"frame type 0x{type_id:02X}", timeout)
 
     def write_raw(self, data: bytes) -> None:
         """Put arbitrary bytes on the link (e.g. garbage, to test the device's recovery)."""

@@ -46,7 +46,29 @@ CONFORMANCE_FAULTS = {
     "no_rx_errors": "STATUS never counts receive errors (recovery after garbage)",
     "late_stop": "STOP is acknowledged at once but streaming goes on for 0.4 s (stop stops)",
     "flag_fault": "sensor 0 is flagged as a bus fault although present (sensor status)",
+    # on-device decoding (protocol 1.1; spectratac.conformance.model_checks)
+    "bad_model_info": "MODEL_INFO reports max_hidden 0 (model info)",
+    "accept_large_model": "MODEL_TOO_LARGE refusals arrive as ACK (model larger than the store)",
+    "accept_bad_chunk": "MODEL_BAD_CHUNK refusals arrive as ACK (model chunk out of order)",
+    "accept_bad_crc": "MODEL_BAD_CRC refusals arrive as ACK (model with a bad CRC)",
+    "accept_bad_model": "MODEL_INVALID refusals arrive as ACK (damaged model)",
+    "wrong_model_crc": "MODEL_INFO names another CRC than the stored model's (upload round trip)",
+    "estimate_skew": "ESTIMATE names the next sample's sample_seq (estimates beside samples)",
+    "ignore_estimate_only": "CONFIG_ESTIMATE_ONLY is ignored: samples keep coming (estimates "
+    "instead of samples)",
+    "volatile_model": "a model uploaded before a reset is gone after it (model survives a reset)",
+    "sticky_model": "MODEL_CLEAR is acknowledged but not carried out (model clear)",
 }
+#: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
+ACCEPTS = {
+    "accept_large_model": m.Error.MODEL_TOO_LARGE,
+    "accept_bad_chunk": m.Error.MODEL_BAD_CHUNK,
+    "accept_bad_crc": m.Error.MODEL_BAD_CRC,
+    "accept_bad_model": m.Error.MODEL_INVALID,
+}
+MODEL_INFO_FAULTS = frozenset({"bad_model_info", "wrong_model_crc", "volatile_model"})
+#: faults that change what the host sends before the device sees it
+HOST_SIDE = frozenset({"late_stop", "ignore_estimate_only", "volatile_model", "sticky_model"})
 #: link faults: damage on the wire, not a protocol violation
 LINK_FAULTS = {
     "none": "no fault; only count what the device sends",
@@ -139,6 +161,7 @@ class FaultLayer:
         self._held_stop: bytes | None = None
         self._stop_lock = threading.Lock()
         self._stop_timer: threading.Timer | None = None
+        self._uploading = False  # volatile_model: the host began an upload in this boot
 
     # --- device -> host ----------------------------------------------------------------------
     def from_device(self, data: bytes, t: int) -> bool:
@@ -242,27 +265,61 @@ class FaultLayer:
             )
         elif isinstance(msg, m.Status) and "no_rx_errors" in f:
             msg = dataclasses.replace(msg, rx_errors=0)
+        elif isinstance(msg, m.Nack) and any(ACCEPTS[a] == msg.error for a in f & ACCEPTS.keys()):
+            msg = m.Ack(acked_type=msg.rejected_type, acked_seq=msg.rejected_seq)
+        elif isinstance(msg, m.ModelInfo) and f & MODEL_INFO_FAULTS:
+            msg = _model_info_fault(msg, f, self._uploading)
+        elif isinstance(msg, m.Estimate) and "estimate_skew" in f:
+            msg = dataclasses.replace(msg, sample_seq=(msg.sample_seq + 1) & 0xFFFF_FFFF)
         else:
             return encoded + b"\x00"
         return encode_raw(msg.TYPE_ID, msg.pack(), frame.seq, frame.version)
 
     # --- host -> device ----------------------------------------------------------------------
     def from_host(self, data: bytes) -> None:
-        if "late_stop" not in self.faults:
+        if not self.faults & HOST_SIDE:
             self._to_device(data)
             return
         self._release_stop()  # the device finishes stopping before it reads anything newer
         out = bytearray()
         *frames, tail = data.split(b"\x00")
         for encoded in frames:
-            stop = self._as_stop(encoded)
+            stop = self._as_stop(encoded) if "late_stop" in self.faults else None
             if stop is None:
-                out += encoded + b"\x00"
+                out += self._host_frame(encoded)
                 continue
             self._to_device(bytes(out))
             out.clear()
             self._hold_stop(encoded + b"\x00", stop)
         self._to_device(bytes(out) + tail)
+
+    def _host_frame(self, encoded: bytes) -> bytes:
+        """A host frame as the faulty device takes it (with its 0x00), or b"" if it drops it."""
+        try:
+            frame = decode_frame(encoded)
+        except FrameError:
+            return encoded + b"\x00"
+        msg = frame.message
+        if isinstance(msg, m.ModelBegin):
+            self._uploading = True
+        if isinstance(msg, m.ModelClear) and "sticky_model" in self.faults:
+            self._ack(msg.TYPE_ID, frame.seq)
+            return b""
+        only = m.ConfigureFlags.CONFIG_ESTIMATE_ONLY
+        if (
+            isinstance(msg, m.Configure)
+            and "ignore_estimate_only" in self.faults
+            and msg.flags & only
+        ):
+            msg = dataclasses.replace(msg, flags=msg.flags & ~only)
+            return encode_raw(msg.TYPE_ID, msg.pack(), frame.seq, frame.version)
+        return encoded + b"\x00"
+
+    def _ack(self, type_id: int, seq: int) -> None:
+        ack = m.Ack(acked_type=type_id, acked_seq=seq, config_id=0)
+        self._to_host(
+            encode_raw(m.Ack.TYPE_ID, ack.pack(), 0, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)), 0
+        )
 
     def _as_stop(self, encoded: bytes) -> int | None:
         """The seq of a STOP command, else None."""
@@ -273,10 +330,7 @@ class FaultLayer:
         return frame.seq if isinstance(frame.message, m.Stop) else None
 
     def _hold_stop(self, wire: bytes, seq: int) -> None:
-        ack = m.Ack(acked_type=m.Stop.TYPE_ID, acked_seq=seq, config_id=0)
-        self._to_host(
-            encode_raw(m.Ack.TYPE_ID, ack.pack(), 0, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)), 0
-        )
+        self._ack(m.Stop.TYPE_ID, seq)
         with self._stop_lock:
             self._held_stop = wire
             self._stop_timer = threading.Timer(LATE_STOP_S, self._release_stop)
@@ -296,3 +350,15 @@ class FaultLayer:
         with self._stop_lock:
             if self._stop_timer is not None:
                 self._stop_timer.cancel()
+
+
+def _model_info_fault(msg: m.ModelInfo, faults: frozenset[str], uploading: bool) -> m.ModelInfo:
+    if "bad_model_info" in faults:
+        msg = dataclasses.replace(msg, max_hidden=0)
+    if "wrong_model_crc" in faults and msg.present:
+        msg = dataclasses.replace(msg, crc=msg.crc ^ 1)
+    if "volatile_model" in faults and not uploading:
+        msg = m.ModelInfo(
+            capacity=msg.capacity, max_inputs=msg.max_inputs, max_hidden=msg.max_hidden
+        )
+    return msg
