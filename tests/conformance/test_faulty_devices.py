@@ -7,8 +7,9 @@ not mocks of the suite: the suite talks to them exactly as it talks to a board.
 from __future__ import annotations
 
 import pytest
-from spectratac.conformance import CHECKS, run_suite
+from spectratac.conformance import CHECKS, MODEL_CHECKS, run_suite
 from spectratac.conformance import checks as c
+from spectratac.conformance import model_checks as mc
 from spectratac.sim.faults import CONFORMANCE_FAULTS
 
 pytestmark = pytest.mark.slow  # each suite run streams ~5 s of real time
@@ -25,8 +26,20 @@ BREAKS = {
     "no_rx_errors": c.garbage_recovery,
     "late_stop": c.stop_stops,
     "flag_fault": c.sensor_status,
+    "bad_model_info": mc.model_info,
+    "accept_large_model": mc.model_too_large,
+    "accept_bad_chunk": mc.chunk_order,
+    "accept_bad_crc": mc.bad_crc,
+    "accept_bad_model": mc.damaged_model,
+    "wrong_model_crc": mc.upload_round_trip,
+    "estimate_skew": mc.estimates_beside,
+    "ignore_estimate_only": mc.estimates_instead,
+    "volatile_model": mc.survives_reset,
+    "sticky_model": mc.clear,
 }
-NAME_OF = {check: name for name, check in CHECKS}
+NAME_OF = {check: name for name, check in CHECKS} | {check: name for name, check, _ in MODEL_CHECKS}
+#: the simulated device decodes on board and takes uploads (protocol 1.1): every check runs
+ROWS = len(CHECKS) + len(MODEL_CHECKS)
 
 
 def _failed(url: str) -> tuple[list[str], int]:
@@ -42,13 +55,13 @@ def test_every_check_has_a_fault_that_breaks_it() -> None:
 
 def test_the_healthy_device_passes_every_check() -> None:
     failed, rows = _failed("sim://?scene=idle&fault=none")
-    assert (failed, rows) == ([], len(CHECKS))
+    assert (failed, rows) == ([], ROWS)
 
 
 @pytest.mark.parametrize("fault", [f for f in BREAKS if f != "wrong_hash"])
 def test_a_faulty_device_fails_exactly_its_check(fault: str) -> None:
     failed, rows = _failed(f"sim://?scene=idle&fault={fault}")
-    assert (failed, rows) == ([NAME_OF[BREAKS[fault]]], len(CHECKS))
+    assert (failed, rows) == ([NAME_OF[BREAKS[fault]]], ROWS)
 
 
 def test_a_wrong_definition_hash_fails_the_handshake_and_stops_the_suite() -> None:

@@ -221,3 +221,50 @@ def test_fields_of_a_later_minor_give_each_sender_its_layout(
     bad = newer.replace("since = 1", "since = 2")
     with pytest.raises(definition.DefinitionError, match="'since' values must be minor"):
         definition.load(_definition_copy(repo, tmp_path / "bad", bad))
+
+
+def test_messages_name_the_minor_version_that_added_them(
+    repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
+) -> None:
+    """`since` on a message: generated into SINCE, shown in MESSAGES.md, hashed, range-checked."""
+    assert (messages.Sample.SINCE, messages.Estimate.SINCE, messages.ModelBegin.SINCE) == (0, 1, 1)
+    reference = (repo / "protocol/MESSAGES.md").read_text(encoding="utf-8")
+    assert "| 0x8A | [ESTIMATE](#estimate) | device → host | 46 | 1.1 |" in reference
+    assert "| 0x84 | [SAMPLE](#sample) | device → host | 48 | 1.0 |" in reference
+    assert "Type 0x8A. Added in 1.1: a 1.0 peer does not know it." in reference
+    definition = codegen["definition"]
+    text = (repo / "protocol/messages.toml").read_text(encoding="utf-8")
+    estimate = 'name = "ESTIMATE"\nid = 0x8A\ndirection = "device_to_host"\nsince = 1'
+    assert estimate in text
+    unversioned = text.replace(estimate, estimate.replace("\nsince = 1", ""))
+    assert definition.load(_definition_copy(repo, tmp_path / "a", unversioned)).hash != (
+        messages.DEFINITION_HASH
+    )
+    future = text.replace(estimate, estimate.replace("since = 1", "since = 2"))
+    with pytest.raises(definition.DefinitionError, match="ESTIMATE: 'since' values must be minor"):
+        definition.load(_definition_copy(repo, tmp_path / "b", future))
+
+
+def test_the_1_0_subset_keeps_the_released_1_0_hash(codegen: dict[str, ModuleType]) -> None:
+    """Every 1.1 addition removed, the definition hashes as 1.0 did: `since` = 0 adds nothing
+    to the hash, so a released version's hash never moves (SPEC.md, section 8)."""
+    import dataclasses
+
+    from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
+
+    definition = codegen["definition"]
+    d = definition.load(Path(__file__).resolve().parents[2] / "protocol/messages.toml")
+    new_flags = {"CAP_ESTIMATE", "CAP_MODEL_UPLOAD", "CONFIG_ESTIMATE", "CONFIG_ESTIMATE_ONLY"}
+    old = dataclasses.replace(
+        d,
+        protocol=d.protocol | {"minor": 0},
+        enums=d.enums
+        | {"error": (d.enums["error"][0], tuple(v for v in d.enums["error"][1] if v.value < 14))},
+        flags={
+            name: (doc, tuple(v for v in values if v.name not in new_flags))
+            for name, (doc, values) in d.flags.items()
+            if name != "estimate_flags"
+        },
+        messages=tuple(msg for msg in d.messages if msg.since == 0),
+    )
+    assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[0]

@@ -103,3 +103,22 @@ def test_only_fields_newer_than_the_sender_are_zero_filled() -> None:
             decode_frame(encode_raw(status.TYPE_ID, old_layout, seq=2, version=(1, 1))[:-1])
         bulk = decode_samples(encode_raw(status.TYPE_ID, old_layout, seq=3, version=(1, 0)))
         assert bulk.other == 1 and bulk.stats.dropped == 0
+
+
+def test_a_receiver_that_does_not_know_estimate_skips_and_counts_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A 1.0 host gets ESTIMATE from a 1.1 device: an unknown type, counted; samples go on."""
+    monkeypatch.delitem(messages.MESSAGES_BY_ID, messages.Estimate.TYPE_ID)
+    sample = messages.Sample(sample_seq=1)
+    wire = (
+        encode_frame(sample, 1, (1, 1))
+        + encode_frame(messages.Estimate(sample_seq=1), 2, (1, 1))
+        + encode_frame(messages.Sample(sample_seq=2), 3, (1, 1))
+    )
+    decoder = StreamDecoder()
+    frames = decoder.feed(wire)
+    assert [f.message.sample_seq for f in frames] == [1, 2]
+    assert decoder.stats.unknown_type == 1 and decoder.stats.seq_gaps == 0
+    bulk = decode_samples(wire)
+    assert bulk.samples["sample_seq"].tolist() == [1, 2]
