@@ -22,6 +22,7 @@ from spectratac.errors import SpectraTacError
 # Verb modules under spectratac.cli, in the order they appear in --help.
 VERB_MODULES: tuple[str, ...] = (
     "device_cmd",
+    "model_cmd",
     "sim_cmd",
     "conformance_cmd",
     "demo_cmd",

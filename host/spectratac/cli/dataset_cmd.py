@@ -163,6 +163,7 @@ def _info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"path": args.dataset, **s}))
         return ExitCode.OK
+
     def say(text: str) -> None:  # the file's own strings (unit, sources): never raw
         print(printable(text))
 

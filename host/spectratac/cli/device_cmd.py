@@ -1,4 +1,7 @@
-"""`spectratac info URL` and `spectratac stream URL`: talk to a device from the shell."""
+"""`spectratac info URL` and `spectratac stream URL`: talk to a device from the shell.
+
+`stream --estimates beside|instead` adds the device's own estimates (protocol 1.1, a model
+uploaded with `spectratac model upload`): beside each sample's counts, or instead of them."""
 
 from __future__ import annotations
 
@@ -6,6 +9,8 @@ import argparse
 import json
 import sys
 import time
+from collections.abc import Iterator
+from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_count, add_device_url, add_row_format
@@ -25,6 +30,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_row_format(stream)
     stream.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     stream.add_argument("--duty", type=int, default=500, help="white LED duty, permille")
+    stream.add_argument(
+        "--estimates",
+        choices=("off", "beside", "instead"),
+        default="off",
+        help="on-device estimates (force, torque, region) beside or instead of the counts; "
+        "needs a device that decodes (see `spectratac model`)",
+    )
     stream.set_defaults(func=_stream)
 
 
@@ -65,6 +77,9 @@ def _info(args: argparse.Namespace) -> int:
 
 
 CHANNELS = ("R", "G", "B", "C", "IR")
+SAMPLE_COLUMNS = ["seq", "t_ms", "step", *(f"s{k}{c}" for k in range(3) for c in CHANNELS)]
+ESTIMATE_COLUMNS = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "region", "est_flags"]
+PAIRING_WAIT_S = 0.5  # how long a sample waits for its estimate (it follows the SAMPLE frame)
 
 
 def _stream(args: argparse.Namespace) -> int:
@@ -74,24 +89,22 @@ def _stream(args: argparse.Namespace) -> int:
         raise SpectraTacError("--count must be >= 0 (0 streams until interrupted)")
     if not 0 <= args.duty <= 1000:
         raise SpectraTacError("--duty is in permille: 0..1000")
-    columns = ["seq", "t_ms", "step", *(f"s{k}{c}" for k in range(3) for c in CHANNELS), "status"]
+    mode = args.estimates
+    if mode == "instead":
+        columns = ["seq", "t_ms", *ESTIMATE_COLUMNS]
+    else:
+        columns = [*SAMPLE_COLUMNS, "status", *(ESTIMATE_COLUMNS if mode == "beside" else [])]
     printed = 0
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
-        sensor.configure(integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3])
-        writer = RowWriter(columns, args.format, width=7)
+        sensor.configure(
+            integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3], estimates=mode
+        )
+        writer = RowWriter(columns, args.format, width=7, table_cell=_cell)
         sensor.start()
         t0 = time.monotonic()
         try:
-            for sample in sensor:
-                values = [
-                    sample.sequence,
-                    sample.device_time_us // 1000,
-                    sample.step,
-                    *(v for counts in sample.counts for v in counts),
-                ]
-                status = "".join(f"{s:x}" for s in sample.status)
-                record = dict(zip(columns, [*values, list(sample.status)], strict=True))
-                writer.row([*values, status], record)
+            for cells, record in _rows(sensor, mode, columns):
+                writer.row(cells, record)
                 printed += 1
                 if args.count and printed >= args.count:
                     break
@@ -103,9 +116,65 @@ def _stream(args: argparse.Namespace) -> int:
                 sensor.stop()
         stats = sensor.stats
     rate = printed / max(time.monotonic() - t0, 1e-9)
+    what = "estimates" if mode == "instead" else "samples"
+    lost = f", lost estimates {stats.estimate_gaps}" if mode != "off" else ""
     print(
-        f"{printed} samples ({rate:.1f}/s); CRC errors {stats.crc_errors}, gaps "
-        f"{stats.sample_gaps}, overflows {stats.buffer_overflows}",
+        f"{printed} {what} ({rate:.1f}/s); CRC errors {stats.crc_errors}, gaps "
+        f"{stats.sample_gaps}, overflows {stats.buffer_overflows}{lost}",
         file=sys.stderr,
     )
     return ExitCode.OK if args.count == 0 or printed >= args.count else ExitCode.FAILURE
+
+
+def _cell(value: Any) -> object:
+    return f"{value:.3f}" if isinstance(value, float) else value
+
+
+def _estimate_cells(row: Any) -> list[Any]:
+    if row is None:  # lost on the link: the sample stands alone
+        return [float("nan")] * 6 + [0, "-"]
+    return [
+        *(float(v) for v in row["force"]),
+        *(float(v) for v in row["torque"]),
+        int(row["region"]),
+        f"{int(row['flags']):x}",
+    ]
+
+
+def _rows(sensor: Any, mode: str, columns: list[str]) -> Iterator[tuple[list[Any], dict]]:
+    """(cells, JSON record) per printed row."""
+    if mode == "instead":
+        while True:
+            for row in sensor.read_estimates(64, timeout=PAIRING_WAIT_S):
+                cells = [int(row["sequence"]), int(row["device_time_us"]) // 1000]
+                cells += _estimate_cells(row)
+                yield cells, dict(zip(columns, cells, strict=True))
+    for sample, estimate in _samples(sensor, mode == "beside"):
+        values = [
+            sample.sequence,
+            sample.device_time_us // 1000,
+            sample.step,
+            *(v for counts in sample.counts for v in counts),
+        ]
+        status = "".join(f"{s:x}" for s in sample.status)
+        extra = _estimate_cells(estimate) if mode == "beside" else []
+        record = dict(zip(columns, [*values, list(sample.status), *extra], strict=True))
+        yield [*values, status, *extra], record
+
+
+def _samples(sensor: Any, paired: bool) -> Iterator[tuple[Any, Any]]:
+    """Samples, each with the device's estimate of the same sample_seq when `paired`."""
+    pending: dict[tuple[int, int], Any] = {}
+    for sample in sensor:
+        key = (sample.epoch, sample.sequence)
+        deadline = time.monotonic() + PAIRING_WAIT_S
+        while paired and key not in pending and time.monotonic() < deadline:
+            rows = sensor.read_estimates(1, timeout=deadline - time.monotonic())
+            for row in rows:
+                pending[(int(row["epoch"]), int(row["sequence"]))] = row
+            if len(rows) and int(rows["sequence"][-1]) > sample.sequence:
+                break  # this sample's estimate was lost
+        estimate = pending.pop(key, None)
+        for old in [k for k in pending if k < key]:
+            del pending[old]
+        yield sample, estimate

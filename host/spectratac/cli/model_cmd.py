@@ -1,0 +1,118 @@
+"""`spectratac model info|upload|clear URL`: the decoder a device runs on board (protocol 1.1).
+
+spectratac model info sim://
+spectratac model upload /dev/ttyACM0 press.stac --weights f16
+spectratac model clear /dev/ttyACM0 --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_device_url
+
+WEIGHTS = ("f32", "f16", "i8")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "model", help="show, upload or erase the decoder a device runs on board"
+    )
+    sub = p.add_subparsers(dest="model_verb", metavar="<model verb>")
+    p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
+    info = sub.add_parser("info", help="which model the device decodes with, and its limits")
+    add_device_url(info)
+    info.add_argument("--json", action="store_true", help="machine-readable output")
+    info.set_defaults(func=_info)
+    up = sub.add_parser("upload", help="export a .stac decoder and upload it into flash")
+    add_device_url(up)
+    up.add_argument("model", help="decoder file (.stac) written by `spectratac train`")
+    up.add_argument(
+        "--weights",
+        choices=WEIGHTS,
+        default="f32",
+        help="weight precision on the device (f16 and i8 take a half and a quarter of the "
+        "flash; default f32)",
+    )
+    up.add_argument("--json", action="store_true", help="machine-readable output")
+    up.set_defaults(func=_upload)
+    clear = sub.add_parser("clear", help="erase the uploaded model (a built-in one takes over)")
+    add_device_url(clear)
+    clear.add_argument("--json", action="store_true", help="machine-readable output")
+    clear.set_defaults(func=_clear)
+
+
+def _describe(info: Any) -> str:
+    if not info.has_model:
+        return "no model"
+    return (
+        f"{info.present} model 0x{info.model_id:08X}: {info.size} B, {info.weight_format} "
+        f"weights, {info.led_steps} LED step(s), {info.n_inputs} inputs, "
+        f"CRC 0x{info.crc:08X}"
+    )
+
+
+def _print_info(url: str, info: Any) -> None:
+    print(f"{url}: {_describe(info)}")
+    print(
+        f"  model store  {info.capacity} B; firmware limits {info.max_inputs} inputs, "
+        f"{info.max_hidden} hidden units"
+    )
+
+
+def _info(args: argparse.Namespace) -> int:
+    from spectratac.device import Sensor
+
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
+        info = sensor.model_info()
+    if args.json:
+        print(json.dumps({"url": args.url} | info.as_dict()))
+    else:
+        _print_info(args.url, info)
+    return ExitCode.OK
+
+
+def _upload(args: argparse.Namespace) -> int:
+    from spectratac.decode import Decoder
+    from spectratac.decode.export import model_image
+    from spectratac.device import Sensor
+
+    image = model_image.encode(Decoder.load(args.model), weights=args.weights)
+    model_id = model_image.model_id(image)
+
+    def progress(done: int, total: int) -> None:
+        if not args.json:
+            print(f"\r  uploading {done}/{total} B", end="", file=sys.stderr, flush=True)
+
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
+        try:
+            info = sensor.upload_model(image, model_id, progress=progress)
+        finally:
+            if not args.json:
+                print(file=sys.stderr)
+        retries = sensor.stats.model_upload_retries
+    if args.json:
+        print(
+            json.dumps({"url": args.url, "model": args.model, "retries": retries} | info.as_dict())
+        )
+    else:
+        print(f"{args.url}: uploaded {args.model} ({args.weights} weights)")
+        _print_info(args.url, info)
+    return ExitCode.OK
+
+
+def _clear(args: argparse.Namespace) -> int:
+    from spectratac.device import Sensor
+
+    with Sensor.open(args.url, timeout=args.timeout) as sensor:
+        sensor.clear_model()
+        info = sensor.model_info()
+    if args.json:
+        print(json.dumps({"url": args.url} | info.as_dict()))
+    else:
+        print(f"{args.url}: model erased; now {_describe(info)}")
+    return ExitCode.OK
