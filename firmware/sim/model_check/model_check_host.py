@@ -123,7 +123,7 @@ def run_qemu(
     (work / IN_NAME).write_bytes(session.records())
     (work / OUT_NAME).unlink(missing_ok=True)
     return subprocess.run(
-        qemu_command(elf, work / "model.bin"),
+        qemu_command(elf.resolve(), (work / "model.bin").resolve()),
         cwd=work,
         capture_output=True,
         text=True,
