@@ -34,6 +34,8 @@ RECORD = np.dtype(
 )
 INPUT = np.dtype([("step", "u1"), ("status", "u1", 3), ("counts", "<u2", (3, 5))])
 TRAILER = -2
+MC_REF_LEN = 1024  # model_check.h: multiply-adds of the reference dot product
+MC_CALIB_ITERS = 4096  # iterations of the two-instruction calibration loop
 IMAGE_ADDR = 0x08080000  # the F405's second half-megabyte: beyond the F411 image's flash
 IMAGE_REGION = 0x80000
 IN_NAME, OUT_NAME = "model_check.in", "model_check.out"
