@@ -264,14 +264,23 @@ uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
 
 /* ------------------------------------------------------------------ network */
 
-/* IEEE half to float, bit by bit (no __fp16 on every target). */
-static float half_to_float(uint16_t h) {
+/* IEEE half to float: the FPU's VCVTB on ARMv7E-M (FPv4-SP and FPv5 have it; exact, and
+ * FPSCR's reset value keeps subnormals and the IEEE half format), elsewhere bit by bit. */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+static inline __attribute__((always_inline)) float half_to_float(uint16_t h) {
+    float f;
+    const uint32_t bits = h;
+    __asm("vmov %0, %1\n\tvcvtb.f32.f16 %0, %0" : "=t"(f) : "r"(bits));
+    return f;
+}
+#else
+static inline __attribute__((always_inline)) float half_to_float(uint16_t h) {
     const uint32_t sign = (uint32_t)(h & 0x8000u) << 16;
     uint32_t exp = (h >> 10) & 0x1Fu, man = h & 0x3FFu, bits;
     if (exp == 0u) {
         if (man == 0u) {
             bits = sign;
-        } else { /* subnormal: normalise */
+        } else { /* subnormal: normalise (at most 10 shifts) */
             exp = 113u;
             while ((man & 0x400u) == 0u) {
                 man <<= 1;
@@ -288,23 +297,49 @@ static float half_to_float(uint16_t h) {
     memcpy(&f, &bits, sizeof f);
     return f;
 }
+#endif
+
+/* Dot products of one weight row with x, four independent accumulators (the FPU's
+ * multiply-add latency overlaps, and four loads merge into one VLDM), summed pairwise. */
+#define DOT4(load)                                                                   \
+    do {                                                                             \
+        float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, a3 = 0.0f;                            \
+        uint32_t i = 0;                                                              \
+        for (; i + 4u <= n; i += 4u) {                                               \
+            a0 += load(i) * x[i];                                                    \
+            a1 += load(i + 1u) * x[i + 1u];                                          \
+            a2 += load(i + 2u) * x[i + 2u];                                          \
+            a3 += load(i + 3u) * x[i + 3u];                                          \
+        }                                                                            \
+        for (; i < n; ++i) a0 += load(i) * x[i];                                     \
+        return (a0 + a1) + (a2 + a3);                                                \
+    } while (0)
+
+static float dot_f32(const float *row, const float *x, uint32_t n) {
+#define LOAD_F32(k) row[k]
+    DOT4(LOAD_F32);
+}
+
+static float dot_f16(const uint16_t *row, const float *x, uint32_t n) {
+#define LOAD_F16(k) half_to_float(row[k])
+    DOT4(LOAD_F16);
+}
+
+static float dot_i8(const int8_t *row, const float *x, uint32_t n) {
+#define LOAD_I8(k) ((float)row[k])
+    DOT4(LOAD_I8);
+}
 
 /* y = W x + b in the image's weight format. */
 static void linear(const stac_model_t *m, const stac_model_layer_t *L, const float *x, float *y) {
     const uint32_t n_in = L->n_in;
     for (uint32_t o = 0; o < L->n_out; ++o) {
-        float acc = 0.0f;
         if (m->weight_format == STAC_MODEL_W_F32) {
-            const float *row = (const float *)(const void *)L->w + o * n_in;
-            for (uint32_t i = 0; i < n_in; ++i) acc += row[i] * x[i];
-            y[o] = acc + L->bias[o];
+            y[o] = dot_f32((const float *)(const void *)L->w + o * n_in, x, n_in) + L->bias[o];
         } else if (m->weight_format == STAC_MODEL_W_F16) {
-            const uint16_t *row = (const uint16_t *)(const void *)L->w + o * n_in;
-            for (uint32_t i = 0; i < n_in; ++i) acc += half_to_float(row[i]) * x[i];
-            y[o] = acc + L->bias[o];
+            y[o] = dot_f16((const uint16_t *)(const void *)L->w + o * n_in, x, n_in) + L->bias[o];
         } else {
-            const int8_t *row = (const int8_t *)(const void *)L->w + o * n_in;
-            for (uint32_t i = 0; i < n_in; ++i) acc += (float)row[i] * x[i];
+            const float acc = dot_i8((const int8_t *)(const void *)L->w + o * n_in, x, n_in);
             y[o] = acc * L->scale[o] + L->bias[o];
         }
     }

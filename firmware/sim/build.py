@@ -99,8 +99,9 @@ def _paths(patterns: list[str], root: Path, where: str) -> list[Path]:
 def target_names(description: Path = DESCRIPTION) -> list[str]:
     """The targets a description defines.
 
-    >>> target_names()
-    ['simlib', 'simlib-asan', 'unit-tests', 'vector-check', 'bench', 'usb-tests', 'fuzz-core']
+    >>> target_names()  # doctest: +NORMALIZE_WHITESPACE
+    ['simlib', 'simlib-asan', 'unit-tests', 'builtin-tests', 'vector-check', 'bench',
+     'usb-tests', 'fuzz-core', 'model-check']
     """
     return list(tomllib.loads(description.read_text(encoding="utf-8")).get("targets", {}))
 

@@ -5,6 +5,7 @@
 
 #include "board.h"
 #include "clock.h"
+#include "flash_store.h"
 #include "gpio.h"
 #include "host_link.h"
 #include "i2c.h"
@@ -51,11 +52,62 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     uid_read(uid);
 }
 
-static void watchdog_start(void) {
+#define IWDG_SR_BUSY 3u /* PVU | RVU: a prescaler or reload update is still in progress */
+#define IWDG_UPDATE_WAIT 100000u
+
+/* Set the watchdog period: prescaler code (32 kHz / 4 << pr) and reload (RM0383 17.3). */
+static void watchdog_period(uint32_t pr, uint32_t rlr) {
+    IWDG->KR = 0xAAAAu; /* refresh with the old period before changing it */
+    for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
+    }
     IWDG->KR = 0x5555u; /* unlock PR/RLR */
-    IWDG->PR = 2u;      /* 32 kHz / 16 = 2 kHz */
-    IWDG->RLR = 1000u;  /* ~0.5 s */
+    IWDG->PR = pr;
+    IWDG->RLR = rlr;
+    for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
+    }
+    IWDG->KR = 0xAAAAu;
+}
+
+static void watchdog_start(void) {
+    watchdog_period(2u, 1000u); /* 32 kHz / 16 = 2 kHz, ~0.5 s */
     IWDG->KR = 0xCCCCu;
+}
+
+static uint32_t store_now(void) {
+    return systick_now_us();
+}
+
+static const flash_store_t k_store = {
+    .regs = FLASH_REGS,
+    .base = (volatile uint32_t *)FLASH_STORE_ADDR,
+    .size = FLASH_STORE_SIZE,
+    .sector = FLASH_STORE_SECTOR,
+    .now_us = store_now,
+};
+
+static uint32_t hal_store_capacity(void *ctx) {
+    (void)ctx;
+    return FLASH_STORE_SIZE;
+}
+
+static const uint8_t *hal_store_data(void *ctx) {
+    (void)ctx;
+    return (const uint8_t *)FLASH_STORE_ADDR;
+}
+
+/* A sector erase stalls the CPU for up to 2 s (code is fetched from the same flash bank):
+ * the watchdog gets ~8 s for it and its usual ~0.5 s back afterwards. */
+static int32_t hal_store_erase(void *ctx) {
+    (void)ctx;
+    watchdog_period(4u, 4095u); /* 32 kHz / 64 = 500 Hz, ~8.2 s */
+    const int32_t rc = flash_store_erase(&k_store);
+    watchdog_period(2u, 1000u);
+    return rc;
+}
+
+static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
+    (void)ctx;
+    return flash_store_program(&k_store, offset, data, len);
 }
 
 int main(void) {
@@ -74,7 +126,7 @@ int main(void) {
     memset(&id, 0, sizeof id);
     memcpy(id.board, BOARD_NAME, sizeof BOARD_NAME);
     strncpy(id.build_id, STAC_BUILD_ID, sizeof id.build_id - 1u);
-    id.capabilities = STAC_CAPS_CORE;
+    id.capabilities = STAC_CAPS_CORE | STAC_CAPS_MODEL;
     id.baud = BOARD_BAUD;
     const stac_hal_t hal = {
         .ctx = 0,
@@ -84,6 +136,10 @@ int main(void) {
         .uart_read = hal_read,
         .clock_us = hal_clock,
         .unique_id = hal_uid,
+        .store_capacity = hal_store_capacity,
+        .store_data = hal_store_data,
+        .store_erase = hal_store_erase,
+        .store_program = hal_store_program,
     };
     stac_app_init(&g_app, &hal, &id, systick_now_us());
     for (;;) {

@@ -12,6 +12,10 @@ the counts of each completed window (`TwinRig.read_window`); windows the twin ev
 `registers="python"` routes every transfer to the twin's own `Veml3328` instead; both give
 the same frames for the same seed (tests/device/test_sim_models.py).
 
+`model_store=PATH` keeps the firmware's model store (the flash an uploaded decoder is written
+to) in that file, so the model is there again when a new SimDevice boots with the same file;
+without it the store lives in the instance only.
+
 >>> from spectratac.sim.named_scenes import make_scene
 >>> frames = []
 >>> dev = SimDevice(make_scene("idle"), seed=1, on_tx=lambda data, t: frames.append(data))
@@ -26,13 +30,16 @@ from __future__ import annotations
 
 import ctypes
 import logging
+import os
 from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from spectratac.sim import native
-from spectratac.sim.native_abi import RX_CAPACITY
+from spectratac.sim.model_store import ModelStoreError
+from spectratac.sim.native_abi import RX_CAPACITY, STORE_CAPACITY
 from spectratac.twin.electronics import SD_ALS, SensorConfig
 from spectratac.twin.errors import I2CNack
 from spectratac.twin.rig import TwinRig, WindowPlan
@@ -57,6 +64,7 @@ class SimDevice:
         baud: int = 0,
         registers: Literal["native", "python"] = "native",
         lookahead: bool = True,
+        model_store: str | Path | None = None,
     ) -> None:
         if registers not in ("native", "python"):
             raise ValueError(f"registers={registers!r}: choose 'native' or 'python'")
@@ -112,7 +120,23 @@ class SimDevice:
             )
         if err != 0:
             raise native.NativeBuildError(f"stac_sim_init failed ({err})")
+        if model_store is not None:
+            self._attach_store(Path(model_store))
         self._flush_duties()  # the firmware switched the LEDs off while booting
+
+    def _attach_store(self, path: Path) -> None:
+        """Keep the model store in `path` (created erased when missing) and boot it."""
+        if self.lib.stac_sim_model_store(self._ptr, os.fsencode(path)) != 0:
+            raise ModelStoreError(
+                f"cannot use {path} as a model store: it must be a file of exactly "
+                f"{STORE_CAPACITY} bytes (or not exist yet) in a writable folder. Delete it "
+                f"to start with an empty store, or name another file with model_store=PATH."
+            )
+
+    def flash_fault(self, countdown: int) -> None:
+        """Fault injection: the `countdown`-th flash operation from now (1: the next erase or
+        program) and all after it fail; 0 ends the fault. A failing program stops half-way."""
+        self.lib.stac_sim_flash_fault(self._ptr, countdown)
 
     # --- time and bytes --------------------------------------------------------------------
     def step(self, now_us: int) -> None:

@@ -28,6 +28,7 @@ from pathlib import Path
 from spectratac.errors import SpectraTacError
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
+from spectratac.sim.model_store import store_path
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import SimOptions
@@ -99,7 +100,14 @@ class _FaultyRunner(DeviceRunner):
 def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
     scene = make_scene(opts.scene, seed=str(opts.seed), **opts.scene_params)
     if not opts.faults:
-        device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=endpoint.send, baud=921_600)
+        device = SimDevice(
+            scene,
+            opts.seed,
+            absent=opts.absent,
+            on_tx=endpoint.send,
+            baud=921_600,
+            model_store=store_path(opts.model_store, opts.seed),
+        )
         return DeviceRunner(device, opts.speed).start()
     runner: _FaultyRunner
     layer = FaultLayer(
@@ -110,7 +118,14 @@ def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
         endpoint.send,
         lambda data: DeviceRunner.write(runner, data),
     )
-    device = SimDevice(scene, opts.seed, absent=opts.absent, on_tx=layer.from_device, baud=921_600)
+    device = SimDevice(
+        scene,
+        opts.seed,
+        absent=opts.absent,
+        on_tx=layer.from_device,
+        baud=921_600,
+        model_store=store_path(opts.model_store, opts.seed),
+    )
     runner = _FaultyRunner(device, opts.speed)
     runner.layer = layer
     return runner.start()

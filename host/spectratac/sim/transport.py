@@ -21,6 +21,7 @@ from spectratac.device.errors import DeviceError, DisconnectedError
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.ground_truth import SceneTruth
+from spectratac.sim.model_store import ModelStoreError, store_path
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import parse_sim_url
 from spectratac.sim.world import SimWorld
@@ -54,12 +55,17 @@ class SimTransport:
                 self._to_device,
                 unplug=self._unplug,
             )
-        self.device = SimDevice(  # its own rig: a device's sensor models are stateful
-            self.world.scene,
-            opts.seed,
-            absent=opts.absent,
-            on_tx=self.faults.from_device if self.faults else self._on_tx,
-        )
+        try:
+            self.device = SimDevice(  # its own rig: a device's sensor models are stateful
+                self.world.scene,
+                opts.seed,
+                absent=opts.absent,
+                on_tx=self.faults.from_device if self.faults else self._on_tx,
+                model_store=store_path(opts.model_store, opts.seed),
+            )
+        except ModelStoreError as exc:
+            self.world.release()
+            raise DeviceError(str(exc)) from None
         epoch = self.world.epoch if self.world.paced else None
         self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
 

@@ -49,6 +49,7 @@ env.Append(
         "-Wl,--gc-sections",
         "-Wl,-Map,${BUILD_DIR}/firmware.map",
     ],
+    LIBS=["m"],  # newlib's libm: the on-device decoder (stac_model.c) uses expf, tanhf, sqrt
 )
 
 elf = env.BuildProgram()
