@@ -66,7 +66,8 @@ def test_the_tree_has_every_documented_verb() -> None:
     for verb in (
         "info", "stream", "sim serve", "sim ft", "conformance", "twin report", "twin generate",
         "protocol show", "protocol decode", "ft info", "ft stream", "record", "dataset build",
-        "dataset info", "train", "evaluate", "decode", "bench decoder", "demo",
+        "dataset info", "train", "evaluate", "decode", "bench decoder", "demo", "model info",
+        "model upload", "model clear",
     ):  # fmt: skip
         assert verb in VERBS, f"{verb} is gone from the argparse tree"
 
@@ -171,6 +172,8 @@ def test_verbs_return_exit_code_constants_not_numbers(path: Path) -> None:
         ["info", "/dev/ttyNOPE"],
         ["stream", "/dev/ttyNOPE"],
         ["conformance", "/dev/ttyNOPE"],
+        ["model", "info", "/dev/ttyNOPE"],
+        ["model", "clear", "/dev/ttyNOPE"],
         ["record", "/dev/ttyNOPE", "-o", "never.mcap", "--no-progress"],
         ["ft", "info", "bota:///dev/ttyNOPE"],
         ["ft", "stream", "bota:///dev/ttyNOPE"],

@@ -208,11 +208,19 @@ class Decoder:
     def stream(self, sensor: Any, check_config: bool = True) -> Iterator[Estimate]:
         """Estimates of a live, streaming `spectratac.device.Sensor`, one per sample.
 
-        Checks the sensor's configuration first (DecoderConfigError on mismatch) and again
-        whenever the configuration id changes; warns if the unit differs.
+        When the sensor streams on-device estimates (configured with estimates="beside" or
+        "instead", protocol 1.1) of this very decoder (the device's model_id is this
+        decoder's model image id, see spectratac.decode.export.model_image), those are
+        yielded instead of decoding on the host (contact_prob and std are then not known);
+        otherwise the samples are decoded here. Checks the sensor's configuration first
+        (DecoderConfigError on mismatch) and again whenever the configuration id changes;
+        warns if the unit differs.
         """
         if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
+        if self._decoded_by(sensor):
+            yield from self._device_estimates(sensor, check_config)
+            return
         config_id = None
         asm = Assembler(self.layout)
         run1 = self.runtime.run1
@@ -229,6 +237,37 @@ class Decoder:
             x = counts[:, :4].reshape(-1)
             u, ok = asm.push(int(sample.step), x)
             yield self._one(sample, u, ok, run1, s, fi, ti)
+
+    def model_id(self, weights: str = "f32") -> int:
+        """The id of this decoder's model image with `weights` (what a device that runs it
+        reports in MODEL_INFO and every ESTIMATE)."""
+        from spectratac.decode.export import model_image
+
+        return model_image.model_id(model_image.encode(self, weights=weights))
+
+    def _decoded_by(self, sensor: Any) -> bool:
+        """True if `sensor` streams on-device estimates of this decoder."""
+        mode = getattr(sensor, "estimates", "off")
+        if mode == "off":
+            return False
+        info = sensor.model_info()
+        if info.has_model and info.model_id == self.model_id(info.weight_format):
+            return True
+        if mode == "instead":
+            raise DecoderConfigError(
+                f"the sensor streams only the estimates of its own model 0x{info.model_id:08X}, "
+                f"not of this decoder: upload this decoder (spectratac model upload) or "
+                f"configure the sensor with estimates='beside' or 'off' to decode on the host"
+            )
+        return False
+
+    def _device_estimates(self, sensor: Any, check_config: bool) -> Iterator[Estimate]:
+        config_id = None
+        for row in sensor.iter_estimates():
+            if check_config and row.config_id != config_id:
+                self.check_config(sensor.get_config(), "the sensor")
+            config_id = row.config_id
+            yield Estimate.from_device(row, self.target_names)
 
     def _one(self, sample: Any, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any) -> Estimate:
         heads = self.heads

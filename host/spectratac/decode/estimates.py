@@ -12,9 +12,12 @@ head, contact then derived from the force magnitude when forces are decoded).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from spectratac.protocol.messages import EstimateFlags
 
 F64 = NDArray[np.float64]
 FORCE = ("Fx", "Fy", "Fz")
@@ -99,7 +102,7 @@ class Estimates:
 
 @dataclass(frozen=True)
 class Estimate:
-    """One live estimate from `Decoder.stream`."""
+    """One live estimate from `Decoder.stream` (decoded on the host, or by the device)."""
 
     time: float  # host time of the sample (s)
     force: F64  # (3,)
@@ -112,3 +115,35 @@ class Estimate:
     invalid: bool
     targets: F64  # (T,) every regression target, in target_names order
     std: F64 | None = None
+
+    @classmethod
+    def from_device(cls, row: Any, target_names: tuple[str, ...]) -> Estimate:
+        """An ESTIMATE the device decoded (an EstimateRow of Sensor.iter_estimates) in host
+        terms: region 0 becomes -1, contact and out-of-distribution come from EST_* flags,
+        the contact probability and the uncertainty are not sent (NaN, None).
+
+        >>> from types import SimpleNamespace
+        >>> nan = float("nan")
+        >>> row = SimpleNamespace(host_time=2.5, flags=0b101, force=(nan, nan, 1.5),
+        ...                       torque=(nan, nan, nan), region=0, region_prob=nan)
+        >>> e = Estimate.from_device(row, ("Fz",))
+        >>> e.targets.tolist(), e.region, e.contact, e.ood, e.invalid
+        ([1.5], -1, True, True, False)
+        """
+        flags = int(row.flags)
+        force = np.asarray(row.force, dtype=np.float64)
+        torque = np.asarray(row.torque, dtype=np.float64)
+        by_name = dict(zip(FORCE + TORQUE, [*force, *torque], strict=True))
+        region = int(row.region)
+        return cls(
+            float(row.host_time),
+            force,
+            torque,
+            region if region else -1,
+            float(row.region_prob),
+            bool(flags & EstimateFlags.EST_CONTACT),
+            float("nan"),
+            bool(flags & EstimateFlags.EST_OOD),
+            bool(flags & EstimateFlags.EST_INVALID),
+            np.array([by_name.get(n, np.nan) for n in target_names], dtype=np.float64),
+        )

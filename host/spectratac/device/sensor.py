@@ -551,6 +551,19 @@ class Sensor:
                 self._cond.wait(remaining)
         return to_estimate_array(out)
 
+    def iter_estimates(self) -> Iterator[EstimateRow]:
+        """On-device estimates one by one until the link is lost or the sensor closed."""
+        while True:
+            with self._cond:
+                while not self._estimates:
+                    if self._lost is not None and not self._reconnect:
+                        return
+                    if self._closed:
+                        return
+                    self._cond.wait(0.5)
+                row = self._estimates.popleft()
+            yield row
+
     @property
     def buffered_estimates(self) -> int:
         with self._cond:
