@@ -1,0 +1,83 @@
+"""`spectratac model info|upload|clear` and `stream --estimates` against the simulated device
+(the model store lives in a file, so it outlives each verb's connection, as flash does)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.cli import main
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
+from spectratac.decode import Decoder
+from spectratac.decode.export import model_image
+
+
+@pytest.fixture
+def url(tmp_path: Path) -> str:
+    return f"sim://?scene=tour&seed=2&speed=max&model_store={tmp_path / 'store.flash'}"
+
+
+@pytest.fixture
+def model_file(tmp_path: Path) -> Path:
+    ds = Dataset.generic(
+        np.arange(1.0, 37.0).reshape(3, 12) * 100.0,
+        np.zeros((3, 1)),
+        list(SPECTRATAC_INPUTS),
+        ["Fz"],
+    )
+    return Decoder.untrained(ds, features="paper33").save(tmp_path / "tiny.stac")
+
+
+def _json(capsys: pytest.CaptureFixture[str]) -> dict:
+    return json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+
+
+def test_upload_info_stream_and_clear(
+    url: str, model_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["model", "info", url, "--json"]) == ExitCode.OK
+    assert _json(capsys)["present"] == "none"
+    assert main(["model", "upload", url, str(model_file), "--weights", "f16"]) == ExitCode.OK
+    out = capsys.readouterr().out
+    expected = model_image.model_id(model_image.encode(Decoder.load(model_file), "f16"))
+    assert f"uploaded model 0x{expected:08X}" in out and "f16 weights" in out
+    assert main(["model", "info", url, "--json"]) == ExitCode.OK
+    info = _json(capsys)
+    assert (info["present"], info["model_id"], info["weight_format"]) == (
+        "uploaded",
+        expected,
+        "f16",
+    )
+    assert main(["stream", url, "--count", "4", "--estimates", "beside", "--format", "jsonl"]) == (
+        ExitCode.OK
+    )
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["seq"] for r in rows] == [0, 1, 2, 3] and "s0R" in rows[0]
+    assert all(math.isfinite(r["Fz"]) and math.isnan(r["Tx"]) for r in rows)
+    assert main(["stream", url, "--count", "3", "--estimates", "instead", "--format", "csv"]) == (
+        ExitCode.OK
+    )
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "seq,t_ms,Fx,Fy,Fz,Tx,Ty,Tz,region,est_flags" and len(lines) == 4
+    assert main(["model", "clear", url, "--json"]) == ExitCode.OK
+    assert _json(capsys)["present"] == "none"
+
+
+def test_estimates_without_a_model_exit_3_with_the_device_s_reason(
+    url: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["stream", url, "--count", "1", "--estimates", "instead"]) == ExitCode.ERROR
+    err = capsys.readouterr().err
+    assert "NO_MODEL" in err and "Upload a model" in err
+
+
+def test_a_missing_model_file_exits_3_naming_it(
+    url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    missing = tmp_path / "missing.stac"
+    assert main(["model", "upload", url, str(missing)]) == ExitCode.ERROR
+    assert "missing.stac" in capsys.readouterr().err
