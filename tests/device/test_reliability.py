@@ -18,6 +18,7 @@ from spectratac.device import (
     ProtocolMismatchError,
     Sensor,
 )
+from spectratac.protocol import messages as m
 from spectratac.sim.transport import SimTransport
 
 from .conftest import Served
@@ -73,7 +74,8 @@ def test_silent_device_times_out_clearly(no_reply_pty: str) -> None:
 def test_wrong_protocol_major_names_both_versions() -> None:
     link = FutureMajorTransport(SimTransport("sim://?scene=idle&speed=1"))
     with pytest.raises(
-        ProtocolMismatchError, match=r"speaks protocol 2\.1, this host library 1\.0"
+        ProtocolMismatchError,
+        match=rf"speaks protocol 2\.1, this host library 1\.{m.PROTOCOL_MINOR}",
     ):
         Sensor.attach(link, timeout=1.0)
 

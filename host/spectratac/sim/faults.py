@@ -248,6 +248,8 @@ class FaultLayer:
                 t_start_us=msg.t_start_us * 11 // 10 & 0xFFFF_FFFF,
                 t_end_us=msg.t_end_us * 11 // 10 & 0xFFFF_FFFF,
             )
+        elif isinstance(msg, m.Estimate) and "fast_clock" in f:  # the same clock as SAMPLE's
+            msg = dataclasses.replace(msg, t_end_us=msg.t_end_us * 11 // 10 & 0xFFFF_FFFF)
         elif isinstance(msg, m.Sample) and "short_window" in f:
             width = (msg.t_end_us - msg.t_start_us) & 0xFFFF_FFFF
             msg = dataclasses.replace(
