@@ -66,7 +66,8 @@ TRM = {
     "add": 1, "add.w": 1, "adds": 1, "adds.w": 1, "sub": 1, "sub.w": 1, "subs": 1,
     "subs.w": 1, "cmp": 1, "cmp.w": 1, "mov": 1, "mov.w": 1, "movs": 1, "lsls": 1,
     "ldr": 2, "ldr.w": 2, "ldrh": 2, "ldrh.w": 2, "ldrsb": 2, "ldrsb.w": 2,
-    "vldr": 2, "vmov": 1, "vcvtb.f32.f16": 1, "vcvt.f32.s32": 1, "vmla.f32": 3,
+    "sxtb": 1, "sxtb.w": 1, "sbfx": 1, "asr": 1, "asr.w": 1, "vldr": 2, "vmov": 1,
+    "vcvtb.f32.f16": 1, "vcvt.f32.s32": 1, "vmla.f32": 3,
 }  # fmt: skip
 BRANCHES = ("b", "b.n", "b.w", "bne.n", "bcs.n", "bhi.n", "bcc.n", "bls.n", "bne.w", "bcs.w")
 # What stac_model.c pulls in from newlib's libm.
@@ -106,6 +107,8 @@ def _cycles(mnemonic: str, operands: str) -> int:
         if m is None:
             raise SystemExit(f"unexpected VLDM operands {operands!r}: extend the cycle model")
         return 1 + (int(m.group(2) or m.group(1)) - int(m.group(1)) + 1)
+    if mnemonic == "vmov" and operands.count(",") == 3:
+        return 2  # two core registers to two single-precision registers
     if mnemonic not in TRM:
         raise SystemExit(f"no TRM timing for {mnemonic!r} in an inner loop: extend TRM")
     return TRM[mnemonic]
@@ -150,7 +153,7 @@ def loop_costs(elf: Path) -> tuple[dict[str, dict], float]:
     per_mac: dict[str, dict] = {}
     for loop in inner_loops(disassembly(elf, "linear"), 4):
         m = loop["mnemonics"]
-        fmt = "f16" if "vcvtb.f32.f16" in m else "i8" if "ldrsb.w" in m else "f32"
+        fmt = "f16" if "vcvtb.f32.f16" in m else "i8" if "vcvt.f32.s32" in m else "f32"
         if fmt in per_mac:
             raise SystemExit(f"two {fmt} inner loops in linear(): update the bench")
         per_mac[fmt] = loop
