@@ -61,13 +61,17 @@ typedef struct stac_hal {
      * without one leaves all four NULL (the core then reports a capacity of 0).
      * store_capacity: its size in bytes (a multiple of STAC_FLASH_WORD).
      * store_data: the region, memory-mapped for reading (erased bytes read 0xFF).
-     * store_erase: set every byte to 0xFF; a STAC_FLASH_* code within a bounded time.
+     * store_erase: set every byte of [offset, offset + len) to 0xFF (both multiples of
+     * STAC_FLASH_WORD, inside the region). Flash that erases in larger units (sectors) may
+     * erase more of the region around the range, never less, so a caller must treat every
+     * other byte of the region as possibly erased too. A STAC_FLASH_* code within a bounded
+     * time (the bound grows with the number of sectors the range touches).
      * store_program: write len bytes at offset (both multiples of STAC_FLASH_WORD, inside the
      * region); programming only clears bits, so the bytes must have been erased (or the
      * write must only clear bits). A STAC_FLASH_* code within a bounded time. */
     uint32_t (*store_capacity)(void *ctx);
     const uint8_t *(*store_data)(void *ctx);
-    int32_t (*store_erase)(void *ctx);
+    int32_t (*store_erase)(void *ctx, uint32_t offset, uint32_t len);
     int32_t (*store_program)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len);
 } stac_hal_t;
 

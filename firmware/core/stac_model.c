@@ -315,20 +315,89 @@ static inline __attribute__((always_inline)) float half_to_float(uint16_t h) {
         return (a0 + a1) + (a2 + a3);                                                \
     } while (0)
 
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+/* The same sums on the Cortex-M4F, with four weights and four inputs per VLDM (1 + 4 cycles
+ * instead of 4 x 2): the network's hot loop. VMLA rounds the product like the C above
+ * (-std=c11 does not contract), so the results are the same bit for bit. */
+static float dot_f32(const float *row, const float *x, uint32_t n) {
+    float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, a3 = 0.0f;
+    const float *w = row, *v = x;
+    uint32_t blocks = n / 4u;
+    if (blocks != 0u) {
+        __asm volatile(
+            "1:\n\t"
+            "vldmia %[w]!, {s8-s11}\n\t"
+            "vldmia %[v]!, {s12-s15}\n\t"
+            "vmla.f32 %[a0], s8, s12\n\t"
+            "vmla.f32 %[a1], s9, s13\n\t"
+            "vmla.f32 %[a2], s10, s14\n\t"
+            "vmla.f32 %[a3], s11, s15\n\t"
+            "subs %[k], %[k], #1\n\t"
+            "bne 1b"
+            : [w] "+r"(w), [v] "+r"(v), [k] "+r"(blocks), [a0] "+t"(a0), [a1] "+t"(a1),
+              [a2] "+t"(a2), [a3] "+t"(a3)
+            :
+            : "s8", "s9", "s10", "s11", "s12", "s13", "s14", "s15", "cc", "memory");
+    }
+    for (uint32_t i = n & ~3u; i < n; ++i) a0 += row[i] * x[i];
+    return (a0 + a1) + (a2 + a3);
+}
+#else
 static float dot_f32(const float *row, const float *x, uint32_t n) {
 #define LOAD_F32(k) row[k]
     DOT4(LOAD_F32);
 }
+#endif
 
 static float dot_f16(const uint16_t *row, const float *x, uint32_t n) {
 #define LOAD_F16(k) half_to_float(row[k])
     DOT4(LOAD_F16);
 }
 
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+/* int8 rows four at a time: one (unaligned, which ARMv7-M allows) word load, sign-extended
+ * into four integers, two two-register VMOVs, four VCVTs; sums as in the C above. */
+static float dot_i8(const int8_t *row, const float *x, uint32_t n) {
+    float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, a3 = 0.0f;
+    const int8_t *w = row;
+    const float *v = x;
+    uint32_t blocks = n / 4u, word, t0, t1, t2, t3;
+    if (blocks != 0u) {
+        __asm volatile(
+            "1:\n\t"
+            "ldr %[word], [%[w]], #4\n\t"
+            "vldmia %[v]!, {s12-s15}\n\t"
+            "sxtb %[t0], %[word]\n\t"
+            "sbfx %[t1], %[word], #8, #8\n\t"
+            "sbfx %[t2], %[word], #16, #8\n\t"
+            "asr %[t3], %[word], #24\n\t"
+            "vmov s8, s9, %[t0], %[t1]\n\t"
+            "vmov s10, s11, %[t2], %[t3]\n\t"
+            "vcvt.f32.s32 s8, s8\n\t"
+            "vcvt.f32.s32 s9, s9\n\t"
+            "vcvt.f32.s32 s10, s10\n\t"
+            "vcvt.f32.s32 s11, s11\n\t"
+            "vmla.f32 %[a0], s8, s12\n\t"
+            "vmla.f32 %[a1], s9, s13\n\t"
+            "vmla.f32 %[a2], s10, s14\n\t"
+            "vmla.f32 %[a3], s11, s15\n\t"
+            "subs %[k], %[k], #1\n\t"
+            "bne 1b"
+            : [w] "+r"(w), [v] "+r"(v), [k] "+r"(blocks), [word] "=&r"(word), [t0] "=&r"(t0),
+              [t1] "=&r"(t1), [t2] "=&r"(t2), [t3] "=&r"(t3), [a0] "+t"(a0), [a1] "+t"(a1),
+              [a2] "+t"(a2), [a3] "+t"(a3)
+            :
+            : "s8", "s9", "s10", "s11", "s12", "s13", "s14", "s15", "cc", "memory");
+    }
+    for (uint32_t i = n & ~3u; i < n; ++i) a0 += (float)row[i] * x[i];
+    return (a0 + a1) + (a2 + a3);
+}
+#else
 static float dot_i8(const int8_t *row, const float *x, uint32_t n) {
 #define LOAD_I8(k) ((float)row[k])
     DOT4(LOAD_I8);
 }
+#endif
 
 /* y = W x + b in the image's weight format. */
 static void linear(const stac_model_t *m, const stac_model_layer_t *L, const float *x, float *y) {

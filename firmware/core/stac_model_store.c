@@ -116,6 +116,30 @@ static int32_t kill_record(const stac_hal_t *hal) {
     return hal->store_program(hal->ctx, record_at(hal) + RECORD_MAGIC_AT, zero, sizeof zero);
 }
 
+static bool reads_erased(const uint8_t *p, uint32_t len) {
+    for (uint32_t i = 0u; i < len; i++) {
+        if (p[i] != 0xFFu) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Erase what an image of `size` bytes needs: its words, then the record area unless that
+ * erase already took it along (same flash sector). */
+static int32_t erase_for(const stac_hal_t *hal, uint32_t size) {
+    const uint32_t words = (size + STAC_FLASH_WORD - 1u) & ~(STAC_FLASH_WORD - 1u);
+    const int32_t rc = hal->store_erase(hal->ctx, 0u, words);
+    if (rc != STAC_FLASH_OK) {
+        return rc;
+    }
+    const uint32_t rec = record_at(hal);
+    if (reads_erased(hal->store_data(hal->ctx) + rec, STAC_STORE_RECORD_AREA)) {
+        return STAC_FLASH_OK;
+    }
+    return hal->store_erase(hal->ctx, rec, STAC_STORE_RECORD_AREA);
+}
+
 uint16_t stac_store_begin(stac_model_store_t *s, const stac_hal_t *hal, uint32_t model_id,
                           uint32_t size, uint32_t crc) {
     abort_upload(s);
@@ -131,7 +155,7 @@ uint16_t stac_store_begin(stac_model_store_t *s, const stac_hal_t *hal, uint32_t
     if (size == 0u) {
         return STAC_MODEL_INVALID;
     }
-    if (hal->store_erase(hal->ctx) != STAC_FLASH_OK) {
+    if (erase_for(hal, size) != STAC_FLASH_OK) {
         return STAC_FLASH_ERROR;
     }
     s->receiving = true;
@@ -222,7 +246,7 @@ uint16_t stac_store_clear(stac_model_store_t *s, const stac_hal_t *hal) {
     }
     /* Either write alone ends the stored model: the answer is what the flash holds after. */
     (void)kill_record(hal);
-    (void)hal->store_erase(hal->ctx);
+    (void)hal->store_erase(hal->ctx, 0u, region_size(hal));
     choose_model(s, hal, true);
     return s->present == STAC_STORE_UPLOADED ? STAC_FLASH_ERROR : STAC_OK;
 }

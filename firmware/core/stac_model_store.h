@@ -8,8 +8,12 @@
  * The record is programmed last, and its magic word after the rest of it, so an upload cut
  * short (power loss, reset, a failed write) never leaves a record that validates. MODEL_BEGIN
  * clears the magic word (programming only clears bits, so that works on any content) before
- * it erases, so the old model is gone even if the erase fails. At boot the record, the image's
- * CRC and stac_model_open all have to agree before the model is used.
+ * it erases, so the old model is gone even if the erase fails. MODEL_BEGIN erases only what
+ * the new image needs: [0, size) and the record area (unless erasing the image already erased
+ * it: a port erasing whole sectors clears the record's sector with an image reaching into it);
+ * bytes past the image may keep older contents, which no record ever covers. MODEL_CLEAR
+ * erases the whole region. At boot the record, the image's CRC and stac_model_open all have
+ * to agree before the model is used.
  *
  * Chunks arrive at any length; flash takes whole words, so up to three bytes wait in RAM until
  * the next chunk (or MODEL_COMMIT, which pads the last word with 0xFF). */

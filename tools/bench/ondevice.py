@@ -63,9 +63,11 @@ P = 2  # branch pipeline refill (TRM: 1-3)
 # Cortex-M4 TRM cycle counts (ARM DDI 0439B 3.3, 7.2) of what the inner loops hold; a taken
 # branch costs 1 + P. A mnemonic missing here stops the bench: extend the table.
 TRM = {
-    "add": 1, "add.w": 1, "adds": 1, "sub.w": 1, "subs": 1, "cmp": 1, "cmp.w": 1, "mov": 1,
-    "ldrh.w": 2, "ldrsb.w": 2, "vldr": 2, "vldmia": 2, "vmov": 1, "vcvtb.f32.f16": 1,
-    "vcvt.f32.s32": 1, "vmla.f32": 3,
+    "add": 1, "add.w": 1, "adds": 1, "adds.w": 1, "sub": 1, "sub.w": 1, "subs": 1,
+    "subs.w": 1, "cmp": 1, "cmp.w": 1, "mov": 1, "mov.w": 1, "movs": 1, "lsls": 1,
+    "ldr": 2, "ldr.w": 2, "ldrh": 2, "ldrh.w": 2, "ldrsb": 2, "ldrsb.w": 2,
+    "sxtb": 1, "sxtb.w": 1, "sbfx": 1, "asr": 1, "asr.w": 1, "vldr": 2, "vmov": 1,
+    "vcvtb.f32.f16": 1, "vcvt.f32.s32": 1, "vmla.f32": 3,
 }  # fmt: skip
 BRANCHES = ("b", "b.n", "b.w", "bne.n", "bcs.n", "bhi.n", "bcc.n", "bls.n", "bne.w", "bcs.w")
 # What stac_model.c pulls in from newlib's libm.
@@ -96,31 +98,51 @@ def _target(operands: str) -> int | None:
     return int(m.group(1), 16) if m else None
 
 
+def _cycles(mnemonic: str, operands: str) -> int:
+    """TRM cycles of one instruction (a taken branch: 1 + P; VLDM of N registers: 1 + N)."""
+    if mnemonic in BRANCHES:
+        return 1 + P
+    if mnemonic == "vldmia":
+        m = re.search(r"\{s(\d+)(?:-s(\d+))?\}", operands)
+        if m is None:
+            raise SystemExit(f"unexpected VLDM operands {operands!r}: extend the cycle model")
+        return 1 + (int(m.group(2) or m.group(1)) - int(m.group(1)) + 1)
+    if mnemonic == "vmov" and operands.count(",") == 3:
+        return 2  # two core registers to two single-precision registers
+    if mnemonic not in TRM:
+        raise SystemExit(f"no TRM timing for {mnemonic!r} in an inner loop: extend TRM")
+    return TRM[mnemonic]
+
+
 def inner_loops(rows: list[tuple[int, str, str]], macs_per_iteration: int) -> list[dict]:
-    """The loops whose body holds `macs_per_iteration` VMLAs: for a backward `b` to X, the
-    iteration is X up to the first conditional branch (taken, into the body), then the body
-    up to that `b`. Returns each loop's mnemonics and TRM cycles per multiply-add."""
+    """The loops whose iteration holds `macs_per_iteration` VMLAs, with their TRM cycles and
+    instructions per multiply-add. A backward conditional branch closes a plain loop; a
+    backward `b` to X closes a rotated one: X up to the first conditional branch (taken, into
+    the body), then the body up to that `b`."""
     at = {addr: i for i, (addr, _, _) in enumerate(rows)}
     loops = []
     for j, (addr, mnem, ops) in enumerate(rows):
         head_addr = _target(ops)
-        if mnem not in ("b", "b.n", "b.w") or head_addr is None or head_addr >= addr:
+        if mnem not in BRANCHES or head_addr is None or head_addr >= addr or head_addr not in at:
             continue
         h = at[head_addr]
-        k = next((i for i in range(h, j) if rows[i][1] in BRANCHES), None)
-        if k is None or _target(rows[k][2]) not in at:
+        if mnem in ("b", "b.n", "b.w"):
+            k = next((i for i in range(h, j) if rows[i][1] in BRANCHES), None)
+            if k is None or _target(rows[k][2]) not in at:
+                continue
+            b = at[_target(rows[k][2])]
+            if not h < b <= j or any(r[1] in BRANCHES for r in rows[b:j]):
+                continue
+            body = rows[h : k + 1] + rows[b : j + 1]
+        else:
+            body = rows[h : j + 1]
+            if any(r[1] in BRANCHES for r in body[:-1]):
+                continue
+        if [r[1] for r in body].count("vmla.f32") != macs_per_iteration:
             continue
-        b = at[_target(rows[k][2])]
-        if not h < b <= j:
-            continue
-        body = [r[1] for r in rows[h : k + 1]] + [r[1] for r in rows[b : j + 1]]
-        if body.count("vmla.f32") != macs_per_iteration:
-            continue
-        unknown = sorted({x for x in body if x not in TRM and x not in BRANCHES})
-        if unknown:
-            raise SystemExit(f"no TRM timing for {unknown} in the inner loop: extend TRM")
-        cycles = sum(1 + P if x in BRANCHES else TRM[x] for x in body)
-        loops.append({"mnemonics": body, "cycles_per_mac": cycles / macs_per_iteration,
+        cycles = sum(_cycles(m, o) for _, m, o in body)
+        loops.append({"mnemonics": [r[1] for r in body],
+                      "cycles_per_mac": cycles / macs_per_iteration,
                       "insns_per_mac": len(body) / macs_per_iteration})  # fmt: skip
     return loops
 
@@ -131,14 +153,14 @@ def loop_costs(elf: Path) -> tuple[dict[str, dict], float]:
     per_mac: dict[str, dict] = {}
     for loop in inner_loops(disassembly(elf, "linear"), 4):
         m = loop["mnemonics"]
-        fmt = "f16" if "vcvtb.f32.f16" in m else "i8" if "ldrsb.w" in m else "f32"
+        fmt = "f16" if "vcvtb.f32.f16" in m else "i8" if "vcvt.f32.s32" in m else "f32"
+        if fmt in per_mac:
+            raise SystemExit(f"two {fmt} inner loops in linear(): update the bench")
         per_mac[fmt] = loop
-    ref = disassembly(elf, "ref_dot.constprop.0")
-    ref_loop = [x for _, x, _ in ref[ref.index(next(r for r in ref if r[1] == "vldmia")) :]]
-    ref_loop = ref_loop[: ref_loop.index("bne.n") + 1]
-    if sorted(per_mac) != ["f16", "f32", "i8"] or ref_loop.count("vmla.f32") != 1:
+    ref = inner_loops(disassembly(elf, "ref_dot.constprop.0"), 1)
+    if sorted(per_mac) != ["f16", "f32", "i8"] or len(ref) != 1:
         raise SystemExit(f"inner loops not recognised ({sorted(per_mac)}): update the bench")
-    ref_cycles = sum(1 + P if x in BRANCHES else TRM[x] for x in ref_loop)
+    ref_cycles = ref[0]["cycles_per_mac"]
     return per_mac, float(ref_cycles)
 
 

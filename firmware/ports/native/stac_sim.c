@@ -163,19 +163,28 @@ static const uint8_t *hal_store_data(void *ctx) {
     return ((const stac_sim_t *)ctx)->store;
 }
 
-static int32_t hal_store_erase(void *ctx) {
+static int store_range_ok(uint32_t offset, uint32_t len) {
+    return offset % STAC_FLASH_WORD == 0u && len % STAC_FLASH_WORD == 0u &&
+           offset <= STAC_SIM_STORE_CAPACITY && len <= STAC_SIM_STORE_CAPACITY - offset;
+}
+
+/* Erases exactly the range asked for (no sectors): the core must not count on anything else
+ * being erased, which a port erasing whole sectors would hide. */
+static int32_t hal_store_erase(void *ctx, uint32_t offset, uint32_t len) {
     stac_sim_t *sim = (stac_sim_t *)ctx;
+    if (!store_range_ok(offset, len)) {
+        return STAC_FLASH_BAD_ARG;
+    }
     if (flash_fault_now(sim)) {
         return STAC_FLASH_FAILED;
     }
-    memset(sim->store, 0xFF, sizeof sim->store);
-    return store_write_through(sim, 0u, STAC_SIM_STORE_CAPACITY);
+    memset(sim->store + offset, 0xFF, len);
+    return store_write_through(sim, offset, len);
 }
 
 static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
     stac_sim_t *sim = (stac_sim_t *)ctx;
-    if (offset % STAC_FLASH_WORD != 0u || len % STAC_FLASH_WORD != 0u ||
-        offset > STAC_SIM_STORE_CAPACITY || len > STAC_SIM_STORE_CAPACITY - offset) {
+    if (!store_range_ok(offset, len)) {
         return STAC_FLASH_BAD_ARG;
     }
     const int fail = flash_fault_now(sim);

@@ -167,13 +167,14 @@ STAC_SIM_API int32_t stac_sim_sensor_transfer(stac_sim_t *sim, uint8_t bus, uint
                                               uint32_t rd_len);
 
 /* Model store (protocol 1.1): the flash region an uploaded decoder is kept in, STORE_CAPACITY
- * bytes like the STM32 port's sector 7. It lives in the instance (erased at init) and, once
+ * bytes like the STM32 port's sectors 4-7. It lives in the instance (erased at init) and, once
  * stac_sim_model_store names a file, also in that file: read when attached, every erase and
  * program written through, so a model survives the simulated device's reset and re-open. Like
  * NOR flash, programming only clears bits; a program that would set one reads back wrong and
- * fails. */
+ * fails. An erase clears exactly the bytes the firmware asks for (the STM32 clears whole
+ * sectors). */
 /* bytes of the model store (the image capacity is 64 less: the commit record) */
-#define STAC_SIM_STORE_CAPACITY 131072u
+#define STAC_SIM_STORE_CAPACITY 458752u
 
 /* Keep the model store in the file at path (NUL-terminated, shorter than 4096 bytes): read it,
  * or create it erased (all 0xFF) when missing, then validate it as the firmware does at boot.

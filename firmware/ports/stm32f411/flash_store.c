@@ -1,5 +1,8 @@
 #include "flash_store.h"
 
+#include <stdbool.h>
+#include <stddef.h>
+
 #include "stac_hal.h"
 
 /* Wait until BSY clears (RM0383 3.5.3 step 5, 3.5.4 step 4), at most timeout_us. */
@@ -39,22 +42,63 @@ static void finish(const flash_store_t *f) {
     f->regs->ACR = acr & ~(FLASH_ACR_ICRST | FLASH_ACR_DCRST);
 }
 
-int32_t flash_store_erase(const flash_store_t *f) {
+const flash_sector_t flash_store_sectors[FLASH_STORE_SECTORS] = {
+    {0x00000u, 0x10000u, 4u, FLASH_ERASE64K_TIMEOUT_US},
+    {0x10000u, 0x20000u, 5u, FLASH_ERASE128K_TIMEOUT_US},
+    {0x30000u, 0x20000u, 6u, FLASH_ERASE128K_TIMEOUT_US},
+    {0x50000u, 0x20000u, 7u, FLASH_ERASE128K_TIMEOUT_US},
+};
+
+static bool range_ok(const flash_store_t *f, uint32_t offset, uint32_t len) {
+    return offset % 4u == 0u && len % 4u == 0u && offset <= f->size && len <= f->size - offset;
+}
+
+static bool reads_erased(const flash_store_t *f, const flash_sector_t *s) {
+    for (uint32_t i = s->offset / 4u; i < (s->offset + s->size) / 4u; i++) {
+        if (f->base[i] != 0xFFFFFFFFu) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* RM0383 3.5.3: SER and SNB, then STRT; PSIZE x32 sets the erase parallelism. */
+static int32_t erase_sector(const flash_store_t *f, const flash_sector_t *s) {
+    if (f->before_erase != NULL) {
+        f->before_erase();
+    }
+    f->regs->CR = (f->regs->CR & ~(FLASH_CR_PSIZE_MASK | FLASH_CR_SNB_MASK | FLASH_CR_PG)) |
+                  FLASH_CR_PSIZE_X32 | FLASH_CR_SER | (s->snb << FLASH_CR_SNB_SHIFT);
+    f->regs->CR |= FLASH_CR_STRT;
+    return wait_idle(f, s->erase_timeout_us);
+}
+
+int32_t flash_store_erase(const flash_store_t *f, uint32_t offset, uint32_t len) {
+    if (!range_ok(f, offset, len)) {
+        return STAC_FLASH_BAD_ARG;
+    }
+    if (len == 0u) {
+        return STAC_FLASH_OK;
+    }
     int32_t rc = unlock(f);
     if (rc != STAC_FLASH_OK) {
         return rc;
     }
-    /* RM0383 3.5.3: SER and SNB, then STRT; PSIZE x32 sets the erase parallelism. */
-    f->regs->CR = (f->regs->CR & ~(FLASH_CR_PSIZE_MASK | FLASH_CR_SNB_MASK | FLASH_CR_PG)) |
-                  FLASH_CR_PSIZE_X32 | FLASH_CR_SER | (f->sector << FLASH_CR_SNB_SHIFT);
-    f->regs->CR |= FLASH_CR_STRT;
-    rc = wait_idle(f, FLASH_ERASE_TIMEOUT_US);
+    uint32_t first = f->n_sectors, end = 0u; /* the sectors [first, end) the range touches */
+    for (uint32_t k = 0u; k < f->n_sectors; k++) {
+        const flash_sector_t *s = &f->sectors[k];
+        if (offset < s->offset + s->size && offset + len > s->offset) {
+            first = k < first ? k : first;
+            end = k + 1u;
+        }
+    }
+    for (uint32_t k = first; k < end && rc == STAC_FLASH_OK; k++) {
+        rc = erase_sector(f, &f->sectors[k]);
+    }
     finish(f);
-    if (rc == STAC_FLASH_OK) {
-        for (uint32_t i = 0u; i < f->size / 4u; i++) {
-            if (f->base[i] != 0xFFFFFFFFu) {
-                return STAC_FLASH_FAILED;
-            }
+    for (uint32_t k = first; k < end && rc == STAC_FLASH_OK; k++) {
+        if (!reads_erased(f, &f->sectors[k])) {
+            rc = STAC_FLASH_FAILED;
         }
     }
     return rc;
@@ -62,7 +106,7 @@ int32_t flash_store_erase(const flash_store_t *f) {
 
 int32_t flash_store_program(const flash_store_t *f, uint32_t offset, const uint8_t *data,
                             uint32_t len) {
-    if (offset % 4u != 0u || len % 4u != 0u || offset > f->size || len > f->size - offset) {
+    if (!range_ok(f, offset, len)) {
         return STAC_FLASH_BAD_ARG;
     }
     int32_t rc = unlock(f);

@@ -28,7 +28,7 @@ SHARED_WINDOWS = 8
 #: CONF bits a window's counts depend on: IT, SENS, gain, DG, SD_ALS
 WINDOW_BITS = 0x7C70
 #: bytes of the model store (the image capacity is 64 less: the commit record)
-STORE_CAPACITY = 131072
+STORE_CAPACITY = 458752
 
 #: stac_sim_i2c_fn
 I2C_FN = ctypes.CFUNCTYPE(

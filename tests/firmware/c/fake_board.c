@@ -177,20 +177,37 @@ static bool fake_flash_fails(fake_board_t *b) {
     return b->flash_fail_at != 0u && op >= b->flash_fail_at;
 }
 
-static int32_t fake_store_erase(void *ctx) {
+const uint32_t fake_flash_sector_start[FAKE_FLASH_SECTORS + 1u] = {0u, 4096u, 8192u, 16384u,
+                                                                    FAKE_FLASH_SIZE};
+
+static bool fake_range_ok(uint32_t offset, uint32_t len) {
+    return offset % STAC_FLASH_WORD == 0u && len % STAC_FLASH_WORD == 0u &&
+           offset <= FAKE_FLASH_SIZE && len <= FAKE_FLASH_SIZE - offset;
+}
+
+/* Erases every sector the range touches, whole. */
+static int32_t fake_store_erase(void *ctx, uint32_t offset, uint32_t len) {
     fake_board_t *b = (fake_board_t *)ctx;
+    if (!fake_range_ok(offset, len)) {
+        return STAC_FLASH_BAD_ARG;
+    }
     b->flash_erases++;
     if (b->flash_dead || fake_flash_fails(b)) {
         return STAC_FLASH_FAILED;
     }
-    memset(b->flash, 0xFF, sizeof b->flash);
+    for (uint32_t k = 0u; k < FAKE_FLASH_SECTORS; k++) {
+        const uint32_t lo = fake_flash_sector_start[k], hi = fake_flash_sector_start[k + 1u];
+        if (len > 0u && offset < hi && offset + len > lo) {
+            memset(b->flash + lo, 0xFF, hi - lo);
+            b->sector_erases[k]++;
+        }
+    }
     return STAC_FLASH_OK;
 }
 
 static int32_t fake_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
     fake_board_t *b = (fake_board_t *)ctx;
-    if (offset % STAC_FLASH_WORD != 0u || len % STAC_FLASH_WORD != 0u ||
-        offset > FAKE_FLASH_SIZE || len > FAKE_FLASH_SIZE - offset) {
+    if (!fake_range_ok(offset, len)) {
         return STAC_FLASH_BAD_ARG;
     }
     b->flash_programs++;

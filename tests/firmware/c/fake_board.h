@@ -49,8 +49,11 @@ typedef struct fake_window {
     uint8_t bus;
 } fake_window_t;
 
-/* The model store: NOR-like flash (program only clears bits, read back and compared). */
+/* The model store: NOR-like flash (program only clears bits, read back and compared) that
+ * erases whole sectors of unequal sizes, as the STM32's does (there 64 + 3 x 128 KiB). */
 #define FAKE_FLASH_SIZE 32768u
+#define FAKE_FLASH_SECTORS 4u
+extern const uint32_t fake_flash_sector_start[FAKE_FLASH_SECTORS + 1u]; /* byte offsets */
 
 #define FAKE_MAX_PWM 4096
 #define FAKE_MAX_WINDOWS 4096
@@ -78,6 +81,7 @@ typedef struct fake_board {
     size_t rx_len, rx_pos;
     _Alignas(8) uint8_t flash[FAKE_FLASH_SIZE];
     uint32_t flash_erases, flash_programs; /* operations run */
+    uint32_t sector_erases[FAKE_FLASH_SECTORS]; /* per sector: how often it was erased */
     uint32_t flash_fail_at;    /* operation number (erases + programs, 1-based) that fails; 0 none */
     bool flash_power_cut;      /* with flash_cut_words: the supply fails during programming */
     uint32_t flash_cut_words;  /* words programmed before the power cut */

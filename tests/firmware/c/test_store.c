@@ -187,6 +187,67 @@ TEST(store_begin_rejects_sizes) {
     CHECK_EQ(begin(1u, IMAGE_CAP, 0u), STAC_OK);
 }
 
+/* MODEL_BEGIN of `size` bytes on flash that holds old data everywhere: which sectors it
+ * erased (bit k: sector k; each erased whole and at most once, the others keep the old
+ * data) and in how many erase operations. */
+typedef struct {
+    uint32_t sectors, ops;
+} begin_erase_t;
+
+static begin_erase_t begin_on_old_data(uint32_t size) {
+    boot();
+    memset(g_b.flash, 0x5A, sizeof g_b.flash);
+    const uint32_t ops = g_b.flash_erases;
+    begin_erase_t r = {0u, 0u};
+    if (begin(1u, size, 0u) != STAC_OK) {
+        r.ops = 0xFFFFFFFFu;
+        return r;
+    }
+    r.ops = g_b.flash_erases - ops;
+    for (uint32_t k = 0u; k < FAKE_FLASH_SECTORS; k++) {
+        const uint32_t lo = fake_flash_sector_start[k], hi = fake_flash_sector_start[k + 1u];
+        const uint8_t expect = g_b.sector_erases[k] > 0u ? 0xFFu : 0x5Au;
+        for (uint32_t i = lo; i < hi; i++) {
+            if (g_b.flash[i] != expect) {
+                r.ops = 0xFFFFFFFEu;
+            }
+        }
+        r.sectors |= g_b.sector_erases[k] == 1u ? 1u << k : 0u;
+        r.sectors |= g_b.sector_erases[k] > 1u ? 0x100u << k : 0u; /* erased twice */
+    }
+    return r;
+}
+
+#define CHECK_BEGIN_ERASES(size, sectors_, ops_)      \
+    do {                                              \
+        const begin_erase_t got_ = begin_on_old_data(size); \
+        CHECK_EQ(got_.sectors, sectors_);             \
+        CHECK_EQ(got_.ops, ops_);                     \
+    } while (0)
+
+/* MODEL_BEGIN erases the sectors under [0, size) and the record's (last) sector, nothing
+ * else; an image reaching into the last sector takes the record along in one erase. */
+TEST(store_begin_erases_only_the_sectors_the_image_needs) {
+    CHECK_BEGIN_ERASES(test_model_image_size, 0x9u, 2u); /* sector 0, the record's 3 */
+    CHECK_BEGIN_ERASES(4096u, 0x9u, 2u);                 /* exactly sector 0 */
+    CHECK_BEGIN_ERASES(4097u, 0xBu, 2u);                 /* one word into sector 1 */
+    CHECK_BEGIN_ERASES(16384u, 0xFu, 2u);                /* sectors 0-2, then the record's */
+    CHECK_BEGIN_ERASES(16385u, 0xFu, 1u);                /* the record went with the image */
+    CHECK_BEGIN_ERASES(IMAGE_CAP, 0xFu, 1u);
+    /* Whatever the old bytes past the image were, the small image uploads and validates. */
+    boot();
+    memset(g_b.flash, 0x5A, sizeof g_b.flash);
+    CHECK_EQ(upload(test_model_image, test_model_image_size, 3u, 224u), STAC_OK);
+    reboot();
+    CHECK_EQ(model_info().present, STAC_STORE_UPLOADED);
+    CHECK_EQ(g_b.flash[fake_flash_sector_start[1]], 0x5Au);
+    /* MODEL_CLEAR erases the whole region. */
+    CHECK_EQ(command(STAC_MSG_MODEL_CLEAR, NULL, 0u, NULL), STAC_OK);
+    for (uint32_t i = 0u; i < FAKE_FLASH_SIZE; i++) {
+        CHECK_EQ(g_b.flash[i], 0xFFu);
+    }
+}
+
 TEST(store_begin_invalidates_at_once) {
     boot();
     CHECK_EQ(upload(test_model_image, test_model_image_size, 5u, 224u), STAC_OK);
@@ -503,6 +564,8 @@ const test_case_t g_store_tests[] = {
     {"store_model_survives_reboot_and_clear_removes_it",
      store_model_survives_reboot_and_clear_removes_it},
     {"store_begin_rejects_sizes", store_begin_rejects_sizes},
+    {"store_begin_erases_only_the_sectors_the_image_needs",
+     store_begin_erases_only_the_sectors_the_image_needs},
     {"store_begin_invalidates_at_once", store_begin_invalidates_at_once},
     {"store_chunks_out_of_order_duplicate_or_past_the_end",
      store_chunks_out_of_order_duplicate_or_past_the_end},
