@@ -93,12 +93,14 @@ def _summarise(c: Candidate, res: dict[str, Any], k: int) -> dict[str, Any]:
         v = np.asarray([f[t] for f in res["fold_mae"]])
         mae[t] = {"mean": float(v.mean()), "se": float(v.std(ddof=1) / np.sqrt(v.size))}
     tr = float(np.mean(res["train_score"]))
+    train_mae = {t: float(np.mean([f[t] for f in res["train_mae"]])) for t in mae}
     return {
         "status": "done",
         "cv_score": float(s.mean()),
         "cv_se": se,
         "cv_mae": mae,
         "train_score": tr,
+        "train_mae": train_mae,
         "gap": float(s.mean() / tr) if tr > 0 else float("inf"),
         "seconds": float(res["seconds"]),
         **res["cost"],

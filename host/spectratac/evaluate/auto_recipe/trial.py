@@ -96,6 +96,7 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
     per_fold: list[dict[str, float]] = []
     scores: list[float] = []
     train_scores: list[float] = []
+    train_mae: list[dict[str, float]] = []
     cost: dict[str, float] = {}
     for i, (fit, held) in enumerate(job.folds):
         rows = fit if spec.model == "ridge" else thin(fit, job.max_fit_rows)
@@ -105,6 +106,7 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
         scores.append(float(np.mean([err[t] / job.target_std[t] for t in err])))
         tr = fold_errors(dec, ds, thin(rows, TIMING_ROWS))
         train_scores.append(float(np.mean([tr[t] / job.target_std[t] for t in tr])))
+        train_mae.append(tr)
         if i == 0:
             cost = inference_cost(dec, ds, held)
     return {
@@ -112,6 +114,7 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
         "fold_mae": per_fold,
         "fold_score": scores,
         "train_score": train_scores,
+        "train_mae": train_mae,
         "seconds": time.perf_counter() - t0,
         "cost": cost,
     }
