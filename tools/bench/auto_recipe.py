@@ -112,7 +112,7 @@ def run(name: str, make: Any, budget: float, seed: int) -> list[benchlib.Figure]
             held["paper"][0],
             a / held["paper"][0],
             info,
-        ),  # fmt: skip
+        ),
         benchlib.Figure(
             f"{name}: auto held-out score",
             a,
@@ -121,7 +121,7 @@ def run(name: str, make: Any, budget: float, seed: int) -> list[benchlib.Figure]
             held[best_cl][0],
             a / held[best_cl][0],
             {"chosen": res.report["chosen"]},
-        ),  # fmt: skip
+        ),
         benchlib.Figure(
             f"{name}: auto wall time",
             wall,
@@ -135,7 +135,7 @@ def run(name: str, make: Any, budget: float, seed: int) -> list[benchlib.Figure]
                 "load_avg_1m": [round(load0, 2), round(load1, 2)],
                 "cores": os.cpu_count(),
             },
-        ),  # fmt: skip
+        ),
     ]
 
 
