@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from spectratac.decode.errors import DecoderDataError
 from spectratac.decode.groups import group_folds, purge, row_groups, val_split
 from spectratac.sim.generic_skin import generic_skin

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from spectratac.dataset import Dataset
@@ -35,7 +34,10 @@ def test_degree_three_recovers_a_cubic_and_degree_one_cannot() -> None:
     # the penalty was chosen by grouped CV among the candidates, and recorded
     assert cubic.meta["ridge"]["alpha"] in cubic.meta["ridge"]["alphas"]
     assert len(cubic.meta["ridge"]["cv_mae_scaled"]) == len(cubic.meta["ridge"]["alphas"])
-    assert cubic.runtime.arch == ("linear", 0, 0) and cubic.runtime.features.M.shape == (16, 3)  # 6 squares and products + 10 cubes
+    assert cubic.runtime.arch == ("linear", 0, 0) and cubic.runtime.features.M.shape == (
+        16,
+        3,
+    )  # 6 squares and products + 10 cubes
     # products are counted in the inference cost
     assert cubic.flops_per_sample > lin.flops_per_sample + 16
 
