@@ -2,7 +2,7 @@
 
 spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best|auto]
     [--budget 5m] [--ray ADDRESS] [--workers N]
-    [--features F] [--model M] [--targets Fz,region] [--context K] [--drift baseline]
+    [--features F] [--model M] [--degree D] [--targets Fz,region] [--context K] [--drift baseline]
     [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
     [--seed S] [--holdout blocked|random]
     [--export onnx,c,...] [--json]
@@ -59,6 +59,7 @@ SPEC_OPTIONS = {
     "hidden": "hidden",
     "blocks": "blocks",
     "val_fraction": "val_fraction",
+    "degree": "degree",
     "seed": "seed",
     "threads": "threads",
 }
@@ -93,6 +94,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--hidden", type=int)
     p.add_argument("--blocks", type=int)
     p.add_argument("--val-fraction", type=float)
+    p.add_argument("--degree", type=int, help="--model ridge: polynomial degree 1-3")
     p.add_argument("--seed", type=int)
     p.add_argument("--threads", type=int)
     p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
