@@ -50,7 +50,8 @@ def test_recipe_auto_within_a_budget_writes_the_chosen_model(tmp_path, capsys) -
     s = json.loads(capsys.readouterr().out)
     rep = s["auto_recipe"]
     status = {c["name"]: c["status"] for c in rep["candidates"]}
-    assert all(status[n] == "done" for n in ("linear", "poly2", "poly3", "linear+drift"))
+    assert status["linear"] == status["linear+drift"] == "done"
+    assert all(v == "done" or v.startswith("skipped") for v in status.values())
     assert rep["chosen"] in status and status[rep["chosen"]] == "done"
     dec = Decoder.load(out)
     assert dec.meta["auto_recipe"]["chosen"] == rep["chosen"]
