@@ -3,13 +3,16 @@
 Every candidate is a `TrainSpec` built from the data's features and targets plus a few
 changes. The classical ones (linear and polynomial ridge, closed form) are always tried and
 always reported; the networks span the paper's ResMLP, smaller and larger ones, temporal
-context, the drift baseline and training-only regularisation.
+context, the drift baseline and training-only regularisation; on SpectraTac features also
+`TrainSpec.best()` (rotation and mirror augmentation: six times the training).
 
 >>> [c.name for c in candidates("generic", ("Fz",))][:3]
 ['linear', 'linear+drift', 'poly2']
 >>> c = candidates("generic", ("Fz",))[-1]
 >>> c.family, c.spec.model
 ('network', 'resmlp')
+>>> candidates("paper33", ("Fz",))[-1].spec.augment
+'rotate+mirror'
 """
 
 from __future__ import annotations
@@ -80,4 +83,6 @@ def candidates(
         ("resmlp128x2+context", {"blocks": 2, "batch_size": 256, "weight_decay": 0.05, **ctx}),
     ]
     out += [Candidate(n, "network", _net(features, targets, **kw)) for n, kw in nets]
+    if features == "paper33":  # SpectraTac: our best recipe, with the symmetry augmentation
+        out.append(Candidate("best", "network", TrainSpec.best(targets=targets, threads=1)))
     return out
