@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-EXTRAS := train,sim,record,report,live,hardware,dev
+EXTRAS := train,sim,record,report,live,hardware,ray,dev
 
 .PHONY: venv demo test test-fast lint regen hardware firmware firmware-test firmware-native flash clean
 

@@ -1,7 +1,8 @@
 """`spectratac train`: train a decoder from dataset files and write a .stac model.
 
-spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best]
-    [--features F] [--model M] [--targets Fz,region] [--context K] [--drift baseline]
+spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best|auto]
+    [--budget 5m] [--ray ADDRESS] [--workers N]
+    [--features F] [--model M] [--degree D] [--targets Fz,region] [--context K] [--drift baseline]
     [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
     [--seed S] [--holdout blocked|random]
     [--export onnx,c,...] [--json]
@@ -9,7 +10,21 @@ spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best]
 --recipe picks the starting point (the paper's recipe, or `TrainSpec.best()`); any other
 option given replaces that one field. --holdout trains on the training rows of that split
 only and records it in the model, so that `spectratac evaluate model.stac data.npz` scores
-exactly the held-out rows; without it every row trains and the printed MAE is optimistic.
+exactly the held-out rows; without it every row trains the model.
+
+Training error and held-out error are always printed side by side (and in --json:
+train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
+else guarded time blocks: decode/groups.py): the --holdout split's test rows, else the
+model's own validation groups (--val-fraction), else those of a check model trained on the
+other 80 % of the groups. When the held-out error exceeds the training error by more than
+2x (evaluate/gap.py) a warning goes to stderr and into the JSON.
+
+--recipe auto searches linear and polynomial ridge, MLPs and ResMLPs with and without
+temporal context, drift baseline and regularisation by grouped K-fold cross-validation
+within --budget (e.g. 300, 90s, 5m, 1h; the final refit included), on --workers local
+processes or on the Ray cluster at --ray ADDRESS, keeps the cheapest model within one
+standard error of the best and prints every candidate's CV error and inference cost
+(evaluate/auto_recipe).
 
 Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
 .npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
@@ -19,6 +34,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +44,8 @@ import numpy as np
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
 
-RECIPES = ("paper", "best")
+RECIPES = ("paper", "best", "auto")
+HELDOUT_FRACTION = 0.2  # groups held out by the check model
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
 SPEC_OPTIONS = {
     "model": "model",
@@ -41,6 +59,7 @@ SPEC_OPTIONS = {
     "hidden": "hidden",
     "blocks": "blocks",
     "val_fraction": "val_fraction",
+    "degree": "degree",
     "seed": "seed",
     "threads": "threads",
 }
@@ -75,10 +94,23 @@ def register(subparsers: Any) -> None:
     p.add_argument("--hidden", type=int)
     p.add_argument("--blocks", type=int)
     p.add_argument("--val-fraction", type=float)
+    p.add_argument("--degree", type=int, help="--model ridge: polynomial degree 1-3")
     p.add_argument("--seed", type=int)
     p.add_argument("--threads", type=int)
     p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
     p.add_argument("--split-seed", type=int, default=0, help="seed of the --holdout split")
+    p.add_argument(
+        "--budget",
+        type=parse_duration,
+        default=300.0,
+        help="--recipe auto: wall-time budget, e.g. 300, 90s, 5m, 1h (default 5m)",
+    )
+    p.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="--recipe auto: run trials on this Ray cluster (host:port, auto, local)",
+    )
+    p.add_argument("--workers", type=int, help="--recipe auto: parallel local trials (cores)")
     p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
     p.add_argument("--json", action="store_true", help="print one JSON summary")
     p.add_argument("--no-progress", action="store_true")
@@ -117,14 +149,18 @@ def _train(args: argparse.Namespace) -> int:
         changes["context_ema"] = tuple(float(v) for v in column_names(args.ema) or ())
     if args.uncertainty:
         changes["uncertainty"] = True
-    spec = getattr(TrainSpec, args.recipe)(**changes)
     rows, split = None, None
     if args.holdout:
         from spectratac.evaluate.splits import SplitSpec, split_dataset
 
         split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
         rows = split.train
-    dec = train(ds, spec, rows=rows, progress=not args.no_progress)
+    if args.recipe == "auto":
+        dec, check = _auto(args, ds, rows, tuple(targets), features)
+    else:
+        spec = getattr(TrainSpec, args.recipe)(**changes)
+        dec = train(ds, spec, rows=rows, progress=not args.no_progress)
+        check = _check(dec, ds, rows, split, spec, args.no_progress)
     if split is not None:
         from spectratac.evaluate.holdout import mark
 
@@ -135,11 +171,97 @@ def _train(args: argparse.Namespace) -> int:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
         written[fmt] = str(dec.export(fmt, path))
     summary = _summary(dec, ds, written, None if split is None else split.test)
+    summary.update(check)
+    if check["warning"]:
+        print(f"warning: {check['warning']}: the model fits what is particular to its "
+              f"training {check['heldout_groups']}s; expect the held-out error on new data "
+              f"(try --recipe auto, --drift baseline, or more {check['heldout_groups']}s)",
+              file=sys.stderr)  # fmt: skip
     if args.json:
         print(json.dumps(summary))
     else:
         print(_human(summary))
     return ExitCode.OK
+
+
+def parse_duration(text: str) -> float:
+    """Seconds of "300", "90s", "5m", "1.5h".
+
+    >>> parse_duration("5m"), parse_duration("90s"), parse_duration("300")
+    (300.0, 90.0, 300.0)
+    """
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([smh]?)\s*", text)
+    if not m or float(m.group(1)) <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a duration like 300, 90s, 5m or 1h")
+    return float(m.group(1)) * {"": 1, "s": 1, "m": 60, "h": 3600}[m.group(2)]
+
+
+def _mae(dec: Any, ds: Any, rows: Any) -> dict[str, float]:
+    from spectratac.evaluate.auto_recipe.trial import fold_errors
+
+    return fold_errors(dec, ds, np.asarray(rows, np.intp))
+
+
+def _check(dec: Any, ds: Any, rows: Any, split: Any, spec: Any, quiet: bool) -> dict[str, Any]:
+    """Training and held-out-group MAE of `dec` (or of a check model trained like it on the
+    other groups, when `dec` held nothing out) and the gap warning."""
+    from spectratac.decode.train import rows_of, train
+    from spectratac.evaluate.gap import gap
+
+    if split is not None:
+        fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
+        model = dec
+    elif dec.meta.get("n_val", 0) > 0:
+        model, source = dec, "the model's validation groups"
+        fit, held = rows_of(dec.meta["fit_rows"]), rows_of(dec.meta["val_rows"])
+        kind = dec.meta["val_groups"]
+    else:
+        from dataclasses import replace
+
+        model = train(ds, replace(spec, val_fraction=HELDOUT_FRACTION), rows=rows,
+                      progress=not quiet)  # fmt: skip
+        fit, held = rows_of(model.meta["fit_rows"]), rows_of(model.meta["val_rows"])
+        kind, source = model.meta["val_groups"], "a check model trained on the other groups"
+    train_mae, held_mae = _mae(model, ds, fit), _mae(model, ds, held)
+    ratio, warning = gap(train_mae, held_mae)
+    return {
+        "train_mae": train_mae,
+        "heldout_mae": held_mae,
+        "heldout_groups": kind,
+        "heldout_source": source,
+        "n_heldout": int(np.asarray(held).size),
+        "gap": ratio,
+        "warning": warning,
+    }
+
+
+def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...],
+          features: str) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+    from spectratac.evaluate.auto_recipe import search
+    from spectratac.evaluate.gap import gap
+
+    def say(line: str) -> None:
+        if not args.no_progress:
+            print(f"  {line}", file=sys.stderr)
+
+    result = search(ds, args.budget, rows=rows, targets=targets, features=features,
+                    workers=args.workers, ray_address=args.ray, progress=say)  # fmt: skip
+    rep = result.report
+    chosen = next(c for c in rep["candidates"] if c["name"] == rep["chosen"])
+    held = {t: v["mean"] for t, v in chosen["cv_mae"].items()}
+    ratio, warning = gap(chosen["train_mae"], held)
+    if not args.json:
+        print(result.text())
+    return result.decoder, {
+        "train_mae": chosen["train_mae"],
+        "heldout_mae": held,
+        "heldout_groups": rep["groups"]["kind"],
+        "heldout_source": f"{rep['folds']}-fold cross-validation of the chosen candidate",
+        "n_heldout": rep["rows"],
+        "gap": ratio,
+        "warning": warning,
+        "auto_recipe": rep,
+    }
 
 
 def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:
@@ -196,6 +318,16 @@ def _human(s: dict[str, Any]) -> str:
         )
     for t, v in s["mae"].items():
         lines.append(f"    {t:<8} {v:.4g}")
+    lines.append(
+        f"  training against held-out groups: {s['heldout_groups']} ({s['heldout_source']}, "
+        f"{s['n_heldout']} rows):"
+    )
+    for t, v in s["heldout_mae"].items():
+        tr = s["train_mae"].get(t, float("nan"))
+        ratio = v / tr if tr > 0 else float("nan")
+        lines.append(f"    {t:<8} training {tr:.4g}  held-out {v:.4g}  ({ratio:.1f}x)")
+    if s["warning"]:
+        lines.append(f"  WARNING: {s['warning']}")
     if s["class_accuracy"] is not None:
         lines.append(f"    classes  {100 * s['class_accuracy']:.2f} % correct")
     for kind, path in s["written"].items():

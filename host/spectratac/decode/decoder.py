@@ -72,7 +72,8 @@ class Decoder:
         feat = 2 * int(np.count_nonzero(fs.L)) + 2 * int(
             np.count_nonzero(fs.P) + np.count_nonzero(fs.Q)
         )
-        return flops(self.runtime.arch, fs.n_features, self.heads.n_out) + feat
+        mon = int(np.count_nonzero(fs.M >= 0)) - fs.M.shape[0]  # products per monomial
+        return flops(self.runtime.arch, fs.n_features, self.heads.n_out) + feat + mon
 
     def __repr__(self) -> str:
         spec = self.meta.get("spec", {})

@@ -5,9 +5,13 @@ Every feature set here has the form
     lin = (u - center) @ L.T                      (raw values, sensor differences, deltas)
     rat = (u @ P.T) / (|u| @ Q.T + EPS)           (clear-normalised chromaticity, fractions)
     f   = [lin, rat]
+    mon = prod_k f[M[:, k]]                       (monomials; index -1 stands for 1)
+    f   = [lin, rat, mon]
 
 so that one small description runs identically in NumPy, torch, ONNX and C. The ratio
-denominators are >= EPS, so dark (all-zero) inputs give finite features.
+denominators are >= EPS, so dark (all-zero) inputs give finite features. Monomials (degree
+2 or 3 over the linear and ratio features, `degree`) turn a linear head into a polynomial
+ridge regression (decode/ridge.py).
 
 kinds (per LED step, on the current sample x_t):
 - paper33: the paper's 33 (raw 12, pairwise sensor differences 12, R/C, G/C, B/C 9);
@@ -25,11 +29,15 @@ and x_t - b_t and x_t / b_t with a baseline.
 >>> fs = build_features("generic", Layout(("a", "b"), lags=(1,)))
 >>> fs.names
 ['a', 'b', 'a-a[t-1]', 'b-b[t-1]', 'a/sum', 'b/sum']
+>>> fs = build_features("raw", Layout(("a", "b")), degree=2)
+>>> fs.names, fs.apply(np.array([[2.0, 3.0]])).tolist()
+(['a', 'b', 'a*a', 'a*b', 'b*b'], [[2.0, 3.0, 4.0, 6.0, 9.0]])
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from itertools import combinations_with_replacement
 from typing import Any
 
 import numpy as np
@@ -41,6 +49,12 @@ from spectratac.decode.paper_features import EPS
 
 F64 = NDArray[np.float64]
 SPECTRATAC_CHANNELS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")
+MAX_DEGREE = 3
+NO_FACTOR = -1  # a monomial's unused factor slot (the product skips it)
+
+
+def _no_monomials() -> NDArray[np.int64]:
+    return np.zeros((0, MAX_DEGREE), np.int64)
 
 
 @dataclass(frozen=True)
@@ -50,31 +64,65 @@ class FeatureSet:
     P: F64  # (F_rat, D)
     Q: F64  # (F_rat, D)
     names: list[str]
+    M: NDArray[np.int64] = field(default_factory=_no_monomials)  # (F_mon, 3) factor indices
+
+    @property
+    def n_base(self) -> int:
+        """Linear plus ratio features: the ones monomials multiply."""
+        return self.L.shape[0] + self.P.shape[0]
 
     @property
     def n_features(self) -> int:
-        return self.L.shape[0] + self.P.shape[0]
+        return self.n_base + self.M.shape[0]
 
     def apply(self, u: F64, center: F64 | None = None, dtype: Any = np.float64) -> F64:
         """Features (N, F) of assembled vectors (N, D), computed in `dtype`."""
         u = np.asarray(u, dtype=dtype)
         c = np.zeros(u.shape[-1], dtype) if center is None else center.astype(dtype)
         lin = (u - c) @ self.L.T.astype(dtype)
-        if not self.P.shape[0]:
+        if self.P.shape[0]:
+            rat = (u @ self.P.T.astype(dtype)) / (np.abs(u) @ self.Q.T.astype(dtype) + dtype(EPS))
+            lin = np.concatenate([lin, rat], axis=-1)
+        if not self.M.shape[0]:
             return lin
-        rat = (u @ self.P.T.astype(dtype)) / (np.abs(u) @ self.Q.T.astype(dtype) + dtype(EPS))
-        return np.concatenate([lin, rat], axis=-1)
+        # a trailing column of ones: NO_FACTOR (-1) indexes it, so unused slots multiply by 1
+        padded = np.concatenate([lin, np.ones((*lin.shape[:-1], 1), dtype)], axis=-1)
+        return np.concatenate([lin, np.prod(padded[..., self.M], axis=-1)], axis=-1)
 
-    def to_arrays(self) -> dict[str, F64]:
-        return {"L": self.L, "P": self.P, "Q": self.Q}
+    def to_arrays(self) -> dict[str, NDArray[Any]]:
+        a: dict[str, NDArray[Any]] = {"L": self.L, "P": self.P, "Q": self.Q}
+        if self.M.shape[0]:
+            a["M"] = self.M
+        return a
 
     @classmethod
-    def from_arrays(cls, kind: str, arrays: dict[str, F64], names: list[str]) -> FeatureSet:
-        return cls(kind, arrays["L"], arrays["P"], arrays["Q"], list(names))
+    def from_arrays(
+        cls, kind: str, arrays: dict[str, NDArray[Any]], names: list[str]
+    ) -> FeatureSet:
+        m = arrays.get("M")
+        mon = _no_monomials() if m is None else np.asarray(m, np.int64)
+        return cls(kind, arrays["L"], arrays["P"], arrays["Q"], list(names), mon)
 
 
-def build_features(kind: str, layout: Layout) -> FeatureSet:
-    """The feature set `kind` over `layout`'s assembled vector."""
+def monomials(n_base: int, degree: int) -> NDArray[np.int64]:
+    """Factor indices (F_mon, 3) of every monomial of degree 2..`degree` over n_base features.
+
+    >>> monomials(2, 2).tolist()
+    [[0, 0, -1], [0, 1, -1], [1, 1, -1]]
+    """
+    if not 1 <= degree <= MAX_DEGREE:
+        raise DecoderConfigError(f"polynomial degree {degree}: use 1 to {MAX_DEGREE}")
+    rows = [
+        list(c) + [NO_FACTOR] * (MAX_DEGREE - d)
+        for d in range(2, degree + 1)
+        for c in combinations_with_replacement(range(n_base), d)
+    ]
+    return np.array(rows, np.int64).reshape(-1, MAX_DEGREE)
+
+
+def build_features(kind: str, layout: Layout, degree: int = 1) -> FeatureSet:
+    """The feature set `kind` over `layout`'s assembled vector, with the monomials of degree
+    2..`degree` of those features appended when degree > 1."""
     d, c, base = layout.size, len(layout.channels), layout.base
     names_in = layout.names()
     lin: list[F64] = []
@@ -137,4 +185,7 @@ def build_features(kind: str, layout: Layout) -> FeatureSet:
     L = np.array(lin).reshape(-1, d)
     P = np.array(num).reshape(-1, d)
     Q = np.array(den).reshape(-1, d)
-    return FeatureSet(kind, L, P, Q, lin_names + rat_names)
+    names = lin_names + rat_names
+    mon = monomials(len(names), degree)
+    mon_names = ["*".join(names[i] for i in m if i != NO_FACTOR) for m in mon]
+    return FeatureSet(kind, L, P, Q, names + mon_names, mon)

@@ -43,6 +43,8 @@ def _lin(w: dict[str, Any], name: str, half: bool = False, norm: str | None = No
 
 
 def compile_single(rt: Any) -> Callable[[Any], F32]:
+    if rt.features.M.shape[0]:
+        return _unfused(rt)
     f32 = np.float32
     fs, w, heads = rt.features, rt.weights, rt.heads
     kind, hidden, blocks = rt.arch
@@ -159,6 +161,19 @@ def compile_single(rt: Any) -> Callable[[Any], F32]:
             divide(o_c, o_c.sum(), out=o_c)
         if has_ct:
             out[k_ct] = half_ * (one + tanh(half_ * r_k[0]))
+        return out
+
+    return run1
+
+
+def _unfused(rt: Any) -> Callable[[Any], F32]:
+    """The batch path on one row, for polynomial features: their products cannot be folded
+    into the first layer (a polynomial ridge is one small matrix product anyway)."""
+    rt32 = rt.with_dtype(np.float32)
+    out = np.empty(rt.heads.n_out, np.float32)
+
+    def run1(u: Any) -> F32:
+        out[:] = rt32.run(np.asarray(u, np.float64)[None, :])[0]
         return out
 
     return run1

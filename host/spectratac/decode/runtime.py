@@ -147,7 +147,7 @@ class Runtime:
             )
         feats = FeatureSet.from_arrays(
             header["feature_kind"],
-            {k: arrays[f"feat/{k}"] for k in ("L", "P", "Q")},
+            {k: arrays[f"feat/{k}"] for k in ("L", "P", "Q", "M") if f"feat/{k}" in arrays},
             header["feature_names"],
         )
         arch = (str(header["arch"][0]), int(header["arch"][1]), int(header["arch"][2]))
@@ -188,6 +188,11 @@ class Runtime:
                 f"architecture {self.arch!r} does not fit the {len(self.weights)} weight "
                 f"arrays in the file; {damaged}"
             )
+        mon = self.features.M
+        if mon.shape[0]:
+            want["feat/M"] = (mon.shape[0], mon.shape[1])
+            if mon.shape[1] != 3 or np.any(mon < -1) or np.any(mon >= self.features.n_base):
+                raise DecoderFileError(f"monomial factor indices out of range; {damaged}")
         for name, o, i in layer_shapes(self.arch, f, self.heads.n_out):
             want[f"w/{name}.weight"], want[f"w/{name}.bias"] = (o, i), (o,)
         for name in norm_names(self.arch):

@@ -13,7 +13,7 @@ True
 >>> TrainSpec(model="cnn")
 Traceback (most recent call last):
 ...
-spectratac.decode.errors.DecoderError: TrainSpec.model='cnn': choose one of linear, mlp, ...
+spectratac.decode.errors.DecoderError: TrainSpec.model='cnn': choose one of linear, ridge, ...
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 from spectratac.decode.errors import DecoderError
 
 FEATURES = ("paper33", "raw", "generic")
-MODELS = ("linear", "mlp", "resmlp", "resmlp-large")
+MODELS = ("linear", "ridge", "mlp", "resmlp", "resmlp-large")
 DRIFT = ("none", "baseline")
 LOSSES = ("paper", "l1", "huber")
 AUGMENTS = ("none", "rotate", "rotate+mirror")
@@ -46,8 +46,13 @@ class TrainSpec:
     augment: also train on the training rows rotated by 120° and 240° ("rotate") and
     mirrored ("rotate+mirror"), from the sensor's three-fold symmetry (decode/symmetry.py).
     uncertainty: a calibrated per-target standard deviation head.
-    val_fraction: share of training rows (contiguous time blocks) held out for calibrating
-    uncertainty and reporting a validation loss; 0 uses all rows for fitting.
+    val_fraction: share of the training rows' groups (whole sessions, else presses, else
+    guarded time blocks: decode/groups.py) held out for calibrating uncertainty, keeping the
+    best epoch and reporting a validation loss; 0 uses all rows for fitting.
+    model="ridge": the linear head fitted in closed form (least squares with an L2 penalty
+    `ridge_alpha` on z-scored features; 0 picks it by cross-validation over the training
+    rows' groups), NumPy only, regression targets only; with `degree` 2 or 3 the features'
+    monomials up to that degree are appended (a polynomial ridge regression).
     dropout, input_noise (std of Gaussian noise added to the z-scored features), best_val
     (keep the epoch with the lowest validation loss), weight_average (decay of an
     exponential moving average of the weights over steps, e.g. 0.999; 0 = off):
@@ -78,6 +83,8 @@ class TrainSpec:
     input_noise: float = 0.0
     best_val: bool = False
     weight_average: float = 0.0
+    degree: int = 1
+    ridge_alpha: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
@@ -114,6 +121,17 @@ class TrainSpec:
             raise DecoderError("TrainSpec.lr must be > 0 and weight_decay >= 0")
         if not (0.0 <= self.dropout < 1.0 and self.input_noise >= 0.0):
             raise DecoderError("TrainSpec.dropout must lie in [0, 1) and input_noise be >= 0")
+        if not 1 <= self.degree <= 3:
+            raise DecoderError(f"TrainSpec.degree={self.degree}: use 1, 2 or 3")
+        if not 0.0 <= self.ridge_alpha < float("inf"):
+            raise DecoderError("TrainSpec.ridge_alpha must be >= 0 (0: chosen by validation)")
+        if self.model == "ridge":
+            extra = [t for t in self.targets if t in CLASS_TARGETS]
+            if extra or self.uncertainty:
+                raise DecoderError(
+                    f"TrainSpec.model='ridge' decodes regression targets only; drop "
+                    f"{extra or 'uncertainty'} or use a network model"
+                )
         if not 0.0 <= self.weight_average < 1.0:
             raise DecoderError("TrainSpec.weight_average must lie in [0, 1)")
         if self.best_val and self.val_fraction == 0.0:
@@ -169,7 +187,7 @@ class TrainSpec:
             return ("resmlp", 2 * self.hidden, 2 * self.blocks)
         if self.model == "mlp" and self.blocks == 0:
             return ("linear", self.hidden, 0)
-        if self.model == "linear":
+        if self.model in ("linear", "ridge"):
             return ("linear", 0, 0)
         return (self.model, self.hidden, self.blocks)
 

@@ -86,6 +86,8 @@ class Exported(nn.Module):
         buf("y_scale", rt.y_scale)
         buf("std_mul", rt.y_scale * rt.std_scale)
         self.has_rat = fs.P.shape[0] > 0
+        self.register_buffer("mon", torch.as_tensor(np.asarray(fs.M), dtype=torch.long))
+        self.has_mon = fs.M.shape[0] > 0
         self.eps = EPS
         self.net = Net(rt.arch, fs.n_features, rt.heads.n_out).to(dtype)
         state = {k: torch.as_tensor(v, dtype=dtype) for k, v in rt.weights.items()}
@@ -102,6 +104,9 @@ class Exported(nn.Module):
         if self.has_rat:
             rat = (u @ self.Pt) / (torch.abs(u) @ self.Qt + self.eps)
             f = torch.cat([f, rat], dim=1)
+        if self.has_mon:  # index -1 picks the appended 1: an unused factor slot
+            padded = torch.cat([f, torch.ones_like(f[:, :1])], dim=1)
+            f = torch.cat([f, torch.prod(padded[:, self.mon], dim=2)], dim=1)
         raw = self.net((f - self.mean) * self.inv_std)
         parts = [raw[:, : self.r] * self.y_scale]
         if self.s[1] > self.s[0]:

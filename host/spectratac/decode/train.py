@@ -29,6 +29,8 @@ from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.groups import GUARD_ROWS, row_groups
+from spectratac.decode.groups import val_split as groups_val_split
 from spectratac.decode.guard import SATURATION, Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
@@ -38,7 +40,6 @@ from spectratac.decode.spec import TrainSpec
 F64 = NDArray[np.float64]
 PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
 HUBER_DELTA = 0.1  # in scaled target units
-N_VAL_BLOCKS = 10
 Progress = bool | Callable[[int, float], None]
 
 
@@ -109,7 +110,7 @@ def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
     return Plan(
         spec,
         layout,
-        build_features(spec.features, layout),
+        build_features(spec.features, layout, spec.degree),
         heads,
         cols,
         class_name if want_class else None,
@@ -171,16 +172,16 @@ def check_rows(dataset: Dataset, p: Plan, rows: NDArray[np.intp]) -> None:
             )
 
 
-def val_split(order: NDArray[np.intp], fraction: float) -> tuple[NDArray, NDArray]:
-    """Hold out the last `fraction` of each of N_VAL_BLOCKS contiguous blocks (time order)."""
+def val_split(
+    dataset: Dataset, order: NDArray[np.intp], fraction: float, guard: int = GUARD_ROWS
+) -> tuple[NDArray[np.intp], NDArray[np.intp], str]:
+    """(fit rows, validation rows, group kind): whole sessions, presses or guarded time
+    blocks held out (decode/groups.py), never random rows."""
     if fraction <= 0:
-        return order, order[:0]
-    fit, val = [], []
-    for block in np.array_split(order, N_VAL_BLOCKS):
-        k = round(fraction * block.size)
-        fit.append(block[: block.size - k])
-        val.append(block[block.size - k :])
-    return np.concatenate(fit), np.concatenate(val)
+        return order, order[:0], "none"
+    g = row_groups(dataset.session, dataset.press, dataset.t_end, order)
+    fit, val = groups_val_split(order, fraction, g, guard)
+    return fit, val, g.kind
 
 
 def train(
@@ -210,7 +211,8 @@ def train(
     keep_mask &= valid
     order = np.concatenate(session_order(np.asarray(dataset.session), np.asarray(dataset.t_end)))
     order = order[keep_mask[order]]
-    fit_rows, val_rows = val_split(order, spec.val_fraction)
+    fit_rows, val_rows, val_kind = val_split(dataset, order, spec.val_fraction, max(
+        GUARD_ROWS, max(p.layout.lags, default=0)))  # fmt: skip
     if fit_rows.size < 2:
         raise DecoderDataError("fewer than 2 usable training rows after LED-step assembly")
     y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
@@ -232,7 +234,13 @@ def train(
     net_rows = fit_rows
     if spec.augment != "none":
         data, net_rows = _augmented(dataset, p, rt, data, u, y_scale, fit_rows)
-    weights, history, val_history = _fit(spec, p, data, net_rows, val_rows, progress)
+    if spec.model == "ridge":  # closed form, NumPy only
+        from spectratac.decode.ridge import fit_ridge
+
+        weights, history, val_history, ridge = fit_ridge(spec, p, data, net_rows, val_rows, dataset)
+    else:
+        ridge = None
+        weights, history, val_history = _fit(spec, p, data, net_rows, val_rows, progress)
     rt.weights = weights
     rt._plan = None
     if p.heads.uncertainty and val_rows.size:
@@ -259,12 +267,37 @@ def train(
         "n_train": int(fit_rows.size),
         "n_augmented": int(net_rows.size - fit_rows.size),
         "n_val": int(val_rows.size),
+        "val_groups": val_kind,
+        "fit_rows": _ranges(fit_rows),
+        "val_rows": _ranges(val_rows),
         "train_seconds": time.perf_counter() - t0,
         "history": history,
         "val_history": val_history,
         "std_scale": rt.std_scale.tolist(),
     }
+    if ridge is not None:
+        meta["ridge"] = ridge
     return Decoder(rt, p.layout, guard, meta)
+
+
+def _ranges(rows: NDArray[np.intp]) -> list[list[int]]:
+    """Sorted rows as [start, stop) runs: which rows fitted and which validated, compactly
+    (the train command scores both).
+
+    >>> _ranges(np.array([5, 1, 2, 3]))
+    [[1, 4], [5, 6]]
+    """
+    r = np.unique(rows)
+    if not r.size:
+        return []
+    cut = np.flatnonzero(np.diff(r) != 1) + 1
+    return [[int(b[0]), int(b[-1]) + 1] for b in np.split(r, cut)]
+
+
+def rows_of(ranges: list[list[int]]) -> NDArray[np.intp]:
+    """The rows of `_ranges` output."""
+    parts = [np.arange(a, b) for a, b in ranges]
+    return np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)
 
 
 def _augmented(

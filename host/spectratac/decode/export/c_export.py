@@ -67,6 +67,7 @@ def render(dec: Any) -> str:
         "STAC_N_BASE": dec.layout.base,
         "STAC_N_LIN": n_lin,
         "STAC_N_RAT": n_rat,
+        "STAC_N_MON": int(fs.M.shape[0]),
         "STAC_N_FEAT": fs.n_features,
         "STAC_HIDDEN": hidden,
         "STAC_BLOCKS": blocks,
@@ -96,6 +97,9 @@ def render(dec: Any) -> str:
         data.append(_array("stac_L", fs.L))
     if n_rat:
         data += [_array("stac_P", fs.P), _array("stac_Q", fs.Q)]
+    if fs.M.shape[0]:
+        rows = ",\n  ".join("{" + ", ".join(str(int(i)) for i in m) + "}" for m in fs.M)
+        data.append(f"static const int stac_M[{fs.M.shape[0]}][3] = {{{rows}}};")
     data += [
         _array("stac_f_mean", rt.scaler.mean),
         _array("stac_f_inv_std", 1.0 / rt.scaler.std),

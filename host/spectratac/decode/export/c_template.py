@@ -108,6 +108,15 @@ static inline int stac_decode(const stac_real u[STAC_N_IN], stac_real out[STAC_N
         z[STAC_N_LIN + f] = num / (den + STAC_C(1e-5));
     }
 #endif
+#if STAC_N_MON > 0
+    /* monomials of the features above (polynomial ridge); a factor index -1 is unused */
+    for (int m = 0; m < STAC_N_MON; ++m) {
+        stac_real prod = STAC_C(1.0);
+        for (int k = 0; k < 3; ++k)
+            if (stac_M[m][k] >= 0) prod *= z[stac_M[m][k]];
+        z[STAC_N_LIN + STAC_N_RAT + m] = prod;
+    }
+#endif
     for (int f = 0; f < STAC_N_FEAT; ++f) z[f] = (z[f] - stac_f_mean[f]) * stac_f_inv_std[f];
 
     stac_real raw[STAC_N_OUT];

@@ -1,0 +1,284 @@
+"""`search`: honest model selection within a time budget (`spectratac train --recipe auto`).
+
+    from spectratac.evaluate.auto_recipe import search
+    result = search(dataset, budget_s=300)          # grouped K-fold CV, local processes
+    result.decoder.save("model.stac")               # the chosen model, refitted on all rows
+    print(result.text()); result.report             # every candidate: CV error, cost
+
+Each candidate (auto_recipe/space.py) is cross-validated by groups: whole sessions, else
+presses, else guarded time blocks (decode/groups.py), or the `groups` given. Trials run in
+parallel (local processes, or Ray with `ray_address`), cheapest first, while the budget
+allows (auto_recipe/budget.py). The linear baselines always run; polynomial ridge runs
+when it fits the budget and has at most MAX_RIDGE_FEATURES monomials. The winner is the model
+with the fewest inference FLOPs whose mean CV error is within one standard error (over folds)
+of the best candidate's (the one-standard-error rule: differences smaller than that are
+noise). It is refitted on all rows (network epochs scaled so that it sees as many samples as
+a fold did) and its report is stored in the decoder's metadata under "auto_recipe".
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from spectratac.dataset.schema import Dataset
+from spectratac.decode.decoder import Decoder
+from spectratac.decode.errors import DecoderConfigError
+from spectratac.decode.groups import Groups, group_folds, purge, row_groups
+from spectratac.decode.networks import flops
+from spectratac.decode.spec import TrainSpec
+from spectratac.decode.train import plan, select_rows, train
+from spectratac.evaluate.auto_recipe.budget import Budget, CostModel, work
+from spectratac.evaluate.auto_recipe.report import render
+from spectratac.evaluate.auto_recipe.space import Candidate, candidates
+from spectratac.evaluate.auto_recipe.trial import Fold, TrialJob
+
+DEFAULT_FOLDS = 4
+MAX_FIT_ROWS = 20_000  # network trials: rows per fold fit (every k-th row)
+# ridge candidates with more features are left out: the normal equations grow with its
+# square (polynomials of the paper's 33 features with the baseline's: 1767, minutes a fold)
+MAX_RIDGE_FEATURES = 1000
+
+
+@dataclass
+class SearchResult:
+    """The chosen decoder (refitted on all rows) and the search report (a JSON-able dict)."""
+
+    decoder: Decoder
+    report: dict[str, Any]
+
+    def text(self) -> str:
+        return render(self.report)
+
+
+def _default_targets(ds: Dataset) -> tuple[str, ...]:
+    t = list(ds.target_names)
+    if np.any(np.asarray(ds.region) > 0):
+        t.append(ds.meta.get("region_name", "region"))
+    return tuple(t)
+
+
+def _folds(ds: Dataset, rows: NDArray[np.intp], g: Groups, k: int) -> list[Fold]:
+    out = []
+    for held in group_folds(g.ids, rows, k):
+        fit = np.setdiff1d(rows, held)
+        fit = purge(fit, held, g, np.asarray(ds.session), np.asarray(ds.t_end))
+        out.append((fit, held))
+    return out
+
+
+def _n_features(ds: Dataset, c: Candidate) -> int:
+    return plan(ds, c.spec).features.n_features
+
+
+def _units(ds: Dataset, c: Candidate, rows: int) -> float:
+    p = plan(ds, c.spec)
+    f = p.features.n_features
+    if c.classical:
+        return work("classical", rows, f, 1, 0)
+    train_flops = 3 * flops(c.spec.arch, f, p.heads.n_out)
+    return work("network", rows, f, c.spec.epochs, train_flops)
+
+
+def _refit_spec(c: Candidate, fold_rows: int, all_rows: int, threads: int) -> TrainSpec:
+    if c.classical:
+        return c.spec
+    epochs = max(1, round(c.spec.epochs * fold_rows / max(all_rows, 1)))
+    return replace(c.spec, epochs=epochs, threads=threads)
+
+
+def _summarise(c: Candidate, res: dict[str, Any], k: int) -> dict[str, Any]:
+    s = np.asarray(res["fold_score"], np.float64)
+    se = float(s.std(ddof=1) / np.sqrt(s.size)) if s.size > 1 else float("nan")
+    mae = {}
+    for t in res["fold_mae"][0]:
+        v = np.asarray([f[t] for f in res["fold_mae"]])
+        mae[t] = {"mean": float(v.mean()), "se": float(v.std(ddof=1) / np.sqrt(v.size))}
+    tr = float(np.mean(res["train_score"]))
+    train_mae = {t: float(np.mean([f[t] for f in res["train_mae"]])) for t in mae}
+    return {
+        "status": "done",
+        "cv_score": float(s.mean()),
+        "cv_se": se,
+        "cv_mae": mae,
+        "train_score": tr,
+        "train_mae": train_mae,
+        "gap": float(s.mean() / tr) if tr > 0 else float("inf"),
+        "seconds": float(res["seconds"]),
+        **res["cost"],
+    }
+
+
+def one_se_choice(rows: list[dict[str, Any]]) -> tuple[str, str]:
+    """(chosen, best) names: the fewest FLOPs within one standard error of the best mean.
+
+    >>> ok = {"status": "done", "eligible": True, "cv_se": 0.02}
+    >>> r = [{"name": "big", "cv_score": 0.10, "flops": 1e5, **ok},
+    ...      {"name": "small", "cv_score": 0.11, "flops": 50, **ok}]
+    >>> one_se_choice(r)
+    ('small', 'big')
+    """
+    ok = [r for r in rows if r.get("eligible") and r.get("status") == "done"]
+    if not ok:
+        raise DecoderConfigError("no candidate finished within the budget: give more time")
+    best = min(ok, key=lambda r: r["cv_score"])
+    se = best["cv_se"] if np.isfinite(best["cv_se"]) else 0.0
+    near = [r for r in ok if r["cv_score"] <= best["cv_score"] + se]
+    chosen = min(near, key=lambda r: (r["flops"], r["cv_score"]))
+    return chosen["name"], best["name"]
+
+
+def search(
+    dataset: Dataset,
+    budget_s: float = 300.0,
+    *,
+    groups: ArrayLike | None = None,
+    rows: ArrayLike | None = None,
+    targets: tuple[str, ...] | None = None,
+    features: str | None = None,
+    folds: int = DEFAULT_FOLDS,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    space: list[Candidate] | None = None,
+    max_fit_rows: int = MAX_FIT_ROWS,
+    clock: Callable[[], float] = time.monotonic,
+    progress: Callable[[str], None] | None = None,
+) -> SearchResult:
+    """Search the recipe space on `rows` (default all) of `dataset` within `budget_s` seconds
+    of wall time (the final refit included) and return the chosen decoder and the report.
+
+    groups: a group id per dataset row (>= 0; rows of a group are held out together), e.g.
+    units for a held-out-unit study; default sessions, else presses, else time blocks.
+    targets / features: as TrainSpec's (default: every target and class of the dataset;
+    paper33 for SpectraTac data, else generic). workers: parallel trials (default: cores);
+    1 runs them in this process. ray_address: run trials on that Ray cluster instead.
+    space: the candidates (default `space.candidates`). clock: seconds, for the budget.
+    """
+    budget = Budget(budget_s, clock)
+    sel = select_rows(dataset.n, rows)
+    tg = tuple(targets) if targets else _default_targets(dataset)
+    feats = features or ("paper33" if dataset.meta.get("kind") == "spectratac" else "generic")
+    if groups is not None:
+        ids = np.asarray(groups, np.int64)
+        if ids.shape != (dataset.n,):
+            raise DecoderConfigError(f"groups has shape {ids.shape}; give one id per row")
+        g = Groups(ids, "given")
+    else:
+        g = row_groups(dataset.session, dataset.press, dataset.t_end, sel)
+    sel = sel[g.ids[sel] >= 0]
+    k = max(2, min(folds, g.n_groups))
+    fold_rows = _folds(dataset, sel, g, k)
+    names = set(dataset.target_names)
+    reg = tuple(t for t in tg if t in names)
+    space = candidates(feats, tg, reg) if space is None else space
+    y = np.asarray(dataset.targets, np.float64)[sel]
+    tv = np.asarray(dataset.target_valid, bool)[sel]
+    std = {t: float(np.nanstd(y[tv, dataset.target_names.index(t)])) or 1.0 for t in reg}
+    n_fold = int(np.mean([f.size for f, _ in fold_rows]))
+    ncores = os.cpu_count() or 1
+    runner = _runner(dataset, ray_address, workers or ncores)
+    cost = CostModel()
+    table: dict[str, dict[str, Any]] = {}
+    units: dict[str, float] = {}
+    ends: dict[str, float] = {}  # predicted end (elapsed s) of running trials
+    by_name = {c.name: c for c in space}
+    needs_all = len(reg) < len(tg)  # classes asked for: only networks decode them
+
+    def refit_s(c: Candidate) -> float:
+        return cost.seconds(c.family, units[c.name]) / k * (1 if not c.classical else 1.25)
+
+    def best_refit() -> float:
+        done = [n for n, r in table.items() if r.get("status") == "done"]
+        if not done:
+            return 0.0
+        return refit_s(by_name[min(done, key=lambda n: table[n]["cv_score"])])
+
+    def collect(timeout: float | None) -> None:
+        for job, res in runner.done(timeout):
+            c = by_name[job.name]
+            ends.pop(job.name, None)
+            if isinstance(res, BaseException):
+                table[c.name] = {"status": f"failed: {res}"}
+                continue
+            cost.add(c.family, res["seconds"], units[c.name])
+            table[c.name] = _summarise(c, res, k)
+            if progress:
+                progress(f"{c.name}: CV {table[c.name]['cv_score']:.4f} "
+                         f"({res['seconds']:.1f} s)")  # fmt: skip
+
+    try:
+        for c in space:
+            fit_n = n_fold if c.classical else min(n_fold, max_fit_rows)
+            units[c.name] = _units(dataset, c, fit_n) * k
+            while runner.busy >= runner.workers:
+                collect(None)
+            collect(0)
+            predicted = cost.seconds(c.family, units[c.name])
+            refit = max(refit_s(c), best_refit())
+            running_until = max(ends.values(), default=0.0)
+            if c.classical and _n_features(dataset, c) > MAX_RIDGE_FEATURES:
+                table[c.name] = {"status": f"skipped: {_n_features(dataset, c)} features, "
+                                 f"over {MAX_RIDGE_FEATURES} for ridge"}  # fmt: skip
+                continue
+            always = c.classical and c.spec.degree == 1  # the linear baselines: seconds
+            if not always and not budget.fits(predicted, refit, running_until):
+                table[c.name] = {"status": "skipped: would not fit the budget",
+                                 "predicted_s": predicted}  # fmt: skip
+                continue
+            ends[c.name] = budget.elapsed() + predicted
+            job = TrialJob(c.name, c.spec.to_dict(), fold_rows, max_fit_rows, std)
+            runner.submit(job)
+        while runner.busy:
+            collect(None)
+        collect(0)
+    finally:
+        runner.close()
+    rows_out = []
+    for c in space:
+        r = {"name": c.name, "family": c.family, "spec": c.spec.to_dict(), **table[c.name]}
+        r["eligible"] = not (needs_all and c.classical)
+        rows_out.append(r)
+    chosen_name, best_name = one_se_choice(rows_out)
+    chosen = by_name[chosen_name]
+    search_s = budget.elapsed()
+    t_refit = clock()
+    spec = _refit_spec(chosen, min(n_fold, max_fit_rows), sel.size, max(1, ncores))
+    dec = train(dataset, spec, rows=sel, progress=False)
+    refit_seconds = clock() - t_refit
+    report = {
+        "budget_s": float(budget_s),
+        "search_s": search_s,
+        "refit_s": refit_seconds,
+        "elapsed_s": budget.elapsed(),
+        "within_budget": budget.elapsed() <= budget_s,
+        "runner": runner.name,
+        "workers": runner.workers,
+        "folds": k,
+        "groups": {"kind": g.kind, "n": g.n_groups},
+        "rows": int(sel.size),
+        "targets": list(tg),
+        "score": "mean over regression targets of CV MAE / target std (lower is better)",
+        "target_std": std,
+        "rule": "fewest inference FLOPs within one standard error (over folds) of the best",
+        "chosen": chosen_name,
+        "best": best_name,
+        "candidates": rows_out,
+    }
+    dec.meta["auto_recipe"] = report
+    return SearchResult(dec, report)
+
+
+def _runner(ds: Dataset, ray_address: str | None, workers: int) -> Any:
+    from spectratac.evaluate.auto_recipe import runners
+
+    if ray_address:
+        return runners.RayRunner(ds, ray_address)
+    if workers <= 1:
+        return runners.InlineRunner(ds)
+    return runners.LocalRunner(ds, workers)

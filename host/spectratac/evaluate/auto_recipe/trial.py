@@ -1,0 +1,120 @@
+"""One trial: a candidate's grouped K-fold cross-validation, run wherever a runner puts it.
+
+A trial trains the candidate once per fold on the other folds' rows (network candidates on
+at most `max_fit_rows` of them, every k-th row: at 100 Hz neighbours are near-duplicates)
+and scores it on the fold's held-out groups. The error is the mean absolute error per
+regression target, and a unit-free score: the mean over targets of MAE / the target's std.
+The fold-0 decoder's inference cost is measured too: batch µs per sample and the latency of
+one sample through the fused single-sample path.
+
+Everything a trial needs is plain data (a spec dict, row arrays), so it pickles to a worker
+process or a Ray task.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from spectratac.dataset.schema import Dataset
+from spectratac.decode.decoder import Decoder
+from spectratac.decode.spec import TrainSpec
+from spectratac.decode.train import train
+
+Fold = tuple[NDArray[np.intp], NDArray[np.intp]]  # (fit rows, held-out rows)
+TIMING_ROWS = 2000
+
+
+@dataclass(frozen=True)
+class TrialJob:
+    name: str
+    spec: dict[str, Any]
+    folds: list[Fold]
+    max_fit_rows: int
+    target_std: dict[str, float]
+
+
+def thin(rows: NDArray[np.intp], limit: int) -> NDArray[np.intp]:
+    """Every k-th row so that at most `limit` remain (all when limit <= 0).
+
+    >>> thin(np.arange(10), 4).tolist(), thin(np.arange(3), 0).tolist()
+    ([0, 3, 6, 9], [0, 1, 2])
+    """
+    if limit <= 0 or rows.size <= limit:
+        return rows
+    return rows[:: -(-rows.size // limit)]
+
+
+def fold_errors(dec: Decoder, ds: Dataset, held: NDArray[np.intp]) -> dict[str, float]:
+    """MAE per regression target on the held-out rows with valid targets and estimates."""
+    est = dec.predict(ds, held)
+    names = list(ds.target_names)
+    out = {}
+    for i, t in enumerate(dec.target_names):
+        y = np.asarray(ds.targets, np.float64)[held, names.index(t)]
+        ok = ~est.invalid & np.asarray(ds.target_valid, bool)[held] & np.isfinite(y)
+        out[t] = float(np.mean(np.abs(est.targets[ok, i] - y[ok]))) if ok.any() else float("nan")
+    return out
+
+
+def inference_cost(dec: Decoder, ds: Dataset, rows: NDArray[np.intp]) -> dict[str, float]:
+    """FLOPs per sample, batch µs per sample (best of 3) and single-sample µs (median)."""
+    from spectratac.decode.assemble import assemble
+
+    pick = rows[:TIMING_ROWS]
+    u, valid = assemble(dec.layout, ds.inputs, ds.step, ds.session, ds.t_end)
+    u = u[pick][valid[pick]]
+    if not u.shape[0]:
+        return {"flops": float(dec.flops_per_sample), "us_per_sample": float("nan"),
+                "us_single": float("nan")}  # fmt: skip
+    batch = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        dec.runtime.run(u)
+        batch.append((time.perf_counter() - t0) / u.shape[0])
+    run1 = dec.runtime.run1
+    single = []
+    for row in u[:200]:
+        t0 = time.perf_counter()
+        run1(row)
+        single.append(time.perf_counter() - t0)
+    return {
+        "flops": float(dec.flops_per_sample),
+        "us_per_sample": 1e6 * min(batch),
+        "us_single": 1e6 * float(np.median(single)),
+    }
+
+
+def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
+    """Cross-validate one candidate: per-fold MAE per target and score, seconds, cost."""
+    t0 = time.perf_counter()
+    spec = TrainSpec.from_dict(job.spec)
+    per_fold: list[dict[str, float]] = []
+    scores: list[float] = []
+    train_scores: list[float] = []
+    train_mae: list[dict[str, float]] = []
+    cost: dict[str, float] = {}
+    for i, (fit, held) in enumerate(job.folds):
+        rows = fit if spec.model == "ridge" else thin(fit, job.max_fit_rows)
+        dec = train(ds, spec, rows=rows, progress=False)
+        err = fold_errors(dec, ds, held)
+        per_fold.append(err)
+        scores.append(float(np.mean([err[t] / job.target_std[t] for t in err])))
+        tr = fold_errors(dec, ds, thin(rows, TIMING_ROWS))
+        train_scores.append(float(np.mean([tr[t] / job.target_std[t] for t in tr])))
+        train_mae.append(tr)
+        if i == 0:
+            cost = inference_cost(dec, ds, held)
+    return {
+        "name": job.name,
+        "fold_mae": per_fold,
+        "fold_score": scores,
+        "train_score": train_scores,
+        "train_mae": train_mae,
+        "seconds": time.perf_counter() - t0,
+        "cost": cost,
+    }
