@@ -114,9 +114,7 @@ class SessionConditions:
 
     def apply_scene(self, scene: Scene) -> Scene:
         """The scene in this session's room (temperature offset on its whole course)."""
-        env = replace(
-            scene.env, temperature_c=scene.env.temperature_c + self.temperature_offset_c
-        )
+        env = replace(scene.env, temperature_c=scene.env.temperature_c + self.temperature_offset_c)
         return replace(scene, env=env)
 
     def to_dict(self) -> dict[str, Any]:
