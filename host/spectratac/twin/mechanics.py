@@ -8,7 +8,7 @@ the optics; the F/T sensor sees the applied load itself.
 >>> u = UnitParams.nominal()
 >>> d, a = indentation(np.array([0.0, 1.0, 10.0]), np.full(3, 4.0), u)
 >>> [round(float(v), 2) for v in d], [round(float(v), 2) for v in a]
-([0.0, 0.39, 1.31], [0.0, 1.26, 2.71])
+([0.0, 0.38, 1.25], [0.0, 1.24, 2.68])
 """
 
 from __future__ import annotations
