@@ -33,6 +33,11 @@ WRITING_VERBS = {
     "train": (["train", "missing.npz", "-o", "{out}"], "x.stac"),
     "evaluate": (["evaluate", "missing.stac", "missing.npz", "-o", "{out}"], "folder"),
     "twin generate": (["twin", "generate", "--scene", "idle", "-o", "{out}"], "x.npz"),
+    "twin population": (
+        ["twin", "population", "--units", "0", "--sessions", "1", "--duration", "5",
+         "--scene", "idle", "--no-progress", "-o", "{out}"],
+        "x.npz",
+    ),
     "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
     "bench decoder": (["bench", "decoder", "--quick", "--out", "{out}"], "folder"),
 }

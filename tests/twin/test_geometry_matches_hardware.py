@@ -1,13 +1,14 @@
 """The twin's layout is the board's: every twin geometry value either comes from
-hardware/params.toml (through the generated spectratac.hardware.board), is a known, documented
-twin model parameter that differs from the board, or has no board counterpart. A new twin
-constant must be sorted into one of these lists, and a new mismatch fails here."""
+hardware/params.toml (through the generated spectratac.hardware.board) or has no board
+counterpart. A new twin constant must be sorted into one of these lists, and a new mismatch
+fails here. The unit draw's spreads are the board's [tolerances], one source."""
 
 from __future__ import annotations
 
 import numpy as np
 from spectratac.hardware import board
 from spectratac.twin import geometry
+from spectratac.twin.unit import TOLERANCES, VARIATION, UnitParams
 
 # Twin constant -> board parameter it equals.
 SHARED = {
@@ -16,13 +17,9 @@ SHARED = {
     "SENSOR_ANGLES_DEG": "LAYOUT_SENSOR_ANGLES",
     "LED_ANGLES_DEG": "LAYOUT_LED_ANGLES",
     "STACK_HEIGHT_MM": "STACK_HEIGHT",
-}
-# Twin constant -> (board parameter, twin value, board value): calibrated twin layer thicknesses
-# that differ from the built stack (see twin/geometry.py for why they are kept).
-KNOWN_DIFFERENCES = {
-    "PCB_MM": ("BOARD_THICKNESS", 0.8, 1.0),
-    "PDMS_MM": ("STACK_PDMS", 2.4, 2.5),
-    "SKIN_MM": ("STACK_SKIN_TOP", 0.8, 0.5),
+    "PCB_MM": "BOARD_THICKNESS",
+    "PDMS_MM": "STACK_PDMS",
+    "SKIN_MM": "STACK_SKIN_TOP",
 }
 # Twin-only: region layout, and values derived from the ones above.
 TWIN_ONLY = {
@@ -51,14 +48,29 @@ def test_shared_values_equal_the_board() -> None:
         assert np.array_equal(twin, built), f"{twin_name} {twin} != params.toml {board_name}"
 
 
-def test_only_the_known_values_differ_from_the_board() -> None:
-    for twin_name, (board_name, twin_value, board_value) in KNOWN_DIFFERENCES.items():
-        got = (getattr(geometry, twin_name), getattr(board, board_name))
-        assert got == (twin_value, board_value), f"{twin_name} / {board_name}: {got}"
+def test_nominal_unit_is_built_on_the_board_stack() -> None:
+    u = UnitParams.nominal()
+    assert (u.pcb_mm, u.pdms_mm, u.skin_mm) == (
+        board.BOARD_THICKNESS,
+        board.STACK_PDMS,
+        board.STACK_SKIN_TOP,
+    )
+    # The skin surface (torque lever arm) is the stack top above the PCB.
+    assert u.stack.surface_z_mm == board.STACK_HEIGHT - board.BOARD_THICKNESS
+
+
+def test_unit_spreads_are_the_board_tolerances() -> None:
+    built = {k.removeprefix("TOLERANCES_").lower(): v for k, v in vars(board).items()
+             if k.startswith("TOLERANCES_")}  # fmt: skip
+    names = {"board_thickness": "pcb_mm", "pdms_thickness": "pdms_mm", "skin_thickness": "skin_mm"}
+    assert {names.get(k, k): v for k, v in built.items()} == TOLERANCES
+    assert VARIATION["sensor_xy"] == ("abs", board.TOLERANCES_PLACEMENT)
+    assert VARIATION["led_gain"] == ("rel", board.TOLERANCES_LED_INTENSITY)
+    assert VARIATION["e_star_mpa"] == ("rel", board.TOLERANCES_ELASTOMER_MODULUS)
 
 
 def test_every_twin_geometry_constant_is_classified() -> None:
-    listed = set(SHARED) | set(KNOWN_DIFFERENCES) | TWIN_ONLY
+    listed = set(SHARED) | TWIN_ONLY
     assert _numeric_constants() == listed
 
 

@@ -3,8 +3,11 @@
 
     .venv/bin/python tools/bench/twin.py [--json] [--rounds 3]
 
-Also times one register-level integration window (three sensors triggered together) against
-a bare NumPy call of similar size, the cost the firmware-in-the-loop device pays per sample.
+Also times a population dataset (4 units x 3 sessions x 5 minutes, each session with its own
+unit, mounting, temperature and ageing) against one session of the same simulated length, in
+seconds per simulated minute, and one register-level integration window (three sensors
+triggered together) against a bare NumPy call of similar size, the cost the
+firmware-in-the-loop device pays per sample.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
+from spectratac.sim.twin_dataset import from_twin_session, population
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 from spectratac.twin.electronics import AF, TRIG, SensorConfig
@@ -59,6 +63,20 @@ def main() -> None:
     gen_rate, alloc_rate = benchlib.side_by_side(gen, lambda: allocate_like(n, m), args.rounds)
     gen_s, alloc_s = n / gen_rate, n / alloc_rate
 
+    pop_units, pop_sessions, pop_s = [0, 1, 2, 3], 3, 300.0
+    pop_minutes = len(pop_units) * pop_sessions * pop_s / 60.0
+    long_scene = scenes.calibration_session(seed=0, duration_s=pop_minutes * 60.0)
+
+    def pop() -> int:
+        return population(pop_units, pop_sessions, pop_s).n
+
+    def one_long() -> int:
+        return from_twin_session(generate_session(long_scene, seed=0), long_scene).n
+
+    pop_rate, long_rate = benchlib.side_by_side(pop, one_long, args.rounds)
+    # Rates are in samples/s; a simulated minute is 1200 samples at 20 Hz.
+    pop_per_min, long_per_min = 1200.0 / pop_rate, 1200.0 / long_rate
+
     rig = TwinRig(scenes.calibration_session(seed=0, duration_s=120.0), seed=0)
     rig.set_led_duties(0, np.full((3, 3), 0.25))
     conf = SensorConfig().to_conf() | AF | TRIG
@@ -95,6 +113,15 @@ def main() -> None:
                 alloc_s,
                 gen_s / alloc_s,
                 {"samples": n, "ft_samples": m, "budget_s": 5.0},
+            ),
+            benchlib.Figure(
+                "population dataset, 4 units x 3 sessions x 300 s",
+                pop_per_min,
+                "s per simulated minute",
+                "one session as long, as a dataset",
+                long_per_min,
+                pop_per_min / long_per_min,
+                {"sessions": len(pop_units) * pop_sessions, "simulated_min": pop_minutes},
             ),
             benchlib.Figure(
                 "register-level window, 3 sensors",

@@ -11,7 +11,7 @@ runs on a deterministic subsample of the test rows, and the report says so.
 >>> from spectratac.twin import generate_session, builtin_scenes as scenes
 >>> from spectratac.sim.twin_dataset import from_twin_session
 >>> sc = scenes.single_press(6, 6.0, (1.5, 0.0), hold_s=1.0)
->>> ds = from_twin_session(generate_session(sc, seed=2), sc)
+>>> ds = from_twin_session(generate_session(sc, seed=3), sc)
 >>> o = twin_oracle(ds, scene=sc)
 >>> r = o.decode(ds, np.array([int(np.argmax(-ds.targets[:, 2]))]))
 >>> bool(abs(r.targets[0, 2] + 6.0) < 1.0), int(r.region[0])

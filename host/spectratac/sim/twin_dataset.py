@@ -1,5 +1,7 @@
-"""A dataset straight from a twin session (no device, no recording): for benchmarks over
-sensor configurations and for tests. Recorded sessions go through `spectratac dataset build`.
+"""Datasets straight from the twin (no device, no recording): one session for benchmarks over
+sensor configurations and for tests, or a population of units each recorded in several
+sessions (`population`) for decoders that must generalise to units and sessions they never
+saw. Recorded sessions go through `spectratac dataset build`.
 
 >>> from spectratac.twin import Scene, generate_session
 >>> scene = Scene.single_press(x=4.0, normal_n=6.0)
@@ -10,11 +12,24 @@ sensor configurations and for tests. Recorded sessions go through `spectratac da
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import numpy as np
 
-from spectratac.dataset.schema import FT_NAMES, SPECTRATAC_INPUTS, Dataset
-from spectratac.twin.generate import Session
+from spectratac.dataset.schema import FT_NAMES, SPECTRATAC_INPUTS, Dataset, concat
+from spectratac.twin import builtin_scenes
+from spectratac.twin.errors import TwinError
+from spectratac.twin.generate import Session, generate_session
 from spectratac.twin.scene_model import Scene
+from spectratac.twin.session import SessionConditions
+from spectratac.twin.unit import UnitParams
+
+#: Scenes a population can record: name -> scene of (scene seed, duration in s).
+POPULATION_SCENES: dict[str, Callable[[int, float], Scene]] = {
+    "calibration": lambda seed, duration: builtin_scenes.calibration_session(seed, duration),
+    "idle": lambda seed, duration: builtin_scenes.idle(duration),
+    "drift": lambda seed, duration: builtin_scenes.drift_session(duration),
+}
 
 
 def twin_config(session: Session) -> dict[str, object]:
@@ -62,3 +77,66 @@ def from_twin_session(session: Session, scene: Scene | None = None) -> Dataset:
         "labels": "scene",
     }
     return Dataset(arrays, meta)
+
+
+def population(
+    units: Sequence[int],
+    sessions_per_unit: int,
+    session_s: float,
+    seed: int = 0,
+    scene: str = "calibration",
+    progress: Callable[[int, int], None] | None = None,
+) -> Dataset:
+    """Units x sessions of the twin, one dataset: session i of ``meta["sessions"]`` is unit
+    ``meta["sessions"][i]["unit"]`` (a `UnitParams.from_seed` seed) recorded for `session_s`
+    seconds under `SessionConditions.draw(unit, session_index, seed)` (re-mounting, room
+    temperature, ageing, its own presses). ``dataset.session`` numbers the sessions;
+    `progress(done, total)` is called after each session. Same arguments, same dataset.
+
+    >>> ds = population([0, 1], sessions_per_unit=2, session_s=20.0)
+    >>> sorted(set(ds.session.tolist())), [s["unit"] for s in ds.meta["sessions"]]
+    ([0, 1, 2, 3], [0, 0, 1, 1])
+    >>> ds.meta["sessions"][3]["session_index"], ds.meta["sessions"][3]["unit_id"]
+    (1, 'twin-1')
+    """
+    unit_seeds = [_unit_seed(u) for u in units]
+    if not unit_seeds or len(set(unit_seeds)) != len(unit_seeds):
+        raise TwinError(f"units must be distinct unit seeds, at least one, got {list(units)!r}")
+    if isinstance(sessions_per_unit, bool) or not isinstance(sessions_per_unit, int):
+        raise TwinError(f"sessions_per_unit must be an int >= 1, got {sessions_per_unit!r}")
+    if sessions_per_unit < 1:
+        raise TwinError(f"sessions_per_unit must be >= 1, got {sessions_per_unit}")
+    if not (np.isfinite(session_s) and session_s >= 5.0):
+        raise TwinError(f"session_s must be >= 5 s, got {session_s!r}")
+    if scene not in POPULATION_SCENES:
+        raise TwinError(f"scene must be one of {sorted(POPULATION_SCENES)}, got {scene!r}")
+    make_scene = POPULATION_SCENES[scene]
+    total = len(unit_seeds) * sessions_per_unit
+    parts: list[Dataset] = []
+    for unit_seed in unit_seeds:
+        unit = UnitParams.from_seed(unit_seed)
+        for k in range(sessions_per_unit):
+            cond = SessionConditions.draw(unit_seed, k, seed)
+            sc = cond.apply_scene(make_scene(cond.scene_seed, float(session_s)))
+            run = generate_session(sc, seed=cond.noise_seed, unit=cond.apply_unit(unit))
+            ds = from_twin_session(run, sc)
+            ds.meta["unit_id"] = f"twin-{unit_seed}"
+            ds.meta["sessions"][0].update(
+                unit=unit_seed,
+                unit_id=f"twin-{unit_seed}",
+                session_index=k,
+                conditions=cond.to_dict(),
+            )
+            parts.append(ds)
+            if progress is not None:
+                progress(len(parts), total)
+    out = concat(parts)
+    out.meta["unit_id"] = "twin-population"
+    out.meta["units"] = unit_seeds
+    return out
+
+
+def _unit_seed(u: object) -> int:
+    if isinstance(u, bool) or not isinstance(u, (int, np.integer)) or u < 0:
+        raise TwinError(f"unit seeds must be non-negative ints, got {u!r}")
+    return int(u)

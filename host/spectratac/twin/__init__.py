@@ -22,6 +22,8 @@ from spectratac.twin.generate import (
 )
 from spectratac.twin.geometry import region_centre, region_of
 from spectratac.twin.scene_model import ContactState, Environment, Presses, Scene
+from spectratac.twin.session import SessionConditions
+from spectratac.twin.stack import LayerStack
 from spectratac.twin.unit import UnitParams
 
 __all__ = [
@@ -29,10 +31,12 @@ __all__ = [
     "ContactState",
     "Environment",
     "I2CNack",
+    "LayerStack",
     "Presses",
     "Scene",
     "SensorConfig",
     "Session",
+    "SessionConditions",
     "TwinError",
     "UnitParams",
     "builtin_scenes",

@@ -50,7 +50,8 @@ def static_rates(
     m = np.shape(x)[0]
     delta, a, ux, uy = deformation(unit, fx, fy, normal, radius_mm)
     temp = np.broadcast_to(np.asarray(temperature_c, dtype=np.float64), (m,))
-    paths = optics.transport(unit, x, y, delta, a, ux, uy, temp)
+    ox, oy = (float(v) for v in unit.contact_offset_xy)  # as MechanicsTrack: board position
+    paths = optics.transport(unit, x + ox, y + oy, delta, a, ux, uy, temp)
     led_m = np.broadcast_to(led, (m, 3, 3))
     amb = optics.ambient_rates(
         unit, np.broadcast_to(np.asarray(lux, dtype=np.float64), (m,)), spectrum

@@ -18,7 +18,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.twin.geometry import SURFACE_Z_MM
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
@@ -38,11 +37,12 @@ def wrench(
     *,
     unit: UnitParams,
 ) -> F64:
-    """Noise-free F/T reading (N, 6) for contact loads and deformation at N instants."""
+    """Noise-free F/T reading (N, 6) for contact loads and deformation at N instants, in the
+    F/T's axes: a sensor mounted with a tilt (`unit.mount_tilt_rad`) has its wrench rotated."""
     fz = -normal
     rx = (x + ux) * 1e-3
     ry = (y + uy) * 1e-3
-    rz = (SURFACE_Z_MM - delta - unit.ft_origin_z_mm) * 1e-3
+    rz = (unit.stack.surface_z_mm - delta - unit.ft_origin_z_mm) * 1e-3
     out = np.empty((np.shape(fx)[0], 6))
     out[:, 0] = fx
     out[:, 1] = fy
@@ -50,14 +50,33 @@ def wrench(
     out[:, 3] = ry * fz - rz * fy
     out[:, 4] = rz * fx - rx * fz
     out[:, 5] = rx * fy - ry * fx
+    if np.any(unit.mount_tilt_rad):
+        rot = mount_rotation(unit)
+        out[:, :3] = out[:, :3] @ rot.T
+        out[:, 3:] = out[:, 3:] @ rot.T
     return out
+
+
+def mount_rotation(unit: UnitParams) -> NDArray[np.float64]:
+    """Rotation (3, 3) from the sensor's axes to the F/T's: tilt about x, then about y.
+
+    >>> u = UnitParams.nominal()
+    >>> bool(np.allclose(mount_rotation(u), np.eye(3)))
+    True
+    """
+    ax, ay = (float(v) for v in unit.mount_tilt_rad)
+    cx, sx, cy, sy = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay)
+    rot_x = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    rot_y = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    return rot_y @ rot_x
 
 
 def ft_noise(
     n: int, rate_hz: float, unit: UnitParams, rng: np.random.Generator
 ) -> NDArray[np.float64]:
     """Sensor noise (n, 6): white noise at the stream rate plus a slow Ornstein-Uhlenbeck bias
-    (thermal drift of the gauges), zero at the start because the rig tares before recording."""
+    (thermal drift of the gauges) that starts from the offset the tare left
+    (`unit.ft_bias_offset`, zero for a unit that has not been re-mounted)."""
     white = rng.standard_normal((n, 6), dtype=np.float32) * unit.ft_noise.astype(np.float32)
     seconds = int(np.ceil(n / rate_hz)) + 2
     a = np.exp(-1.0 / unit.ft_bias_tau_s)
@@ -66,4 +85,4 @@ def ft_noise(
     for i in range(1, seconds):
         bias[i] = a * bias[i - 1] + steps[i]
     idx = (np.arange(n) // max(int(rate_hz), 1)).astype(np.int64)
-    return white + bias[idx]
+    return white + (bias + unit.ft_bias_offset)[idx]

@@ -226,7 +226,8 @@ def generate_session(
     hi = np.maximum(hi, lo + 1)
     counts_per = (hi - lo).astype(np.float64)[:, None]
     ft_window = _segment_sums(ft, lo, hi) / counts_per
-    force = _segment_sums(truth[:, :3], lo, hi) / counts_per
+    applied = np.stack([c.fx, c.fy, -c.normal], axis=-1)  # board axes, whatever the mounting
+    force = _segment_sums(applied, lo, hi) / counts_per
 
     cm = scene.contact(tmid)
     return Session(

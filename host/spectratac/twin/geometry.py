@@ -2,7 +2,7 @@
 
 Board centre is the origin, x to the right, y up, z out of the skin, lengths in mm.
 Sensor k sits at angle 120°·k and LED j at 60° + 120°·j, both on a 5.5 mm radius. The board's
-outline, part ring and angles come from hardware/params.toml (generated
+outline, part ring, angles and layer thicknesses come from hardware/params.toml (generated
 `spectratac.hardware.board`), so the twin is laid out like the board that is built.
 
 Regions are numbered like a phone keypad so that the Snake game's directions read naturally:
@@ -29,14 +29,12 @@ from spectratac.hardware import board
 DISC_RADIUS_MM = board.BOARD_RADIUS
 STACK_HEIGHT_MM = board.STACK_HEIGHT
 RING_RADIUS_MM = board.LAYOUT_RING_RADIUS
-# Layer stack (z = 0 at the PCB top): 0.8 mm PCB below, 2.4 mm PDMS, 0.8 mm black skin. These
-# are twin model parameters, not the board's: params.toml builds 1.0 mm FR-4, 2.5 mm PDMS and a
-# 0.5 mm skin top. The twin's contact and light-transport constants were calibrated with these
-# thicknesses, so adopting the board's would change every twin output and needs re-calibration.
-# tests/twin/test_geometry_matches_hardware.py lists exactly which values differ.
-PCB_MM = 0.8
-PDMS_MM = 2.4
-SKIN_MM = 0.8
+# Layer stack (z = 0 at the PCB top), the board's as built: FR-4 below, the PDMS light guide,
+# the black skin top. twin/stack.py turns these (and each unit's drawn thicknesses) into the
+# optical and mechanical constants that depend on them.
+PCB_MM = board.BOARD_THICKNESS
+PDMS_MM = board.STACK_PDMS
+SKIN_MM = board.STACK_SKIN_TOP
 SURFACE_Z_MM = PDMS_MM + SKIN_MM  # skin surface above the PCB top
 
 CENTER_RADIUS_MM = 2.6

@@ -8,7 +8,7 @@ the optics; the F/T sensor sees the applied load itself.
 >>> u = UnitParams.nominal()
 >>> d, a = indentation(np.array([0.0, 1.0, 10.0]), np.full(3, 4.0), u)
 >>> [round(float(v), 2) for v in d], [round(float(v), 2) for v in a]
-([0.0, 0.39, 1.31], [0.0, 1.26, 2.71])
+([0.0, 0.38, 1.25], [0.0, 1.24, 2.68])
 """
 
 from __future__ import annotations
@@ -122,10 +122,13 @@ class MechanicsTrack:
         fy = creep_load(c.fy, dt, unit, shear=True)
         delta, a = indentation(fn, c.indenter_radius_mm, unit)
         ux, uy = shear_displacement(fx, fy, a, unit)
+        # Optics see where the press lands on the board: the scene aims in the rig's frame, the
+        # elastomer and the mounting may sit off it (mould alignment, re-mounting).
+        ox, oy = (float(v) for v in unit.contact_offset_xy)
         return MechanicsTrack(
             dt=dt,
-            x=c.x,
-            y=c.y,
+            x=np.where(c.in_contact, c.x + ox, c.x),
+            y=np.where(c.in_contact, c.y + oy, c.y),
             fx=c.fx,
             fy=c.fy,
             normal=c.normal,

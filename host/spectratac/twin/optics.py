@@ -83,7 +83,7 @@ def transport(
         ..., None
     ]
     shadow = np.maximum(1.0 - loss, 0.02)
-    bulk = 1.0 + unit.bulk_gain[None, :] * delta[:, None]  # (M, c)
+    bulk = 1.0 + unit.bulk_gain[None, :] * (delta + unit.preload_mm)[:, None]  # (M, c)
     steer = 1.0 + (
         (
             ux[:, None, None] * _steer_dir(unit)[None, :, :, 0]
@@ -135,7 +135,8 @@ def ambient_rates(unit: UnitParams, lux: F64, spectrum: str) -> F64:
 
 def sensor_rates(unit: UnitParams, t_paths: F64, led: F64, ambient: F64) -> F64:
     """Reference count rates (N, 3 sensors, 5 channels) from transport (N, j, k, c) and LED
-    output (N, j, c): each channel weights the LED colours by its spectral response."""
+    output (N, j, c): each channel weights each LED's colours by its spectral response (which
+    depends on the LED's colour bin, `UnitParams.spectral_paths`)."""
     big = t_paths.shape[0] > 64  # path optimisation pays for batches, costs ~20 µs for one
-    tl = np.einsum("njkc,njc->nkc", t_paths, led, optimize=big)
-    return np.einsum("nkc,kdc->nkd", tl, unit.spectral, optimize=big) + ambient
+    tl = t_paths * led[:, :, None, :]
+    return np.einsum("njkc,jkdc->nkd", tl, unit.spectral_paths(), optimize=big) + ambient

@@ -283,11 +283,12 @@ class TwinRig:
         ambient = optics.ambient_rates(unit, env.lux(tmid), env.spectrum)
         # Explicit sums over LEDs j and colours c (not einsum): the same operations in the
         # same order whatever the batch size, so batched and single windows agree exactly.
-        tl = paths[:, 0] * led[:, 0, None] + paths[:, 1] * led[:, 1, None]
-        tl = tl + paths[:, 2] * led[:, 2, None]  # (N, k, c)
-        s = unit.spectral  # (k, 5 channels, c)
-        rates = tl[:, :, None, 0] * s[None, :, :, 0] + tl[:, :, None, 1] * s[None, :, :, 1]
-        rates = rates + tl[:, :, None, 2] * s[None, :, :, 2] + ambient
+        s = unit.spectral_paths()  # (j, k, 5 channels, c): each LED's colour bin
+        rates = ambient
+        for j in range(3):
+            for c in range(3):
+                tl = paths[:, j, :, None, c] * led[:, j, None, None, c]  # (N, k, 1)
+                rates = rates + tl * s[None, j, :, :, c]
         return list(zip(rates, temp.tolist(), strict=True))
 
     def window_rates(self, t0_us: int, t1_us: int) -> Window:
@@ -427,4 +428,4 @@ class TwinRig:
         w = wrench(c.fx, c.fy, c.normal, c.x, c.y, tr.delta[i], tr.ux[i], tr.uy[i], unit=self.unit)
         noise = self._rng_ft.standard_normal(w.shape) * self.unit.ft_noise
         bias = self._ft_bias[np.minimum(t.astype(np.int64), self._ft_bias.shape[0] - 1)]
-        return w + noise + bias
+        return w + noise + bias + self.unit.ft_bias_offset
