@@ -108,3 +108,16 @@ def test_what_the_firmware_cannot_run_is_refused(dec) -> None:
     with pytest.raises(mi.ModelImageError, match="weights='f16' or 'i8'"):
         mi.encode(big, "f32")
     assert len(mi.encode(big, "f32", limit=None)) > mi.MAX_IMAGE_BYTES
+
+
+def test_polynomial_ridge_is_refused_not_miscomputed() -> None:
+    from spectratac.decode import TrainSpec, train
+
+    ridge = train(
+        dataset(200), TrainSpec(model="ridge", degree=2, targets=("Fz",)), progress=False
+    )
+    assert ridge.runtime.features.M.shape[0] > 0
+    with pytest.raises(mi.ModelImageError, match="polynomial"):
+        mi.encode(ridge)
+    linear = train(dataset(200), TrainSpec(model="ridge", degree=1, targets=("Fz",)), progress=False)
+    assert mi.describe(mi.encode(linear))["n_inputs"] == 12

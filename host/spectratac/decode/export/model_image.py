@@ -164,6 +164,11 @@ def check_runnable(dec: Decoder) -> None:
         )
     if kind not in ARCHS:
         raise ModelImageError(f"architecture {kind!r} has no interpreter on the device")
+    if rt.features.M.shape[0]:
+        raise ModelImageError(
+            f"{rt.features.M.shape[0]} polynomial (monomial) features: the device computes "
+            "linear and ratio features only; decode this ridge model on the host"
+        )
     checks = (
         ("LED steps", lay.steps, LIMITS["MAX_STEPS"]),
         ("context lags", len(lay.lags), LIMITS["MAX_LAGS"]),
