@@ -113,11 +113,11 @@ def test_what_the_firmware_cannot_run_is_refused(dec) -> None:
 def test_polynomial_ridge_is_refused_not_miscomputed() -> None:
     from spectratac.decode import TrainSpec, train
 
-    ridge = train(
-        dataset(200), TrainSpec(model="ridge", degree=2, targets=("Fz",)), progress=False
-    )
+    ridge = train(dataset(200), TrainSpec(model="ridge", degree=2, targets=("Fz",)), progress=False)
     assert ridge.runtime.features.M.shape[0] > 0
     with pytest.raises(mi.ModelImageError, match="polynomial"):
         mi.encode(ridge)
-    linear = train(dataset(200), TrainSpec(model="ridge", degree=1, targets=("Fz",)), progress=False)
+    linear = train(
+        dataset(200), TrainSpec(model="ridge", degree=1, targets=("Fz",)), progress=False
+    )
     assert mi.describe(mi.encode(linear))["n_inputs"] == 12
