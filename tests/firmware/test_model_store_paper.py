@@ -53,7 +53,9 @@ def python_estimates(dec: Decoder, samples: list[m.Sample]):
     counts = np.array([s.counts for s in samples], np.float64)[:, :, :4].reshape(-1, 12)
     status = np.array([s.sensor_status for s in samples], np.uint8)
     asm = Assembler(dec.layout)
-    u = np.array([asm.push(int(s.led_step), counts[i])[0] for i, s in enumerate(samples)])
+    u = np.full((len(samples), dec.layout.size), np.nan)
+    for i, s in enumerate(samples):
+        u[i] = asm.push(int(s.led_step), counts[i])[0]  # a view the next push overwrites
     return dec.predict_assembled(u, status=status)
 
 
@@ -112,4 +114,4 @@ def test_paper_float32_model_uploads_survives_and_decodes(tmp_path: Path, paper)
             scale = 1.0 + float(np.max(np.abs(want[have]), initial=0.0))
             err = float(np.max(np.abs(device_out[have, j] - want[have]), initial=0.0))
             assert err <= REL_TOL * scale, (name, err, scale)
-    assert ref.targets.shape[1] > 0 and np.isfinite(ref.targets).any()
+            assert np.ptp(want[have]) > 0.0, name  # the presses move every output
