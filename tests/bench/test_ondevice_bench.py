@@ -19,6 +19,6 @@ def test_ondevice_bench_json(run_bench) -> None:
                 # the device's estimates match Python's on those samples
                 assert f["extra"]["max_abs_error_vs_python"] < 1e-3
                 assert f["extra"]["flags_disagree"] == 0
-            assert figures[f"model image {label}"]["extra"]["fits"] == (weights == "i8")
+            assert figures[f"model image {label}"]["extra"]["fits"]  # 448 KiB store
     ram = figures["interpreter static RAM (stac_model_t + state)"]
     assert 0 < ram["value"] < ram["reference_value"]

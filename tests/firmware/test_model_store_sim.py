@@ -36,10 +36,10 @@ def image() -> bytes:
 class Link:
     """A SimDevice driven step by step with raw frames (no threads)."""
 
-    def __init__(self, store: Path | None, seed: int = 1) -> None:
+    def __init__(self, store: Path | None, seed: int = 1, scene: str = "idle") -> None:
         self.out: list[bytes] = []
         self.dev = SimDevice(
-            make_scene("idle"), seed=seed, on_tx=lambda d, _t: self.out.append(d), model_store=store
+            make_scene(scene), seed=seed, on_tx=lambda d, _t: self.out.append(d), model_store=store
         )
         self.now = 0
         self.seq = 0

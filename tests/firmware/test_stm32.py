@@ -174,13 +174,13 @@ def test_qemu_boot_answers_get_info(board: Board) -> None:
 
 
 def test_qemu_model_store_answers_without_hanging(board: Board) -> None:
-    """GET_MODEL reports the sector-7 store. QEMU models no flash controller, so MODEL_BEGIN
-    cannot erase: the bounded driver answers FLASH_ERROR (the erase does not read back) and
-    the device goes on answering."""
+    """GET_MODEL reports the store in flash sectors 4-7. QEMU models no flash controller, so
+    MODEL_BEGIN cannot erase: the bounded driver answers FLASH_ERROR (the erase does not read
+    back) and the device goes on answering."""
     get_info(board)
     board.send(messages.GetModel())
     info, _ = board.wait_for("MODEL_INFO")
-    assert (info.message.present, info.message.capacity) == (0, 128 * 1024 - 64)
+    assert (info.message.present, info.message.capacity) == (0, 448 * 1024 - 64)
     seq = board.send(messages.ModelBegin(model_id=1, size=1000, crc=0))
     nack, _ = board.wait_for("NACK")
     assert (nack.message.rejected_seq, nack.message.error) == (seq, messages.Error.FLASH_ERROR)

@@ -102,9 +102,9 @@ static const uint8_t *hal_store_data(void *ctx) {
 }
 
 /* A sector erase stalls the CPU (code is fetched from the same flash bank) for up to 2 s
- * (128 KiB at x32), and an erase may span all four sectors. The watchdog gets ~8.2 s (at
- * least 5.6 s with the LSI at its 47 kHz maximum, DS10314), longer than one sector's erase
- * bound (4 s), and is refreshed before each sector; its usual ~0.5 s comes back after. */
+ * (128 KiB at x32), and an erase may span all four sectors. The watchdog gets ~8.2 s (still
+ * 5.6 s with the LSI at 47 kHz, the top of its range), longer than one sector's erase bound
+ * (4 s), and is refreshed before each sector; its usual ~0.5 s comes back after. */
 static int32_t hal_store_erase(void *ctx, uint32_t offset, uint32_t len) {
     (void)ctx;
     watchdog_period(4u, 4095u); /* 32 kHz / 64 = 500 Hz, 4096 counts */

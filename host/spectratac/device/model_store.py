@@ -41,7 +41,7 @@ class ModelInfo:
     """MODEL_INFO in host terms: which model the device runs and its limits.
 
     >>> info = ModelInfo.from_message(m.ModelInfo(present=1, model_id=7, size=4096,
-    ...     weight_format=1, led_steps=1, capacity=131008))
+    ...     weight_format=1, led_steps=1, capacity=458688))
     >>> info.present, info.weight_format, info.has_model
     ('uploaded', 'f16', True)
     """

@@ -55,8 +55,8 @@ VERSION = 1
 HEADER_SIZE = 96
 WEIGHT_FORMATS = ("f32", "f16", "i8")
 ARCHS = ("linear", "mlp", "resmlp")
-#: The STM32 model store: one 128 KiB flash sector less 64 bytes for the store's own header.
-MAX_IMAGE_BYTES = 131072 - 64
+#: The STM32 model store: flash sectors 4-7 (448 KiB) less the 64 bytes of its commit record.
+MAX_IMAGE_BYTES = 458752 - 64
 SECTIONS = (
     "lags", "ema_alpha", "center",
     "lin_ptr", "lin_idx", "lin_val", "p_ptr", "p_idx", "p_val", "q_ptr", "q_idx", "q_val",
