@@ -110,6 +110,7 @@ def test_what_the_firmware_cannot_run_is_refused(dec) -> None:
     assert len(mi.encode(big, "f32", limit=None)) > mi.MAX_IMAGE_BYTES
 
 
+@pytest.mark.train
 def test_polynomial_ridge_is_refused_not_miscomputed() -> None:
     from spectratac.decode import TrainSpec, train
 
