@@ -3,13 +3,20 @@
 spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best]
     [--features F] [--model M] [--targets Fz,region] [--context K] [--drift baseline]
     [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
-    [--seed S] [--holdout blocked|random]
+    [--seed S] [--holdout blocked|random] [--holdout-sessions 3,4,7]
+    [--finetune BASE.stac]
     [--export onnx,c,...] [--json]
 
 --recipe picks the starting point (the paper's recipe, or `TrainSpec.best()`); any other
 option given replaces that one field. --holdout trains on the training rows of that split
 only and records it in the model, so that `spectratac evaluate model.stac data.npz` scores
 exactly the held-out rows; without it every row trains and the printed MAE is optimistic.
+--holdout-sessions 3,4 (or 30-35) leaves whole sessions out of training and records them.
+
+--finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
+unit's data (spectratac.decode.finetune): BASE's layout, features and targets are kept, its
+weights are the start, and data of other inputs, LED configuration or targets is refused.
+--epochs, --lr and --seed apply; the other recipe options are BASE's.
 
 Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
 .npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
@@ -79,6 +86,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--threads", type=int)
     p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
     p.add_argument("--split-seed", type=int, default=0, help="seed of the --holdout split")
+    p.add_argument(
+        "--holdout-sessions",
+        metavar="IDS",
+        help="leave these sessions out of training (e.g. 3,4,7 or 30-35); recorded in the model",
+    )
+    p.add_argument("--finetune", metavar="BASE.stac", help="recalibrate BASE on this data")
     p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
     p.add_argument("--json", action="store_true", help="print one JSON summary")
     p.add_argument("--no-progress", action="store_true")
@@ -118,28 +131,66 @@ def _train(args: argparse.Namespace) -> int:
     if args.uncertainty:
         changes["uncertainty"] = True
     spec = getattr(TrainSpec, args.recipe)(**changes)
-    rows, split = None, None
+    rows, split, held = None, None, None
+    if args.holdout and args.holdout_sessions:
+        raise DecoderError("give --holdout or --holdout-sessions, not both")
+    if args.holdout_sessions:
+        from spectratac.evaluate.holdout import parse_sessions, session_rows
+
+        held = parse_sessions(args.holdout_sessions)
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, held))
+        if rows.size == 0:
+            raise DecoderError(f"--holdout-sessions {args.holdout_sessions} leaves no training row")
     if args.holdout:
         from spectratac.evaluate.splits import SplitSpec, split_dataset
 
         split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
         rows = split.train
-    dec = train(ds, spec, rows=rows, progress=not args.no_progress)
+    if args.finetune:
+        dec = _finetune(args, ds, rows)
+    else:
+        dec = train(ds, spec, rows=rows, progress=not args.no_progress)
     if split is not None:
         from spectratac.evaluate.holdout import mark
 
         mark(dec, ds, split)
+    if held is not None:
+        from spectratac.evaluate.holdout import mark_sessions
+
+        mark_sessions(dec, ds, held)
     dec.save(out)
     written = {"model": str(out)}
     for fmt in exports:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
         written[fmt] = str(dec.export(fmt, path))
-    summary = _summary(dec, ds, written, None if split is None else split.test)
+    test = split.test if split is not None else None
+    if held is not None:
+        test = np.setdiff1d(np.arange(ds.n), rows)
+    summary = _summary(dec, ds, written, test)
     if args.json:
         print(json.dumps(summary))
     else:
         print(_human(summary))
     return ExitCode.OK
+
+
+def _finetune(args: argparse.Namespace, ds: Any, rows: Any) -> Any:
+    """BASE recalibrated on `rows` of `ds`, with its file's name in `finetuned_from`."""
+    from spectratac.decode import Decoder
+    from spectratac.decode.finetune import finetune
+
+    dec = finetune(
+        Decoder.load(args.finetune),
+        ds,
+        rows,
+        epochs=args.epochs,
+        lr=args.lr,
+        seed=args.seed or 0,
+        targets=column_names(args.targets),
+        progress=not args.no_progress,
+    )
+    dec.meta["finetuned_from"]["path"] = str(args.finetune)
+    return dec
 
 
 def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:
@@ -160,33 +211,48 @@ def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> di
     held = m.get("holdout")
     return {
         "mae_rows": "held-out" if test is not None else "all (training rows included)",
-        "holdout": held["split"] if held else None,
+        "holdout": (held.get("split") or {"kind": "sessions", **held["sessions"]})
+        if held
+        else None,
         "n_test": int(rows.size) if test is not None else 0,
         "written": written,
         "spec": m["spec"],
         "n_train": m["n_train"],
         "train_seconds": round(m["train_seconds"], 2),
-        "final_loss": m["history"][-1],
+        "final_loss": m["history"][-1] if m["history"] else float("nan"),
         "params": dec.n_params,
         "flops_per_sample": dec.flops_per_sample,
         "mae": fit,
         "class_accuracy": acc,
         "unit_id": dec.unit_id,
+        "finetuned_from": m.get("finetuned_from"),
     }
 
 
 def _human(s: dict[str, Any]) -> str:
     spec = s["spec"]
-    lines = [
+    ft = s.get("finetuned_from")
+    lines = (
+        []
+        if not ft
+        else [
+            f"fine-tuned {ft.get('path', ft['id'])} (unit {ft['unit_id']}, mode {ft['mode']}, "
+            f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
+        ]
+    )
+    epochs = ft["epochs"] if ft else spec["epochs"]
+    lines += [
         f"trained {spec['model']} on {spec['features']} features "
         f"(context {spec['context']}, drift {spec['drift']}) for {', '.join(spec['targets'])}",
-        f"  {s['n_train']} rows, {spec['epochs']} epochs in {s['train_seconds']:.1f} s; "
+        f"  {s['n_train']} rows, {epochs} epochs in {s['train_seconds']:.1f} s; "
         f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
         f"{s['flops_per_sample']:,} FLOPs per sample",
     ]
     if s["holdout"]:
         lines.append(
             f"  MAE on the {s['n_test']} held-out rows of the {s['holdout']['kind']} split "
+            if s["holdout"]["kind"] != "sessions"
+            else f"  MAE on the {s['n_test']} rows of the held-out sessions "
             "(`spectratac evaluate` for the full report):"
         )
     else:
