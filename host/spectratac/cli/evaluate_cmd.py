@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.holdout import fingerprint, parse_sessions
     from spectratac.evaluate.report import write_report
-    from spectratac.evaluate.run import evaluate_model
+    from spectratac.evaluate.run import evaluate_model, with_model_classes
 
     if args.oracle_samples < 0:
         from spectratac.errors import SpectraTacError
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     model = Decoder.load(args.model)
     inputs = column_names(args.inputs) or list(model.layout.channels)
     classes = None if args.classes is None else (column_names(args.classes) or [])
-    dataset = load_data([args.data], inputs, None, classes)
+    dataset, class_note = with_model_classes(load_data([args.data], inputs, None, classes), model)
     companions = load_companions(model, args.model, Decoder.load)
     baseline = Decoder.load(args.baseline) if args.baseline else None
     kinds = ("random", "blocked") if args.split == "both" else (args.split,)
@@ -116,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
         )
     finally:
         bar.close()
+    if class_note:
+        ev.notes.append(class_note)
     dataset_info = {
         "path": str(args.data),
         "rows": dataset.n,

@@ -249,11 +249,13 @@ def _human(s: dict[str, Any]) -> str:
         f"{s['flops_per_sample']:,} FLOPs per sample",
     ]
     if s["holdout"]:
+        what = (
+            "rows of the held-out sessions"
+            if s["holdout"]["kind"] == "sessions"
+            else f"held-out rows of the {s['holdout']['kind']} split"
+        )
         lines.append(
-            f"  MAE on the {s['n_test']} held-out rows of the {s['holdout']['kind']} split "
-            if s["holdout"]["kind"] != "sessions"
-            else f"  MAE on the {s['n_test']} rows of the held-out sessions "
-            "(`spectratac evaluate` for the full report):"
+            f"  MAE on the {s['n_test']} {what} (`spectratac evaluate` for the full report):"
         )
     else:
         lines.append(

@@ -179,6 +179,40 @@ def evaluate_model(
     return Evaluation(sections, notes)
 
 
+def with_model_classes(dataset: Dataset, model: Any) -> tuple[Dataset, str]:
+    """`dataset` with its class ids renumbered to the model's labels (a generic file numbers
+    its labels 1..K in its own sorted order, which differs from the training file's when the
+    label sets differ); labels the model never saw become unlabelled (-1), said in the note.
+
+    >>> ds = Dataset.generic(np.zeros((3, 1)), np.zeros(3), ["a"], ["Fz"],
+    ...                      region=np.array([1, 2, -1]))
+    >>> ds.meta["region_labels"] = ["right", "up"]
+    >>> class M:
+    ...     meta = {"class_labels": ["left", "right"]}
+    >>> out, note = with_model_classes(ds, M())
+    >>> out.region.tolist(), note
+    ([2, -1, -1], "class labels ['up'] are not the model's (left, right): scored as unlabelled")
+    """
+    model_labels = (getattr(model, "meta", {}) or {}).get("class_labels")
+    labels = dataset.meta.get("region_labels")
+    if not model_labels or not labels or list(labels) == list(model_labels):
+        return dataset, ""
+    to_model = {i + 1: list(model_labels).index(v) + 1 for i, v in enumerate(labels)
+                if v in model_labels}  # fmt: skip
+    region = np.asarray(dataset.region, np.int64)
+    new = np.array([to_model.get(int(r), -1) for r in region], dtype=region.dtype)
+    arrays = {**dataset.arrays, "region": new}
+    meta = {**dataset.meta, "region_labels": list(model_labels)}
+    unknown = [v for v in labels if v not in model_labels]
+    note = (
+        f"class labels {unknown} are not the model's ({', '.join(model_labels)}): scored as "
+        "unlabelled"
+        if unknown
+        else ""
+    )
+    return Dataset(arrays, meta), note
+
+
 def per_session(dataset: Dataset, scored: Scored) -> dict[str, dict[str, Any]]:
     """Rows, unit (from meta["sessions"]) and MAE per component of each session in `scored`."""
     sess = np.asarray(dataset.session, dtype=np.int64)[scored.rows]
