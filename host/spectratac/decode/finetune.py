@@ -9,8 +9,12 @@ unit's rows. What adapts is `mode`:
   and stretch the features; the network downstream is kept as is.
 - "head": the output layer only.
 - "first": the first layer and the output layer (input-side and output-side recalibration).
-- "full": every weight (the default: best on the twin population, see the README's
-  few-shot figures from tools/bench/generalisation.py).
+- "full": every weight (the default). Measured on the twin (tools/bench/generalisation.py,
+  a paper-recipe model of 4 units recalibrated for a fifth; force MAE as a multiple of that
+  unit's own 50-minute calibration): with 0.5 / 1 / 2 minutes, full 1.69 / 2.01 / 1.63x,
+  first layer + head 2.07 / 2.09 / 2.05x, head 2.30 / 2.30 / 2.33x, scaler 2.52 / 2.19 /
+  2.17x, training from scratch on the same minutes 3.74 / 3.42 / 2.52x, no recalibration
+  6.41x. Only with 5 minutes did "first" beat "full" (1.63 against 1.83x).
 
 `refit_scaler` (default True) re-fits the input normalisation before any gradient mode too.
 
