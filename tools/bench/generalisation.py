@@ -74,6 +74,9 @@ class Config:
     epochs: int | None = 10  # None: the recipe's own
     best_epochs: int | None = 3
     minutes: tuple[float, ...] = MINUTES
+    modes: tuple[str, ...] = MODES
+    few_shot_base: str = "paper"  # the population model that (c) recalibrates
+    sections: str = "abc"  # (c) always runs, with the (a) model it starts from
     seed: int = 0
 
 
@@ -223,7 +226,8 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
 
     # (a) held-out unit
     pop_models: dict[str, Predictor] = {}
-    for name, make in makers.items():
+    first = makers if "a" in cfg.sections else {cfg.few_shot_base: makers[cfg.few_shot_base]}
+    for name, make in first.items():
         pop_models[name] = make(pop, None)
         figs.append(_fig(f"(a) held-out unit: {name}", force_mae(pop_models[name], test),
                          own_name, own, units=cfg.units))  # fmt: skip
@@ -235,7 +239,7 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
     before = np.flatnonzero(np.asarray(one.session) != last)
     split = split_dataset(one.subset(before), SplitSpec("random", seed=cfg.seed))
     train_rows, random_test = before[split.train], before[split.test]
-    for name, make in makers.items():
+    for name, make in makers.items() if "b" in cfg.sections else ():
         pred = make(one, train_rows)
         dec = getattr(pred, "decoder", None)
         if dec is not None:  # the decoder path: evaluate's own held-out-session scoring
@@ -250,17 +254,18 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
         progress(f"(b) {name}")
 
     # (c) few-shot curve
-    base = pop_models["paper"].decoder  # type: ignore[attr-defined]
-    figs.append(_fig("(c) 0 min: population model, no recalibration",
-                     force_mae(pop_models["paper"], test), own_name, own))  # fmt: skip
+    base = pop_models[cfg.few_shot_base].decoder  # type: ignore[attr-defined]
+    of = "" if cfg.few_shot_base == "paper" else f" of {cfg.few_shot_base}"
+    figs.append(_fig(f"(c) 0 min: population model{of}, no recalibration",
+                     force_mae(pop_models[cfg.few_shot_base], test), own_name, own))  # fmt: skip
     t_shot = np.asarray(shots.t_start) - float(np.min(shots.t_start))
     paper_small = TrainSpec.paper(**({"epochs": cfg.epochs} if cfg.epochs else {}))
     for minutes in cfg.minutes:
         rows = np.flatnonzero(t_shot < 60.0 * minutes)
-        for mode in MODES:
+        for mode in cfg.modes:
             dec = finetune(base, shots, rows, mode=mode, progress=False)
             stopped = dec.meta["finetuned_from"]["early_stopping"]
-            figs.append(_fig(f"(c) {minutes:g} min fine-tune {mode}",
+            figs.append(_fig(f"(c) {minutes:g} min fine-tune {mode}{of}",
                              force_mae(_decoder_predictor(dec), test), own_name, own,
                              minutes=minutes, mode=mode,
                              early_stopping=stopped))  # fmt: skip
@@ -274,7 +279,7 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
     best2 = min(two, key=lambda f: f.ratio)
     figs.append(
         benchlib.Figure(
-            f"target: {at:g} min fine-tune ({best2.extra['mode']}) vs full calibration",
+            f"target: {at:g} min fine-tune{of} ({best2.extra['mode']}) vs full calibration",
             best2.ratio,
             "x",
             "target",
@@ -301,8 +306,10 @@ def table(figs: list[benchlib.Figure]) -> str:
 
 
 def stages(cfg: Config, n_recipes: int) -> int:
-    return (cfg.units * cfg.sessions_per_unit + 2 + 2 * n_recipes
-            + len(cfg.minutes) * (len(MODES) + 1))  # fmt: skip
+    a = n_recipes if "a" in cfg.sections else 1
+    b = n_recipes if "b" in cfg.sections else 0
+    return (cfg.units * cfg.sessions_per_unit + 2 + a + b
+            + len(cfg.minutes) * (len(cfg.modes) + 1))  # fmt: skip
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -316,6 +323,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--epochs", type=int, help="epochs of the paper recipe (default: its own)")
     p.add_argument("--best-epochs", type=int, help="epochs of TrainSpec.best()")
     p.add_argument("--minutes", help="few-shot minutes, comma list (default 0.5,1,2,5)")
+    p.add_argument("--modes", help=f"fine-tuning modes, comma list (default {','.join(MODES)})")
+    p.add_argument("--few-shot-base", choices=("paper", "best"), help="model (c) starts from")
+    p.add_argument("--sections", help="which of a, b to run besides c (default abc)")
     p.add_argument("--seed", type=int)
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -323,6 +333,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     given = {k: getattr(args, k) for k in Config.__dataclass_fields__ if getattr(args, k, None)}
     if args.minutes:
         given["minutes"] = tuple(float(v) for v in args.minutes.split(","))
+    if args.modes:
+        given["modes"] = tuple(args.modes.split(","))
+        if not set(given["modes"]) <= set(MODES):
+            p.error(f"--modes: choose from {', '.join(MODES)}")
     cfg = replace(cfg, **given)
     if cfg.sessions_per_unit < 2:
         p.error("--sessions-per-unit must be >= 2 (one session is held out)")
