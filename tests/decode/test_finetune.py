@@ -57,13 +57,13 @@ def new_unit() -> tuple[Dataset, Dataset]:
 def test_finetuning_recalibrates_a_new_unit(base, new_unit) -> None:
     shots, test = new_unit
     before = _mae(base, test)
-    full = finetune(base, shots, progress=False)
+    full = finetune(base, shots, progress=False)  # mode "first"
     scratch = train(shots, SPEC, progress=False)
     assert _mae(full, test) < 0.5 * before
     assert _mae(full, test) < _mae(scratch, test)
     rec = full.meta["finetuned_from"]
     assert rec["id"] == model_id(base) and rec["unit_id"] == "unit-1.0"
-    assert rec["mode"] == "full" and rec["early_stopping"] is True
+    assert rec["mode"] == "first" and rec["early_stopping"] is True
     assert full.unit_id == "unit-1.4" and "holdout" not in full.meta
     assert len(full.meta["val_history"]) == rec["epochs"]
 
@@ -160,4 +160,4 @@ def test_cli_finetune(base, new_unit, tmp_path, capsys) -> None:
     assert main([*ev, "--json", "--no-progress"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["model"]["finetuned_from"]["id"] == model_id(base)
-    assert report["sections"]["all"]["model"]["finetuned_from"]["mode"] == "full"
+    assert report["sections"]["all"]["model"]["finetuned_from"]["mode"] == "first"
