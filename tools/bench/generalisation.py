@@ -77,12 +77,13 @@ class Config:
     modes: tuple[str, ...] = MODES
     few_shot_base: str = "paper"  # the population model that (c) recalibrates
     sections: str = "abc"  # (c) always runs, with the (a) model it starts from
+    auto_budget_s: float = 600.0  # the auto recipe's search budget per training
     seed: int = 0
 
 
 QUICK = Config(
     units=3, sessions_per_unit=3, session_s=60.0, full_cal_s=300.0, test_s=120.0, epochs=6,
-    best_epochs=2,
+    best_epochs=2, auto_budget_s=60.0,
 )  # fmt: skip
 
 
@@ -174,13 +175,11 @@ def _auto_recipe(cfg: Config) -> Callable[[Dataset, Any], Predictor] | None:
         from spectratac.evaluate import auto_recipe  # type: ignore[attr-defined]
     except ImportError:
         return None
-    budget = 60.0 if cfg == QUICK else 600.0
+    budget = cfg.auto_budget_s
 
     def run(ds: Dataset, rows: Any) -> Predictor:
-        sub = ds if rows is None else ds.subset(np.asarray(rows))
-        found = auto_recipe.search(sub, budget_s=budget)
-        spec = getattr(found, "spec", found)
-        return _decoder_predictor(train(ds, spec, rows, progress=False))
+        # search(...).decoder is the chosen recipe refitted on `rows` (grouped CV inside)
+        return _decoder_predictor(auto_recipe.search(ds, budget_s=budget, rows=rows).decoder)
 
     return run
 
