@@ -3,8 +3,12 @@
 Trains nothing. The model's metadata says which rows it was trained on (see
 `spectratac.evaluate.holdout`): on its own training dataset only the held-out rows of its
 split are scored (the companion model named in the file scores the other split); on any other
-dataset every row is held out. Writes report.md, report.json and the Fig. 3 panels to DIR,
-with the paper's figures and, for simulated data, the twin oracle's floor beside ours.
+dataset every row is held out; a model trained with --holdout-sessions is scored on the sessions
+it left out. --holdout-sessions 3,4,7 (or 30-35) scores only those sessions, and refuses when
+the model's metadata says it was trained on any of them. Data: a SpectraTac dataset .npz, or
+any CSV / column .npz that `spectratac train` reads. Writes report.md, report.json and the
+Fig. 3 panels to DIR, with the paper's figures and, for simulated data, the twin oracle's floor
+beside ours, and the MAE per session.
 """
 
 from __future__ import annotations
@@ -37,6 +41,11 @@ def register(subparsers: Any) -> None:
         help="which split(s) to report when the data is the model's training set",
     )
     p.add_argument(
+        "--holdout-sessions",
+        metavar="IDS",
+        help="score only these sessions, e.g. 3,4,7 or 30-35 (refused if trained on)",
+    )
+    p.add_argument(
         "--inputs", help="input channel columns of CSV / generic data (default: the model's)"
     )
     p.add_argument("--classes", help="class column of CSV / generic data (default: auto; '' none)")
@@ -60,22 +69,25 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.dataset.generic_io import load_data
     from spectratac.decode import Decoder
     from spectratac.evaluate.fit_both_splits import load_companions
-    from spectratac.evaluate.holdout import fingerprint
+    from spectratac.evaluate.holdout import fingerprint, parse_sessions
     from spectratac.evaluate.report import write_report
-    from spectratac.evaluate.run import evaluate_model
+    from spectratac.evaluate.run import evaluate_model, with_model_classes
 
     if args.oracle_samples < 0:
         from spectratac.errors import SpectraTacError
 
         raise SpectraTacError("--oracle-samples must be >= 0")
+    sessions = None if args.holdout_sessions is None else parse_sessions(args.holdout_sessions)
     refuse_overwrite(args.output, args.force)
     model = Decoder.load(args.model)
     inputs = column_names(args.inputs) or list(model.layout.channels)
     classes = None if args.classes is None else (column_names(args.classes) or [])
-    dataset = load_data([args.data], inputs, None, classes)
+    dataset, class_note = with_model_classes(load_data([args.data], inputs, None, classes), model)
     companions = load_companions(model, args.model, Decoder.load)
     baseline = Decoder.load(args.baseline) if args.baseline else None
     kinds = ("random", "blocked") if args.split == "both" else (args.split,)
+    if sessions is not None:
+        kinds = ("sessions",)
     per = 1 + (baseline is not None) + (args.oracle_samples > 0)
     bar = tqdm(
         total=len(kinds) * per,
@@ -95,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
             model,
             dataset,
             splits=kinds,
+            sessions=sessions,
             companions=companions,
             baseline=baseline,
             oracle_samples=args.oracle_samples,
@@ -103,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
         )
     finally:
         bar.close()
+    if class_note:
+        ev.notes.append(class_note)
     dataset_info = {
         "path": str(args.data),
         "rows": dataset.n,
@@ -115,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
         "path": str(args.model),
         "companions": {k: str(v) for k, v in _companion_files(model).items()},
         "baseline": args.baseline,
+        "finetuned_from": (model.meta or {}).get("finetuned_from"),
     }
     rep = write_report(ev, args.output, dataset_info, model_info, dataset)
     if args.json:
@@ -167,6 +183,14 @@ def summary(rep: dict[str, Any], out: Path) -> str:
                 for k, c in cov.items()
             )
             lines.append(f"  interval coverage (nominal {lv}): {cells}")
+        per = sec.get("per_session") or {}
+        if len(per) > 1:
+            names = list(sec["decoder"]["components"])
+            lines.append("  per session MAE: " + " ".join(f"{n:>7}" for n in names))
+            for sid, d in per.items():
+                cells = " ".join(f"{_num(d['mae'].get(n)):>7}" for n in names)
+                unit = f" unit {d['unit']}" if d.get("unit") is not None else ""
+                lines.append(f"    session {sid:>4} ({d['n']} rows{unit}): {cells}")
         lines.append("")
     lines.append(f"report: {out / 'report.md'} (+ report.json and PNG panels)")
     return "\n".join(lines)

@@ -4,7 +4,8 @@ spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best|auto
     [--budget 5m] [--ray ADDRESS] [--workers N]
     [--features F] [--model M] [--degree D] [--targets Fz,region] [--context K] [--drift baseline]
     [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
-    [--seed S] [--holdout blocked|random]
+    [--seed S] [--holdout blocked|random] [--holdout-sessions 3,4,7]
+    [--finetune BASE.stac]
     [--export onnx,c,...] [--json]
 
 --recipe picks the starting point (the paper's recipe, or `TrainSpec.best()`); any other
@@ -26,6 +27,13 @@ processes or on the Ray cluster at --ray ADDRESS, keeps the cheapest model withi
 standard error of the best and prints every candidate's CV error and inference cost
 (evaluate/auto_recipe).
 
+--holdout-sessions 3,4 (or 30-35) leaves whole sessions out of training and records them.
+
+--finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
+unit's data (spectratac.decode.finetune): BASE's layout, features and targets are kept, its
+weights are the start, and data of other inputs, LED configuration or targets is refused.
+--epochs, --lr and --seed apply; the other recipe options are BASE's.
+
 Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
 .npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
 """
@@ -36,6 +44,7 @@ import argparse
 import json
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -111,6 +120,12 @@ def register(subparsers: Any) -> None:
         help="--recipe auto: run trials on this Ray cluster (host:port, auto, local)",
     )
     p.add_argument("--workers", type=int, help="--recipe auto: parallel local trials (cores)")
+    p.add_argument(
+        "--holdout-sessions",
+        metavar="IDS",
+        help="leave these sessions out of training (e.g. 3,4,7 or 30-35); recorded in the model",
+    )
+    p.add_argument("--finetune", metavar="BASE.stac", help="recalibrate BASE on this data")
     p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
     p.add_argument("--json", action="store_true", help="print one JSON summary")
     p.add_argument("--no-progress", action="store_true")
@@ -149,28 +164,47 @@ def _train(args: argparse.Namespace) -> int:
         changes["context_ema"] = tuple(float(v) for v in column_names(args.ema) or ())
     if args.uncertainty:
         changes["uncertainty"] = True
-    rows, split = None, None
+    rows, split, held = None, None, None
+    if args.holdout and args.holdout_sessions:
+        raise DecoderError("give --holdout or --holdout-sessions, not both")
+    if args.holdout_sessions:
+        from spectratac.evaluate.holdout import parse_sessions, session_rows
+
+        held = parse_sessions(args.holdout_sessions)
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, held))
+        if rows.size == 0:
+            raise DecoderError(f"--holdout-sessions {args.holdout_sessions} leaves no training row")
     if args.holdout:
         from spectratac.evaluate.splits import SplitSpec, split_dataset
 
         split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
         rows = split.train
-    if args.recipe == "auto":
+    if args.finetune:
+        dec = _finetune(args, ds, rows)
+        check = _check(dec, ds, rows, split, held, lambda r: _finetune(args, ds, r, quiet=True))
+    elif args.recipe == "auto":
         dec, check = _auto(args, ds, rows, tuple(targets), features)
     else:
         spec = getattr(TrainSpec, args.recipe)(**changes)
         dec = train(ds, spec, rows=rows, progress=not args.no_progress)
-        check = _check(dec, ds, rows, split, spec, args.no_progress)
+        check = _check(dec, ds, rows, split, held, _check_trainer(ds, spec, args.no_progress))
     if split is not None:
         from spectratac.evaluate.holdout import mark
 
         mark(dec, ds, split)
+    if held is not None:
+        from spectratac.evaluate.holdout import mark_sessions
+
+        mark_sessions(dec, ds, held)
     dec.save(out)
     written = {"model": str(out)}
     for fmt in exports:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
         written[fmt] = str(dec.export(fmt, path))
-    summary = _summary(dec, ds, written, None if split is None else split.test)
+    test = split.test if split is not None else None
+    if held is not None:
+        test = np.setdiff1d(np.arange(ds.n), rows)
+    summary = _summary(dec, ds, written, test)
     summary.update(check)
     if check["warning"]:
         print(f"warning: {check['warning']}: the model fits what is particular to its "
@@ -202,26 +236,26 @@ def _mae(dec: Any, ds: Any, rows: Any) -> dict[str, float]:
     return fold_errors(dec, ds, np.asarray(rows, np.intp))
 
 
-def _check(dec: Any, ds: Any, rows: Any, split: Any, spec: Any, quiet: bool) -> dict[str, Any]:
-    """Training and held-out-group MAE of `dec` (or of a check model trained like it on the
+def _check(dec: Any, ds: Any, rows: Any, split: Any, held_sessions: Any,
+           trainer: Callable[[Any], Any]) -> dict[str, Any]:  # fmt: skip
+    """Training and held-out-group MAE of `dec` (or of a check model made by `trainer` on the
     other groups, when `dec` held nothing out) and the gap warning."""
-    from spectratac.decode.train import rows_of, train
+    from spectratac.decode.train import rows_of
     from spectratac.evaluate.gap import gap
 
     if split is not None:
         fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
         model = dec
+    elif held_sessions is not None:
+        fit, kind, source, model = rows, "session", "--holdout-sessions", dec
+        held = np.setdiff1d(np.arange(ds.n), rows)
     elif dec.meta.get("n_val", 0) > 0:
         model, source = dec, "the model's validation groups"
         fit, held = rows_of(dec.meta["fit_rows"]), rows_of(dec.meta["val_rows"])
         kind = dec.meta["val_groups"]
     else:
-        from dataclasses import replace
-
-        model = train(ds, replace(spec, val_fraction=HELDOUT_FRACTION), rows=rows,
-                      progress=not quiet)  # fmt: skip
-        fit, held = rows_of(model.meta["fit_rows"]), rows_of(model.meta["val_rows"])
-        kind, source = model.meta["val_groups"], "a check model trained on the other groups"
+        fit, held, kind = _heldout_groups(ds, rows)
+        model, source = trainer(fit), "a check model trained on the other groups"
     train_mae, held_mae = _mae(model, ds, fit), _mae(model, ds, held)
     ratio, warning = gap(train_mae, held_mae)
     return {
@@ -233,6 +267,25 @@ def _check(dec: Any, ds: Any, rows: Any, split: Any, spec: Any, quiet: bool) -> 
         "gap": ratio,
         "warning": warning,
     }
+
+
+def _heldout_groups(ds: Any, rows: Any) -> tuple[Any, Any, str]:
+    """(fit, held-out, group kind): about HELDOUT_FRACTION of the whole groups of `rows`."""
+    from spectratac.decode.assemble import session_order
+    from spectratac.decode.groups import row_groups, val_split
+
+    sel = np.arange(ds.n) if rows is None else np.asarray(rows)
+    groups = row_groups(ds.session, ds.press, ds.t_end, sel)
+    order = np.concatenate(session_order(np.asarray(ds.session), np.asarray(ds.t_end)))
+    fit, held = val_split(order[np.isin(order, sel)], HELDOUT_FRACTION, groups)
+    return fit, held, groups.kind
+
+
+def _check_trainer(ds: Any, spec: Any, quiet: bool) -> Callable[[Any], Any]:
+    """Trains the check model like the real one, on the given rows."""
+    from spectratac.decode import train
+
+    return lambda fit: train(ds, spec, rows=fit, progress=not quiet)
 
 
 def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...],
@@ -264,6 +317,25 @@ def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...]
     }
 
 
+def _finetune(args: argparse.Namespace, ds: Any, rows: Any, quiet: bool = False) -> Any:
+    """BASE recalibrated on `rows` of `ds`, with its file's name in `finetuned_from`."""
+    from spectratac.decode import Decoder
+    from spectratac.decode.finetune import finetune
+
+    dec = finetune(
+        Decoder.load(args.finetune),
+        ds,
+        rows,
+        epochs=args.epochs,
+        lr=args.lr,
+        seed=args.seed or 0,
+        targets=column_names(args.targets),
+        progress=not (args.no_progress or quiet),
+    )
+    dec.meta["finetuned_from"]["path"] = str(args.finetune)
+    return dec
+
+
 def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:
     """Training summary with the MAE on the held-out rows `test`, or on every row (training
     rows included: optimistic) when there is no holdout."""
@@ -282,34 +354,51 @@ def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> di
     held = m.get("holdout")
     return {
         "mae_rows": "held-out" if test is not None else "all (training rows included)",
-        "holdout": held["split"] if held else None,
+        "holdout": (held.get("split") or {"kind": "sessions", **held["sessions"]})
+        if held
+        else None,
         "n_test": int(rows.size) if test is not None else 0,
         "written": written,
         "spec": m["spec"],
         "n_train": m["n_train"],
         "train_seconds": round(m["train_seconds"], 2),
-        "final_loss": m["history"][-1],
+        "final_loss": m["history"][-1] if m["history"] else float("nan"),
         "params": dec.n_params,
         "flops_per_sample": dec.flops_per_sample,
         "mae": fit,
         "class_accuracy": acc,
         "unit_id": dec.unit_id,
+        "finetuned_from": m.get("finetuned_from"),
     }
 
 
 def _human(s: dict[str, Any]) -> str:
     spec = s["spec"]
-    lines = [
+    ft = s.get("finetuned_from")
+    lines = (
+        []
+        if not ft
+        else [
+            f"fine-tuned {ft.get('path', ft['id'])} (unit {ft['unit_id']}, mode {ft['mode']}, "
+            f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
+        ]
+    )
+    epochs = ft["epochs"] if ft else spec["epochs"]
+    lines += [
         f"trained {spec['model']} on {spec['features']} features "
         f"(context {spec['context']}, drift {spec['drift']}) for {', '.join(spec['targets'])}",
-        f"  {s['n_train']} rows, {spec['epochs']} epochs in {s['train_seconds']:.1f} s; "
+        f"  {s['n_train']} rows, {epochs} epochs in {s['train_seconds']:.1f} s; "
         f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
         f"{s['flops_per_sample']:,} FLOPs per sample",
     ]
     if s["holdout"]:
+        what = (
+            "rows of the held-out sessions"
+            if s["holdout"]["kind"] == "sessions"
+            else f"held-out rows of the {s['holdout']['kind']} split"
+        )
         lines.append(
-            f"  MAE on the {s['n_test']} held-out rows of the {s['holdout']['kind']} split "
-            "(`spectratac evaluate` for the full report):"
+            f"  MAE on the {s['n_test']} {what} (`spectratac evaluate` for the full report):"
         )
     else:
         lines.append(

@@ -394,7 +394,11 @@ def _fit(
     fit_rows: NDArray[np.intp],
     val_rows: NDArray[np.intp],
     progress: Progress,
+    start: dict[str, NDArray[Any]] | None = None,
+    trainable: Callable[[str], bool] | None = None,
 ) -> tuple[dict, list, list]:
+    """Optimise the network on `fit_rows`. `start`: initial weights (fine-tuning) instead of a
+    fresh initialisation; `trainable`: which parameters (by name) the optimiser updates."""
     import torch
 
     from spectratac.decode.torch_net import Net, laplace_nll, numpy_weights
@@ -405,6 +409,10 @@ def _fit(
     heads = p.heads
     sl = heads.slices()
     net = Net(spec.arch, p.features.n_features, heads.n_out, spec.dropout)
+    if start is not None:
+        net.load_state_dict({k: torch.as_tensor(np.asarray(v)) for k, v in start.items()})
+    for name, param in net.named_parameters():
+        param.requires_grad_(trainable is None or trainable(name))
 
     def tensors(idx: NDArray[np.intp]) -> dict[str, torch.Tensor]:
         return {
@@ -448,7 +456,8 @@ def _fit(
     n = tr["z"].shape[0]
     sizes = batch_sizes(n, spec.batch_size)
     steps = len(sizes)
-    opt = torch.optim.AdamW(net.parameters(), lr=spec.lr, weight_decay=spec.weight_decay)
+    params = [q for q in net.parameters() if q.requires_grad]
+    opt = torch.optim.AdamW(params, lr=spec.lr, weight_decay=spec.weight_decay)
     sched = torch.optim.lr_scheduler.OneCycleLR(
         opt, max_lr=spec.lr, total_steps=spec.epochs * steps
     )

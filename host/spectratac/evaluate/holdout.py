@@ -26,6 +26,8 @@ honest when that dataset was not used for training (the normal case for a fresh 
 ('split', 8)
 >>> resolve({}, ds).status
 'unknown'
+>>> parse_sessions("3,4,7"), parse_sessions("30-33,5")
+([3, 4, 7], [5, 30, 31, 32, 33])
 """
 
 from __future__ import annotations
@@ -35,11 +37,21 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
+from spectratac.errors import SpectraTacError
 from spectratac.evaluate.splits import Split, SplitSpec, split_dataset
 
 KEY = "holdout"
+
+
+class SessionSelectionError(SpectraTacError):
+    """A session list that cannot be parsed, or names sessions the dataset does not have."""
+
+
+class SessionLeakError(SpectraTacError):
+    """Sessions asked to be scored as held out were used to train the model."""
 
 
 def fingerprint(dataset: Dataset) -> str:
@@ -69,20 +81,117 @@ def mark(
     model.meta[KEY] = record
 
 
+def parse_sessions(text: str) -> list[int]:
+    """Sorted unique session ids from "3,4,7" or ranges "30-35" (inclusive), or a mix."""
+    out: set[int] = set()
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        lo, sep, hi = part.partition("-")
+        try:
+            a = int(lo)
+            b = int(hi) if sep else a
+        except ValueError:
+            raise SessionSelectionError(
+                f"session list {text!r}: {part!r} is neither a session id nor a range like "
+                "30-35; give non-negative integers separated by commas"
+            ) from None
+        if a < 0 or b < a:
+            raise SessionSelectionError(
+                f"session list {text!r}: {part!r} is not a range low-high with 0 <= low <= high"
+            )
+        out.update(range(a, b + 1))
+    if not out:
+        raise SessionSelectionError(f"session list {text!r} names no session")
+    return sorted(out)
+
+
+def session_ids(dataset: Dataset) -> list[int]:
+    """The session ids present in `dataset`'s rows."""
+    return [int(v) for v in np.unique(np.asarray(dataset.session, dtype=np.int64))]
+
+
+def session_rows(dataset: Dataset, sessions: list[int]) -> NDArray[np.int64]:
+    """Row indices of `sessions`; SessionSelectionError naming any session the data lacks."""
+    have = session_ids(dataset)
+    missing = sorted(set(sessions) - set(have))
+    if missing:
+        raise SessionSelectionError(
+            f"sessions {_ids(missing)} are not in this dataset; it has sessions {_ids(have)}"
+        )
+    return np.flatnonzero(np.isin(np.asarray(dataset.session, dtype=np.int64), sessions))
+
+
+def _ids(ids: list[int]) -> str:
+    """Compact "0-4, 7" form of sorted ids."""
+    runs: list[list[int]] = []
+    for i in ids:
+        if runs and i == runs[-1][1] + 1:
+            runs[-1][1] = i
+        else:
+            runs.append([i, i])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+
+
+def mark_sessions(model: Any, dataset: Dataset, held_out: list[int]) -> None:
+    """Record in `model.meta` that it was trained on every session of `dataset` but
+    `held_out`."""
+    trained = [s for s in session_ids(dataset) if s not in set(held_out)]
+    model.meta[KEY] = {
+        "dataset": fingerprint(dataset),
+        "n_rows": int(dataset.n),
+        "sessions": {"held_out": sorted(held_out), "trained": trained},
+        "n_train": int(np.isin(np.asarray(dataset.session, np.int64), trained).sum()),
+    }
+
+
+def check_sessions_unseen(meta: dict[str, Any], dataset: Dataset, sessions: list[int]) -> str:
+    """Refuse (SessionLeakError) when the model was trained on any row of `sessions` of
+    `dataset`, per its holdout record; return a note saying how that was established."""
+    rec = meta.get(KEY)
+    if not isinstance(rec, dict) or "dataset" not in rec:
+        return (
+            "the model does not record its training rows: the chosen sessions are scored as "
+            "held out, which is only meaningful if the model never saw them"
+        )
+    if rec["dataset"] != fingerprint(dataset):
+        return (
+            f"the model was trained on another dataset ({rec['dataset']}): these sessions "
+            "are held out"
+        )
+    rows = session_rows(dataset, sessions)
+    if "sessions" in rec:
+        used = sorted(set(sessions) & set(rec["sessions"].get("trained", [])))
+    else:
+        split = split_dataset(dataset, SplitSpec.from_dict(rec["split"]))
+        seen = np.asarray(dataset.session, np.int64)[np.intersect1d(split.train, rows)]
+        used = sorted({int(v) for v in seen})
+    if used:
+        raise SessionLeakError(
+            f"the model was trained on sessions {_ids(used)} of this dataset (its metadata "
+            "says so): scoring them would report training error; choose sessions it held out "
+            "(train with --holdout-sessions) or evaluate on another recording"
+        )
+    return f"sessions {_ids(sessions)} were held out of the model's training"
+
+
 @dataclass(frozen=True)
 class Holdout:
-    """`status`: "split" (test rows of the model's split), "other" (the dataset is not the
-    training one: all rows held out) or "unknown" (no record: all rows, caveat)."""
+    """`status`: "split" (test rows of the model's split), "sessions" (the sessions the model
+    left out of its training dataset: `rows`), "other" (the dataset is not the training one:
+    all rows held out) or "unknown" (no record: all rows, caveat)."""
 
     status: str
     split: Split | None
     note: str
     companions: dict[str, str]
+    rows: NDArray[np.int64] | None = None
 
 
 def resolve(meta: dict[str, Any], dataset: Dataset) -> Holdout:
     rec = meta.get(KEY)
-    if not isinstance(rec, dict) or "dataset" not in rec or "split" not in rec:
+    known = isinstance(rec, dict) and "dataset" in rec and ("split" in rec or "sessions" in rec)
+    if not known:
         return Holdout(
             "unknown",
             None,
@@ -99,6 +208,11 @@ def resolve(meta: dict[str, Any], dataset: Dataset) -> Holdout:
             "one is held out",
             comp,
         )
+    if "sessions" in rec:
+        held = [int(v) for v in rec["sessions"].get("held_out", [])]
+        rows = session_rows(dataset, held)
+        note = f"sessions {_ids(held)} (held out of the model's training; {rows.size} rows)"
+        return Holdout("sessions", None, note, comp, rows)
     split = split_dataset(dataset, SplitSpec.from_dict(rec["split"]))
     if split.n_train != rec.get("n_train", split.n_train):
         return Holdout(

@@ -40,6 +40,7 @@ TITLES = {
     "random": "Random split (the paper's protocol; leaks near-duplicate neighbours)",
     "blocked": "Blocked split (whole presses / time blocks held out: measures generalisation)",
     "all": "Whole dataset (held out from training)",
+    "sessions": "Held-out sessions",
 }
 
 
@@ -51,6 +52,7 @@ def report_dict(ev: Evaluation, dataset_info: dict[str, Any], model: dict[str, A
         if s.decoder is not None:
             d["decoder"] = s.decoder.scores
             d["model"] = s.model_info
+            d["per_session"] = s.per_session
         if s.oracle is not None:
             d["oracle"] = s.oracle.scores
         if s.oracle_note:
@@ -146,9 +148,26 @@ def section_markdown(s: Section, paper: bool = True) -> list[str]:
     if s.baseline_note:
         lines.append(f"Baseline: {s.baseline_note}.")
     lines.append("")
+    lines += per_session_markdown(s)
     lines += [f"![{p}]({p})" for p in _panel_names(s)]
     lines.append("")
     return lines
+
+
+def per_session_markdown(s: Section) -> list[str]:
+    """A table of MAE per session (only when the section spans more than one session)."""
+    if len(s.per_session) < 2 or s.decoder is None:
+        return []
+    names = s.decoder.names
+    lines = [
+        "| session | unit | rows | " + " | ".join(f"{n} MAE" for n in names) + " |",
+        "|---:|---|---:|" + "---:|" * len(names),
+    ]
+    for sid, d in s.per_session.items():
+        cells = " | ".join(_f(d["mae"].get(n)) for n in names)
+        unit = d["unit"] if d["unit"] is not None else "–"
+        lines.append(f"| {sid} | {unit} | {d['n']} | {cells} |")
+    return [*lines, ""]
 
 
 def _pct(v: Any) -> str:

@@ -5,6 +5,9 @@ A model's `meta["holdout"]` (see `evaluate.holdout`) names the split it was trai
 only that split's test rows are scored with it. The other split is scored with a companion
 model trained under that split (`fit_and_evaluate` writes both), or reported as unavailable.
 A model without the record, or one trained on another dataset, is scored on every row.
+A model trained with sessions left out is scored on those sessions; `sessions=[...]` scores
+the named sessions only, refusing (SessionLeakError) sessions the model was trained on. Every
+scored section also reports its MAE per session (`Section.per_session`).
 
 >>> import numpy as np
 >>> from spectratac.dataset import Dataset
@@ -17,6 +20,8 @@ A model without the record, or one trained on another dataset, is scored on ever
 >>> ev = evaluate_model(Mean(), ds, oracle_samples=0)
 >>> list(ev.sections), ev.sections["all"].decoder.scores["components"]["Fz"]["mae"]
 (['all'], 3.7)
+>>> ev.sections["all"].per_session
+{'0': {'n': 10, 'unit': None, 'mae': {'Fz': 3.7}}}
 """
 
 from __future__ import annotations
@@ -29,7 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.holdout import resolve
+from spectratac.evaluate.holdout import check_sessions_unseen, resolve, session_rows
+from spectratac.evaluate.metrics import regression_scores
 from spectratac.evaluate.oracle_floor import oracle_predictions
 from spectratac.evaluate.predictions import predict
 from spectratac.evaluate.scoring import Scored, score
@@ -53,6 +59,7 @@ class Section:
     baseline_note: str = ""
     history: list[float] = field(default_factory=list)
     model_info: dict[str, Any] = field(default_factory=dict)
+    per_session: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def available(self) -> bool:
@@ -69,7 +76,8 @@ def model_info(model: Any) -> dict[str, Any]:
     """What the report says about a model (JSON-ready, whatever the decoder API)."""
     meta = getattr(model, "meta", {}) or {}
     info: dict[str, Any] = {}
-    for key in ("spec", "unit_id", "train_seconds", "recipe", "config", "n_train"):
+    keys = ("spec", "unit_id", "train_seconds", "recipe", "config", "n_train", "finetuned_from")
+    for key in keys:
         if key in meta:
             info[key] = _jsonable(meta[key])
     for attr in ("n_params", "flops_per_sample"):
@@ -108,6 +116,7 @@ def evaluate_model(
     dataset: Dataset,
     *,
     splits: Sequence[str] = KINDS,
+    sessions: Sequence[int] | None = None,
     companions: dict[str, Any] | None = None,
     baseline: Any | None = None,
     scene: Scene | None = None,
@@ -115,16 +124,24 @@ def evaluate_model(
     seed: int = 0,
     progress: Progress | None = None,
 ) -> Evaluation:
-    """Score `model` (and `baseline`, and the twin oracle) on the honest rows of `dataset`."""
+    """Score `model` (and `baseline`, and the twin oracle) on the honest rows of `dataset`,
+    or on `sessions` of it (SessionLeakError if the model was trained on any of them)."""
     tick = progress or (lambda stage: None)
-    h = resolve(getattr(model, "meta", {}) or {}, dataset)
+    meta = getattr(model, "meta", {}) or {}
+    h = resolve(meta, dataset)
+    if sessions is not None:
+        note = check_sessions_unseen(meta, dataset, list(sessions))
+        rows = session_rows(dataset, list(sessions))
+        h = type(h)("sessions", None, note, h.companions, rows)
     notes = [h.note]
     m_unit = (getattr(model, "meta", {}) or {}).get("unit_id")
     d_unit = dataset.meta.get("unit_id")
     if m_unit and d_unit and m_unit != d_unit:
         notes.append(f"the model was trained on unit {m_unit!r}; this data comes from {d_unit!r}")
     plan: list[tuple[str, Any, NDArray[np.int64], str]] = []
-    if h.split is None:
+    if h.rows is not None:
+        plan.append(("sessions", model, h.rows, h.note))
+    elif h.split is None:
         plan.append(("all", model, np.arange(dataset.n), h.note))
     else:
         pool = {h.split.kind: (model, h.split)}
@@ -145,6 +162,7 @@ def evaluate_model(
         if m is None:
             continue
         sec.decoder = score(dataset, rows, predict(m, dataset, rows))
+        sec.per_session = per_session(dataset, sec.decoder)
         tick(f"{name}: decoder")
         sec.history = _history(m)
         sec.model_info = model_info(m)
@@ -159,6 +177,60 @@ def evaluate_model(
                 sec.oracle = score(dataset, o_rows, o_pred)
             tick(f"{name}: oracle")
     return Evaluation(sections, notes)
+
+
+def with_model_classes(dataset: Dataset, model: Any) -> tuple[Dataset, str]:
+    """`dataset` with its class ids renumbered to the model's labels (a generic file numbers
+    its labels 1..K in its own sorted order, which differs from the training file's when the
+    label sets differ); labels the model never saw become unlabelled (-1), said in the note.
+
+    >>> ds = Dataset.generic(np.zeros((3, 1)), np.zeros(3), ["a"], ["Fz"],
+    ...                      region=np.array([1, 2, -1]))
+    >>> ds.meta["region_labels"] = ["right", "up"]
+    >>> class M:
+    ...     meta = {"class_labels": ["left", "right"]}
+    >>> out, note = with_model_classes(ds, M())
+    >>> out.region.tolist(), note
+    ([2, -1, -1], "class labels ['up'] are not the model's (left, right): scored as unlabelled")
+    """
+    model_labels = (getattr(model, "meta", {}) or {}).get("class_labels")
+    labels = dataset.meta.get("region_labels")
+    if not model_labels or not labels or list(labels) == list(model_labels):
+        return dataset, ""
+    to_model = {i + 1: list(model_labels).index(v) + 1 for i, v in enumerate(labels)
+                if v in model_labels}  # fmt: skip
+    region = np.asarray(dataset.region, np.int64)
+    new = np.array([to_model.get(int(r), -1) for r in region], dtype=region.dtype)
+    arrays = {**dataset.arrays, "region": new}
+    meta = {**dataset.meta, "region_labels": list(model_labels)}
+    unknown = [v for v in labels if v not in model_labels]
+    note = (
+        f"class labels {unknown} are not the model's ({', '.join(model_labels)}): scored as "
+        "unlabelled"
+        if unknown
+        else ""
+    )
+    return Dataset(arrays, meta), note
+
+
+def per_session(dataset: Dataset, scored: Scored) -> dict[str, dict[str, Any]]:
+    """Rows, unit (from meta["sessions"]) and MAE per component of each session in `scored`."""
+    sess = np.asarray(dataset.session, dtype=np.int64)[scored.rows]
+    info = dataset.meta.get("sessions") or []
+    valid = np.asarray(dataset.target_valid, bool)[scored.rows]
+    out: dict[str, dict[str, Any]] = {}
+    for s in np.unique(sess):
+        mask = sess == s
+        comp = regression_scores(
+            scored.y_true[mask], scored.y_pred[mask], scored.names, valid[mask]
+        )
+        unit = info[s].get("unit") if 0 <= s < len(info) and isinstance(info[s], dict) else None
+        out[str(int(s))] = {
+            "n": int(mask.sum()),
+            "unit": unit,
+            "mae": {k: float(v["mae"]) for k, v in comp.items()},
+        }
+    return out
 
 
 def _missing(kind: str, have: str) -> str:

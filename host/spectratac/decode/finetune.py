@@ -1,0 +1,297 @@
+"""Few-shot recalibration: adapt a trained decoder to a new unit from minutes of its data.
+
+`finetune(base, dataset)` keeps the base decoder's layout, features, heads and target
+scales, starts from its weights and trains briefly with a small learning rate on the new
+unit's rows. What adapts is `mode`:
+
+- "scaler": only the input normalisation (feature centre and z-scaling) is re-fitted on the
+  new rows; no gradient step. Units differ mostly in optical gains and offsets, which shift
+  and stretch the features; the network downstream is kept as is.
+- "head": the output layer only.
+- "first": the first layer and the output layer (input-side and output-side recalibration;
+  the default).
+- "full": every weight.
+
+Measured on the twin (tools/bench/generalisation.py: a model of 4 units recalibrated for a
+fifth; force MAE as a multiple of that unit's own 50-minute calibration, 0.5 / 1 / 2 / 5
+minutes of its data). From a `TrainSpec.best()` model (2.02x with no recalibration): "first"
+1.33 / 1.13 / 1.06 / 0.97x, "full" 1.47 / 1.26 / 1.40 / 1.02x. From a paper-recipe model
+(6.41x): "first" 2.07 / 2.09 / 2.05 / 1.63x, "full" 1.69 / 2.01 / 1.63 / 1.83x, "head"
+2.30 / 2.30 / 2.33 / 1.83x, "scaler" 2.52 / 2.19 / 2.17 / 2.14x; the paper recipe trained
+from scratch on the same minutes 3.74 / 3.42 / 2.52 / 1.95x. Recalibrate a best() model with
+"first": within 1.3x of the full calibration from 1 minute on (1.06x with 2 minutes).
+
+`refit_scaler` (default True) re-fits the input normalisation before any gradient mode too.
+
+Validation is grouped: whole presses (a press and the idle rows after it) are held out, never
+single rows, whose near-duplicate neighbours would sit in training. The weights of the epoch
+with the lowest validation loss are kept (early stopping). With fewer than MIN_VAL_GROUPS
+presses in the data a validation loss would be decided by which one or two presses landed in
+it, so the fixed epoch count runs instead and the last weights are kept.
+
+>>> import numpy as np
+>>> from spectratac.dataset import Dataset
+>>> from spectratac.decode import TrainSpec, train
+>>> rng = np.random.default_rng(0)
+>>> x = rng.normal(size=(200, 2)); y = (x @ [1.0, -2.0])[:, None]
+>>> base = train(Dataset.generic(x, y, ["a", "b"], ["Fz"]),
+...              TrainSpec.paper(features="generic", targets=("Fz",), epochs=3), progress=False)
+>>> new = Dataset.generic(1.1 * x[:60] + 0.2, y[:60], ["a", "b"], ["Fz"])
+>>> dec = finetune(base, new, epochs=2, progress=False)
+>>> dec.meta["finetuned_from"]["id"] == model_id(base), dec.meta["finetuned_from"]["mode"]
+(True, 'first')
+>>> finetune(base, Dataset.generic(x, y, ["a", "c"], ["Fz"]), progress=False)
+Traceback (most recent call last):
+...
+spectratac.decode.finetune.FinetuneMismatchError: the new data does not match ... ['a', 'c'] ...
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from spectratac.dataset.schema import Dataset
+from spectratac.decode import sensor_config
+from spectratac.decode.assemble import assemble, session_order
+from spectratac.decode.decoder import Decoder
+from spectratac.decode.errors import DecoderConfigError, DecoderDataError
+from spectratac.decode.guard import Guard
+from spectratac.decode.runtime import Runtime
+from spectratac.decode.spec import TrainSpec
+from spectratac.decode.train import (
+    Plan,
+    Progress,
+    _augmented,
+    _fit,
+    check_rows,
+    plan,
+    select_rows,
+)
+
+MODES = ("scaler", "head", "first", "full")
+DEFAULT_MODE = "first"
+DEFAULT_EPOCHS = 40
+LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
+VAL_FRACTION = 0.2  # share of presses held out for early stopping
+MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
+IDLE_BLOCK_S = 10.0  # grouping unit when the data has no press ids
+
+
+class FinetuneMismatchError(DecoderConfigError):
+    """The new data cannot refine the base decoder: other inputs, LED configuration or
+    targets."""
+
+
+def model_id(dec: Decoder) -> str:
+    """Content hash (16 hex digits) of a decoder's runtime: weights, normalisation, heads."""
+    h = hashlib.sha256()
+    arrays = dec.runtime.arrays()
+    for k in sorted(arrays):
+        a = np.ascontiguousarray(arrays[k])
+        h.update(k.encode())
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    h.update(repr(sorted(dec.layout.to_dict().items())).encode())
+    return h.hexdigest()[:16]
+
+
+def check_compatible(base: Decoder, dataset: Dataset, spec: TrainSpec) -> Plan:
+    """The training plan of `spec` on `dataset`; FinetuneMismatchError unless its inputs, LED
+    configuration, layout and heads are the base decoder's."""
+
+    def refuse(why: str) -> FinetuneMismatchError:
+        return FinetuneMismatchError(
+            f"the new data does not match the base decoder ({why}): fine-tune only on data of "
+            "the same sensor kind, LED configuration and targets, or train a new decoder"
+        )
+
+    if tuple(dataset.input_names) != base.layout.channels:
+        raise refuse(
+            f"inputs {list(dataset.input_names)} differ from the base's "
+            f"{list(base.layout.channels)}"
+        )
+    diffs = sensor_config.differences(
+        base.config, sensor_config.normalise(dataset.meta.get("config"))
+    )
+    if diffs:
+        raise refuse("sensor configuration: " + "; ".join(diffs))
+    missing = [t for t in base.heads.regression if t not in dataset.target_names]
+    if missing:
+        raise refuse(f"targets {missing} are not in the new data ({list(dataset.target_names)})")
+    try:
+        p = plan(dataset, spec)
+    except DecoderConfigError as exc:
+        raise refuse(str(exc)) from None
+    if p.layout != base.layout:
+        raise refuse("the LED steps or temporal layout differ")
+    if p.heads != base.heads:
+        raise refuse(f"heads {p.heads} differ from the base's {base.heads}")
+    return p
+
+
+def trainable(mode: str, arch_kind: str) -> Any:
+    """Which parameters `mode` updates (a name predicate), or None for none (mode "scaler")."""
+    if mode == "scaler":
+        return None
+    if mode == "full":
+        return lambda name: True
+    first = {"resmlp": "stem.", "mlp": "layers.0.", "linear": "head."}[arch_kind]
+    if mode == "head":
+        return lambda name: name.startswith("head.")
+    return lambda name: name.startswith(("head.", first))
+
+
+def grouped_validation(
+    dataset: Dataset, order: NDArray[np.intp], fraction: float = VAL_FRACTION
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(fit, val) rows of `order`: every k-th press group (a press with the idle rows after
+    it; `IDLE_BLOCK_S` time blocks without press ids) goes to validation. No validation rows
+    when there are fewer than MIN_VAL_GROUPS groups.
+
+    >>> from spectratac.dataset import Dataset
+    >>> ds = Dataset.generic(np.zeros((100, 1)), np.zeros(100), ["a"], ["Fz"])
+    >>> ds.arrays["press"][:] = np.repeat(np.arange(20), 5)
+    >>> fit, val = grouped_validation(ds, np.arange(100))
+    >>> val.size, np.intersect1d(ds.press[fit], ds.press[val]).size
+    (20, 0)
+    """
+    session = np.asarray(dataset.session, np.int64)[order]
+    press = np.asarray(dataset.press, np.int64)[order]
+    t = np.asarray(dataset.t_start, np.float64)[order]
+    if np.any(press >= 0):
+        # forward-fill press ids along time order (order is per session, in time order)
+        idx = np.where(press >= 0, np.arange(press.size), -1)
+        idx = np.maximum.accumulate(idx)
+        filled = np.where(idx >= 0, press[np.maximum(idx, 0)], -1)
+        keys = session * (int(press.max()) + 2) + filled + 1
+    else:
+        keys = session * 10**9 + np.floor((t - t.min()) / IDLE_BLOCK_S).astype(np.int64)
+    _, group = np.unique(keys, return_inverse=True)
+    n_groups = int(group.max()) + 1 if group.size else 0
+    if n_groups < MIN_VAL_GROUPS or fraction <= 0:
+        return order, order[:0]
+    step = max(2, round(1 / fraction))
+    val = (group % step) == step // 2
+    return order[~val], order[val]
+
+
+def finetune(
+    base: Decoder,
+    dataset: Dataset,
+    rows: ArrayLike | None = None,
+    *,
+    mode: str = DEFAULT_MODE,
+    refit_scaler: bool = True,
+    epochs: int | None = None,
+    lr: float | None = None,
+    seed: int = 0,
+    targets: Sequence[str] | None = None,
+    progress: Progress = True,
+) -> Decoder:
+    """Recalibrate `base` on `rows` of `dataset` (a new unit's data). See the module doc.
+
+    Raises FinetuneMismatchError when the data has other inputs, LED configuration or targets
+    than the base (or when `targets`, if given, are not the base's), DecoderDataError on
+    unusable rows, DecoderConfigError on an unknown mode.
+    """
+    if mode not in MODES:
+        raise DecoderConfigError(f"fine-tuning mode {mode!r}: choose one of {', '.join(MODES)}")
+    t0 = time.perf_counter()
+    base_spec = TrainSpec.from_dict(dict(base.meta["spec"]))
+    spec = replace(
+        base_spec,
+        epochs=int(epochs if epochs is not None else DEFAULT_EPOCHS),
+        lr=float(lr if lr is not None else LR_FRACTION * base_spec.lr),
+        seed=int(seed),
+        val_fraction=0.0,
+        best_val=False,
+    )
+    if targets is not None and tuple(targets) != spec.targets:
+        raise FinetuneMismatchError(
+            f"targets {list(targets)} differ from the base decoder's {list(spec.targets)}: a "
+            "fine-tuned decoder keeps its base's targets; leave the targets out or train anew"
+        )
+    p = check_compatible(base, dataset, spec)
+    sel = select_rows(dataset.n, rows)
+    if sel.size < 2:
+        raise DecoderDataError(f"need at least 2 rows to fine-tune on, got {sel.size}")
+    check_rows(dataset, p, sel)
+    u, valid = assemble(p.layout, dataset.inputs, dataset.step, dataset.session, dataset.t_end)
+    keep = np.zeros(dataset.n, bool)
+    keep[sel] = True
+    keep &= valid
+    order = np.concatenate(session_order(np.asarray(dataset.session), np.asarray(dataset.t_end)))
+    order = order[keep[order]]
+    if order.size < 2:
+        raise DecoderDataError("fewer than 2 usable rows after LED-step assembly")
+    predicate = trainable(mode, base.runtime.arch[0])
+    fit_rows, val_rows = grouped_validation(dataset, order) if predicate else (order, order[:0])
+    rt = base.runtime.with_dtype(np.float64)
+    if refit_scaler or mode == "scaler":
+        fresh = Runtime.create(p.features, rt.arch, rt.weights, rt.heads, u[fit_rows])
+        rt = replace(rt, center=fresh.center, scaler=fresh.scaler)
+    y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
+    tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
+    history: list[float] = []
+    val_history: list[float] = []
+    weights = dict(rt.weights)
+    n_augmented = 0
+    if predicate is not None:
+        data = {
+            "z": rt.normalised(u),
+            "y": np.where(tv[:, None], y_all, 0.0) / rt.y_scale,
+            "y_ok": tv,
+            "label": np.asarray(dataset.region).astype(np.int64),
+            "contact": np.asarray(dataset.in_contact, bool),
+        }
+        net_rows = fit_rows
+        if spec.augment != "none":
+            data, net_rows = _augmented(dataset, p, rt, data, u, rt.y_scale, fit_rows)
+        n_augmented = int(net_rows.size - fit_rows.size)
+        run_spec = replace(spec, best_val=bool(val_rows.size))
+        weights, history, val_history = _fit(
+            run_spec, p, data, net_rows, val_rows, progress, start=weights, trainable=predicate
+        )
+    out_rt = replace(rt, weights=weights, dtype=base.runtime.dtype, _plan=None)
+    y_fit = y_all[fit_rows][tv[fit_rows]]
+    new_guard = Guard.fit(
+        u[fit_rows, : p.layout.base], y_fit, base.guard.saturation, base.guard.dark_cols
+    )
+    guard = Guard(
+        np.minimum(base.guard.in_lo, new_guard.in_lo),
+        np.maximum(base.guard.in_hi, new_guard.in_hi),
+        np.minimum(base.guard.t_lo, new_guard.t_lo),
+        np.maximum(base.guard.t_hi, new_guard.t_hi),
+        base.guard.saturation,
+        list(base.guard.dark_cols),
+    )
+    meta = dict(base.meta)
+    meta.pop("holdout", None)  # the base's training rows are not this model's
+    meta.update(
+        {
+            "unit_id": dataset.meta.get("unit_id"),
+            "n_train": int(fit_rows.size),
+            "n_val": int(val_rows.size),
+            "n_augmented": n_augmented,
+            "train_seconds": time.perf_counter() - t0,
+            "history": history,
+            "val_history": val_history,
+            "finetuned_from": {
+                "id": model_id(base),
+                "unit_id": base.unit_id,
+                "mode": mode,
+                "refit_scaler": bool(refit_scaler or mode == "scaler"),
+                "epochs": spec.epochs if predicate else 0,
+                "lr": spec.lr,
+                "early_stopping": bool(val_rows.size),
+            },
+        }
+    )
+    return Decoder(out_rt, p.layout, guard, meta)

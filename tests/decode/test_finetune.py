@@ -1,0 +1,163 @@
+"""Few-shot recalibration (`decode.finetune`, `spectratac train --finetune`), real training."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spectratac.cli import main
+from spectratac.dataset import Dataset
+from spectratac.decode import Decoder, DecoderConfigError, DecoderUnitWarning, TrainSpec, train
+from spectratac.decode.finetune import (
+    MIN_VAL_GROUPS,
+    FinetuneMismatchError,
+    finetune,
+    grouped_validation,
+    model_id,
+)
+
+pytestmark = pytest.mark.train
+
+SPEC = TrainSpec.paper(features="generic", targets=("Fz", "Fx"), epochs=20, hidden=32, blocks=1)
+
+
+def _unit(seed: int, gain: float, offset: float, n: int = 600) -> Dataset:
+    """A generic three-channel sensor; units differ in channel gain and offset."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 1.0, (n, 3))
+    y = np.stack([2.0 * x[:, 0] - x[:, 1] + x[:, 2] ** 2, x[:, 1] * x[:, 2]], axis=1)
+    raw = gain * x + offset
+    ds = Dataset.generic(raw, y, ["a", "b", "c"], ["Fz", "Fx"])
+    ds.arrays["press"][:] = np.arange(n) // 20  # 30 presses of 20 rows
+    ds.meta["unit_id"] = f"unit-{gain}"
+    return ds
+
+
+def _mae(dec: Decoder, ds: Dataset) -> float:
+    with warnings.catch_warnings():  # decoders of other units, on purpose
+        warnings.simplefilter("ignore", DecoderUnitWarning)
+        est = dec.predict(ds)
+    return float(np.mean(np.abs(est.targets - ds.targets)))
+
+
+@pytest.fixture(scope="module")
+def base() -> Decoder:
+    return train(_unit(0, 1.0, 0.0, 2000), SPEC, progress=False)
+
+
+@pytest.fixture(scope="module")
+def new_unit() -> tuple[Dataset, Dataset]:
+    """A few-shot set and a test set of another unit (other gains and offsets)."""
+    return _unit(1, 1.4, 0.3, 300), _unit(2, 1.4, 0.3, 600)
+
+
+def test_finetuning_recalibrates_a_new_unit(base, new_unit) -> None:
+    shots, test = new_unit
+    before = _mae(base, test)
+    full = finetune(base, shots, progress=False)  # mode "first"
+    scratch = train(shots, SPEC, progress=False)
+    assert _mae(full, test) < 0.5 * before
+    assert _mae(full, test) < _mae(scratch, test)
+    rec = full.meta["finetuned_from"]
+    assert rec["id"] == model_id(base) and rec["unit_id"] == "unit-1.0"
+    assert rec["mode"] == "first" and rec["early_stopping"] is True
+    assert full.unit_id == "unit-1.4" and "holdout" not in full.meta
+    assert len(full.meta["val_history"]) == rec["epochs"]
+
+
+def test_modes_update_only_their_parameters(base, new_unit) -> None:
+    shots, _ = new_unit
+    bw = base.runtime.weights
+    scaler = finetune(base, shots, mode="scaler", progress=False)
+    assert all(np.array_equal(scaler.runtime.weights[k], bw[k]) for k in bw)
+    assert not np.allclose(scaler.runtime.scaler.mean, base.runtime.scaler.mean)
+    assert scaler.meta["history"] == [] and scaler.meta["finetuned_from"]["epochs"] == 0
+    head = finetune(base, shots, mode="head", epochs=3, progress=False)
+    changed = {k for k in bw if not np.array_equal(head.runtime.weights[k], bw[k])}
+    assert changed == {"head.weight", "head.bias"}
+    first = finetune(base, shots, mode="first", epochs=3, progress=False)
+    changed = {k for k in bw if not np.array_equal(first.runtime.weights[k], bw[k])}
+    assert changed == {"head.weight", "head.bias", "stem.weight", "stem.bias"}
+    kept = finetune(base, shots, mode="head", refit_scaler=False, epochs=2, progress=False)
+    assert np.array_equal(kept.runtime.scaler.mean, base.runtime.scaler.mean)
+    with pytest.raises(DecoderConfigError, match="fine-tuning mode 'all'"):
+        finetune(base, shots, mode="all", progress=False)
+
+
+def test_grouped_validation_holds_out_whole_presses(new_unit) -> None:
+    shots, _ = new_unit
+    order = np.arange(shots.n)
+    fit, val = grouped_validation(shots, order)
+    assert val.size and np.intersect1d(shots.press[fit], shots.press[val]).size == 0
+    few = shots.subset(np.arange(20 * (MIN_VAL_GROUPS - 1)))
+    fit, val = grouped_validation(few, np.arange(few.n))
+    assert val.size == 0 and fit.size == few.n  # too few presses: fixed epochs
+
+
+def test_too_little_data_runs_fixed_epochs(base) -> None:
+    few = _unit(3, 1.4, 0.3, 20 * (MIN_VAL_GROUPS - 1))
+    dec = finetune(base, few, epochs=4, progress=False)
+    assert dec.meta["finetuned_from"]["early_stopping"] is False
+    assert len(dec.meta["history"]) == 4 and dec.meta["val_history"] == []
+
+
+def test_mismatching_data_is_refused(base) -> None:
+    other_inputs = Dataset.generic(
+        np.ones((50, 3)), np.ones((50, 2)), ["a", "b", "d"], ["Fz", "Fx"]
+    )
+    with pytest.raises(FinetuneMismatchError, match=r"inputs \['a', 'b', 'd'\]"):
+        finetune(base, other_inputs, progress=False)
+    no_fx = Dataset.generic(np.ones((50, 3)), np.ones((50, 1)), ["a", "b", "c"], ["Fz"])
+    with pytest.raises(FinetuneMismatchError, match=r"targets \['Fx'\] are not in the new data"):
+        finetune(base, no_fx, progress=False)
+    with pytest.raises(FinetuneMismatchError, match="differ from the base decoder's"):
+        finetune(base, _unit(1, 1.0, 0.0, 100), targets=["Fz"], progress=False)
+
+
+def test_another_led_configuration_is_refused() -> None:
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
+
+    scene = scenes.calibration_session(seed=1, duration_s=20.0)
+    ds50 = from_twin_session(generate_session(scene, seed=1), scene)
+    ds100 = from_twin_session(generate_session(scene, seed=2, integration_ms=100), scene)
+    spec = TrainSpec.paper(epochs=1, hidden=8, blocks=1, targets=("Fz",))
+    base = train(ds50, spec, progress=False)
+    with pytest.raises(FinetuneMismatchError, match="sensor configuration"):
+        finetune(base, ds100, progress=False)
+
+
+def _csv(path: Path, ds: Dataset) -> Path:
+    lines = ["a,b,c,Fz,Fx,press"]
+    for i in range(ds.n):
+        row = [*ds.inputs[i], *ds.targets[i], ds.press[i]]
+        lines.append(",".join(str(v) for v in row))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_cli_finetune(base, new_unit, tmp_path, capsys) -> None:
+    shots, test = new_unit
+    base_file = base.save(tmp_path / "base.stac")
+    data = _csv(tmp_path / "new.csv", shots)
+    out = tmp_path / "ft.stac"
+    argv = ["train", str(data), "--inputs", "a,b,c", "--finetune", str(base_file), "-o", str(out)]
+    assert main([*argv, "--epochs", "5", "--no-progress", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["finetuned_from"]["path"] == str(base_file)
+    dec = Decoder.load(out)
+    assert dec.meta["finetuned_from"]["id"] == model_id(Decoder.load(base_file))
+    assert dec.meta["finetuned_from"]["epochs"] == 5
+    assert main([*argv, "--force", "--targets", "Fz", "--no-progress"]) == 3
+    assert "differ from the base decoder's" in capsys.readouterr().err
+    test_file = _csv(tmp_path / "test.csv", test)
+    rep = tmp_path / "rep"
+    ev = ["evaluate", str(out), str(test_file), "-o", str(rep), "--oracle-samples", "0"]
+    assert main([*ev, "--json", "--no-progress"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["model"]["finetuned_from"]["id"] == model_id(base)
+    assert report["sections"]["all"]["model"]["finetuned_from"]["mode"] == "first"
