@@ -62,6 +62,7 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
+from spectratac.decode.groups import GUARD_ROWS, row_groups, val_split
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
 from spectratac.decode.spec import TrainSpec
@@ -70,6 +71,7 @@ from spectratac.decode.train import (
     Progress,
     _augmented,
     _fit,
+    _ranges,
     check_rows,
     plan,
     select_rows,
@@ -81,7 +83,6 @@ DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
 VAL_FRACTION = 0.2  # share of presses held out for early stopping
 MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
-IDLE_BLOCK_S = 10.0  # grouping unit when the data has no press ids
 
 
 class FinetuneMismatchError(DecoderConfigError):
@@ -151,35 +152,27 @@ def trainable(mode: str, arch_kind: str) -> Any:
 def grouped_validation(
     dataset: Dataset, order: NDArray[np.intp], fraction: float = VAL_FRACTION
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """(fit, val) rows of `order`: every k-th press group (a press with the idle rows after
-    it; `IDLE_BLOCK_S` time blocks without press ids) goes to validation. No validation rows
-    when there are fewer than MIN_VAL_GROUPS groups.
+    """(fit, val) rows of `order`: about `fraction` of the whole groups that training's
+    validation uses (decode/groups.py: sessions, else a press with the idle rows after it,
+    else guarded time blocks) go to validation. No validation rows when there are fewer than
+    MIN_VAL_GROUPS groups.
 
     >>> from spectratac.dataset import Dataset
     >>> ds = Dataset.generic(np.zeros((100, 1)), np.zeros(100), ["a"], ["Fz"])
     >>> ds.arrays["press"][:] = np.repeat(np.arange(20), 5)
+    >>> ds.arrays["t_start"][:] = ds.arrays["t_end"][:] = np.arange(100.0)
     >>> fit, val = grouped_validation(ds, np.arange(100))
     >>> val.size, np.intersect1d(ds.press[fit], ds.press[val]).size
     (20, 0)
     """
-    session = np.asarray(dataset.session, np.int64)[order]
-    press = np.asarray(dataset.press, np.int64)[order]
-    t = np.asarray(dataset.t_start, np.float64)[order]
-    if np.any(press >= 0):
-        # forward-fill press ids along time order (order is per session, in time order)
-        idx = np.where(press >= 0, np.arange(press.size), -1)
-        idx = np.maximum.accumulate(idx)
-        filled = np.where(idx >= 0, press[np.maximum(idx, 0)], -1)
-        keys = session * (int(press.max()) + 2) + filled + 1
-    else:
-        keys = session * 10**9 + np.floor((t - t.min()) / IDLE_BLOCK_S).astype(np.int64)
-    _, group = np.unique(keys, return_inverse=True)
-    n_groups = int(group.max()) + 1 if group.size else 0
+    groups = row_groups(dataset.session, dataset.press, dataset.t_end, order)
+    n_groups = np.count_nonzero(np.unique(groups.ids[order]) >= 0)
     if n_groups < MIN_VAL_GROUPS or fraction <= 0:
         return order, order[:0]
-    step = max(2, round(1 / fraction))
-    val = (group % step) == step // 2
-    return order[~val], order[val]
+    # a guard gap wider than a quarter of a block would purge most of a minute of data
+    guard = min(GUARD_ROWS, order.size // (4 * n_groups))
+    fit, val = val_split(order, fraction, groups, guard)
+    return (fit, val) if fit.size >= 2 else (order, order[:0])
 
 
 def finetune(
@@ -279,6 +272,9 @@ def finetune(
             "unit_id": dataset.meta.get("unit_id"),
             "n_train": int(fit_rows.size),
             "n_val": int(val_rows.size),
+            "fit_rows": _ranges(fit_rows),  # rows of `dataset`, not of the base's data
+            "val_rows": _ranges(val_rows),
+            "val_groups": row_groups(dataset.session, dataset.press, dataset.t_end).kind,
             "n_augmented": n_augmented,
             "train_seconds": time.perf_counter() - t0,
             "history": history,
