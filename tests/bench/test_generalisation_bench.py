@@ -10,27 +10,29 @@ pytestmark = [pytest.mark.train, pytest.mark.slow]
 
 TINY = ["--quick", "--units", "2", "--sessions-per-unit", "2", "--session-s", "30"]
 TINY += ["--full-cal-s", "60", "--test-s", "30", "--minutes", "0.5", "--epochs", "1"]
-TINY += ["--best-epochs", "1", "--no-progress"]
+TINY += ["--best-epochs", "1", "--budget", "5", "--no-progress"]
 
 
 def test_generalisation_bench_tiny(run_bench) -> None:
     by = run_bench("generalisation.py", *TINY)
-    own = "paper on the new unit's own 1 min calibration"
-    for recipe in ("paper", "best", "ridge"):
+    for recipe in ("paper", "best", "linear", "poly2", "auto"):
         a = by[f"(a) held-out unit: {recipe}"]
-        assert a["reference_name"] == own and math.isfinite(a["ratio"]) and a["value"] > 0
-        b = by[f"(b) held-out session: {recipe}"]
-        assert b["reference_name"].startswith(recipe) and b["extra"]["n"] == 600
-    for mode in ("scaler", "head", "first", "full"):
-        assert by[f"(c) 0.5 min fine-tune {mode}"]["extra"]["mode"] == mode
+        assert a["reference_name"] == "(a) paper" and math.isfinite(a["ratio"]) and a["value"] > 0
+        b = by[f"(b) held-out sessions: {recipe}"]
+        assert b["reference_name"] == "(b) paper" and b["extra"]["n"] > 500  # last sessions
+    assert by["(a) held-out unit: paper"]["ratio"] == 1.0
+    assert by["(a) held-out unit: auto"]["extra"]["chosen"]
+    for study in ("(a) held-out unit", "(b) held-out sessions"):
+        paper = by[f"target {study}: auto / paper"]
+        assert paper["reference_value"] == 0.8 and isinstance(paper["extra"]["met"], bool)
+        assert any(k.startswith(f"target {study}: auto / best classical") for k in by)
+    for mode in ("first", "full"):
+        assert by[f"(c) 0.5 min fine-tune {mode} of best"]["extra"]["mode"] == mode
     assert "(c) 0.5 min paper from scratch" in by
-    base = by["(c) 0 min: population model, no recalibration"]
-    assert base["value"] == by["(a) held-out unit: paper"]["value"]
-    target = by["target: 0.5 min fine-tune (" + _best_mode(by) + ") vs full calibration"]
+    base = by["(c) 0 min: population model of best, no recalibration"]
+    assert base["value"] == by["(a) held-out unit: best"]["value"]
+    own = "paper on the new unit's own 1 min calibration"
+    assert base["reference_name"] == own
+    target = next(v for k, v in by.items() if k.startswith("target: 0.5 min fine-tune of best"))
     assert target["reference_value"] == 1.3 and isinstance(target["extra"]["met"], bool)
     assert target["extra"]["config"]["units"] == 2
-
-
-def _best_mode(by: dict) -> str:
-    modes = {k: v["ratio"] for k, v in by.items() if k.startswith("(c) 0.5 min fine-tune")}
-    return min(modes, key=modes.__getitem__).rsplit(" ", 1)[-1]

@@ -2,26 +2,30 @@
 
     .venv/bin/python tools/bench/generalisation.py [--quick] [--json] [--no-progress]
         [--units N] [--session-s S] [--full-cal-s S] [--test-s S] [--epochs N]
-        [--best-epochs N] [--seed S]
+        [--best-epochs N] [--budget S] [--few-shot-base paper|best] [--seed S]
 
-All data comes from the twin: a population of units (UnitParams.from_seed), each recorded in
-calibration sessions. A new unit (never in the population) has a full calibration session
-(50 min by default), a separate few-shot session whose first minutes are its recalibration
-data, and a separate test session that every figure below is scored on (force MAE: the mean
-of the Fx, Fy, Fz MAE, N).
+All data comes from the twin (`spectratac.sim.twin_dataset.population`): units drawn with
+the board's manufacturing tolerances, each recorded in calibration sessions that differ by
+re-mounting, room temperature and ageing. A new unit (never in the population) has a full
+calibration session (50 min by default), a separate few-shot session whose first minutes are
+its recalibration data, and a separate test session (force MAE: the mean of the Fx, Fy, Fz
+MAE, N).
 
-(a) held-out unit: each recipe (the paper's, TrainSpec.best(), a polynomial ridge baseline,
-    and the auto recipe when `spectratac.evaluate.auto_recipe` exists) trained on the
-    population, scored on the new unit; as a ratio to the paper recipe trained on the new
-    unit's own full calibration (measured in the same run).
-(b) held-out sessions: each recipe trained on every session of one population unit but the
-    last, with a random 20 % of those rows held out; the last session's MAE as a ratio to
-    the random-split MAE (what the paper's protocol reports).
-(c) few-shot curve: the population's paper model recalibrated with `decode.finetune` on 0.5,
-    1, 2 and 5 minutes of the new unit (every fine-tuning mode), and the paper recipe trained
-    from scratch on the same minutes; ratios to the full calibration. The base model with
-    no recalibration is the 0-minute point. Target: 2 minutes within 1.3x of the full
-    calibration.
+Recipes: the paper's, TrainSpec.best(), the classical baselines (linear and degree-2
+polynomial ridge on the paper's features with the drift baseline, closed form) and
+`--recipe auto` (spectratac.evaluate.auto_recipe.search, grouped by unit in (a)).
+
+(a) held-out unit: each recipe trained on the population, scored on the new unit's test
+    session; as a ratio to the paper recipe trained on the same population in this run.
+(b) held-out sessions: each recipe trained on every population session but each unit's
+    last, scored on those last sessions; as a ratio to the paper recipe.
+    Targets for (a) and (b): auto at least 20 % below the paper recipe and never above the
+    best classical baseline.
+(c) few-shot curve: the population's model (--few-shot-base) recalibrated with
+    `decode.finetune` on 0.5, 1, 2 and 5 minutes of the new unit, and the paper recipe
+    trained from scratch on the same minutes; ratios to the paper recipe on the new unit's
+    own full calibration. The base model with no recalibration is the 0-minute point.
+    Target: 2 minutes within 1.3x of the full calibration.
 
 Prints a table, or one JSON line per figure with --json (the last one, the target check,
 carries the configuration and the run's seconds).
@@ -44,22 +48,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.dataset.schema import FT_NAMES, Dataset, concat
+from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.decode import DecoderUnitWarning, TrainSpec, train
 from spectratac.decode.finetune import MODES, finetune
-from spectratac.evaluate.holdout import mark_sessions
-from spectratac.evaluate.run import evaluate_model
-from spectratac.evaluate.splits import SplitSpec, split_dataset
-from spectratac.sim.twin_dataset import from_twin_session
-from spectratac.twin.builtin_scenes import calibration_session
-from spectratac.twin.generate import generate_session
-from spectratac.twin.unit import UnitParams
+from spectratac.evaluate import auto_recipe
+from spectratac.sim.twin_dataset import population
 
 FORCES = ("Fx", "Fy", "Fz")
 NEW_UNIT = 1000  # a unit seed far from the population's 1..N
 MINUTES = (0.5, 1.0, 2.0, 5.0)
 TARGET_RATIO = 1.3  # few-shot at 2 minutes against the full calibration
-RIDGE_ALPHA = 1.0
+CLASSICAL = {"linear": 1, "poly2": 2}  # ridge degree of each classical baseline
+AUTO_TARGET = 0.8  # auto at least 20 % below the paper recipe
 
 
 @dataclass(frozen=True)
@@ -74,10 +74,10 @@ class Config:
     epochs: int | None = 10  # None: the recipe's own
     best_epochs: int | None = 3
     minutes: tuple[float, ...] = MINUTES
-    modes: tuple[str, ...] = MODES
-    few_shot_base: str = "paper"  # the population model that (c) recalibrates
+    modes: tuple[str, ...] = ("first", "full")  # the two best of MODES (decode/finetune.py)
+    few_shot_base: str = "best"  # the population model that (c) recalibrates
     sections: str = "abc"  # (c) always runs, with the (a) model it starts from
-    auto_budget_s: float = 600.0  # the auto recipe's search budget per training
+    auto_budget_s: float = 300.0  # the auto recipe's search budget per training (--budget 5m)
     seed: int = 0
 
 
@@ -88,33 +88,10 @@ QUICK = Config(
 
 
 # ---------------------------------------------------------------- data
-def _session(unit: int, seed: int, duration_s: float) -> Dataset:
-    scene = calibration_session(seed, duration_s)
-    ds = from_twin_session(
-        generate_session(scene, seed=seed, unit=UnitParams.from_seed(unit)), scene
-    )
-    ds.meta["sessions"][0]["unit"] = unit
-    ds.meta["unit_id"] = f"twin-unit-{unit}"
-    return ds
-
-
-def population(
-    units: Sequence[int],
-    sessions_per_unit: int,
-    session_s: float,
-    seed: int = 0,
-    progress: Callable[[str], None] | None = None,
-) -> Dataset:
-    """One calibration session per (unit, session index); meta["sessions"][i]["unit"]."""
-    parts = []
-    for u in units:
-        for k in range(sessions_per_unit):
-            parts.append(_session(int(u), 10_000 * (seed + 1) + 100 * int(u) + k, session_s))
-            if progress:
-                progress(f"unit {u} session {k}")
-    ds = concat(parts)
-    ds.meta["unit_id"] = parts[0].meta["unit_id"] if len(units) == 1 else None
-    return ds
+def new_unit_session(cfg: Config, which: int, duration_s: float) -> Dataset:
+    """One session of the new unit; `which` (1 full calibration, 2 few-shot, 3 test) makes
+    it another mounting, day and set of presses."""
+    return population([NEW_UNIT], 1, duration_s, seed=cfg.seed + 1000 * which)
 
 
 # ---------------------------------------------------------------- recipes
@@ -134,54 +111,37 @@ def _decoder_predictor(dec: Any) -> Predictor:
     return run
 
 
-def _poly(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    i, j = np.triu_indices(x.shape[1])
-    return np.hstack([np.ones((x.shape[0], 1)), x, x[:, i] * x[:, j]])
-
-
-def ridge(ds: Dataset, rows: NDArray[np.int64] | None) -> Predictor:
-    """Degree-2 polynomial ridge regression on the z-scored raw channels (closed form)."""
-    r = np.arange(ds.n) if rows is None else np.asarray(rows)
-    r = r[np.asarray(ds.target_valid, bool)[r]]
-    x = np.asarray(ds.inputs, np.float64)[r]
-    mean, std = x.mean(axis=0), np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
-    phi = _poly((x - mean) / std)
-    gram = phi.T @ phi + RIDGE_ALPHA * np.eye(phi.shape[1])
-    w = np.linalg.solve(gram, phi.T @ np.asarray(ds.targets, np.float64)[r])
-
-    def run(d: Dataset, idx: NDArray[np.int64]) -> NDArray[np.float64]:
-        return _poly((np.asarray(d.inputs, np.float64)[idx] - mean) / std) @ w
-
-    return run
-
-
 def recipes(cfg: Config) -> dict[str, Callable[[Dataset, Any], Predictor]]:
     paper = TrainSpec.paper(**({"epochs": cfg.epochs} if cfg.epochs else {}))
     best = TrainSpec.best(**({"epochs": cfg.best_epochs} if cfg.best_epochs else {}))
-    out: dict[str, Callable[[Dataset, Any], Predictor]] = {
-        "paper": lambda ds, rows: _decoder_predictor(train(ds, paper, rows, progress=False)),
-        "best": lambda ds, rows: _decoder_predictor(train(ds, best, rows, progress=False)),
-        "ridge": ridge,
-    }
-    auto = _auto_recipe(cfg)
-    if auto is not None:
-        out["auto"] = auto
+
+    def fit(spec: TrainSpec) -> Callable[[Dataset, Any], Predictor]:
+        return lambda ds, rows: _decoder_predictor(train(ds, spec, rows, progress=False))
+
+    out = {"paper": fit(paper), "best": fit(best)}
+    for name, degree in CLASSICAL.items():
+        ridge = TrainSpec(model="ridge", degree=degree, drift="baseline", targets=FT_NAMES)
+        out[name] = fit(ridge)
+    out["auto"] = _auto_recipe(cfg)
     return out
 
 
-def _auto_recipe(cfg: Config) -> Callable[[Dataset, Any], Predictor] | None:
-    """The auto recipe's search, when this checkout has it (spectratac.evaluate.auto_recipe)."""
-    try:
-        from spectratac.evaluate import auto_recipe  # type: ignore[attr-defined]
-    except ImportError:
-        return None
-    budget = cfg.auto_budget_s
+def _auto_recipe(cfg: Config) -> Callable[[Dataset, Any], Predictor]:
+    """`--recipe auto` within cfg.auto_budget_s, cross-validated by session."""
+    return lambda ds, rows: auto_by(cfg, ds, rows, by_unit=False)
 
-    def run(ds: Dataset, rows: Any) -> Predictor:
-        # search(...).decoder is the chosen recipe refitted on `rows` (grouped CV inside)
-        return _decoder_predictor(auto_recipe.search(ds, budget_s=budget, rows=rows).decoder)
 
-    return run
+def auto_by(cfg: Config, ds: Dataset, rows: Any, by_unit: bool) -> Predictor:
+    """The auto recipe's search; `by_unit`: its folds hold out whole units (a held-out-unit
+    study), else whole sessions."""
+    groups = None
+    if by_unit:
+        units = np.array([s["unit"] for s in ds.meta["sessions"]])
+        groups = units[np.asarray(ds.session)]
+    result = auto_recipe.search(ds, cfg.auto_budget_s, rows=rows, groups=groups)
+    pred = _decoder_predictor(result.decoder)
+    pred.chosen = result.report["chosen"]  # type: ignore[attr-defined]
+    return pred
 
 
 # ---------------------------------------------------------------- scoring
@@ -210,11 +170,13 @@ def _fig(name: str, value: dict, ref_name: str, ref: dict, **extra: Any) -> benc
 def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
     warnings.filterwarnings("ignore", category=DecoderUnitWarning)  # other units on purpose
     t0 = time.perf_counter()
-    pop = population(range(1, cfg.units + 1), cfg.sessions_per_unit, cfg.session_s, cfg.seed,
-                     progress)  # fmt: skip
-    full = _session(NEW_UNIT, 7_000 + cfg.seed, cfg.full_cal_s)
-    shots = _session(NEW_UNIT, 8_000 + cfg.seed, 60.0 * max(cfg.minutes) + 1.0)
-    test = _session(NEW_UNIT, 9_000 + cfg.seed, cfg.test_s)
+    pop = population(
+        range(1, cfg.units + 1), cfg.sessions_per_unit, cfg.session_s, cfg.seed,
+        progress=lambda done, total: progress(f"population {done}/{total}"),
+    )  # fmt: skip
+    full = new_unit_session(cfg, 1, cfg.full_cal_s)
+    shots = new_unit_session(cfg, 2, 60.0 * max(cfg.minutes) + 1.0)
+    test = new_unit_session(cfg, 3, cfg.test_s)
     progress("new unit data")
     makers = recipes(cfg)
     figs: list[benchlib.Figure] = []
@@ -223,34 +185,34 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
     progress("paper: new unit's own full calibration")
     own_name = f"paper on the new unit's own {cfg.full_cal_s / 60:g} min calibration"
 
-    # (a) held-out unit
+    # (a) held-out unit, (b) held-out sessions: every recipe beside the paper's
+    index = np.array([s["session_index"] for s in pop.meta["sessions"]])[np.asarray(pop.session)]
+    last = index == cfg.sessions_per_unit - 1
+    studies = {
+        "a": ("held-out unit", None, test, None),
+        "b": ("held-out sessions", np.flatnonzero(~last), pop, np.flatnonzero(last)),
+    }
     pop_models: dict[str, Predictor] = {}
-    first = makers if "a" in cfg.sections else {cfg.few_shot_base: makers[cfg.few_shot_base]}
-    for name, make in first.items():
-        pop_models[name] = make(pop, None)
-        figs.append(_fig(f"(a) held-out unit: {name}", force_mae(pop_models[name], test),
-                         own_name, own, units=cfg.units))  # fmt: skip
-        progress(f"(a) {name}")
-
-    # (b) held-out sessions of one unit
-    one = population([1], cfg.sessions_per_unit, cfg.session_s, cfg.seed)
-    last = int(np.max(one.session))
-    before = np.flatnonzero(np.asarray(one.session) != last)
-    split = split_dataset(one.subset(before), SplitSpec("random", seed=cfg.seed))
-    train_rows, random_test = before[split.train], before[split.test]
-    for name, make in makers.items() if "b" in cfg.sections else ():
-        pred = make(one, train_rows)
-        dec = getattr(pred, "decoder", None)
-        if dec is not None:  # the decoder path: evaluate's own held-out-session scoring
-            mark_sessions(dec, one, [last])
-            ev = evaluate_model(dec, one, oracle_samples=0)
-            held_rows = ev.sections["sessions"].rows
-        else:
-            held_rows = np.flatnonzero(np.asarray(one.session) == last)
-        figs.append(_fig(f"(b) held-out session: {name}", force_mae(pred, one, held_rows),
-                         f"{name} random-split test rows of the trained sessions",
-                         force_mae(pred, one, random_test)))  # fmt: skip
-        progress(f"(b) {name}")
+    for key, (what, fit_rows, data, score_rows) in studies.items():
+        if key not in cfg.sections:
+            continue
+        scores: dict[str, dict] = {}
+        for name, make in makers.items():
+            if name == "auto" and key == "a":
+                pred = auto_by(cfg, pop, fit_rows, by_unit=True)
+            else:
+                pred = make(pop, fit_rows)
+            if key == "a":
+                pop_models[name] = pred
+            scores[name] = force_mae(pred, data, score_rows)
+            chosen = getattr(pred, "chosen", None)
+            figs.append(_fig(f"({key}) {what}: {name}", scores[name], f"({key}) paper",
+                             scores.get("paper", scores[name]),
+                             **({"chosen": chosen} if chosen else {})))  # fmt: skip
+            progress(f"({key}) {name}")
+        figs += _auto_targets(key, what, scores)
+    if cfg.few_shot_base not in pop_models:
+        pop_models[cfg.few_shot_base] = makers[cfg.few_shot_base](pop, None)
 
     # (c) few-shot curve
     base = pop_models[cfg.few_shot_base].decoder  # type: ignore[attr-defined]
@@ -294,6 +256,22 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
     return figs
 
 
+def _auto_targets(key: str, what: str, scores: dict[str, dict]) -> list[benchlib.Figure]:
+    """The two targets of a study: auto against the paper recipe and the best classical."""
+    auto = scores["auto"]["force"]
+    best_classical = min(CLASSICAL, key=lambda n: scores[n]["force"])
+    vs_paper = auto / scores["paper"]["force"]
+    vs_classical = auto / scores[best_classical]["force"]
+    return [
+        benchlib.Figure(f"target ({key}) {what}: auto / paper", vs_paper, "x", "target",
+                        AUTO_TARGET, vs_paper / AUTO_TARGET,
+                        {"met": bool(vs_paper <= AUTO_TARGET)}),
+        benchlib.Figure(f"target ({key}) {what}: auto / best classical ({best_classical})",
+                        vs_classical, "x", "target", 1.0, vs_classical,
+                        {"met": bool(vs_classical <= 1.0)}),
+    ]  # fmt: skip
+
+
 def table(figs: list[benchlib.Figure]) -> str:
     """Human table: MAE with 4 significant digits (benchlib's shows one decimal)."""
     width = max(len(f.name) for f in figs)
@@ -325,6 +303,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--modes", help=f"fine-tuning modes, comma list (default {','.join(MODES)})")
     p.add_argument("--few-shot-base", choices=("paper", "best"), help="model (c) starts from")
     p.add_argument("--sections", help="which of a, b to run besides c (default abc)")
+    p.add_argument(
+        "--budget",
+        type=float,
+        dest="auto_budget_s",
+        help="the auto recipe's search budget per training, s (default 300)",
+    )
     p.add_argument("--seed", type=int)
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)

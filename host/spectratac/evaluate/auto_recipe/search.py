@@ -172,7 +172,7 @@ def search(
     else:
         g = row_groups(dataset.session, dataset.press, dataset.t_end, sel)
     sel = sel[g.ids[sel] >= 0]
-    k = max(2, min(folds, g.n_groups))
+    k = max(2, min(folds, np.unique(g.ids[sel]).size))  # the groups of these rows
     fold_rows = _folds(dataset, sel, g, k)
     names = set(dataset.target_names)
     reg = tuple(t for t in tg if t in names)
