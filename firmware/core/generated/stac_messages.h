@@ -102,8 +102,8 @@ typedef enum stac_log_level {
 
 /* ESTIMATE.flags bits: how far the estimate can be trusted. */
 #define STAC_EST_CONTACT (1u << 0) /* The model says something touches the sensor (contact head, or |F| above the model's contact threshold). */
-#define STAC_EST_INVALID (1u << 1) /* No usable estimate: an input was saturated, dark, stale, from a faulty bus, or not finite; force and torque are NaN. */
-#define STAC_EST_OOD (1u << 2) /* Inputs or outputs lie outside the ranges seen in training: the numbers are extrapolated. */
+#define STAC_EST_INVALID (1u << 1) /* No usable estimate: the LED step is unknown to the model or the network's output is not finite; force, torque and region_prob are NaN, region is 0. */
+#define STAC_EST_OOD (1u << 2) /* Do not trust the numbers: an input is saturated or dark, a sensor's status is bad (bus fault, stale, absent), or inputs or outputs lie outside the ranges seen in training (the host decoder's guard flags the same). */
 #define STAC_EST_WARMUP (1u << 3) /* The model's temporal context or no-contact baseline is not yet filled (first samples after START or CONFIGURE). */
 
 /* Message type ids. */

@@ -139,10 +139,10 @@ class EstimateFlags(IntFlag):
     )  # The model says something touches the sensor (contact head, or |F| above the model's contact threshold).
     EST_INVALID = (
         1 << 1
-    )  # No usable estimate: an input was saturated, dark, stale, from a faulty bus, or not finite; force and torque are NaN.
+    )  # No usable estimate: the LED step is unknown to the model or the network's output is not finite; force, torque and region_prob are NaN, region is 0.
     EST_OOD = (
         1 << 2
-    )  # Inputs or outputs lie outside the ranges seen in training: the numbers are extrapolated.
+    )  # Do not trust the numbers: an input is saturated or dark, a sensor's status is bad (bus fault, stale, absent), or inputs or outputs lie outside the ranges seen in training (the host decoder's guard flags the same).
     EST_WARMUP = (
         1 << 3
     )  # The model's temporal context or no-contact baseline is not yet filled (first samples after START or CONFIGURE).
