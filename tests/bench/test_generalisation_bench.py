@@ -31,8 +31,9 @@ def test_generalisation_bench_tiny(run_bench) -> None:
     assert "(c) 0.5 min paper from scratch" in by
     base = by["(c) 0 min: population model of best, no recalibration"]
     assert base["value"] == by["(a) held-out unit: best"]["value"]
-    own = "paper on the new unit's own 1 min calibration"
+    own = "best on the new unit's own 1 min calibration"
     assert base["reference_name"] == own
+    assert by["(c) paper on the new unit's own 1 min calibration"]["reference_name"] == own
     target = next(v for k, v in by.items() if k.startswith("target: 0.5 min fine-tune of best"))
     assert target["reference_value"] == 1.3 and isinstance(target["extra"]["met"], bool)
     assert target["extra"]["config"]["units"] == 2
