@@ -483,36 +483,51 @@ class Sensor:
         self._write(data)
 
     # ------------------------------------------------------------------ samples
+    def _take(
+        self, queue: collections.deque, n: int, timeout: float | None, flag: str, what: str
+    ) -> list[Any]:
+        """Up to `n` rows popped from `queue` (the caller holds self._cond), waiting up to
+        `timeout` s for all n. `flag` names the attribute that says rows of this queue were
+        discarded; with overflow="error" that raises BufferOverflowError if nothing was read.
+        Raises the loss only once every row received before it has been read."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        out: list[Any] = []
+        while True:
+            while queue and len(out) < n:
+                out.append(queue.popleft())
+            if len(out) >= n:
+                break
+            if getattr(self, flag) and self._overflow == "error":
+                setattr(self, flag, False)
+                if not out:
+                    count = (
+                        self.stats.buffer_overflows
+                        if what == "samples"
+                        else (self.stats.estimate_overflows)
+                    )
+                    raise BufferOverflowError(
+                        f"{count} {what} were discarded: read more often or open with a "
+                        f"larger buffer_size"
+                    )
+                break
+            if self._lost is not None and not self._reconnect:
+                if out:
+                    break
+                raise self._lost
+            if self._closed:
+                break
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            self._cond.wait(remaining)
+        return out
+
     def read(self, n: int, timeout: float | None = None) -> np.ndarray:
         """Up to `n` samples as a SAMPLE_RECORD array, waiting up to `timeout` s (default:
         the sensor's timeout) for all n. Returns fewer on timeout. Raises DisconnectedError
         only once every sample received before the loss has been read."""
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
-        out: list[Sample] = []
         with self._cond:
-            while True:
-                while self._buffer and len(out) < n:
-                    out.append(self._buffer.popleft())
-                if len(out) >= n:
-                    break
-                if self._overflowed and self._overflow == "error":
-                    self._overflowed = False
-                    if not out:
-                        raise BufferOverflowError(
-                            f"{self.stats.buffer_overflows} samples were discarded: read more "
-                            f"often or open with a larger buffer_size"
-                        )
-                    break
-                if self._lost is not None and not self._reconnect:
-                    if out:
-                        break
-                    raise self._lost
-                if self._closed:
-                    break
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                self._cond.wait(remaining)
+            out = self._take(self._buffer, n, timeout, "_overflowed", "samples")
             try:
                 return to_array(out)
             except (OverflowError, ValueError):
@@ -523,32 +538,8 @@ class Sensor:
         """Up to `n` on-device estimates as ESTIMATE_RECORD rows, waiting up to `timeout` s
         (default: the sensor's timeout) for all n; fewer on timeout. Like read(), it raises
         DisconnectedError only once every estimate received before a loss has been read."""
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
-        out: list[EstimateRow] = []
         with self._cond:
-            while True:
-                while self._estimates and len(out) < n:
-                    out.append(self._estimates.popleft())
-                if len(out) >= n:
-                    break
-                if self._estimates_overflowed and self._overflow == "error":
-                    self._estimates_overflowed = False
-                    if not out:
-                        raise BufferOverflowError(
-                            f"{self.stats.estimate_overflows} estimates were discarded: read "
-                            f"more often or open with a larger buffer_size"
-                        )
-                    break
-                if self._lost is not None and not self._reconnect:
-                    if out:
-                        break
-                    raise self._lost
-                if self._closed:
-                    break
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                self._cond.wait(remaining)
+            out = self._take(self._estimates, n, timeout, "_estimates_overflowed", "estimates")
         return to_estimate_array(out)
 
     def iter_estimates(self) -> Iterator[EstimateRow]:
