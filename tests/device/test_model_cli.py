@@ -81,3 +81,25 @@ def test_a_missing_model_file_exits_3_naming_it(
     missing = tmp_path / "missing.stac"
     assert main(["model", "upload", url, str(missing)]) == ExitCode.ERROR
     assert "missing.stac" in capsys.readouterr().err
+
+
+def test_upload_reports_what_int8_weights_cost_on_data(
+    url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rng = np.random.default_rng(4)
+    counts = rng.uniform(500.0, 20_000.0, (200, 12))
+    ds = Dataset.generic(counts, counts[:, :1] / 5000.0, list(SPECTRATAC_INPUTS), ["Fz"])
+    data = ds.save(tmp_path / "data.npz")
+    model = Decoder.untrained(ds, features="paper33", arch=("resmlp", 32, 2)).save(
+        tmp_path / "m.stac"
+    )
+    args = ["model", "upload", url, str(model), "--weights", "i8", "--data", str(data)]
+    assert main([*args, "--json"]) == ExitCode.OK
+    fz = _json(capsys)["weight_error"]["targets"]["Fz"]
+    assert fz["mae"] == pytest.approx(fz["mae_f32"] + fz["extra_mae"])
+    assert 0.0 < fz["max_abs_change"] < 1.0  # int8 rounding moves estimates, a little
+    assert main(args) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "i8 weights against f32 on 200 rows" in out and "Fz" in out
+    assert main(["model", "upload", url, str(model), "--weights", "f16"]) == ExitCode.OK
+    assert "add --data FILE" in capsys.readouterr().err

@@ -112,6 +112,24 @@ def test_one_se_rule_prefers_cheap_and_needs_an_eligible_finisher() -> None:
         one_se_choice([{**r, "status": "skipped"} for r in rows])
 
 
+def test_a_network_is_chosen_only_when_it_beats_every_classical_baseline() -> None:
+    done = {"status": "done", "eligible": True}
+    rows = [
+        {"name": "net", "family": "network", "cv_score": 0.30, "cv_se": 0.05, "flops": 9e4},
+        {"name": "small-net", "family": "network", "cv_score": 0.33, "cv_se": 0.05,
+         "flops": 400},
+        {"name": "poly", "family": "classical", "cv_score": 0.32, "cv_se": 0.04, "flops": 900},
+    ]  # fmt: skip
+    rows = [{**r, **done} for r in rows]
+    # small-net is within one SE of the best and cheapest, but the ridge scores better
+    assert one_se_choice(rows) == ("poly", "net")
+    rows[2]["cv_score"] = 0.34  # now small-net beats every classical baseline: it earns it
+    assert one_se_choice(rows) == ("small-net", "net")
+    rows[2]["eligible"] = False  # classes asked for: the ridge does not set the bar
+    rows[1]["cv_score"] = 0.345
+    assert one_se_choice(rows) == ("small-net", "net")
+
+
 def test_given_groups_are_used_as_they_are(skin) -> None:
     units = (np.asarray(skin.session) // 2).astype(np.int64)  # 3 "units" of 2 sessions
     res = search(skin, 60.0, groups=units, space=tiny_space()[:1], workers=1, folds=5,

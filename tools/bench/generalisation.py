@@ -139,7 +139,10 @@ def auto_by(cfg: Config, ds: Dataset, rows: Any, by_unit: bool) -> Predictor:
     if by_unit:
         units = np.array([s["unit"] for s in ds.meta["sessions"]])
         groups = units[np.asarray(ds.session)]
-    result = auto_recipe.search(ds, cfg.auto_budget_s, rows=rows, groups=groups)
+    # the targets every other recipe here is scored on (forces and torques, no region), so
+    # the classical candidates are eligible and the comparison is like for like
+    result = auto_recipe.search(ds, cfg.auto_budget_s, rows=rows, groups=groups,
+                                targets=FT_NAMES)  # fmt: skip
     pred = _decoder_predictor(result.decoder)
     pred.chosen = result.report["chosen"]  # type: ignore[attr-defined]
     return pred

@@ -38,6 +38,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="weight precision on the device (f16 and i8 take a half and a quarter of the "
         "flash; default f32)",
     )
+    up.add_argument(
+        "--data",
+        help="data file (any format `train` reads): measure what --weights f16/i8 cost in "
+        "accuracy against f32 on it before uploading",
+    )
     up.add_argument("--json", action="store_true", help="machine-readable output")
     up.set_defaults(func=_upload)
     clear = sub.add_parser("clear", help="erase the uploaded model (a built-in one takes over)")
@@ -81,8 +86,18 @@ def _upload(args: argparse.Namespace) -> int:
     from spectratac.decode.export import model_image
     from spectratac.device import Sensor
 
-    image = model_image.encode(Decoder.load(args.model), weights=args.weights)
+    dec = Decoder.load(args.model)
+    image = model_image.encode(dec, weights=args.weights)
     model_id = model_image.model_id(image)
+    error = _weight_error(dec, args) if args.data else None
+    if not args.json:
+        if error is not None:
+            from spectratac.evaluate.weight_formats import render
+
+            print(render(error))
+        elif args.weights != "f32":
+            print(f"  {args.weights} weights round the network's weights; add --data FILE to "
+                  "measure what that costs against f32", file=sys.stderr)  # fmt: skip
 
     def progress(done: int, total: int) -> None:
         if not args.json:
@@ -97,12 +112,22 @@ def _upload(args: argparse.Namespace) -> int:
         retries = sensor.stats.model_upload_retries
     if args.json:
         print(
-            json.dumps({"url": args.url, "model": args.model, "retries": retries} | info.as_dict())
-        )
+            json.dumps({"url": args.url, "model": args.model, "retries": retries}
+                       | info.as_dict() | ({"weight_error": error} if error else {}))
+        )  # fmt: skip
     else:
         print(f"{args.url}: uploaded {args.model} ({args.weights} weights)")
         _print_info(args.url, info)
     return ExitCode.OK
+
+
+def _weight_error(dec: Any, args: argparse.Namespace) -> dict[str, Any]:
+    from spectratac.dataset.generic_io import load_data
+    from spectratac.evaluate.run import with_model_classes
+    from spectratac.evaluate.weight_formats import weight_format_error
+
+    data, _ = with_model_classes(load_data([args.data], list(dec.layout.channels)), dec)
+    return weight_format_error(dec, data, args.weights)
 
 
 def _clear(args: argparse.Namespace) -> int:
