@@ -235,11 +235,11 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
         rows = np.flatnonzero(t_shot < 60.0 * minutes)
         for mode in cfg.modes:
             dec = finetune(base, shots, rows, mode=mode, progress=False)
-            stopped = dec.meta["finetuned_from"]["early_stopping"]
+            rec = dec.meta["finetuned_from"]
             figs.append(_fig(f"(c) {minutes:g} min fine-tune {mode}{of}",
                              force_mae(_decoder_predictor(dec), test), own_name, own,
-                             minutes=minutes, mode=mode,
-                             early_stopping=stopped))  # fmt: skip
+                             minutes=minutes, mode=mode, early_stopping=rec["early_stopping"],
+                             kept=rec["kept"]))  # fmt: skip
             progress(f"(c) {minutes:g} min {mode}")
         scratch = _decoder_predictor(train(shots, paper_small, rows, progress=False))
         figs.append(_fig(f"(c) {minutes:g} min paper from scratch",

@@ -27,7 +27,11 @@ Validation is grouped: whole presses (a press and the idle rows after it) are he
 single rows, whose near-duplicate neighbours would sit in training. The weights of the epoch
 with the lowest validation loss are kept (early stopping). With fewer than MIN_VAL_GROUPS
 presses in the data a validation loss would be decided by which one or two presses landed in
-it, so the fixed epoch count runs instead and the last weights are kept.
+it, so the fixed epoch count runs instead and the last weights are kept. Last, on the same
+held-out presses, the fine-tuned decoder is kept only if its error beats the base's as it
+was and the base's with only its normalisation refitted; otherwise that one is returned
+(`meta["finetuned_from"]["kept"]`, with each one's validation score), so a few minutes of
+data never make a good base worse by what they happen to hold.
 
 >>> import numpy as np
 >>> from spectratac.dataset import Dataset
@@ -253,6 +257,18 @@ def finetune(
             run_spec, p, data, net_rows, val_rows, progress, start=weights, trainable=predicate
         )
     out_rt = replace(rt, weights=weights, dtype=base.runtime.dtype, _plan=None)
+    kept, val_scores = "finetuned", {}
+    if val_rows.size and p.reg_cols:
+        # the last automatic choice, on the same held-out presses: recalibration must earn its
+        # place against the base as it was (and with only its normalisation refitted)
+        options = {"finetuned": out_rt, "scaler": replace(rt, dtype=base.runtime.dtype),
+                   "base": base.runtime}  # fmt: skip
+        if not (refit_scaler or mode == "scaler"):
+            del options["scaler"]
+        ok = val_rows[tv[val_rows]]
+        val_scores = {k: _scaled_mae(r, u[ok], y_all[ok]) for k, r in options.items()}
+        kept = min(val_scores, key=lambda k: val_scores[k])  # ties: the first, finetuned
+        out_rt = replace(options[kept], _plan=None)
     y_fit = y_all[fit_rows][tv[fit_rows]]
     new_guard = Guard.fit(
         u[fit_rows, : p.layout.base], y_fit, base.guard.saturation, base.guard.dark_cols
@@ -287,7 +303,19 @@ def finetune(
                 "epochs": spec.epochs if predicate else 0,
                 "lr": spec.lr,
                 "early_stopping": bool(val_rows.size),
+                "kept": kept,
+                "val_mae_scaled": val_scores,
             },
         }
     )
     return Decoder(out_rt, p.layout, guard, meta)
+
+
+def _scaled_mae(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64]) -> float:
+    """Mean over regression targets of MAE / target scale: the validation score that
+    decides between the fine-tuned weights and the base's."""
+    if not u.shape[0]:
+        return float("inf")
+    pred = rt.run(u)[:, rt.heads.slices()["targets"]]
+    err = np.abs(pred - y) / rt.y_scale
+    return float(np.nanmean(err)) if np.isfinite(err).any() else float("inf")
