@@ -96,7 +96,7 @@ def test_a_recalibration_that_does_not_help_is_not_kept(base, new_unit) -> None:
     bw = base.runtime.weights
     assert all(np.array_equal(wild.runtime.weights[k], bw[k]) for k in bw)
     assert _mae(wild, same) <= 1.05 * _mae(base, same)
-    shots, test = new_unit  # a unit that differs: the recalibration earns its place
+    shots, _ = new_unit  # a unit that differs: the recalibration earns its place
     dec = finetune(base, shots, progress=False)
     assert dec.meta["finetuned_from"]["kept"] == "finetuned"
 
