@@ -175,3 +175,13 @@ def test_cli_finetune(base, new_unit, tmp_path, capsys) -> None:
     report = json.loads(capsys.readouterr().out)
     assert report["model"]["finetuned_from"]["id"] == model_id(base)
     assert report["sections"]["all"]["model"]["finetuned_from"]["mode"] == "first"
+
+
+def test_cli_says_when_it_kept_the_base(base, tmp_path, capsys) -> None:
+    base_file = base.save(tmp_path / "base.stac")
+    data = _csv(tmp_path / "same.csv", _unit(3, 1.0, 0.0, 600))
+    argv = ["train", str(data), "--inputs", "a,b,c", "--finetune", str(base_file)]
+    argv += ["-o", str(tmp_path / "ft.stac"), "--lr", "5", "--epochs", "4", "--no-progress"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "kept the base" in out and "fine-tuning did worse on the held-out presses" in out
