@@ -144,7 +144,8 @@ def auto_by(cfg: Config, ds: Dataset, rows: Any, by_unit: bool) -> Predictor:
     result = auto_recipe.search(ds, cfg.auto_budget_s, rows=rows, groups=groups,
                                 targets=FT_NAMES)  # fmt: skip
     pred = _decoder_predictor(result.decoder)
-    pred.chosen = result.report["chosen"]  # type: ignore[attr-defined]
+    rep = result.report
+    pred.chosen = {k: rep[k] for k in ("chosen", "elapsed_s", "within_budget")}  # type: ignore[attr-defined]
     return pred
 
 
@@ -218,7 +219,7 @@ def run(cfg: Config, progress: Callable[[str], None]) -> list[benchlib.Figure]:
             chosen = getattr(pred, "chosen", None)
             figs.append(_fig(f"({key}) {what}: {name}", scores[name], f"({key}) paper",
                              scores.get("paper", scores[name]),
-                             **({"chosen": chosen} if chosen else {})))  # fmt: skip
+                             **(chosen or {})))  # fmt: skip
             progress(f"({key}) {name}")
         figs += _auto_targets(key, what, scores)
     if cfg.few_shot_base not in pop_models:

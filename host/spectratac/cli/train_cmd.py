@@ -383,12 +383,11 @@ def _human(s: dict[str, Any]) -> str:
             f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
         ]
     )
-    if ft and ft.get("kept", "finetuned") != "finetuned":
-        what = {"base": "the base as it was", "scaler": "the base with its normalisation refitted"}
+    if ft and ft.get("kept") == "base":
         lines.append(
-            f"  kept {what[ft['kept']]}: fine-tuning did worse on the held-out presses "
-            f"(scaled MAE {ft['val_mae_scaled']['finetuned']:.4g} against "
-            f"{ft['val_mae_scaled'][ft['kept']]:.4g}); more data of the new unit may help"
+            "  kept the base as it was: fine-tuning did worse on the held-out presses "
+            f"(scaled MAE {min(v for k, v in ft['val_mae_scaled'].items() if k != 'base'):.4g} "
+            f"against {ft['val_mae_scaled']['base']:.4g}); more data of the new unit may help"
         )
     epochs = ft["epochs"] if ft else spec["epochs"]
     lines += [
