@@ -187,3 +187,11 @@ def test_cli_says_when_it_kept_the_base(base, tmp_path, capsys) -> None:
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "kept the base" in out and "fine-tuning did worse on the held-out presses" in out
+
+
+def test_cli_says_when_the_recalibration_is_unchecked(base, tmp_path, capsys) -> None:
+    base_file = base.save(tmp_path / "base.stac")
+    data = _csv(tmp_path / "few.csv", _unit(3, 1.4, 0.3, 20 * (MIN_VAL_GROUPS - 1)))
+    argv = ["train", str(data), "--inputs", "a,b,c", "--finetune", str(base_file)]
+    assert main([*argv, "-o", str(tmp_path / "ft.stac"), "--epochs", "2", "--no-progress"]) == 0
+    assert "unchecked: too few presses" in capsys.readouterr().out

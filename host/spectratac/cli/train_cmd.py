@@ -383,6 +383,12 @@ def _human(s: dict[str, Any]) -> str:
             f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
         ]
     )
+    if ft and not ft["early_stopping"]:
+        lines.append(
+            "  unchecked: too few presses to hold some out, so neither early stopping nor the "
+            "check against the base ran (measured: half a minute of data can make a good base "
+            "worse); record a minute or more of presses"
+        )
     if ft and ft.get("kept") == "base":
         lines.append(
             "  kept the base as it was: fine-tuning did worse on the held-out presses "
