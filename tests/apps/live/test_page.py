@@ -91,12 +91,14 @@ def check_page(driver, server) -> None:
     head = driver.execute_script("return stac.snake.body[0]")
     assert head != [8, 6]
     # pause freezes the plots, resume follows the data again
+    # (by the newest time shown: a full window keeps its length while it rolls)
+    newest = "stac.plots.Fz.data[0][stac.plots.Fz.data[0].length - 1]"
     driver.find_element("id", "pause").click()
-    frozen = driver.execute_script("return stac.plots.Fz.data[0].length")
+    frozen = driver.execute_script("return " + newest)
     time.sleep(0.6)
-    assert driver.execute_script("return stac.plots.Fz.data[0].length") == frozen
+    assert driver.execute_script("return " + newest) == frozen
     driver.find_element("id", "pause").click()
-    wait_for(driver, f"stac.plots.Fz.data[0].length > {frozen}")
+    wait_for(driver, f"{newest} > {frozen}")
     # save the last 2 s as CSV
     driver.find_element("id", "save-seconds").clear()
     driver.find_element("id", "save-seconds").send_keys("2")
