@@ -36,12 +36,12 @@ lint: $(STAMP)
 	$(BIN)/ruff check host tools tests
 
 # Regenerate every committed generated file from its one definition (a test fails on drift):
-# protocol/messages.toml, hardware/parts/veml3328.toml, the STM32 pinmap.toml (board.h) and
-# hardware/params.toml (the twin's board geometry).
+# hardware/definitions/messages.toml, hardware/definitions/veml3328.toml, the STM32 pinmap.toml (board.h) and
+# hardware/definitions/params.toml (the twin's board geometry).
 regen: $(STAMP)
 	$(BIN)/python tools/codegen/generate.py
 
-# KiCad board + schematic, Gerbers/drill/BOM/CPL, mould STLs and renders from hardware/params.toml.
+# KiCad board + schematic, Gerbers/drill/BOM/CPL, mould STLs and renders from hardware/definitions/params.toml.
 # Needs apt's kicad, openscad, gerbv and xvfb (.ci/run installs them).
 hardware: $(STAMP)
 	$(BIN)/python tools/hardware/build.py

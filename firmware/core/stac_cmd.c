@@ -5,7 +5,7 @@
 #include "stac_sched.h"
 
 #define NO_FIELD 255u
-/* Indices of CONFIGURE's fields named by a NACK about estimates (protocol/messages.toml). */
+/* Indices of CONFIGURE's fields named by a NACK about estimates (hardware/definitions/messages.toml). */
 #define CONFIGURE_FLAGS_FIELD 4u
 #define CONFIGURE_STEPS_FIELD 6u
 

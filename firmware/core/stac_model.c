@@ -10,16 +10,6 @@
 #include "generated/stac_messages.h"
 #include "stac_crc32c.h"
 
-/* The writer's layout (spectratac.decode.export.model_image). */
-enum {
-    SEC_LAGS, SEC_EMA_ALPHA, SEC_CENTER,
-    SEC_LIN_PTR, SEC_LIN_IDX, SEC_LIN_VAL, SEC_P_PTR, SEC_P_IDX, SEC_P_VAL,
-    SEC_Q_PTR, SEC_Q_IDX, SEC_Q_VAL,
-    SEC_F_MEAN, SEC_F_STD, SEC_WEIGHTS, SEC_W_SCALE, SEC_BIAS, SEC_NORMS,
-    SEC_Y_SCALE, SEC_STD_MUL, SEC_T_LO, SEC_T_HI, SEC_IN_LO, SEC_IN_HI, SEC_DARK_COLS,
-    N_SECTIONS
-};
-
 #define FEATURE_EPS 1e-5f  /* paper_features.EPS: ratio denominators stay positive */
 #define LN_EPS 1e-5f       /* networks.LN_EPS */
 #define GELU_K 0.7978845608028654f
@@ -61,10 +51,11 @@ typedef struct {
  * the CRC) and is 4-byte aligned; NULL (and the reader marked bad) otherwise. An empty
  * section gives a valid pointer that must not be read. */
 static const uint8_t *section(reader_t *r, unsigned id, uint32_t bytes) {
-    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + 8u * id;
+    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + STAC_MODEL_ENTRY_SIZE * id;
     uint32_t off = rd32(e), len = rd32(e + 4);
-    if (len != bytes || off < r->table_end || (off & 3u) != 0u || off > r->size - 4u ||
-        len > r->size - 4u - off) {
+    const uint32_t end = r->size - STAC_MODEL_CRC_SIZE;
+    if (len != bytes || off < r->table_end || (off % STAC_MODEL_ALIGN) != 0u || off > end ||
+        len > end - off) {
         r->ok = 0;
         return r->image;
     }
@@ -84,7 +75,7 @@ static int csr_ok(const stac_model_csr_t *c, uint16_t rows, uint32_t nnz, uint16
  * length, which the pointer section then has to agree with. */
 static void open_csr(reader_t *r, unsigned id, uint16_t rows, uint16_t n_cols,
                      stac_model_csr_t *c) {
-    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + 8u * (id + 1u);
+    const uint8_t *e = r->image + STAC_MODEL_HEADER_SIZE + STAC_MODEL_ENTRY_SIZE * (id + 1u);
     uint32_t nnz = rd32(e + 4) / 2u;
     c->ptr = (const uint16_t *)(const void *)section(r, id, 2u * ((uint32_t)rows + 1u));
     c->idx = (const uint16_t *)(const void *)section(r, id + 1u, 2u * nnz);
@@ -105,79 +96,87 @@ static int all_finite(const float *a, uint32_t n) {
 
 uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
     memset(m, 0, sizeof *m);
-    const uint32_t table_end = STAC_MODEL_HEADER_SIZE + 8u * N_SECTIONS;
-    if (image == NULL || ((uintptr_t)image & 3u) != 0u || size < table_end + 4u) return fail(m);
-    if (rd32(image) != STAC_MODEL_MAGIC || rd16(image + 4) != STAC_MODEL_VERSION ||
-        rd16(image + 6) != STAC_MODEL_HEADER_SIZE || rd32(image + 12) != size ||
-        rd16(image + 50) != N_SECTIONS)
+    const uint32_t table_end =
+        STAC_MODEL_HEADER_SIZE + STAC_MODEL_ENTRY_SIZE * (uint32_t)STAC_MODEL_N_SECTIONS;
+    if (image == NULL || ((uintptr_t)image & 3u) != 0u || size < table_end + STAC_MODEL_CRC_SIZE)
         return fail(m);
-    const uint32_t crc = rd32(image + size - 4u);
-    if (stac_crc32c(image, size - 4u) != crc) return fail(m);
+    if (rd32(image + STAC_MODEL_OFF_MAGIC) != STAC_MODEL_MAGIC ||
+        rd16(image + STAC_MODEL_OFF_VERSION) != STAC_MODEL_VERSION ||
+        rd16(image + STAC_MODEL_OFF_HEADER_SIZE) != STAC_MODEL_HEADER_SIZE ||
+        rd32(image + STAC_MODEL_OFF_SIZE) != size ||
+        rd16(image + STAC_MODEL_OFF_N_SECTIONS) != STAC_MODEL_N_SECTIONS)
+        return fail(m);
+    const uint32_t crc = rd32(image + size - STAC_MODEL_CRC_SIZE);
+    if (stac_crc32c(image, size - STAC_MODEL_CRC_SIZE) != crc) return fail(m);
 
+    const uint8_t flags = image[STAC_MODEL_OFF_FLAGS];
     m->image = image;
     m->size = size;
     m->crc = crc;
-    m->model_id = rd32(image + 8);
-    m->weight_format = image[16];
-    m->arch = image[17];
-    m->steps = image[18];
-    m->n_lags = image[20];
-    m->n_emas = image[21];
-    m->drift = image[22];
-    m->uncertainty = (uint8_t)(image[23] & 1u);
-    m->contact_head = (uint8_t)((image[23] >> 1) & 1u);
-    m->n_in = rd16(image + 24);
-    m->n_feat = rd16(image + 26);
-    m->n_lin = rd16(image + 28);
-    m->n_rat = rd16(image + 30);
-    m->hidden = rd16(image + 32);
-    m->blocks = rd16(image + 34);
-    m->n_out = rd16(image + 36);
-    m->n_reg = rd16(image + 38);
-    m->n_classes = rd16(image + 40);
-    m->n_dark = rd16(image + 42);
-    memcpy(m->target_map, image + 44, 6);
-    m->saturation = rdf32(image + 52);
-    m->dark_counts = rdf32(image + 56);
-    m->base_tau = rdf64(image + 64);
-    m->base_gate = rdf64(image + 72);
-    m->base_stuck = rd32(image + 80);
-    m->contact_force = rdf64(image + 88);
+    m->model_id = rd32(image + STAC_MODEL_OFF_MODEL_ID);
+    m->weight_format = image[STAC_MODEL_OFF_WEIGHT_FORMAT];
+    m->arch = image[STAC_MODEL_OFF_ARCH];
+    m->steps = image[STAC_MODEL_OFF_STEPS];
+    m->n_lags = image[STAC_MODEL_OFF_N_LAGS];
+    m->n_emas = image[STAC_MODEL_OFF_N_EMAS];
+    m->drift = image[STAC_MODEL_OFF_DRIFT];
+    m->uncertainty = (uint8_t)((flags & STAC_MODEL_FLAG_UNCERTAINTY) != 0u);
+    m->contact_head = (uint8_t)((flags & STAC_MODEL_FLAG_CONTACT) != 0u);
+    m->n_in = rd16(image + STAC_MODEL_OFF_N_INPUTS);
+    m->n_feat = rd16(image + STAC_MODEL_OFF_N_FEATURES);
+    m->n_lin = rd16(image + STAC_MODEL_OFF_N_LINEAR);
+    m->n_rat = rd16(image + STAC_MODEL_OFF_N_RATIO);
+    m->hidden = rd16(image + STAC_MODEL_OFF_HIDDEN);
+    m->blocks = rd16(image + STAC_MODEL_OFF_BLOCKS);
+    m->n_out = rd16(image + STAC_MODEL_OFF_N_OUTPUTS);
+    m->n_reg = rd16(image + STAC_MODEL_OFF_N_REGRESSION);
+    m->n_classes = rd16(image + STAC_MODEL_OFF_N_CLASSES);
+    m->n_dark = rd16(image + STAC_MODEL_OFF_N_DARK);
+    memcpy(m->target_map, image + STAC_MODEL_OFF_TARGET_MAP, STAC_MODEL_N_TARGETS);
+    m->saturation = rdf32(image + STAC_MODEL_OFF_SATURATION);
+    m->dark_counts = rdf32(image + STAC_MODEL_OFF_DARK_COUNTS);
+    m->base_tau = rdf64(image + STAC_MODEL_OFF_BASE_TAU);
+    m->base_gate = rdf64(image + STAC_MODEL_OFF_BASE_GATE);
+    m->base_stuck = rd32(image + STAC_MODEL_OFF_BASE_STUCK);
+    m->contact_force = rdf64(image + STAC_MODEL_OFF_CONTACT_FORCE);
     m->n_base = (uint16_t)(m->steps * STAC_MODEL_CHANNELS);
 
     /* dimensions: the limits, and the sizes the layout implies */
     const uint32_t n_std = m->uncertainty ? m->n_reg : 0u;
     const uint32_t per = 1u + m->n_lags + m->n_emas + (m->drift ? 1u : 0u);
     if (m->weight_format > STAC_MODEL_W_I8 || m->arch > STAC_MODEL_ARCH_RESMLP ||
-        image[19] != STAC_MODEL_CHANNELS || m->steps < 1u || m->steps > STAC_MODEL_MAX_STEPS ||
+        image[STAC_MODEL_OFF_CHANNELS] != STAC_MODEL_CHANNELS || m->steps < 1u ||
+        m->steps > STAC_MODEL_MAX_STEPS ||
         m->n_lags > STAC_MODEL_MAX_LAGS || m->n_emas > STAC_MODEL_MAX_EMAS || m->drift > 1u ||
         m->n_in != m->n_base * per || m->n_in > STAC_MODEL_MAX_INPUTS ||
         m->n_feat > STAC_MODEL_MAX_FEATURES || m->n_feat != m->n_lin + m->n_rat ||
         m->n_feat == 0u || m->hidden > STAC_MODEL_MAX_HIDDEN ||
         m->blocks > STAC_MODEL_MAX_BLOCKS || m->n_out > STAC_MODEL_MAX_OUTPUTS ||
         m->n_out != m->n_reg + n_std + m->n_classes + m->contact_head || m->n_out == 0u ||
-        m->n_dark > STAC_MODEL_MAX_DARK || (image[23] & ~3u) != 0u)
+        m->n_dark > STAC_MODEL_MAX_DARK || (flags & ~STAC_MODEL_FLAGS_DEFINED) != 0u)
         return fail(m);
     if (m->arch == STAC_MODEL_ARCH_LINEAR ? (m->hidden != 0u || m->blocks != 0u)
                                           : m->hidden == 0u)
         return fail(m);
     if (m->arch == STAC_MODEL_ARCH_MLP && m->blocks == 0u) return fail(m);
-    for (unsigned i = 0; i < 6u; ++i)
-        if (m->target_map[i] != 0xFFu && m->target_map[i] >= m->n_reg) return fail(m);
+    for (unsigned i = 0; i < STAC_MODEL_N_TARGETS; ++i)
+        if (m->target_map[i] != STAC_MODEL_TARGET_ABSENT && m->target_map[i] >= m->n_reg)
+            return fail(m);
     if (!(m->base_tau >= 1.0) || !(m->base_gate >= 0.0) || !isfinite(m->base_gate) ||
         !isfinite(m->base_tau) || !(m->saturation >= 0.0f) || !isfinite(m->dark_counts) ||
-        !isfinite(m->contact_force) || rd32(image + 60) != 0u || rd32(image + 84) != 0u)
+        !isfinite(m->contact_force) || rd32(image + STAC_MODEL_OFF_RESERVED0) != 0u ||
+        rd32(image + STAC_MODEL_OFF_RESERVED1) != 0u)
         return fail(m);
 
     reader_t r = {image, size, table_end, 1};
-    m->lags = (const uint16_t *)(const void *)section(&r, SEC_LAGS, 2u * m->n_lags);
-    const uint8_t *alpha = section(&r, SEC_EMA_ALPHA, 8u * m->n_emas);
-    m->center = (const float *)(const void *)section(&r, SEC_CENTER, 4u * m->n_in);
-    open_csr(&r, SEC_LIN_PTR, m->n_lin, m->n_in, &m->lin);
-    open_csr(&r, SEC_P_PTR, m->n_rat, m->n_in, &m->rat_p);
-    open_csr(&r, SEC_Q_PTR, m->n_rat, m->n_in, &m->rat_q);
-    m->f_mean = (const float *)(const void *)section(&r, SEC_F_MEAN, 4u * m->n_feat);
-    m->f_std = (const float *)(const void *)section(&r, SEC_F_STD, 4u * m->n_feat);
+    m->lags = (const uint16_t *)(const void *)section(&r, STAC_MODEL_SEC_LAGS, 2u * m->n_lags);
+    const uint8_t *alpha = section(&r, STAC_MODEL_SEC_EMA_ALPHA, 8u * m->n_emas);
+    m->center = (const float *)(const void *)section(&r, STAC_MODEL_SEC_CENTER, 4u * m->n_in);
+    open_csr(&r, STAC_MODEL_SEC_LIN_PTR, m->n_lin, m->n_in, &m->lin);
+    open_csr(&r, STAC_MODEL_SEC_P_PTR, m->n_rat, m->n_in, &m->rat_p);
+    open_csr(&r, STAC_MODEL_SEC_Q_PTR, m->n_rat, m->n_in, &m->rat_q);
+    m->f_mean = (const float *)(const void *)section(&r, STAC_MODEL_SEC_F_MEAN, 4u * m->n_feat);
+    m->f_std = (const float *)(const void *)section(&r, STAC_MODEL_SEC_F_STD, 4u * m->n_feat);
     if (!r.ok) return fail(m);
 
     /* the linear layers, in networks.layer_shapes order */
@@ -206,21 +205,23 @@ uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
         n_w += (uint32_t)dims[l][0] * dims[l][1];
         n_rows += dims[l][1];
     }
-    const uint8_t *w = section(&r, SEC_WEIGHTS, esize * n_w);
+    const uint8_t *w = section(&r, STAC_MODEL_SEC_WEIGHTS, esize * n_w);
     const uint32_t n_scale = m->weight_format == STAC_MODEL_W_I8 ? n_rows : 0u;
-    const float *scale = (const float *)(const void *)section(&r, SEC_W_SCALE, 4u * n_scale);
-    const float *bias = (const float *)(const void *)section(&r, SEC_BIAS, 4u * n_rows);
+    const float *scale =
+        (const float *)(const void *)section(&r, STAC_MODEL_SEC_W_SCALE, 4u * n_scale);
+    const float *bias = (const float *)(const void *)section(&r, STAC_MODEL_SEC_BIAS, 4u * n_rows);
     const uint32_t n_norm = m->arch == STAC_MODEL_ARCH_RESMLP
                                 ? 2u * ((uint32_t)m->blocks + 1u) * m->hidden
                                 : 0u;
-    m->norms = (const float *)(const void *)section(&r, SEC_NORMS, 4u * n_norm);
-    m->y_scale = (const float *)(const void *)section(&r, SEC_Y_SCALE, 4u * m->n_reg);
-    m->std_mul = (const float *)(const void *)section(&r, SEC_STD_MUL, 4u * n_std);
-    m->t_lo = (const float *)(const void *)section(&r, SEC_T_LO, 4u * m->n_reg);
-    m->t_hi = (const float *)(const void *)section(&r, SEC_T_HI, 4u * m->n_reg);
-    m->in_lo = (const float *)(const void *)section(&r, SEC_IN_LO, 4u * m->n_base);
-    m->in_hi = (const float *)(const void *)section(&r, SEC_IN_HI, 4u * m->n_base);
-    m->dark_cols = (const uint16_t *)(const void *)section(&r, SEC_DARK_COLS, 2u * m->n_dark);
+    m->norms = (const float *)(const void *)section(&r, STAC_MODEL_SEC_NORMS, 4u * n_norm);
+    m->y_scale = (const float *)(const void *)section(&r, STAC_MODEL_SEC_Y_SCALE, 4u * m->n_reg);
+    m->std_mul = (const float *)(const void *)section(&r, STAC_MODEL_SEC_STD_MUL, 4u * n_std);
+    m->t_lo = (const float *)(const void *)section(&r, STAC_MODEL_SEC_T_LO, 4u * m->n_reg);
+    m->t_hi = (const float *)(const void *)section(&r, STAC_MODEL_SEC_T_HI, 4u * m->n_reg);
+    m->in_lo = (const float *)(const void *)section(&r, STAC_MODEL_SEC_IN_LO, 4u * m->n_base);
+    m->in_hi = (const float *)(const void *)section(&r, STAC_MODEL_SEC_IN_HI, 4u * m->n_base);
+    m->dark_cols =
+        (const uint16_t *)(const void *)section(&r, STAC_MODEL_SEC_DARK_COLS, 2u * m->n_dark);
     if (!r.ok) return fail(m);
     for (uint16_t l = 0, row = 0; l < nl; ++l) {
         stac_model_layer_t *L = &m->layers[l];
@@ -618,9 +619,9 @@ int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_s
     int any_force = 0;
     for (unsigned i = 0; i < 3u; ++i) {
         const uint8_t fi = m->target_map[i], ti = m->target_map[3u + i];
-        out->force[i] = fi == 0xFFu ? NAN : st->out[fi];
-        out->torque[i] = ti == 0xFFu ? NAN : st->out[ti];
-        if (fi != 0xFFu) {
+        out->force[i] = fi == STAC_MODEL_TARGET_ABSENT ? NAN : st->out[fi];
+        out->torque[i] = ti == STAC_MODEL_TARGET_ABSENT ? NAN : st->out[ti];
+        if (fi != STAC_MODEL_TARGET_ABSENT) {
             f2 += (double)out->force[i] * (double)out->force[i];
             any_force = 1;
         }

@@ -20,37 +20,15 @@
 
 #include <stdint.h>
 
-/* ---- image format ---- */
-#define STAC_MODEL_MAGIC 0x494D5453u /* "STMI" little-endian */
-#define STAC_MODEL_VERSION 1u
-#define STAC_MODEL_HEADER_SIZE 96u
-
-/* weight formats (MODEL_INFO.weight_format) */
-#define STAC_MODEL_W_F32 0u
-#define STAC_MODEL_W_F16 1u
-#define STAC_MODEL_W_I8 2u
-
-/* architectures */
-#define STAC_MODEL_ARCH_LINEAR 0u
-#define STAC_MODEL_ARCH_MLP 1u
-#define STAC_MODEL_ARCH_RESMLP 2u
-
-/* ---- compile-time limits (static scratch; an image beyond them is STAC_MODEL_INVALID) ----
- * Sized for TrainSpec.best() (context 8, three moving averages, drift baseline: 156 inputs,
- * 189 features at one LED step) up to four LED steps with hidden width up to 256
+/* The image's layout (header offsets, section ids, formats, flags) and the interpreter's
+ * compile-time limits (static scratch; an image beyond them is STAC_MODEL_INVALID) are generated
+ * from hardware/definitions/model_image.toml, the definition the exporter writes images from.
+ * The limits are sized for TrainSpec.best() (context 8, three moving averages, drift baseline:
+ * 156 inputs, 189 features at one LED step) up to four LED steps with hidden width up to 256
  * (resmlp-large of the paper's 128). */
-#define STAC_MODEL_MAX_STEPS 4u
-#define STAC_MODEL_CHANNELS 12u /* R, G, B, Clear of three sensors per LED step */
+#include "generated/stac_model_image.h"
+
 #define STAC_MODEL_MAX_BASE (STAC_MODEL_MAX_STEPS * STAC_MODEL_CHANNELS)
-#define STAC_MODEL_MAX_LAGS 16u
-#define STAC_MODEL_MAX_HIST 17u /* longest lag + 1 */
-#define STAC_MODEL_MAX_EMAS 4u
-#define STAC_MODEL_MAX_INPUTS 640u
-#define STAC_MODEL_MAX_FEATURES 768u
-#define STAC_MODEL_MAX_HIDDEN 256u
-#define STAC_MODEL_MAX_BLOCKS 8u
-#define STAC_MODEL_MAX_OUTPUTS 32u
-#define STAC_MODEL_MAX_DARK 16u
 #define STAC_MODEL_MAX_LAYERS (2u * STAC_MODEL_MAX_BLOCKS + 2u)
 
 /* One linear layer y = W x + b inside the image. */
@@ -75,7 +53,7 @@ typedef struct {
     uint8_t weight_format, arch, steps, n_lags, n_emas, drift, uncertainty, contact_head;
     uint16_t n_in, n_base, n_feat, n_lin, n_rat, hidden, blocks, n_out, n_reg, n_classes;
     uint16_t n_dark, hist;
-    uint8_t target_map[6]; /* Fx Fy Fz Tx Ty Tz -> regression index, 0xFF when absent */
+    uint8_t target_map[STAC_MODEL_N_TARGETS]; /* Fx..Tz -> regression index or TARGET_ABSENT */
     float saturation;      /* inputs at or above it are out of distribution; 0: none */
     float dark_counts;     /* a guarded Clear column below it is dark: out of distribution */
     double contact_force;  /* |F| above it is contact (models without a contact head) */

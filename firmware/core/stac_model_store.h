@@ -59,7 +59,7 @@ uint32_t stac_store_capacity(const stac_hal_t *hal);
  * else the built-in model if the firmware has one, else none. No upload is in progress. */
 void stac_store_boot(stac_model_store_t *s, const stac_hal_t *hal);
 
-/* Each returns STAC_OK or the NACK code of protocol/messages.toml. */
+/* Each returns STAC_OK or the NACK code of hardware/definitions/messages.toml. */
 uint16_t stac_store_begin(stac_model_store_t *s, const stac_hal_t *hal, uint32_t model_id,
                           uint32_t size, uint32_t crc);
 uint16_t stac_store_chunk(stac_model_store_t *s, const stac_hal_t *hal, uint32_t offset,

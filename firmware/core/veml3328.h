@@ -7,7 +7,7 @@
  * CONF 00h, C/R/G/B/IR 04h-08h, ID 0Ch low byte 0x28; SD0 bit 0 and SD1 bit 15 both clear to
  * run, TRIG bit 2, AF bit 3, IT bits 5:4 = 50/100/200/400 ms, SENS bit 6, GAIN bits 11:10,
  * DG bits 13:12, SD_ALS bit 14. tests/hardware/test_datasheet_facts.py compares
- * hardware/parts/veml3328.toml (the source of generated/veml3328_regs.h) with those facts.
+ * hardware/definitions/veml3328.toml (the source of generated/veml3328_regs.h) with those facts.
  *
  * Active force mode: veml3328_configure() writes AF = 1 with both SD bits clear (no
  * measurement yet); veml3328_trigger() rewrites the same word with TRIG = 1, which starts one
@@ -25,7 +25,7 @@
 #include "stac_hal.h"
 
 /* Register map and CONF bit fields (VEML3328_REG_*, VEML3328_CONF_*), generated from
- * hardware/parts/veml3328.toml. */
+ * hardware/definitions/veml3328.toml. */
 #include "generated/veml3328_regs.h"
 
 /* Channel order of a reading, as in SAMPLE.counts. */

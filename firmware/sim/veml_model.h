@@ -19,7 +19,7 @@
 #define VEML_MODEL_NACK 1
 #define VEML_MODEL_BUS_ERROR 3
 
-/* CONF bits (hardware/parts/veml3328.toml). */
+/* CONF bits (hardware/definitions/veml3328.toml). */
 #define VEML_MODEL_SD0 VEML3328_CONF_SD0
 #define VEML_MODEL_TRIG VEML3328_CONF_TRIG
 #define VEML_MODEL_AF VEML3328_CONF_AF

@@ -1,5 +1,5 @@
 // SpectraTac moulds and assembly fixture (OpenSCAD 2021.01), parametric.
-// Every dimension comes from params.scad, which `make hardware` writes from hardware/params.toml
+// Every dimension comes from params.scad, which `make hardware` writes from hardware/definitions/params.toml
 // (the same numbers the PCB generator uses). Pick a part with -D 'part="..."':
 //   pdms_mould   open cup that casts the transparent PDMS light guide, upside down: its floor
 //                bosses leave pockets for the three sensors and three LEDs

@@ -10,8 +10,8 @@ import pytest
 from spectratac.conformance import MODEL_CHECKS, TestModel
 from spectratac.conformance.model_checks import applicable
 from spectratac.protocol import crc32c
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import CRC_RESIDUE
+from spectratac.protocol.generated import messages as m
 
 REPO = Path(__file__).resolve().parents[2]
 CAP = m.Capabilities

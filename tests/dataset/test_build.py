@@ -19,8 +19,8 @@ from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import BuildOptions, build_datasets, session_datasets
 from spectratac.dataset.frames import recorded_samples, unwrap_us
 from spectratac.dataset.labels import guided_labels
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import decode_frame, encode_frame
+from spectratac.protocol.generated import messages as m
 from spectratac.record import (
     GuidedProtocol,
     RecordOptions,

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-import struct
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder
+from spectratac.decode.estimates import FORCE, TORQUE
 from spectratac.decode.export import model_image as mi
+from spectratac.decode.generated.model_image_layout import TARGETS
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -28,7 +30,16 @@ def dec() -> Decoder:
 
 
 def test_limits_equal_the_interpreters() -> None:
-    assert mi.header_limits(REPO / "firmware" / "core" / "stac_model.h") == mi.LIMITS
+    header = REPO / "firmware" / "core" / "generated" / "stac_model_image.h"
+    assert mi.header_limits(header) == mi.LIMITS
+    assert '#include "generated/stac_model_image.h"' in (
+        REPO / "firmware" / "core" / "stac_model.h"
+    ).read_text(encoding="utf-8")
+
+
+def test_target_map_order_is_the_estimates() -> None:
+    """The device reports force and torque in the layout's TARGETS order."""
+    assert (*FORCE, *TORQUE) == TARGETS
 
 
 @pytest.mark.parametrize("weights", mi.WEIGHT_FORMATS)
@@ -44,7 +55,10 @@ def test_layout_and_description(dec, weights) -> None:
     assert d["sections"]["w_scale"] == (4 * (16 * 5 + 11) if weights == "i8" else 0)
     # the paper's feature rows are sparse: one or two non-zeros each
     assert d["sections"]["lin_idx"] == 2 * (12 + 2 * 12)
-    offsets = [struct.unpack_from("<I", image, mi.HEADER_SIZE + 8 * i)[0] for i in range(25)]
+    offsets = [
+        mi.ENTRY.unpack_from(image, mi.HEADER_SIZE + mi.ENTRY.size * i)[0]
+        for i in range(mi.N_SECTIONS)
+    ]
     assert all(o % 4 == 0 for o in offsets) and offsets == sorted(offsets)
 
 
@@ -130,3 +144,35 @@ def test_the_paper_size_float32_decoder_fits_the_store() -> None:
     assert mi.MAX_IMAGE_BYTES == 448 * 1024 - 64
     paper = Decoder.untrained(dataset(), features="paper33", arch=("resmlp", 128, 3))
     assert 400_000 < len(mi.encode(paper, "f32")) <= mi.MAX_IMAGE_BYTES
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('name = "reserved0"\ntype = "u32"', 'name = "reserved0"\ntype = "u16"',
+         "base_tau at offset 62 is not aligned"),
+        ('name = "n_sections"\ntype = "u16"', 'name = "n_sections"\ntype = "u32"',
+         "n_sections at offset 50 is not aligned"),
+        ("header_size = 96", "header_size = 100", "take 96 bytes; .* says 100"),
+        ('"Ty", "Tz"]', '"Ty"]', "target_map holds 6 entries; .* names 5"),
+    ],
+)  # fmt: skip
+def test_the_layout_definition_refuses_padding_and_wrong_sizes(
+    tmp_path: Path, old: str, new: str, message: str
+) -> None:
+    """Offsets come from the definition's field order: a field that would need padding, or
+    fields that do not fill the declared header, are refused when generating."""
+    sys.path.insert(0, str(REPO / "tools" / "codegen"))
+    try:
+        import model_image_backend as backend  # type: ignore[import-not-found]
+    finally:
+        sys.path.remove(str(REPO / "tools" / "codegen"))
+    definition = REPO / "hardware" / "definitions" / "model_image.toml"
+    layout = backend.load(definition)
+    assert layout.offset("n_sections") == 50 and layout.struct_format() == mi.HEADER.format
+    text = definition.read_text(encoding="utf-8")
+    assert text.count(old) == 1
+    path = tmp_path / "model_image.toml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    with pytest.raises(backend.ModelImageDefinitionError, match=message):
+        backend.load(path)

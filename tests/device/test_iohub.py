@@ -16,7 +16,7 @@ from spectratac.device.errors import DisconnectedError
 from spectratac.device.iohub import IoHub, shared_hub
 from spectratac.device.transport import SerialTransport
 from spectratac.protocol import encode_frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.sim.device import SimDevice
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.serve import serve_tcp

@@ -17,7 +17,7 @@ from spectratac.device import sensor as sensor_module
 from spectratac.device.records import SAMPLE_TIME_INVERTED, SAMPLE_WINDOW_CLIPPED
 from spectratac.device.transport import open_transport
 from spectratac.protocol import Frame, encode_frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.record import Recorder, RecordOptions
 from spectratac.record.reader import read_recording
 from spectratac.sim.transport import SimTransport

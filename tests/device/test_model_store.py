@@ -17,7 +17,7 @@ from spectratac.device import (
 )
 from spectratac.device.transport import open_transport
 from spectratac.protocol import Frame, crc32c, encode_raw
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
 
 from .faults import RewritingTransport

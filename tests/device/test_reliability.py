@@ -18,7 +18,7 @@ from spectratac.device import (
     ProtocolMismatchError,
     Sensor,
 )
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.sim.transport import SimTransport
 
 from .conftest import Served

@@ -14,7 +14,7 @@ from spectratac.device import (
     Sensor,
 )
 from spectratac.protocol import Frame, decode_frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.sim.url import parse_sim_url
 
 FAST = "sim://?scene=tour&seed=3&speed=max"

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.device import Sensor
 from spectratac.protocol import StreamDecoder, encode_frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.sim import native
 from spectratac.sim.device import SimDevice
 from spectratac.sim.named_scenes import make_scene
@@ -228,7 +228,7 @@ def test_speed_max_through_sensor_loses_nothing(count: int) -> None:
 
 def test_constants_shared_with_the_native_port_agree() -> None:
     firmware = Path(__file__).resolve().parents[2] / "firmware"
-    header = (firmware / "ports" / "native" / "stac_sim.h").read_text()
+    header = (firmware / "ports" / "native" / "generated" / "stac_sim.h").read_text()
     model = (firmware / "sim" / "veml_model.h").read_text()
 
     def define(text: str, name: str) -> int:

@@ -10,7 +10,7 @@ from spectratac.evaluate.bench.acquisition import Acquisition, AcquisitionError,
 from spectratac.evaluate.bench.latency import side_by_side_latency
 from spectratac.evaluate.bench.speed import batch_for, pareto_front
 from spectratac.evaluate.bench.variants import add_improvements, merge_seeds, target_check
-from spectratac.hardware.veml3328 import INTEGRATION_MS
+from spectratac.hardware.generated.veml3328 import INTEGRATION_MS
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 

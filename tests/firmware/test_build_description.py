@@ -13,7 +13,7 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from spectratac.sim import native_abi
+from spectratac.sim.generated import native_abi
 
 from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
 

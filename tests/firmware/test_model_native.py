@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from spectratac.decode import Decoder, TrainSpec, train
 from spectratac.decode.export import model_image as mi
+from spectratac.decode.generated.model_image_layout import OFFSETS
 
 from tests.firmware.conftest import OUT, REPO
 
@@ -134,6 +135,12 @@ def reseal(image: bytearray) -> bytes:
     return bytes(image)
 
 
+def weights_offset(image: bytes | bytearray) -> int:
+    """Where the weights section starts (its entry in the section table)."""
+    entry = mi.HEADER_SIZE + mi.ENTRY.size * mi.SECTIONS.index("weights")
+    return int(mi.ENTRY.unpack_from(image, entry)[0])
+
+
 def test_damaged_images_do_not_open(models, checker, tmp_path) -> None:
     dec, session = models["paper"]
     good = mi.encode(dec)
@@ -141,12 +148,13 @@ def test_damaged_images_do_not_open(models, checker, tmp_path) -> None:
     flipped = bytearray(good)
     flipped[len(good) // 2] ^= 0x10  # one weight bit: the CRC no longer matches
     beyond = bytearray(good)
-    beyond[32:34] = (300).to_bytes(2, "little")  # hidden 300 > STAC_MODEL_MAX_HIDDEN
+    hidden = OFFSETS["hidden"]
+    beyond[hidden : hidden + 2] = (300).to_bytes(2, "little")  # > STAC_MODEL_MAX_HIDDEN
     section = bytearray(good)
-    off = mi.HEADER_SIZE + 8 * mi.SECTIONS.index("bias") + 4
+    off = mi.HEADER_SIZE + mi.ENTRY.size * mi.SECTIONS.index("bias") + 4
     section[off] += 4  # a section one float longer than the dimensions say
     nan = bytearray(good)
-    first = int.from_bytes(good[mi.HEADER_SIZE + 8 * 14 : mi.HEADER_SIZE + 8 * 14 + 4], "little")
+    first = weights_offset(good)
     nan[first : first + 4] = np.float32(np.nan).tobytes()  # a NaN weight
     for bad in (bytes(flipped), reseal(beyond), reseal(section), reseal(nan), good[:-4]):
         result = harness.run_native(checker, bad, short, tmp_path)
@@ -158,7 +166,7 @@ def test_damaged_images_do_not_open(models, checker, tmp_path) -> None:
 def test_a_perturbed_weight_is_caught_by_the_comparison(models, checker, tmp_path) -> None:
     dec, session = models["paper"]
     image = bytearray(mi.encode(dec))
-    first = int.from_bytes(image[mi.HEADER_SIZE + 8 * 14 : mi.HEADER_SIZE + 8 * 14 + 4], "little")
+    first = weights_offset(image)
     w = np.frombuffer(image, "<f4", count=1, offset=first)[0]
     image[first : first + 4] = np.float32(w + 0.05).tobytes()
     got = run(checker, reseal(image), session, tmp_path)
@@ -194,7 +202,7 @@ def test_mutated_headers_and_tables_never_crash(models, checker, tmp_path) -> No
     outcomes = set()
     for _ in range(120):
         image = bytearray(good)
-        for at in rng.integers(0, mi.HEADER_SIZE + 8 * mi.N_SECTIONS, rng.integers(1, 4)):
+        for at in rng.integers(0, mi.TABLE_END, rng.integers(1, 4)):
             image[at] = int(rng.integers(0, 256))
         result = harness.run_native(checker, reseal(image), short, tmp_path)
         assert result.returncode in (0, 2), result.stderr

@@ -67,13 +67,12 @@ def test_a_damaged_image_is_refused_on_the_device(check_image, decoders, tmp_pat
 
 
 def test_a_perturbed_weight_is_caught_on_the_device(check_image, decoders, tmp_path) -> None:
-    from tests.firmware.test_model_native import reseal
+    from tests.firmware.test_model_native import reseal, weights_offset
 
     decs, session = decoders
     dec = decs["best"]
     image = bytearray(mi.encode(dec))
-    entry = mi.HEADER_SIZE + 8 * mi.SECTIONS.index("weights")
-    first = int.from_bytes(image[entry : entry + 4], "little")
+    first = weights_offset(image)
     w = np.frombuffer(image, "<f4", count=1, offset=first)[0]
     image[first : first + 4] = np.float32(w - 0.05).tobytes()
     result = harness.run_qemu(check_image, reseal(image), session, tmp_path)

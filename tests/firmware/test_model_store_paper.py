@@ -18,9 +18,9 @@ from spectratac.decode.assemble import Assembler
 from spectratac.decode.estimates import FORCE, TORQUE
 from spectratac.decode.export import model_image as mi
 from spectratac.device import Sensor
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import crc32c
-from spectratac.sim.native_abi import STORE_CAPACITY
+from spectratac.protocol.generated import messages as m
+from spectratac.sim.generated.native_abi import STORE_CAPACITY
 
 from .conftest import REPO
 from .test_model_store_sim import Link, configure

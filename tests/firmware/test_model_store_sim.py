@@ -13,12 +13,12 @@ import pytest
 from spectratac.device import Sensor
 from spectratac.device.errors import DeviceError
 from spectratac.protocol import decode_frame, encode_frame
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import Frame, crc32c
+from spectratac.protocol.generated import messages as m
 from spectratac.sim.device import SimDevice
+from spectratac.sim.generated.native_abi import STORE_CAPACITY
 from spectratac.sim.model_store import default_store_path
 from spectratac.sim.named_scenes import make_scene
-from spectratac.sim.native_abi import STORE_CAPACITY
 
 from .model_fixture import C_FIXTURE, fixture_image, render_fixture
 

@@ -1,7 +1,8 @@
-"""The native port as a shared library through its C ABI (firmware/ports/native/stac_sim.h),
-driven from Python with ctypes the way the simulated device drives it: caller-supplied I2C,
-PWM, UART and clock, bytes fed in, time advanced by the caller. Its frames are decoded with the
-host's own protocol package, so the C and Python sides of the protocol are cross-checked."""
+"""The native port as a shared library through its C ABI
+(firmware/ports/native/generated/stac_sim.h), driven from Python with ctypes the way the simulated
+device drives it: caller-supplied I2C, PWM, UART and clock, bytes fed in, time advanced by the
+caller. Its frames are decoded with the host's own protocol package, so the C and Python sides of
+the protocol are cross-checked."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ import ctypes
 from pathlib import Path
 
 import pytest
-from spectratac.protocol import StreamDecoder, encode_frame, messages
+from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol.framing import Frame
+from spectratac.protocol.generated import messages
 from spectratac.sim.native import CLOCK_FN, I2C_FN, PWM_FN, TX_FN, Callbacks, declare
 
 

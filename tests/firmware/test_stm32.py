@@ -13,8 +13,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from spectratac.protocol import StreamDecoder, encode_frame, messages
+from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol.framing import Frame
+from spectratac.protocol.generated import messages
 
 from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
 

@@ -9,7 +9,7 @@ import re
 
 import pytest
 from spectratac.decode.export import model_image as mi
-from spectratac.sim.native_abi import STORE_CAPACITY
+from spectratac.sim.generated.native_abi import STORE_CAPACITY
 
 from .conftest import REPO
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from spectratac.protocol import messages
+from spectratac.protocol.generated import messages
 
 pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 

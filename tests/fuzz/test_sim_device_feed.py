@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 from spectratac.sim.device import SimDevice
+from spectratac.sim.generated.native_abi import RX_CAPACITY
 from spectratac.sim.named_scenes import make_scene
-from spectratac.sim.native_abi import RX_CAPACITY
 
 
 class CountingLib:
@@ -50,11 +50,12 @@ def test_feed_copies_linearly() -> None:
 
 def test_feed_still_delivers_frames_after_garbage() -> None:
     from spectratac import protocol
+    from spectratac.protocol.generated import messages
 
     frames: list[bytes] = []
     dev = SimDevice(make_scene("idle"), seed=1, on_tx=lambda data, t: frames.append(data))
     junk = np.random.default_rng(0).integers(1, 256, 3 * RX_CAPACITY + 11, dtype=np.uint8)
-    dev.feed(junk.tobytes() + b"\x00" + protocol.encode_frame(protocol.messages.GetInfo(), seq=4))
+    dev.feed(junk.tobytes() + b"\x00" + protocol.encode_frame(messages.GetInfo(), seq=4))
     for k in range(1, 20):  # the core drains its receive buffer a bounded amount per step
         dev.step(dev.now_us + 1000 * k)
     infos = [protocol.decode_frame(f[:-1]).message for f in frames]

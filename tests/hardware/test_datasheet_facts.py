@@ -21,9 +21,11 @@ from kiutils.schematic import Schematic
 from test_schematic import schematic_netlist
 
 FACTS = tomllib.loads((REPO / "hardware" / "datasheet_facts.toml").read_text(encoding="utf-8"))
-PART = tomllib.loads((REPO / "hardware" / "parts" / "veml3328.toml").read_text(encoding="utf-8"))
+PART = tomllib.loads(
+    (REPO / "hardware" / "definitions" / "veml3328.toml").read_text(encoding="utf-8")
+)
 PINMAP = tomllib.loads(
-    (REPO / "firmware" / "ports" / "stm32f411" / "pinmap.toml").read_text(encoding="utf-8")
+    (REPO / "hardware" / "definitions" / "stm32f411_pinmap.toml").read_text(encoding="utf-8")
 )
 I2C_SOURCE = (REPO / "firmware" / "ports" / "stm32f411" / "i2c.c").read_text(encoding="utf-8")
 STATUSES = {"primary", "secondary", "unverified"}

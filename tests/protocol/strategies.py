@@ -6,7 +6,7 @@ import struct
 from typing import Any
 
 from hypothesis import strategies as st
-from spectratac.protocol import messages
+from spectratac.protocol.generated import messages
 from spectratac.protocol.schema import FieldSpec, Message
 
 _BOUNDS = {

@@ -14,8 +14,8 @@ from spectratac.protocol import (
     decode_samples,
     encode_frame,
     encode_raw,
-    messages,
 )
+from spectratac.protocol.generated import messages
 
 WHITE = (((500, 500, 500),) * 3,) + (((0, 0, 0),) * 3,) * 7
 

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.protocol import encode_frame, messages
+from spectratac.protocol import encode_frame
+from spectratac.protocol.generated import messages
 
 
 def test_show_json(capsys: pytest.CaptureFixture[str]) -> None:

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from spectratac.protocol import StreamDecoder, encode_frame, messages
+from spectratac.protocol import StreamDecoder, encode_frame
+from spectratac.protocol.generated import messages
 
 from .strategies import any_message, same
 

@@ -14,8 +14,8 @@ from spectratac.protocol import (
     decode_samples,
     encode_frame,
     encode_raw,
-    messages,
 )
+from spectratac.protocol.generated import messages
 from spectratac.protocol.schema import fit_payload
 
 from .strategies import any_message, message_of, same

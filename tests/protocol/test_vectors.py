@@ -12,14 +12,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from spectratac.protocol import (
-    FrameError,
-    StreamDecoder,
-    crc32c,
-    decode_frame,
-    encode_frame,
-    messages,
-)
+from spectratac.protocol import FrameError, StreamDecoder, crc32c, decode_frame, encode_frame
+from spectratac.protocol.generated import messages
 
 VECTORS = sorted((Path(__file__).resolve().parents[2] / "protocol" / "vectors").glob("*.json"))
 

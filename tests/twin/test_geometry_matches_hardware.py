@@ -1,12 +1,12 @@
 """The twin's layout is the board's: every twin geometry value either comes from
-hardware/params.toml (through the generated spectratac.hardware.board) or has no board
-counterpart. A new twin constant must be sorted into one of these lists, and a new mismatch
+hardware/definitions/params.toml (through the generated spectratac.hardware.generated.board) or has
+no board counterpart. A new twin constant must be sorted into one of these lists, and a new mismatch
 fails here. The unit draw's spreads are the board's [tolerances], one source."""
 
 from __future__ import annotations
 
 import numpy as np
-from spectratac.hardware import board
+from spectratac.hardware.generated import board
 from spectratac.twin import geometry
 from spectratac.twin.unit import TOLERANCES, VARIATION, UnitParams
 

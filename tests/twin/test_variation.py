@@ -1,5 +1,5 @@
-"""Unit-to-unit spread follows hardware/params.toml [tolerances]; layer thicknesses move the
-model the physical way; session conditions are deterministic and distinct."""
+"""Unit-to-unit spread follows hardware/definitions/params.toml [tolerances]; layer thicknesses
+move the model the physical way; session conditions are deterministic and distinct."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from spectratac.hardware import board
+from spectratac.hardware.generated import board
 from spectratac.twin import Scene, UnitParams, generate_session
 from spectratac.twin.forward import deformation, expected_output
 from spectratac.twin.ft import wrench

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.errors import SpectraTacError
-from spectratac.hardware import veml3328 as chip
+from spectratac.hardware.generated import veml3328 as chip
 from spectratac.twin import I2CNack, builtin_scenes
 from spectratac.twin.electronics import AF, INTEGRATION_MS, SD0, SD1, TRIG, SensorConfig
 from spectratac.twin.rig import TwinRig

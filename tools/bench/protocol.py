@@ -21,7 +21,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from benchlib import Figure, parser, report, side_by_side
 from cobs import cobs
-from spectratac.protocol import StreamDecoder, crc32c, decode_samples, encode_frame, messages
+from spectratac.protocol import StreamDecoder, crc32c, decode_samples, encode_frame
+from spectratac.protocol.generated import messages
 
 LINK_BAUD = 921_600
 

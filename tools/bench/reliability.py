@@ -37,8 +37,8 @@ from typing import Any
 from spectratac.dataset.build import build_datasets
 from spectratac.device import Sensor
 from spectratac.device.errors import DeviceError
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import parse_body
+from spectratac.protocol.generated import messages as m
 from spectratac.record import RecordOptions, record_url
 from spectratac.record.reader import read_recording
 from spectratac.sim.faults import ledger

@@ -39,7 +39,7 @@ from benchlib import Figure, parser, report
 from spectratac.device import Sensor
 from spectratac.device.transport import SerialTransport
 from spectratac.protocol import encode_frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.sim.device import SimDevice
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import RUN_STEPS

@@ -1,4 +1,4 @@
-"""Render firmware/ports/stm32f411/board.h from the board's pinmap.toml.
+"""Render firmware/ports/stm32f411/generated/board.h from the board's pinmap.toml.
 
 Each MCU pin's alternate function, peripheral instance and timer channel are read from its
 `function` text ("I2C1_SCL AF4", "TIM2_CH1 AF1", "USART1_TX AF7"). Row order is fixed by the

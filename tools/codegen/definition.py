@@ -1,4 +1,4 @@
-"""Load and check protocol/messages.toml; compute the definition hash.
+"""Load and check hardware/definitions/messages.toml; compute the definition hash.
 
 The hash covers only what affects bytes on the wire (names, ids, types, shapes, constraints,
 enum values), not documentation, so that a doc fix does not make host and firmware disagree.

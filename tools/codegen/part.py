@@ -1,7 +1,7 @@
 """Load and check a part definition (hardware/parts/<part>.toml): registers and CONF bit fields.
 
 >>> from pathlib import Path
->>> p = load(Path(__file__).resolve().parents[2] / "hardware/parts/veml3328.toml")
+>>> p = load(Path(__file__).resolve().parents[2] / "hardware/definitions/veml3328.toml")
 >>> p.register("ID").address, hex(p.conf_field("IT").mask), p.conf_field("IT").values
 (12, '0x30', (50, 100, 200, 400))
 >>> hex(p.defined_bits), hex(p.window_bits)

@@ -1,4 +1,4 @@
-"""Load hardware/params.toml: the one place the sensor's geometry is written down.
+"""Load hardware/definitions/params.toml: the one place the sensor's geometry is written down.
 
 Stdlib only, because both the venv (tests, schematic) and Debian's /usr/bin/python3 (pcbnew)
 import it.
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-PARAMS_TOML = REPO / "hardware" / "params.toml"
-PINMAP_TOML = REPO / "firmware" / "ports" / "stm32f411" / "pinmap.toml"
+PARAMS_TOML = REPO / "hardware" / "definitions" / "params.toml"
+PINMAP_TOML = REPO / "hardware" / "definitions" / "stm32f411_pinmap.toml"
 
 
 @dataclass(frozen=True)
@@ -74,8 +74,11 @@ def load(path: Path = PARAMS_TOML) -> Geometry:
         skin_wall=float(s["skin_wall"]),
         pocket_clearance=float(s["pocket_clearance"]),
         pocket_extra_depth=float(s["pocket_extra_depth"]),
-        sensor_body=(float(p["sensor_body"][0]), float(p["sensor_body"][1]),
-                     float(p["sensor_body"][2])),
+        sensor_body=(
+            float(p["sensor_body"][0]),
+            float(p["sensor_body"][1]),
+            float(p["sensor_body"][2]),
+        ),
         led_body=(float(p["led_body"][0]), float(p["led_body"][1]), float(p["led_body"][2])),
         mould_wall=float(m["wall"]),
         mould_floor=float(m["floor"]),

@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from cobs import cobs
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import HEADER, crc32c, encode_frame, encode_raw
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
 

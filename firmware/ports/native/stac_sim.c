@@ -1,6 +1,6 @@
 /* Native port: adapts caller-supplied callbacks (or the VEML3328 models of firmware/sim) to the
- * core's HAL, one instance per device. The ABI (stac_sim.h) is generated from stac_sim.toml. */
-#include "stac_sim.h"
+ * core's HAL, one instance per device. The ABI (generated/stac_sim.h) is generated from hardware/definitions/sim_abi.toml. */
+#include "generated/stac_sim.h"
 
 #include <stdio.h>
 #include <string.h>

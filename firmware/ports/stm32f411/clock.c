@@ -1,6 +1,6 @@
 #include "clock.h"
 
-#include "board.h"
+#include "generated/board.h"
 #include "regs.h"
 
 /* Each ready flag is polled at most this many times (~ms at 16 MHz): a missing crystal or a

@@ -1,6 +1,6 @@
 #include "gpio.h"
 
-#include "board.h"
+#include "generated/board.h"
 
 gpio_t *gpio_port(char name) {
     return name == 'A' ? GPIOA : GPIOB;

@@ -1,5 +1,5 @@
 /* Host link over USART1 (env blackpill_uart): the board's original 921600 8N1 serial link. */
-#include "board.h"
+#include "generated/board.h"
 #include "host_link.h"
 #include "uart.h"
 

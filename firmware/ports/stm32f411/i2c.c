@@ -1,6 +1,6 @@
 #include "i2c.h"
 
-#include "board.h"
+#include "generated/board.h"
 #include "gpio.h"
 #include "host_link.h"
 #include "regs.h"

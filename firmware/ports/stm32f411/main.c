@@ -3,7 +3,7 @@
  * the bounded waits make impossible in normal operation. */
 #include <string.h>
 
-#include "board.h"
+#include "generated/board.h"
 #include "clock.h"
 #include "flash_store.h"
 #include "gpio.h"

@@ -1,6 +1,6 @@
 #include "pwm.h"
 
-#include "board.h"
+#include "generated/board.h"
 #include "regs.h"
 
 static uint32_t g_period; /* timer counts per PWM period (ARR + 1) */

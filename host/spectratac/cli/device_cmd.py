@@ -16,7 +16,7 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_count, add_device_url, add_row_format
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
-from spectratac.hardware.veml3328 import INTEGRATION_MS
+from spectratac.hardware.generated.veml3328 import INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _info(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
-    from spectratac.protocol import messages as m
+    from spectratac.protocol.generated import messages as m
 
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
         info = sensor.info

@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from spectratac.protocol import messages as m
+    from spectratac.protocol.generated import messages as m
 
     table = [
         {"id": c.TYPE_ID, "name": c.NAME, "direction": c.DIRECTION, "payload": c.PAYLOAD_SIZE}

@@ -23,7 +23,7 @@ from spectratac.cli.options import (
     refuse_overwrite,
 )
 from spectratac.errors import SpectraTacError
-from spectratac.hardware.veml3328 import GAINS, INTEGRATION_MS
+from spectratac.hardware.generated.veml3328 import GAINS, INTEGRATION_MS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

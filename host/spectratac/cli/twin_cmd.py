@@ -25,7 +25,7 @@ from spectratac.cli.options import (
     npz_name,
     refuse_overwrite,
 )
-from spectratac.hardware.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
+from spectratac.hardware.generated.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 
 SCENES = ("calibration", "idle", "drift", "press")
 

@@ -20,7 +20,7 @@ from typing import TypeVar
 import numpy as np
 
 from spectratac.device import Sensor
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.versions import expected_definition_hash
 
 WHITE = [[[500, 500, 500]] * 3]

@@ -22,7 +22,7 @@ import numpy as np
 from spectratac.conformance.checks import WHITE, Outcome
 from spectratac.device import ModelInfo, Sensor
 from spectratac.protocol import crc32c
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 
 CHUNK = 224

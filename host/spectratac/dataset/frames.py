@@ -1,7 +1,7 @@
 """Recorded device frames to a sample table: the bulk decoder over every SAMPLE frame at once,
 device times unwrapped to 64 bits, each row stamped with its frame's host receive time.
 
->>> from spectratac.protocol import messages as m
+>>> from spectratac.protocol.generated import messages as m
 >>> from spectratac.protocol.framing import decode_frame, encode_frame
 >>> raws = [decode_frame(encode_frame(m.Sample(sample_seq=i, t_start_us=0xFFFF_FF00 + 50 * i,
 ...         t_end_us=(0xFFFF_FF00 + 50 * i + 40) & 0xFFFF_FFFF), seq=i)[:-1]).raw
@@ -19,8 +19,8 @@ import numpy as np
 from cobs import cobs
 
 from spectratac.device.records import SAMPLE_TIME_INVERTED, SAMPLE_WINDOW_CLIPPED
-from spectratac.protocol import messages as m
 from spectratac.protocol.bulk import decode_samples
+from spectratac.protocol.generated import messages as m
 
 #: One row per recorded SAMPLE frame. Device times are unwrapped µs (int64).
 RECORDED_SAMPLE = np.dtype(

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.protocol.messages import EstimateFlags
+from spectratac.protocol.generated.messages import EstimateFlags
 
 F64 = NDArray[np.float64]
 FORCE = ("Fx", "Fy", "Fz")

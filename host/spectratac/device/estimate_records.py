@@ -27,7 +27,7 @@ ESTIMATE_RECORD = np.dtype(
         ("sequence", "<u4"),  # sample_seq of that sample
         ("config_id", "<u2"),
         ("model_id", "<u4"),
-        ("flags", "u1"),  # EST_* bits (spectratac.protocol.messages.EstimateFlags)
+        ("flags", "u1"),  # EST_* bits (spectratac.protocol.generated.messages.EstimateFlags)
         ("force", "<f4", (3,)),  # Fx, Fy, Fz in N, board axes
         ("torque", "<f4", (3,)),  # Tx, Ty, Tz in N·m
         ("region", "u1"),  # 1..9, 0 none

@@ -19,7 +19,7 @@ from spectratac.device.errors import (
     ModelUploadError,
 )
 from spectratac.protocol import crc32c
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 
 if TYPE_CHECKING:
     from spectratac.device.sensor import Sensor

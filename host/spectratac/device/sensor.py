@@ -59,9 +59,9 @@ from spectratac.device.records import (
 )
 from spectratac.device.transport import Transport, open_transport
 from spectratac.errors import printable
-from spectratac.hardware.veml3328 import INTEGRATION_MS as INTEGRATION_TIMES
+from spectratac.hardware.generated.veml3328 import INTEGRATION_MS as INTEGRATION_TIMES
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 from spectratac.protocol.versions import expected_definition_hash
 

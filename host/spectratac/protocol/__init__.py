@@ -1,9 +1,9 @@
 """The SpectraTac wire protocol on the host: generated messages plus framing and decoders.
 
-See protocol/SPEC.md for the contract; messages.py is generated from protocol/messages.toml.
+See protocol/SPEC.md for the contract; `spectratac.protocol.generated.messages` (the message
+classes, enums and limits) is generated from hardware/definitions/messages.toml.
 """
 
-from spectratac.protocol import messages
 from spectratac.protocol.bulk import SAMPLE_DTYPE, BulkResult, decode_samples, payload_dtype
 from spectratac.protocol.framing import (
     CobsError,
@@ -44,6 +44,5 @@ __all__ = [
     "decode_samples",
     "encode_frame",
     "encode_raw",
-    "messages",
     "payload_dtype",
 ]

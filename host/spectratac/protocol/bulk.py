@@ -3,7 +3,7 @@
 For recordings and high-rate links: COBS and CRC run per frame in C, then a single
 ``np.frombuffer`` turns all sample frames into columns without a Python object per sample.
 
-    >>> from spectratac.protocol import messages as m
+    >>> from spectratac.protocol.generated import messages as m
     >>> from spectratac.protocol.framing import encode_frame
     >>> wire = b"".join(encode_frame(m.Sample(sample_seq=i), seq=i) for i in range(3))
     >>> result = decode_samples(wire)
@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 from cobs import cobs
 
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import (
     CRC_RESIDUE,
     HEADER,
@@ -27,6 +26,7 @@ from spectratac.protocol.framing import (
     MIN_FRAME,
     crc32c,
 )
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import FieldSpec, Message
 from spectratac.protocol.stream import DecoderStats
 

@@ -1,6 +1,6 @@
 """One frame on the wire: header + payload + CRC-32C, COBS-encoded, 0x00-terminated (SPEC.md).
 
->>> from spectratac.protocol import messages as m
+>>> from spectratac.protocol.generated import messages as m
 >>> wire = encode_frame(m.Ack(acked_type=0x02, acked_seq=7, config_id=3), seq=41)
 >>> wire[-1]
 0
@@ -18,8 +18,8 @@ import crcmod.predefined
 from cobs import cobs
 
 from spectratac.errors import SpectraTacError
-from spectratac.protocol import messages as m
 from spectratac.protocol.accel import require_extensions
+from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 
 require_extensions()

@@ -29,7 +29,7 @@ class FieldValueError(SpectraTacError, ValueError):
 
 @dataclass(frozen=True, slots=True)
 class FieldSpec:
-    """Wire metadata of one field, generated from protocol/messages.toml."""
+    """Wire metadata of one field, generated from hardware/definitions/messages.toml."""
 
     name: str
     type: str  # u8 u16 u32 u64 i8 i16 i32 f32 char bytes
@@ -85,7 +85,7 @@ class Message:
         field it knows. Only fields newer than the sender are zero-filled; a shorter payload
         is malformed (SPEC.md, compatibility rules).
 
-        >>> from spectratac.protocol.messages import Sample
+        >>> from spectratac.protocol.generated.messages import Sample
         >>> Sample.required_size(0) == Sample.PAYLOAD_SIZE, Sample.required_size(7) > 0
         (True, True)
         """

@@ -3,7 +3,7 @@
 It never raises on bad input. Every frame is delimited by 0x00, so a damaged frame costs only
 itself: the decoder resynchronises at the next delimiter and counts what it dropped.
 
-    >>> from spectratac.protocol import messages as m
+    >>> from spectratac.protocol.generated import messages as m
     >>> from spectratac.protocol.framing import encode_frame
     >>> wire = b"\\x13garbage\\x00" + encode_frame(m.Start(), seq=1) + encode_frame(m.Stop(), seq=2)
     >>> decoder = StreamDecoder()
@@ -20,7 +20,6 @@ from dataclasses import asdict, dataclass
 
 from cobs import cobs
 
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import (
     CRC_RESIDUE,
     HEADER,
@@ -30,6 +29,7 @@ from spectratac.protocol.framing import (
     Frame,
     crc32c,
 )
+from spectratac.protocol.generated import messages as m
 
 _SEQ_RESTART = 0x8000  # a backwards jump this large is a sender restart, not 32k lost frames
 

@@ -4,7 +4,7 @@ The hash covers a whole definition, so every minor version has its own. A device
 an older minor version than the host must report that version's hash; once released, a
 version's hash never changes, so the table below is frozen data, not generated code.
 
->>> from spectratac.protocol import messages
+>>> from spectratac.protocol.generated import messages
 >>> expected_definition_hash(messages.PROTOCOL_MINOR) == messages.DEFINITION_HASH
 True
 >>> hex(expected_definition_hash(0))
@@ -15,7 +15,7 @@ True
 
 from __future__ import annotations
 
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 
 #: Definition hashes of released minor versions older than this library's (protocol 1.x).
 RELEASED_DEFINITION_HASHES: dict[int, int] = {

@@ -1,7 +1,7 @@
 """JSON descriptions of device messages as a recording stores them, and the dataset-style
 sensor configuration (the form `spectratac.dataset` and decoders compare).
 
->>> from spectratac.protocol import messages as m
+>>> from spectratac.protocol.generated import messages as m
 >>> cfg = m.Config(config_id=3, integration_ms=100, gain=1, digital_gain=0, sensitivity=1,
 ...                led_settle_us=1000, led_step_count=1,
 ...                led_duty=(((500,) * 3,) * 3,) + (((0,) * 3,) * 3,) * 7)
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 
 _GAIN = {int(m.Gain.GAIN_X1): 1.0, int(m.Gain.GAIN_X2): 2.0, int(m.Gain.GAIN_X4): 4.0}
 _GAIN[int(m.Gain.GAIN_X0_5)] = 0.5

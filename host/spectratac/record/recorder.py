@@ -37,7 +37,7 @@ from spectratac.device.ground_truth import GroundTruth
 from spectratac.device.records import Unwrapper
 from spectratac.errors import SpectraTacError
 from spectratac.protocol import Frame
-from spectratac.protocol import messages as m
+from spectratac.protocol.generated import messages as m
 from spectratac.record.describe import config_summary, info_dict
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (

@@ -19,8 +19,8 @@ without it the store lives in the instance only.
 >>> from spectratac.sim.named_scenes import make_scene
 >>> frames = []
 >>> dev = SimDevice(make_scene("idle"), seed=1, on_tx=lambda data, t: frames.append(data))
->>> dev.feed(b"\\x00" + __import__("spectratac.protocol").protocol.encode_frame(
-...     __import__("spectratac.protocol").protocol.messages.GetInfo(), seq=1))
+>>> from spectratac.protocol.generated.messages import GetInfo
+>>> dev.feed(b"\\x00" + __import__("spectratac.protocol").protocol.encode_frame(GetInfo(), seq=1))
 >>> dev.step(1000)
 >>> __import__("spectratac.protocol").protocol.decode_frame(frames[0][:-1]).message.board
 'native-sim'
@@ -38,8 +38,8 @@ from typing import Literal
 import numpy as np
 
 from spectratac.sim import native
+from spectratac.sim.generated.native_abi import RX_CAPACITY, STORE_CAPACITY
 from spectratac.sim.model_store import ModelStoreError
-from spectratac.sim.native_abi import RX_CAPACITY, STORE_CAPACITY
 from spectratac.twin.electronics import SD_ALS, SensorConfig
 from spectratac.twin.errors import I2CNack
 from spectratac.twin.rig import TwinRig, WindowPlan

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 from cobs import cobs
 
 from spectratac.protocol import encode_raw
-from spectratac.protocol import messages as m
 from spectratac.protocol.framing import FrameError, decode_frame
+from spectratac.protocol.generated import messages as m
 
 #: conformance faults: name -> what the device does wrong (and the check that notices)
 CONFORMANCE_FAULTS = {

@@ -11,7 +11,7 @@ The library comes from, in this order:
 3. an installed package: libstac_sim.so beside this module, compiled when the wheel was built
    (setup.py). An installed package never runs a build script.
 
-The ctypes declarations of the library's C ABI are generated (spectratac.sim.native_abi).
+The ctypes declarations of the library's C ABI are generated (spectratac.sim.generated.native_abi).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pathlib import Path
 from types import ModuleType
 
 from spectratac.errors import SpectraTacError
-from spectratac.sim.native_abi import (
+from spectratac.sim.generated.native_abi import (
     ABI_VERSION,
     CLOCK_FN,
     I2C_BUS_ERROR,

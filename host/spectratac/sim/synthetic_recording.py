@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.protocol import messages as m
 from spectratac.protocol.bulk import SAMPLE_DTYPE
 from spectratac.protocol.framing import crc32c
+from spectratac.protocol.generated import messages as m
 from spectratac.record.format import (
     CONFIG,
     END,

@@ -20,13 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.hardware import veml3328 as chip
+from spectratac.hardware.generated import veml3328 as chip
 from spectratac.twin.errors import TwinError
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
 
-# The part's facts come from hardware/parts/veml3328.toml (generated spectratac.hardware.veml3328).
+# The part's facts come from hardware/definitions/veml3328.toml (generated
+# spectratac.hardware.generated.veml3328).
 FULL_SCALE = chip.FULL_SCALE
 INTEGRATION_MS = chip.INTEGRATION_MS  # by IT code
 GAIN_BITS = dict(enumerate(chip.GAINS))  # gain code -> analogue gain

@@ -2,8 +2,9 @@
 
 Board centre is the origin, x to the right, y up, z out of the skin, lengths in mm.
 Sensor k sits at angle 120°·k and LED j at 60° + 120°·j, both on a 5.5 mm radius. The board's
-outline, part ring, angles and layer thicknesses come from hardware/params.toml (generated
-`spectratac.hardware.board`), so the twin is laid out like the board that is built.
+outline, part ring, angles and layer thicknesses come from hardware/definitions/params.toml
+(generated `spectratac.hardware.generated.board`), so the twin is laid out like the board that
+is built.
 
 Regions are numbered like a phone keypad so that the Snake game's directions read naturally:
 
@@ -24,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from spectratac.hardware import board
+from spectratac.hardware.generated import board
 
 DISC_RADIUS_MM = board.BOARD_RADIUS
 STACK_HEIGHT_MM = board.STACK_HEIGHT

@@ -1,7 +1,7 @@
 """The layer stack (PCB, PDMS light guide, black skin) and how its thicknesses set the model.
 
-The nominal thicknesses are the built board's (hardware/params.toml through the generated
-`spectratac.hardware.board`): 1.0 mm FR-4, 2.5 mm PDMS, 0.5 mm skin top. Every
+The nominal thicknesses are the built board's (hardware/definitions/params.toml through the
+generated `spectratac.hardware.generated.board`): 1.0 mm FR-4, 2.5 mm PDMS, 0.5 mm skin top. Every
 thickness-dependent constant of the forward model is computed here from a `LayerStack`, so a
 unit drawn with a thicker PDMS layer or a thinner skin really behaves differently:
 
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spectratac.hardware import board
+from spectratac.hardware.generated import board
 from spectratac.twin.errors import TwinError
 
 # Reference contact for the thin-layer correction: 1 N on a 4 mm tip gives a ~ 1.3 mm.
@@ -73,7 +73,7 @@ class LayerStack:
 
     @staticmethod
     def board() -> LayerStack:
-        """The built stack, from hardware/params.toml."""
+        """The built stack, from hardware/definitions/params.toml."""
         return LayerStack(board.BOARD_THICKNESS, board.STACK_PDMS, board.STACK_SKIN_TOP)
 
     @property

@@ -2,7 +2,7 @@
 
 One `UnitParams` is one physical sensor. `UnitParams.nominal()` is the design (on the built
 layer stack, or any `LayerStack`); `from_seed(s)` draws a unit with the manufacturing
-tolerances of hardware/params.toml `[tolerances]` (layer thicknesses, LED intensity and
+tolerances of hardware/definitions/params.toml `[tolerances]` (layer thicknesses, LED intensity and
 colour bins, sensor gain, placement, mould alignment, elastomer modulus) plus the twin's own
 model spreads in `VARIATION` (see MODEL.md for each constant's source or reasoning). Drawn
 thicknesses flow through `stack.py` into the optics and mechanics. Count-like constants are in
@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.hardware import board
+from spectratac.hardware.generated import board
 from spectratac.twin import stack as layers
 from spectratac.twin.errors import TwinError
 from spectratac.twin.geometry import LED_XY, SENSOR_XY
@@ -83,7 +83,7 @@ AMBIENT_COUNTS_PER_LUX = {
 class UnitParams:
     """All parameters of one simulated sensor ([j] = LED, [k] = sensor, [c] = colour)."""
 
-    pcb_mm: float  # layer stack of this unit (drawn around hardware/params.toml)
+    pcb_mm: float  # layer stack of this unit (drawn around hardware/definitions/params.toml)
     pdms_mm: float
     skin_mm: float
     sensor_xy: F64  # (3, 2) mm
@@ -249,7 +249,7 @@ class UnitParams:
                 raise TwinError(f"unit parameter {f.name} is not finite")
 
 
-# Manufacturing tolerances (1-sigma), one source: hardware/params.toml [tolerances].
+# Manufacturing tolerances (1-sigma), one source: hardware/definitions/params.toml [tolerances].
 TOLERANCES: dict[str, float] = {
     "pcb_mm": board.TOLERANCES_BOARD_THICKNESS,
     "pdms_mm": board.TOLERANCES_PDMS_THICKNESS,

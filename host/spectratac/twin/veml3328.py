@@ -1,9 +1,9 @@
 """Register-level VEML3328 model: answers I2C transfers like the device on its bus.
 
 Registers are 16-bit, little-endian; their addresses and the CONF bit fields come from the part
-definition, hardware/parts/veml3328.toml (generated `spectratac.hardware.veml3328`): CONF (the
-only writable register), data C, R, G, B, IR and ID (part ID in the low byte). CONF holds SD1
-and SD0 (shutdown when either is set), SD_ALS (only G, C, IR powered), the digital gain DG, the
+definition, hardware/definitions/veml3328.toml (generated `spectratac.hardware.generated.veml3328`):
+CONF (the only writable register), data C, R, G, B, IR and ID (part ID in the low byte). CONF holds
+SD1 and SD0 (shutdown when either is set), SD_ALS (only G, C, IR powered), the digital gain DG, the
 analogue gain, SENS (low sensitivity, 1/3), the integration time IT, AF (active force) and TRIG.
 
 Modes: in active-force mode (AF = 1) writing TRIG = 1 starts one integration at that instant;
@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from spectratac.hardware import veml3328 as chip
+from spectratac.hardware.generated import veml3328 as chip
 from spectratac.twin.electronics import AF, SD0, SD1, SD_ALS, TRIG, SensorConfig
 from spectratac.twin.errors import I2CNack
 

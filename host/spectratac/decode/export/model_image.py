@@ -5,10 +5,12 @@ context lags, moving averages, drift baseline with TAU/GATE/STUCK), the feature 
 sparse rows, the normalisation, the network (linear, mlp, resmlp) with float32, float16 or
 int8 (per-output-row scale) weights, the heads and the out-of-distribution guard.
 
-Layout (little-endian): a 96-byte header (magic "STMI", format version, header size,
-model_id, total size, weight format, dimensions, target map, guard and baseline constants),
-a table of N_SECTIONS (offset, length) pairs, the sections (4-byte aligned, each exactly as
-long as the dimensions say), then the CRC-32C of everything before it.
+Layout (little-endian; one definition, hardware/definitions/model_image.toml, generated into
+`spectratac.decode.generated.model_image_layout` here and stac_model_image.h for the firmware):
+a 96-byte header (magic "STMI", format version, header size, model_id, total size, weight
+format, dimensions, target map, guard and baseline constants), a table of N_SECTIONS (offset,
+length) pairs, the sections (4-byte aligned, each exactly as long as the dimensions say), then
+the CRC-32C of everything before it.
 
 The guard's bounds are stored rounded so that the float32 comparisons on the device decide
 exactly as the float64 ones in Python: input bounds become whole counts (inputs are counts),
@@ -31,9 +33,9 @@ True
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import re
-import struct
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -45,40 +47,33 @@ from numpy.typing import NDArray
 from spectratac.decode.assemble import GATE, STUCK, TAU
 from spectratac.decode.decoder import CONTACT_FORCE_N, Decoder
 from spectratac.decode.errors import DecoderError
-from spectratac.decode.estimates import FORCE, TORQUE
 from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
+from spectratac.decode.generated.model_image_layout import (
+    ALIGN,
+    ARCHS,
+    CRC,
+    ENTRY,
+    FLAG_CONTACT,
+    FLAG_UNCERTAINTY,
+    HEADER,
+    HEADER_FIELDS,
+    HEADER_SIZE,
+    LIMITS,
+    MAGIC,
+    N_SECTIONS,
+    SECTIONS,
+    TARGET_ABSENT,
+    TARGETS,
+    VERSION,
+    WEIGHT_FORMATS,
+)
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import layer_shapes, norm_names
 
-MAGIC = b"STMI"
-VERSION = 1
-HEADER_SIZE = 96
-WEIGHT_FORMATS = ("f32", "f16", "i8")
-ARCHS = ("linear", "mlp", "resmlp")
 #: The STM32 model store: flash sectors 4-7 (448 KiB) less the 64 bytes of its commit record.
 MAX_IMAGE_BYTES = 458752 - 64
-SECTIONS = (
-    "lags", "ema_alpha", "center",
-    "lin_ptr", "lin_idx", "lin_val", "p_ptr", "p_idx", "p_val", "q_ptr", "q_idx", "q_val",
-    "f_mean", "f_std", "weights", "w_scale", "bias", "norms",
-    "y_scale", "std_mul", "t_lo", "t_hi", "in_lo", "in_hi", "dark_cols",
-)  # fmt: skip
-N_SECTIONS = len(SECTIONS)
-#: Compile-time limits of firmware/core/stac_model.h (a test keeps them equal).
-LIMITS = {
-    "MAX_STEPS": 4,
-    "CHANNELS": 12,
-    "MAX_LAGS": 16,
-    "MAX_HIST": 17,
-    "MAX_EMAS": 4,
-    "MAX_INPUTS": 640,
-    "MAX_FEATURES": 768,
-    "MAX_HIDDEN": 256,
-    "MAX_BLOCKS": 8,
-    "MAX_OUTPUTS": 32,
-    "MAX_DARK": 16,
-}
-_HEADER = struct.Struct("<4sHHII4B4B2H2H2H2H2H6BHff4xddI4xd")
+#: Where the section table ends and the first section may start.
+TABLE_END = HEADER_SIZE + ENTRY.size * N_SECTIONS
 _crc32c = crcmod.predefined.mkCrcFun("crc-32c")
 COUNT_LO, COUNT_HI = -1.0, 65536.0  # beyond every 16-bit count: bounds clamp to these
 
@@ -269,35 +264,77 @@ def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_
     if kind == "linear":
         hidden, blocks = 0, 0
     sections = _sections(dec, weights)
-    table_end = HEADER_SIZE + 8 * N_SECTIONS
-    body, table, offset = bytearray(), [], table_end
+    body, table, offset = bytearray(), [], TABLE_END
     for name in SECTIONS:
         data = sections[name]
         table.append((offset, len(data)))
-        pad = (-len(data)) % 4
+        pad = (-len(data)) % ALIGN
         body += data + b"\0" * pad
         offset += len(data) + pad
-    total = offset + 4
+    total = offset + CRC.size
     if limit is not None and total > limit:
         raise ModelImageError(
             f"the image takes {total} bytes; the model store holds {limit}: use "
             f"weights='f16' or 'i8', or train a smaller decoder"
         )
     targets = heads.regression
-    tmap = [targets.index(n) if n in targets else 0xFF for n in (*FORCE, *TORQUE)]
-    header = _HEADER.pack(
-        MAGIC, VERSION, HEADER_SIZE, decoder_model_id(dec, weights), total,
-        WEIGHT_FORMATS.index(weights), ARCHS.index(kind), lay.steps, len(lay.channels),
-        len(lay.lags), len(lay.emas), int(lay.drift),
-        int(heads.uncertainty) | (int(heads.contact) << 1),
-        rt.n_inputs, rt.features.n_features, fs_rows(dec)[0], fs_rows(dec)[1],
-        hidden, blocks, heads.n_out, heads.n_reg, heads.n_classes, len(guard.dark_cols),
-        *tmap, N_SECTIONS,
-        float(guard.saturation or 0.0), DARK_COUNTS, TAU, GATE, STUCK, CONTACT_FORCE_N,
-    )  # fmt: skip
-    table_bytes = b"".join(struct.pack("<II", o, n) for o, n in table)
+    n_linear, n_ratio = fs_rows(dec)
+    header = _pack_header(
+        {
+            "magic": MAGIC,
+            "version": VERSION,
+            "header_size": HEADER_SIZE,
+            "model_id": decoder_model_id(dec, weights),
+            "size": total,
+            "weight_format": WEIGHT_FORMATS.index(weights),
+            "arch": ARCHS.index(kind),
+            "steps": lay.steps,
+            "channels": len(lay.channels),
+            "n_lags": len(lay.lags),
+            "n_emas": len(lay.emas),
+            "drift": int(lay.drift),
+            "flags": (FLAG_UNCERTAINTY if heads.uncertainty else 0)
+            | (FLAG_CONTACT if heads.contact else 0),
+            "n_inputs": rt.n_inputs,
+            "n_features": rt.features.n_features,
+            "n_linear": n_linear,
+            "n_ratio": n_ratio,
+            "hidden": hidden,
+            "blocks": blocks,
+            "n_outputs": heads.n_out,
+            "n_regression": heads.n_reg,
+            "n_classes": heads.n_classes,
+            "n_dark": len(guard.dark_cols),
+            "target_map": [targets.index(n) if n in targets else TARGET_ABSENT for n in TARGETS],
+            "n_sections": N_SECTIONS,
+            "saturation": float(guard.saturation or 0.0),
+            "dark_counts": DARK_COUNTS,
+            "base_tau": TAU,
+            "base_gate": GATE,
+            "base_stuck": STUCK,
+            "contact_force": CONTACT_FORCE_N,
+        }
+    )
+    table_bytes = b"".join(ENTRY.pack(o, n) for o, n in table)
     image = header + table_bytes + bytes(body)
-    return image + struct.pack("<I", _crc32c(image))
+    return image + CRC.pack(_crc32c(image))
+
+
+def _pack_header(values: dict[str, Any]) -> bytes:
+    """The header from its fields by name (arrays as sequences), in the definition's order."""
+    flat: list[Any] = []
+    for name, count in HEADER_FIELDS:
+        flat += list(values[name]) if count > 1 else [values[name]]
+    return HEADER.pack(*flat)
+
+
+def _unpack_header(image: bytes) -> dict[str, Any]:
+    """The header's fields by name (arrays as tuples)."""
+    flat = iter(HEADER.unpack_from(image))
+    return {
+        name: tuple(itertools.islice(flat, count)) if count > 1 else next(flat)
+        for name, count in HEADER_FIELDS
+    }
 
 
 def fs_rows(dec: Decoder) -> tuple[int, int]:
@@ -307,53 +344,57 @@ def fs_rows(dec: Decoder) -> tuple[int, int]:
 
 
 # ---------------------------------------------------------------------------- reading
-def _parse_header(image: bytes) -> tuple[Any, ...]:
-    if len(image) < HEADER_SIZE + 8 * N_SECTIONS + 4 or image[:4] != MAGIC:
+def _parse_header(image: bytes) -> dict[str, Any]:
+    if len(image) < TABLE_END + CRC.size or image[: len(MAGIC)] != MAGIC:
         raise ModelImageError("not a SpectraTac model image (no STMI header): re-export it")
-    fields = _HEADER.unpack_from(image)
-    if fields[1] != VERSION:
-        raise ModelImageError(f"model image version {fields[1]}; this library writes {VERSION}")
-    if fields[4] != len(image):
-        raise ModelImageError(f"the image says {fields[4]} bytes but has {len(image)}: truncated?")
-    (crc,) = struct.unpack_from("<I", image, len(image) - 4)
-    if crc != _crc32c(image[:-4]):
+    fields = _unpack_header(image)
+    if fields["version"] != VERSION:
+        raise ModelImageError(
+            f"model image version {fields['version']}; this library writes {VERSION}"
+        )
+    if fields["size"] != len(image):
+        raise ModelImageError(
+            f"the image says {fields['size']} bytes but has {len(image)}: truncated?"
+        )
+    (crc,) = CRC.unpack_from(image, len(image) - CRC.size)
+    if crc != _crc32c(image[: -CRC.size]):
         raise ModelImageError("model image CRC-32C mismatch: the image is damaged, re-export it")
     return fields
 
 
 def model_id(image: bytes) -> int:
     """The u32 model_id in the image's header (after checking magic, version, size, CRC)."""
-    return int(_parse_header(image)[3])
+    return int(_parse_header(image)["model_id"])
 
 
 def describe(image: bytes) -> dict[str, Any]:
     """What the image holds: format, sizes, dimensions, weight format, section sizes."""
     f = _parse_header(image)
     sections = {
-        name: struct.unpack_from("<II", image, HEADER_SIZE + 8 * i)[1]
+        name: ENTRY.unpack_from(image, HEADER_SIZE + ENTRY.size * i)[1]
         for i, name in enumerate(SECTIONS)
     }
-    (crc,) = struct.unpack_from("<I", image, len(image) - 4)
+    (crc,) = CRC.unpack_from(image, len(image) - CRC.size)
     return {
-        "format": f[0].decode(),
-        "version": f[1],
-        "model_id": f[3],
-        "size": f[4],
+        "format": f["magic"].decode(),
+        "version": f["version"],
+        "model_id": f["model_id"],
+        "size": f["size"],
         "crc": crc,
-        "weight_format": WEIGHT_FORMATS[f[5]],
-        "arch": ARCHS[f[6]],
-        "led_steps": f[7],
-        "n_inputs": f[13],
-        "n_features": f[14],
-        "hidden": f[17],
-        "blocks": f[18],
-        "n_outputs": f[19],
+        "weight_format": WEIGHT_FORMATS[f["weight_format"]],
+        "arch": ARCHS[f["arch"]],
+        "led_steps": f["steps"],
+        "n_inputs": f["n_inputs"],
+        "n_features": f["n_features"],
+        "hidden": f["hidden"],
+        "blocks": f["blocks"],
+        "n_outputs": f["n_outputs"],
         "sections": sections,
     }
 
 
 def header_limits(path: str | Path) -> dict[str, int]:
-    """The STAC_MODEL_* limits #defined in stac_model.h (numbers only)."""
+    """The STAC_MODEL_* limits #defined in a C header (stac_model_image.h; numbers only)."""
     text = Path(path).read_text(encoding="utf-8")
     found = re.findall(r"#define STAC_MODEL_(\w+) (\d+)u", text)
     return {k: int(v) for k, v in found if k in LIMITS}

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.errors import SpectraTacError
-from spectratac.hardware.veml3328 import INTEGRATION_MS
+from spectratac.hardware.generated.veml3328 import INTEGRATION_MS
 
 SEQUENCES = ("white", "rgb", "per-led")
 REFERENCE_DUTY = 0.25  # all nine channels: clear ~41 % of full scale at 50 ms, x1 (twin)
