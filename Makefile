@@ -55,10 +55,10 @@ firmware: $(STAMP)
 firmware-test: $(STAMP)
 	$(BIN)/python tools/platformio/pio.py run -e native -t exec
 
-# The simulator library (build/firmware/native/libstac_sim.so, C ABI in stac_sim.h) as
-# firmware/sim/build.toml describes it; rebuilt only when a source is newer.
+# The simulator library (build/firmware/native/libstac_sim.so, C ABI in generated/stac_sim.h) as
+# tools/firmware/build.toml describes it; rebuilt only when a source is newer.
 firmware-native:
-	$(PYTHON) firmware/sim/build.py simlib
+	$(PYTHON) tools/firmware/build.py simlib
 
 # Black Pill in ROM DFU mode (hold BOOT0, tap NRST); ST-Link: see firmware/README.md.
 flash: firmware

@@ -1,7 +1,7 @@
 """Package build step that pyproject.toml cannot express: compile the simulator library.
 
 The project metadata lives in pyproject.toml. Here `build_py` additionally compiles the
-`simlib` target of firmware/sim/build.toml (the firmware core, the native port and the
+`simlib` target of tools/firmware/build.toml (the firmware core, the native port and the
 VEML3328 models) with the host C compiler into the package as spectratac/sim/libstac_sim.so,
 where spectratac.sim.native loads it, so an installed wheel opens sim:// without a checkout.
 The wheel is therefore tagged for this platform.
@@ -25,8 +25,8 @@ LIBRARY = Path("spectratac") / "sim" / "libstac_sim.so"
 
 
 def native_build() -> ModuleType:
-    """firmware/sim/build.py, the builder of firmware/sim/build.toml (standard library only)."""
-    script = ROOT / "firmware" / "sim" / "build.py"
+    """tools/firmware/build.py, the builder of tools/firmware/build.toml (standard library only)."""
+    script = ROOT / "tools" / "firmware" / "build.py"
     spec = importlib.util.spec_from_file_location("stac_native_build", script)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)

@@ -1,7 +1,7 @@
 #include "stac_app.h"
 
 #include "stac_cmd.h"
-#include "stac_sched.h"
+#include "stac_acquisition.h"
 
 /* Bytes read from the UART per pass: bounds the pass time under a flood of input while
  * staying far above what a 921600 baud link delivers between passes. */
@@ -11,7 +11,7 @@
 void stac_app_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity_t *id,
                    uint32_t now_us) {
     stac_state_init(app, hal, id, now_us);
-    stac_sched_probe(app);
+    stac_acquisition_probe(app);
     stac_leds_off(&app->leds, &app->hal);
 }
 
@@ -19,7 +19,7 @@ static void receive(stac_app_t *app) {
     uint8_t chunk[64];
     uint32_t total = 0u;
     while (total < RX_BYTES_PER_PASS) {
-        const uint32_t n = app->hal.uart_read(app->hal.ctx, chunk, sizeof chunk);
+        const uint32_t n = app->hal.link_read(app->hal.ctx, chunk, sizeof chunk);
         if (n == 0u) {
             return;
         }
@@ -37,9 +37,9 @@ static void receive(stac_app_t *app) {
 void stac_app_step(stac_app_t *app, uint32_t now_us) {
     stac_state_advance(app, now_us);
     receive(app);
-    stac_sched_run(app);
+    stac_acquisition_run(app);
 }
 
 uint32_t stac_app_next_wake_us(const stac_app_t *app) {
-    return stac_sched_next_wake(app, IDLE_WAKE_US);
+    return stac_acquisition_next_wake(app, IDLE_WAKE_US);
 }

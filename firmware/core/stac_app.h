@@ -1,6 +1,6 @@
 /* The firmware application, top of the core's layers: a port fills a stac_hal_t, calls
  * stac_app_init once and then stac_app_step(now_us) from its superloop. Each pass hands
- * received frames to the command layer (stac_cmd) and advances acquisition (stac_sched); the
+ * received frames to the command layer (stac_cmd) and advances acquisition (stac_acquisition); the
  * instance they share is stac_state.h's stac_app_t. */
 #ifndef STAC_APP_H
 #define STAC_APP_H

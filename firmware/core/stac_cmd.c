@@ -2,10 +2,11 @@
 
 #include <string.h>
 
-#include "stac_sched.h"
+#include "stac_acquisition.h"
 
 #define NO_FIELD 255u
-/* Indices of CONFIGURE's fields named by a NACK about estimates (hardware/definitions/messages.toml). */
+/* Indices of CONFIGURE's fields named by a NACK about estimates
+ * (hardware/definitions/messages.toml). */
 #define CONFIGURE_FLAGS_FIELD 4u
 #define CONFIGURE_STEPS_FIELD 6u
 
@@ -131,7 +132,7 @@ static void handle_configure(stac_app_t *app, const stac_frame_header_t *h, cons
     }
     send_ack(app, h);
     if ((c.flags & STAC_CONFIG_STREAM) != 0u) {
-        stac_sched_start(app);
+        stac_acquisition_start(app);
     }
 }
 
@@ -246,11 +247,11 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
     case STAC_MSG_GET_INFO: send_info(app); break;
     case STAC_MSG_CONFIGURE: handle_configure(app, &h, payload, plen); break;
     case STAC_MSG_START:
-        stac_sched_start(app);
+        stac_acquisition_start(app);
         send_ack(app, &h);
         break;
     case STAC_MSG_STOP: /* idempotent: a host resends a STOP whose ACK it missed */
-        stac_sched_stop(app);
+        stac_acquisition_stop(app);
         send_ack(app, &h);
         break;
     case STAC_MSG_TIME_SYNC_REQUEST: handle_time_sync(app, payload, plen); break;

@@ -44,12 +44,15 @@ typedef struct stac_hal {
     /* Set the PWM duty of one colour (0 R, 1 G, 2 B) of one LED (0..2), in permille. */
     void (*pwm_set)(void *ctx, uint8_t led, uint8_t colour, uint16_t duty_permille);
 
-    /* Queue a whole encoded frame for transmission. All or nothing: returns len when queued,
-     * 0 when the transmit buffer cannot take it (the core then counts a dropped frame). */
-    uint32_t (*uart_write)(void *ctx, const uint8_t *data, uint32_t len);
+    /* The host link: whatever carries frames to and from the host (USB CDC-ACM or a UART on
+     * the STM32 port, the caller's callbacks on the native one).
+     * link_write queues a whole encoded frame for transmission. All or nothing: returns len
+     * when queued, 0 when the transmit buffer cannot take it (the core then counts a dropped
+     * frame). */
+    uint32_t (*link_write)(void *ctx, const uint8_t *data, uint32_t len);
 
     /* Copy up to cap received bytes into buf without waiting; returns how many. */
-    uint32_t (*uart_read)(void *ctx, uint8_t *buf, uint32_t cap);
+    uint32_t (*link_read)(void *ctx, uint8_t *buf, uint32_t cap);
 
     /* Monotonic microseconds, wrapping at 2^32. */
     uint32_t (*clock_us)(void *ctx);

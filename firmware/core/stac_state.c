@@ -68,7 +68,7 @@ void stac_state_advance(stac_app_t *app, uint32_t now_us) {
 bool stac_app_send(stac_app_t *app, uint8_t type, const uint8_t *payload, size_t len) {
     const size_t n = stac_frame_encode(type, app->tx_seq++, payload, len, app->frame,
                                        sizeof app->frame);
-    if (n > 0u && app->hal.uart_write(app->hal.ctx, app->frame, (uint32_t)n) == (uint32_t)n) {
+    if (n > 0u && app->hal.link_write(app->hal.ctx, app->frame, (uint32_t)n) == (uint32_t)n) {
         app->stats.frames_sent++;
         return true;
     }

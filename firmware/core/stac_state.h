@@ -2,7 +2,7 @@
  *
  * One stac_app_t instance holds all state (no globals, no heap), so a host can run several
  * simulated devices in one process. This file is the bottom of the application's layers
- * (firmware/README.md): stac_sched and stac_cmd work on the instance through it, and stac_app
+ * (firmware/README.md): stac_acquisition and stac_cmd work on the instance through it, and stac_app
  * (the superloop pass) drives both; nothing here calls up into them. */
 #ifndef STAC_STATE_H
 #define STAC_STATE_H

@@ -1,4 +1,4 @@
-"""The simulated device's native VEML3328 register models (firmware/sim/veml_model.c)
+"""The simulated device's native VEML3328 register models (firmware/ports/native/veml_model.c)
 behave exactly like the twin's Python model, and the device built on them sends the same
 frames as one whose every register transfer goes to Python."""
 
@@ -229,7 +229,7 @@ def test_speed_max_through_sensor_loses_nothing(count: int) -> None:
 def test_constants_shared_with_the_native_port_agree() -> None:
     firmware = Path(__file__).resolve().parents[2] / "firmware"
     header = (firmware / "ports" / "native" / "generated" / "stac_sim.h").read_text()
-    model = (firmware / "sim" / "veml_model.h").read_text()
+    model = (firmware / "ports" / "native" / "veml_model.h").read_text()
 
     def define(text: str, name: str) -> int:
         found = re.search(rf"#define {name} (0x[0-9A-Fa-f]+|\d+)u?", text)

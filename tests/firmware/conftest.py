@@ -118,8 +118,8 @@ def qemu_port(image: Path) -> Iterator[int]:
 
 
 def load_native_build() -> ModuleType:
-    """firmware/sim/build.py: compiles the host targets of firmware/sim/build.toml."""
-    path = REPO / "firmware" / "sim" / "build.py"
+    """tools/firmware/build.py: compiles the host targets of tools/firmware/build.toml."""
+    path = REPO / "tools" / "firmware" / "build.py"
     spec = importlib.util.spec_from_file_location("stac_native_build", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)

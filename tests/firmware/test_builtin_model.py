@@ -1,5 +1,5 @@
 """A firmware with a built-in model: tools/firmware/builtin_model.py's C array compiled in with
-STAC_BUILTIN_MODEL (target builtin-tests of firmware/sim/build.toml, ASan + UBSan) decodes
+STAC_BUILTIN_MODEL (target builtin-tests of tools/firmware/build.toml, ASan + UBSan) decodes
 without an upload and comes back after MODEL_CLEAR; the tool's command line writes the array."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The C unit tests (tests/firmware/c) under AddressSanitizer and UBSan, one pytest case each:
 the VEML3328 driver against a fake register-level bus (NACK, stall, wrong id, saturation),
-sequencer and scheduler timing, command validation, codec, and random bytes into the decoder."""
+acquisition timing, command validation, codec, and random bytes into the decoder."""
 
 from __future__ import annotations
 

@@ -26,13 +26,15 @@ def module_graph() -> dict[str, set[str]]:
 
 def test_no_include_cycle() -> None:
     order = list(graphlib.TopologicalSorter(module_graph()).static_order())  # raises on a cycle
-    assert order.index("stac_state") < order.index("stac_sched") < order.index("stac_cmd")
+    assert order.index("stac_state") < order.index("stac_acquisition") < order.index("stac_cmd")
     assert order.index("stac_cmd") < order.index("stac_app")
 
 
 def test_state_does_not_reach_up() -> None:
     graph = module_graph()
-    assert graph["stac_app"] >= {"stac_cmd", "stac_sched", "stac_state"}
-    assert graph["stac_cmd"] == {"stac_sched", "stac_state"}
-    assert "stac_cmd" not in graph["stac_sched"] and "stac_app" not in graph["stac_sched"]
-    assert graph["stac_state"].isdisjoint({"stac_app", "stac_cmd", "stac_sched"})
+    assert graph["stac_app"] >= {"stac_cmd", "stac_acquisition", "stac_state"}
+    assert graph["stac_cmd"] == {"stac_acquisition", "stac_state"}
+    assert (
+        "stac_cmd" not in graph["stac_acquisition"] and "stac_app" not in graph["stac_acquisition"]
+    )
+    assert graph["stac_state"].isdisjoint({"stac_app", "stac_cmd", "stac_acquisition"})

@@ -1,5 +1,5 @@
 """The on-device decoder (firmware/core/stac_model.c) against the Python decoder, sample by
-sample over whole twin sessions, natively under ASan + UBSan (firmware/sim/model_check).
+sample over whole twin sessions, natively under ASan + UBSan (tests/firmware/model_check).
 
 For each recipe (the paper's, TrainSpec.best(), and variants covering every head, feature
 kind and a three-step LED sequence; small and briefly trained) and each weight format, the
@@ -20,8 +20,8 @@ from spectratac.decode.generated.model_image_layout import OFFSETS
 
 from tests.firmware.conftest import OUT, REPO
 
-sys.path.insert(0, str(REPO / "firmware" / "sim" / "model_check"))
-import model_check_host as harness  # firmware/sim/model_check/model_check_host.py
+sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
+import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.subprocess]
 

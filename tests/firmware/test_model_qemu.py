@@ -15,8 +15,8 @@ from spectratac.decode.export import model_image as mi
 from tests.firmware.conftest import REPO, build_image
 from tests.firmware.test_model_native import twin, with_faults
 
-sys.path.insert(0, str(REPO / "firmware" / "sim" / "model_check"))
-import model_check_host as harness  # firmware/sim/model_check/model_check_host.py
+sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
+import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
 
 pytestmark = [pytest.mark.qemu, pytest.mark.firmware, pytest.mark.train, pytest.mark.subprocess]
 

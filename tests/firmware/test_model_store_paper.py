@@ -25,8 +25,8 @@ from spectratac.sim.generated.native_abi import STORE_CAPACITY
 from .conftest import REPO
 from .test_model_store_sim import Link, configure
 
-sys.path.insert(0, str(REPO / "firmware" / "sim" / "model_check"))
-import model_check_host as harness  # firmware/sim/model_check/model_check_host.py
+sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
+import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.slow]
 

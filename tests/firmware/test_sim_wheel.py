@@ -1,5 +1,5 @@
 """An installed wheel opens sim:// on its own: `pip wheel .` compiles the simulator library into
-the package (setup.py, firmware/sim/build.toml), and a fresh virtual environment outside the
+the package (setup.py, tools/firmware/build.toml), and a fresh virtual environment outside the
 checkout streams samples from the library in its site-packages, not from the checkout.
 
 Offline: the wheel is built without build isolation or dependencies, installed without an

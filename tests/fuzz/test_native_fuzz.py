@@ -1,5 +1,5 @@
 """The firmware core's receive/command path under libFuzzer with ASan + UBSan (harness
-tests/fuzz/native/fuzz_core.c, target "fuzz-core" of firmware/sim/build.toml), a fixed
+tests/fuzz/native/fuzz_core.c, target "fuzz-core" of tools/firmware/build.toml), a fixed
 number of runs from the golden vectors; crash inputs land in tests/fuzz/regressions/
 native_core/ and are replayed, with the vectors, by test_native_regressions_replay."""
 
@@ -19,7 +19,7 @@ from tests.fuzz.harness import REGRESSIONS, SEED_ENV, native_runs
 pytestmark = [pytest.mark.fuzz, pytest.mark.firmware, pytest.mark.subprocess]
 
 REPO = Path(__file__).resolve().parents[2]
-BUILD = REPO / "firmware" / "sim" / "build.py"
+BUILD = REPO / "tools" / "firmware" / "build.py"
 TARGET = "fuzz-core"
 CRASHES = REGRESSIONS / "native_core"
 MAX_LEN = 4096  # bytes per input: several maximum-length frames and an oversize run

@@ -37,7 +37,7 @@ def load(path: Path, name: str) -> ModuleType:
 
 
 def native_figures() -> list[benchlib.Figure]:
-    build = load(REPO / "firmware" / "sim" / "build.py", "stac_native_build")
+    build = load(REPO / "tools" / "firmware" / "build.py", "stac_native_build")
     exe = build.build("bench")
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True, timeout=600)
     v = {k: float(x) for k, x in (line.split() for line in out.stdout.splitlines())}

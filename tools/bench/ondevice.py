@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import benchlib
 
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "firmware" / "sim" / "model_check"))
+sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
 sys.path.insert(0, str(REPO / "tools" / "platformio"))
 import model_check_host as check  # noqa: E402
 import pio  # noqa: E402

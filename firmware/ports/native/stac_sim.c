@@ -1,5 +1,6 @@
-/* Native port: adapts caller-supplied callbacks (or the VEML3328 models of firmware/sim) to the
- * core's HAL, one instance per device. The ABI (generated/stac_sim.h) is generated from hardware/definitions/sim_abi.toml. */
+/* Native port: adapts caller-supplied callbacks (or the VEML3328 models beside it, veml_model.c)
+ * to the core's HAL, one instance per device. The ABI (generated/stac_sim.h) is generated from
+ * hardware/definitions/sim_abi.toml. */
 #include "generated/stac_sim.h"
 
 #include <stdio.h>
@@ -105,7 +106,7 @@ static void hal_pwm(void *ctx, uint8_t led, uint8_t colour, uint16_t duty) {
 
 static uint32_t hal_write(void *ctx, const uint8_t *data, uint32_t len) {
     stac_sim_t *sim = (stac_sim_t *)ctx;
-    return sim->cb.uart_tx(sim->cb.user, hal_clock(sim), data, len);
+    return sim->cb.link_tx(sim->cb.user, hal_clock(sim), data, len);
 }
 
 static uint32_t hal_read(void *ctx, uint8_t *buf, uint32_t cap) {
@@ -276,8 +277,8 @@ static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
         .ctx = sim,
         .i2c_transfer = hal_i2c,
         .pwm_set = hal_pwm,
-        .uart_write = hal_write,
-        .uart_read = hal_read,
+        .link_write = hal_write,
+        .link_read = hal_read,
         .clock_us = hal_clock,
         .unique_id = hal_uid,
         .store_capacity = hal_store_capacity,
@@ -292,7 +293,7 @@ static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
 int32_t stac_sim_init(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks, const char *board,
                       uint32_t capabilities, const uint8_t *uid, uint32_t baud, uint32_t now_us) {
     if (sim == NULL || callbacks == NULL || callbacks->i2c_transfer == NULL ||
-        callbacks->pwm_set == NULL || callbacks->uart_tx == NULL) {
+        callbacks->pwm_set == NULL || callbacks->link_tx == NULL) {
         return -1;
     }
     memset(sim, 0, sizeof *sim);
@@ -306,7 +307,7 @@ int32_t stac_sim_init_models(stac_sim_t *sim, const stac_sim_callbacks_t *callba
                              uint32_t capabilities, const uint8_t *uid, uint32_t baud,
                              uint32_t now_us) {
     if (sim == NULL || callbacks == NULL || window == NULL || callbacks->pwm_set == NULL ||
-        callbacks->uart_tx == NULL) {
+        callbacks->link_tx == NULL) {
         return -1;
     }
     memset(sim, 0, sizeof *sim);

@@ -1,4 +1,4 @@
-/* The host link the core's HAL uart_write/uart_read go through. Two implementations, one per
+/* The host link the core's HAL link_write/link_read go through. Two implementations, one per
  * PlatformIO env: host_link_uart.c (USART1 on PA9/PA10 through a USB-serial adapter, env
  * blackpill_uart) and usb_otg_fs.c (USB CDC-ACM on the USB-C port, env blackpill). */
 #ifndef HOST_LINK_H

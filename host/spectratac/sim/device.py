@@ -5,7 +5,7 @@ settings drive the twin's LED timeline, and its UART frames go to `on_tx`. Time 
 the caller says it is (`step(now_us)`), so the device can run in real time or as fast as the
 host can go (`run()`).
 
-Register models: by default the native library's (firmware/sim/veml_model.c, a C
+Register models: by default the native library's (firmware/ports/native/veml_model.c, a C
 mirror of the twin's `Veml3328`) answer the register reads, and the twin is asked only for
 the counts of each completed window (`TwinRig.read_window`); windows the twin evaluated ahead
 (its lookahead plan) are handed to the library, which answers them without calling back.

@@ -1,12 +1,13 @@
 """Find and load the simulator library: the firmware core compiled for this host.
 
 The simulated device is the real firmware: firmware/core, the native port's HAL glue and the
-VEML3328 register models of firmware/sim, built as described once in firmware/sim/build.toml.
+VEML3328 register models beside it (firmware/ports/native), built as described once in
+tools/firmware/build.toml.
 The library comes from, in this order:
 
 1. ``$SPECTRATAC_SIM_LIB``: a prebuilt library (the tests load the sanitizer build this way);
 2. a source checkout (this package imported from ``host/`` beside ``firmware/``):
-   build/firmware/native/libstac_sim.so, compiled by firmware/sim/build.py on first use and
+   build/firmware/native/libstac_sim.so, compiled by tools/firmware/build.py on first use and
    again whenever a C source, header or the build description is newer;
 3. an installed package: libstac_sim.so beside this module, compiled when the wheel was built
    (setup.py). An installed package never runs a build script.
@@ -72,7 +73,7 @@ __all__ = [
 LIB_ENV = "SPECTRATAC_SIM_LIB"
 #: Where an installed package holds the library (setup.py compiles it into the wheel).
 PACKAGED_LIBRARY = Path(__file__).with_name("libstac_sim.so")
-#: The library target of firmware/sim/build.toml.
+#: The library target of tools/firmware/build.toml.
 TARGET = "simlib"
 
 
@@ -85,15 +86,16 @@ _lib: ctypes.CDLL | None = None
 
 
 def checkout_builder() -> ModuleType | None:
-    """firmware/sim/build.py when this package is imported from a source checkout, else None.
+    """tools/firmware/build.py when this package is imported from a source checkout, else None.
 
     A checkout is recognised by its layout: this file under ``host/spectratac/sim/`` and the
-    build description in ``firmware/sim/`` of the same tree. Installed copies (site-packages)
+    build description in ``tools/firmware/`` of the same tree. Installed copies (site-packages)
     never match, so they never compile anything."""
     here = Path(__file__).resolve()
     root = here.parents[3]
-    script = root / "firmware" / "sim" / "build.py"
-    if here.parents[2].name != "host" or not (root / "firmware" / "sim" / "build.toml").is_file():
+    script = root / "tools" / "firmware" / "build.py"
+    description = root / "tools" / "firmware" / "build.toml"
+    if here.parents[2].name != "host" or not description.is_file():
         return None
     spec = importlib.util.spec_from_file_location("stac_native_build", script)
     if spec is None or spec.loader is None:

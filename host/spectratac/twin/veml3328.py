@@ -19,7 +19,7 @@ register pointer, and a following read returns that register (bytes past the sec
 read-only register or a malformed write is not acknowledged (`I2CNack`).
 
 This is the reference model. The simulated device normally runs its C mirror
-(firmware/sim/veml_model.c), which asks the rig only for each window's counts;
+(firmware/ports/native/veml_model.c), which asks the rig only for each window's counts;
 tests/device/test_sim_models.py checks the two transfer by transfer. Change both together.
 
 >>> from spectratac.twin import builtin_scenes as scenes

@@ -43,7 +43,7 @@ int check_main(const test_case_t *const *tables, size_t n_tables, const char *on
 /* Tables defined by each test file. */
 extern const test_case_t g_codec_tests[];
 extern const test_case_t g_driver_tests[];
-extern const test_case_t g_sched_tests[];
+extern const test_case_t g_acquisition_tests[];
 extern const test_case_t g_cmd_tests[];
 extern const test_case_t g_fuzz_tests[];
 extern const test_case_t g_store_tests[];

@@ -250,8 +250,8 @@ void fake_init(fake_board_t *b) {
     b->hal.ctx = b;
     b->hal.i2c_transfer = fake_i2c;
     b->hal.pwm_set = fake_pwm;
-    b->hal.uart_write = fake_write;
-    b->hal.uart_read = fake_read;
+    b->hal.link_write = fake_write;
+    b->hal.link_read = fake_read;
     b->hal.clock_us = fake_clock;
     b->hal.unique_id = fake_uid;
     b->hal.store_capacity = fake_store_capacity;

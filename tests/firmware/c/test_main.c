@@ -2,7 +2,7 @@
 #include "check.h"
 
 static const test_case_t *const k_tables[] = {
-    g_codec_tests, g_driver_tests, g_sched_tests, g_cmd_tests, g_fuzz_tests, g_store_tests,
+    g_codec_tests, g_driver_tests, g_acquisition_tests, g_cmd_tests, g_fuzz_tests, g_store_tests,
     g_flash_store_tests,
 };
 

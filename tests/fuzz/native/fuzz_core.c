@@ -4,7 +4,7 @@
  *   - every frame the core sends is well formed (COBS, CRC, header);
  *   - afterwards a delimiter and GET_INFO are answered with INFO (the core recovers from any
  *     byte sequence, including half frames and oversize runs).
- * Built from firmware/sim/build.toml target "fuzz-core" with clang -fsanitize=fuzzer. */
+ * Built from tools/firmware/build.toml target "fuzz-core" with clang -fsanitize=fuzzer. */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>

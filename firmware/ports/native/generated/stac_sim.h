@@ -3,7 +3,7 @@
 /* SpectraTac firmware core as a host shared library (libstac_sim.so): the C ABI.
  *
  * The caller plays the hardware. It supplies callbacks for the I2C buses, the LED PWM and
- * the UART transmitter, feeds received bytes in, and drives time by calling stac_sim_step()
+ * the host link's transmitter, feeds received bytes in, and drives time by calling stac_sim_step()
  * with its own (simulated) microsecond clock. Nothing in the library sleeps, allocates or uses
  * globals: each device is one caller-allocated instance of stac_sim_sizeof() bytes (8-byte
  * aligned), so any number of simulated devices can run in one process.
@@ -13,8 +13,8 @@
  * 32-bit microsecond count that must not go backwards. Between steps nothing happens; call
  * stac_sim_step() again by stac_sim_next_wake_us() (earlier is fine) and after feeding bytes.
  *
- * From Python: spectratac.sim.generated.native_abi holds the ctypes declarations generated from the same
- * definition (CFUNCTYPE callback types, the Callbacks structure, the window dtype, declare()).
+ * From Python: spectratac.sim.generated.native_abi holds the ctypes declarations generated from
+ * the same definition (CFUNCTYPE callback types, the Callbacks structure, the window dtype, declare()).
  * Keep the CFUNCTYPE objects alive as long as the instance. A Python callback must not raise
  * (ctypes would print and return 0): catch the model's NACK exception and return
  * STAC_SIM_I2C_NACK (1). clock_us may be left NULL (ctypes: an empty CLOCK_FN()). */
@@ -61,7 +61,7 @@ typedef struct stac_sim_callbacks {
 
     /* One complete encoded frame (0x00 delimiter included). Return len if taken, 0 to make
      * the device count it as dropped (transmit buffer full). */
-    uint32_t (*uart_tx)(void *user, uint32_t now_us, const uint8_t *data, uint32_t len);
+    uint32_t (*link_tx)(void *user, uint32_t now_us, const uint8_t *data, uint32_t len);
 
     /* Optional (may be NULL): the device clock within a step, for callers that model time
      * passing during I2C transfers. Must lie between this step's now_us and the next. */
@@ -79,13 +79,13 @@ STAC_SIM_API uint32_t stac_sim_default_capabilities(void);
 /* Set up an instance and probe the sensors through the callbacks (ID reads at now_us).
  * board: NUL-terminated, at most 15 characters used (NULL: "native-sim"); uid: 12 bytes
  * (NULL: zeros); baud: reported in INFO (0: not a UART). Returns 0, or -1 on a NULL sim,
- * callbacks or missing i2c_transfer / pwm_set / uart_tx. The device is silent until asked. */
+ * callbacks or missing i2c_transfer / pwm_set / link_tx. The device is silent until asked. */
 STAC_SIM_API int32_t stac_sim_init(stac_sim_t *sim, const stac_sim_callbacks_t *callbacks,
                                    const char *board, uint32_t capabilities, const uint8_t *uid,
                                    uint32_t baud, uint32_t now_us);
 
 /* One superloop pass at device time now_us: decode fed bytes, answer commands, run the
- * acquisition (trigger / poll / read sensors, send SAMPLEs through uart_tx). */
+ * acquisition (trigger / poll / read sensors, send SAMPLEs through link_tx). */
 STAC_SIM_API void stac_sim_step(stac_sim_t *sim, uint32_t now_us);
 
 /* Queue bytes received from the host; returns how many were taken (the rest did not fit:
@@ -111,8 +111,8 @@ STAC_SIM_API uint64_t stac_sim_now64(const stac_sim_t *sim);
  * caller running "as fast as possible" does), at most max_steps times; returns the steps run. */
 STAC_SIM_API uint32_t stac_sim_run(stac_sim_t *sim, uint32_t max_steps);
 
-/* Sensor models inside the library (a test double of the three VEML3328s, firmware/sim/
- * veml_model.h): register reads and writes are answered in C, and the caller is asked only for
+/* Sensor models inside the library (a test double of the three VEML3328s,
+ * firmware/ports/native/veml_model.h): register reads and writes are answered in C, and the caller is asked only for
  * the counts of each completed integration window. The caller may hand over counts it computed
  * ahead for windows it expects (a plan); a window that matches the plan entry a sensor is due to
  * read (same start, end and CONF window bits) is answered from it without a callback. */

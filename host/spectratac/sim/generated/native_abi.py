@@ -63,7 +63,7 @@ class Callbacks(ctypes.Structure):
         ("user", c_void_p),
         ("i2c_transfer", I2C_FN),
         ("pwm_set", PWM_FN),
-        ("uart_tx", TX_FN),
+        ("link_tx", TX_FN),
         ("clock_us", CLOCK_FN),
     )
 

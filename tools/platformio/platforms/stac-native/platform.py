@@ -4,4 +4,4 @@ from platformio.public import PlatformBase
 
 
 class StacnativePlatform(PlatformBase):
-    """Host builds (targets of firmware/sim/build.toml) with the system compiler."""
+    """Host builds (targets of tools/firmware/build.toml) with the system compiler."""

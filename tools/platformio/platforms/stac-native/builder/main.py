@@ -1,4 +1,4 @@
-"""SCons build script of the stac-native platform: build the target of firmware/sim/build.toml
+"""SCons build script of the stac-native platform: build the target of tools/firmware/build.toml
 that the env names in `custom_native_target` (sources, include folders, defines and flags all
 come from that description, shared with the package build) with the system gcc.
 `pio run -e <env>` builds it; `-t exec` also runs a program target (a failing run fails the
@@ -28,8 +28,8 @@ PROJECT = env.subst("$PROJECT_DIR")
 
 
 def description_target(name):
-    """Target `name` of firmware/sim/build.toml, read by the project's own reader."""
-    script = os.path.join(PROJECT, "firmware", "sim", "build.py")
+    """Target `name` of tools/firmware/build.toml, read by the project's own reader."""
+    script = os.path.join(PROJECT, "tools", "firmware", "build.py")
     spec = importlib.util.spec_from_file_location("stac_native_build", script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -39,7 +39,7 @@ def description_target(name):
 name = env.GetProjectOption("custom_native_target", "")
 if not name:
     sys.stderr.write(
-        "stac-native: set custom_native_target to a target of firmware/sim/build.toml\n"
+        "stac-native: set custom_native_target to a target of tools/firmware/build.toml\n"
     )
     env.Exit(1)
 target = description_target(name)

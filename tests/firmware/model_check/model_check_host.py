@@ -115,9 +115,7 @@ def qemu_command(elf: Path, image_path: Path, icount_shift: int = 4) -> list[str
     ]  # fmt: skip
 
 
-def run_qemu(
-    elf: Path, image: bytes, session: Session, work: Path
-) -> subprocess.CompletedProcess:
+def run_qemu(elf: Path, image: bytes, session: Session, work: Path) -> subprocess.CompletedProcess:
     if len(image) > IMAGE_REGION:
         raise ValueError(f"{len(image)} bytes do not fit the check image's model region")
     work.mkdir(parents=True, exist_ok=True)

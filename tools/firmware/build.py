@@ -1,4 +1,4 @@
-"""Host builds of the firmware as described by firmware/sim/build.toml: the simulator library
+"""Host builds of the firmware as described by tools/firmware/build.toml: the simulator library
 (libstac_sim.so and its sanitized twin), the C unit tests, the golden-vector probe and the
 benchmark program, compiled with the system C compiler.
 
@@ -8,7 +8,7 @@ checkout, and by spectratac.sim.native in a checkout. `build()` recompiles a tar
 one of its inputs is newer than the output, so edited C sources are picked up on the next use.
 Standard library only: setup.py imports it before any dependency is installed.
 
-    python firmware/sim/build.py [--out build/firmware/native] [simlib simlib-asan unit-tests ...]
+    python tools/firmware/build.py [--out build/firmware/native] [simlib simlib-asan unit-tests ...]
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ SHARED_FLAGS = ("-fPIC", "-shared")
 
 
 class BuildDescriptionError(ValueError):
-    """firmware/sim/build.toml does not say what a target needs."""
+    """tools/firmware/build.toml does not say what a target needs."""
 
 
 class Target(NamedTuple):

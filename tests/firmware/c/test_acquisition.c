@@ -1,9 +1,10 @@
-/* Sequencer and scheduler: timing, rates, LED settling, per-step tagging, failing sensors. */
+/* Acquisition (stac_acquisition): timing, rates, LED settling, per-step tagging, failing
+ * sensors. */
 #include <string.h>
 
 #include "check.h"
 #include "helpers.h"
-#include "stac_sched.h"
+#include "stac_acquisition.h"
 #include "veml3328.h"
 
 static fake_board_t g_b;
@@ -21,7 +22,7 @@ static void start(void) {
     stac_app_step(&g_app, g_b.now);
 }
 
-TEST(sched_silent_until_asked) {
+TEST(acquisition_silent_until_asked) {
     boot();
     fake_run_until(&g_b, &g_app, g_b.now + 2000000u, 500u);
     CHECK_EQ(g_b.tx_len, 0);
@@ -34,7 +35,7 @@ TEST(sched_silent_until_asked) {
     }
 }
 
-TEST(sched_one_step_20_per_second) {
+TEST(acquisition_one_step_20_per_second) {
     boot();
     start();
     const uint32_t t0 = g_b.now;
@@ -74,7 +75,7 @@ static void four_steps(stac_configure_t *c) {
     }
 }
 
-TEST(sched_n_steps_rate_and_tagging) {
+TEST(acquisition_n_steps_rate_and_tagging) {
     boot();
     stac_configure_t c;
     four_steps(&c);
@@ -100,7 +101,7 @@ TEST(sched_n_steps_rate_and_tagging) {
     }
 }
 
-TEST(sched_no_integration_straddles_led_change) {
+TEST(acquisition_no_integration_straddles_led_change) {
     boot();
     stac_configure_t c;
     four_steps(&c);
@@ -119,7 +120,7 @@ TEST(sched_no_integration_straddles_led_change) {
     }
 }
 
-TEST(sched_sample_sent_in_the_pass_that_sees_the_end) {
+TEST(acquisition_sample_sent_in_the_pass_that_sees_the_end) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 2000000u, 100u);
@@ -134,7 +135,7 @@ TEST(sched_sample_sent_in_the_pass_that_sees_the_end) {
     CHECK(checked > 30);
 }
 
-TEST(sched_missing_sensor_flagged_others_stream) {
+TEST(acquisition_missing_sensor_flagged_others_stream) {
     fake_init(&g_b);
     g_b.s[1].mode = FAKE_ABSENT;
     fake_boot(&g_b, &g_app);
@@ -152,7 +153,7 @@ TEST(sched_missing_sensor_flagged_others_stream) {
     }
 }
 
-TEST(sched_sensor_lost_and_recovered) {
+TEST(acquisition_sensor_lost_and_recovered) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 500000u, 100u);
@@ -186,7 +187,7 @@ TEST(sched_sensor_lost_and_recovered) {
     CHECK(strcmp(m.text, "sensor 2 recovered") == 0);
 }
 
-TEST(sched_flapping_sensor_logs_are_rate_limited) {
+TEST(acquisition_flapping_sensor_logs_are_rate_limited) {
     boot();
     start();
     for (int i = 0; i < 40; i++) {
@@ -199,7 +200,7 @@ TEST(sched_flapping_sensor_logs_are_rate_limited) {
     CHECK(fake_count(g_frames, n, STAC_MSG_SAMPLE) >= 40);
 }
 
-TEST(sched_never_finishing_sensor_is_stale) {
+TEST(acquisition_never_finishing_sensor_is_stale) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 300000u, 100u);
@@ -214,7 +215,7 @@ TEST(sched_never_finishing_sensor_is_stale) {
     CHECK(last->t_end_us - last->t_start_us <= 50000u + STAC_STALE_MARGIN_US(50000u) + 3000u);
 }
 
-TEST(sched_saturation_flagged_and_counted) {
+TEST(acquisition_saturation_flagged_and_counted) {
     boot();
     g_b.s[0].saturate = true;
     start();
@@ -227,7 +228,7 @@ TEST(sched_saturation_flagged_and_counted) {
     CHECK_EQ(g_app.stats.saturations[1], 0);
 }
 
-TEST(sched_slow_sensor_oscillator_is_waited_for) {
+TEST(acquisition_slow_sensor_oscillator_is_waited_for) {
     boot();
     for (int k = 0; k < 3; k++) {
         g_b.s[k].slow_ppm = 80000u; /* 8 % slow: 54 ms per 50 ms integration */
@@ -242,7 +243,7 @@ TEST(sched_slow_sensor_oscillator_is_waited_for) {
     }
 }
 
-TEST(sched_config_applies_at_next_integration) {
+TEST(acquisition_config_applies_at_next_integration) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 120000u, 100u); /* mid-integration */
@@ -274,7 +275,7 @@ TEST(sched_config_applies_at_next_integration) {
     CHECK((g_b.s[0].conf & 0x0030u) == 0x0010u);
 }
 
-TEST(sched_stop_means_no_more_samples) {
+TEST(acquisition_stop_means_no_more_samples) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 275000u, 100u);
@@ -304,7 +305,7 @@ TEST(sched_stop_means_no_more_samples) {
     CHECK(g_b.s[0].triggers > triggers);
 }
 
-TEST(sched_all_sensors_absent_still_streams) {
+TEST(acquisition_all_sensors_absent_still_streams) {
     fake_init(&g_b);
     for (int k = 0; k < 3; k++) {
         g_b.s[k].mode = FAKE_STALL;
@@ -320,7 +321,7 @@ TEST(sched_all_sensors_absent_still_streams) {
     }
 }
 
-TEST(sched_full_transmit_buffer_counts_drops) {
+TEST(acquisition_full_transmit_buffer_counts_drops) {
     boot();
     start();
     fake_run_until(&g_b, &g_app, g_b.now + 500000u, 100u);
@@ -337,22 +338,28 @@ TEST(sched_full_transmit_buffer_counts_drops) {
     CHECK(g_frames[n - 1].h.seq > (uint16_t)(n - 1));
 }
 
-const test_case_t g_sched_tests[] = {
-    {"sched_silent_until_asked", sched_silent_until_asked},
-    {"sched_one_step_20_per_second", sched_one_step_20_per_second},
-    {"sched_n_steps_rate_and_tagging", sched_n_steps_rate_and_tagging},
-    {"sched_no_integration_straddles_led_change", sched_no_integration_straddles_led_change},
-    {"sched_sample_sent_in_the_pass_that_sees_the_end",
-     sched_sample_sent_in_the_pass_that_sees_the_end},
-    {"sched_missing_sensor_flagged_others_stream", sched_missing_sensor_flagged_others_stream},
-    {"sched_sensor_lost_and_recovered", sched_sensor_lost_and_recovered},
-    {"sched_flapping_sensor_logs_are_rate_limited", sched_flapping_sensor_logs_are_rate_limited},
-    {"sched_never_finishing_sensor_is_stale", sched_never_finishing_sensor_is_stale},
-    {"sched_saturation_flagged_and_counted", sched_saturation_flagged_and_counted},
-    {"sched_slow_sensor_oscillator_is_waited_for", sched_slow_sensor_oscillator_is_waited_for},
-    {"sched_config_applies_at_next_integration", sched_config_applies_at_next_integration},
-    {"sched_stop_means_no_more_samples", sched_stop_means_no_more_samples},
-    {"sched_all_sensors_absent_still_streams", sched_all_sensors_absent_still_streams},
-    {"sched_full_transmit_buffer_counts_drops", sched_full_transmit_buffer_counts_drops},
+const test_case_t g_acquisition_tests[] = {
+    {"acquisition_silent_until_asked", acquisition_silent_until_asked},
+    {"acquisition_one_step_20_per_second", acquisition_one_step_20_per_second},
+    {"acquisition_n_steps_rate_and_tagging", acquisition_n_steps_rate_and_tagging},
+    {"acquisition_no_integration_straddles_led_change",
+     acquisition_no_integration_straddles_led_change},
+    {"acquisition_sample_sent_in_the_pass_that_sees_the_end",
+     acquisition_sample_sent_in_the_pass_that_sees_the_end},
+    {"acquisition_missing_sensor_flagged_others_stream",
+     acquisition_missing_sensor_flagged_others_stream},
+    {"acquisition_sensor_lost_and_recovered", acquisition_sensor_lost_and_recovered},
+    {"acquisition_flapping_sensor_logs_are_rate_limited",
+     acquisition_flapping_sensor_logs_are_rate_limited},
+    {"acquisition_never_finishing_sensor_is_stale", acquisition_never_finishing_sensor_is_stale},
+    {"acquisition_saturation_flagged_and_counted", acquisition_saturation_flagged_and_counted},
+    {"acquisition_slow_sensor_oscillator_is_waited_for",
+     acquisition_slow_sensor_oscillator_is_waited_for},
+    {"acquisition_config_applies_at_next_integration",
+     acquisition_config_applies_at_next_integration},
+    {"acquisition_stop_means_no_more_samples", acquisition_stop_means_no_more_samples},
+    {"acquisition_all_sensors_absent_still_streams", acquisition_all_sensors_absent_still_streams},
+    {"acquisition_full_transmit_buffer_counts_drops",
+     acquisition_full_transmit_buffer_counts_drops},
     {NULL, NULL},
 };

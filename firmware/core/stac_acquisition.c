@@ -1,4 +1,4 @@
-#include "stac_sched.h"
+#include "stac_acquisition.h"
 
 #include <string.h>
 
@@ -67,7 +67,7 @@ static void sensor_ok(stac_app_t *app, uint32_t k) {
     }
 }
 
-void stac_sched_probe(stac_app_t *app) {
+void stac_acquisition_probe(stac_app_t *app) {
     const veml3328_settings_t s = sensor_settings(&app->cfg);
     for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
         const uint8_t bit = (uint8_t)(1u << k);
@@ -98,13 +98,13 @@ static void apply_pending(stac_app_t *app) {
     stac_state_estimator_reset(app);
 }
 
-void stac_sched_start(stac_app_t *app) {
+void stac_acquisition_start(stac_app_t *app) {
     if (app->streaming) {
         return;
     }
     /* A sensor plugged in (or powered) since boot is picked up here. */
     if (app->present != (uint8_t)((1u << STAC_SENSORS) - 1u)) {
-        stac_sched_probe(app);
+        stac_acquisition_probe(app);
     }
     app->streaming = true;
     app->sample_seq = 0u;
@@ -113,7 +113,7 @@ void stac_sched_start(stac_app_t *app) {
     stac_state_estimator_reset(app);
 }
 
-void stac_sched_stop(stac_app_t *app) {
+void stac_acquisition_stop(stac_app_t *app) {
     if (app->acq.state == STAC_ACQ_INTEGRATE && app->acq.pending != 0u) {
         /* The sensors are still integrating: do not retrigger them before they finish. */
         app->acq.busy = true;
@@ -265,7 +265,7 @@ static void finish(stac_app_t *app) {
     acq->state = STAC_ACQ_IDLE;
 }
 
-void stac_sched_run(stac_app_t *app) {
+void stac_acquisition_run(stac_app_t *app) {
     stac_acq_t *acq = &app->acq;
     /* At most one full cycle per pass: finish -> next cycle -> trigger. */
     for (uint32_t transitions = 0u; transitions < 4u; transitions++) {
@@ -303,7 +303,7 @@ void stac_sched_run(stac_app_t *app) {
     }
 }
 
-uint32_t stac_sched_next_wake(const stac_app_t *app, uint32_t idle_us) {
+uint32_t stac_acquisition_next_wake(const stac_app_t *app, uint32_t idle_us) {
     switch (app->acq.state) {
     case STAC_ACQ_SETTLE: return app->acq.settle_until;
     case STAC_ACQ_INTEGRATE: return app->acq.poll_at;

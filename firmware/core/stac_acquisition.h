@@ -6,8 +6,8 @@
  * between a read and the next trigger, so no integration straddles an LED change.
  * With one step nothing changes between cycles, so a 50 ms integration gives ~20 samples/s;
  * with N steps each step is sampled ~20/N times per second (plus settle time per cycle). */
-#ifndef STAC_SCHED_H
-#define STAC_SCHED_H
+#ifndef STAC_ACQUISITION_H
+#define STAC_ACQUISITION_H
 
 #include <stdint.h>
 
@@ -20,18 +20,18 @@
 #define STAC_STALE_MARGIN_US(it_us) ((it_us) / 4u + 2000u)
 
 /* Probe the sensors (ID check) and power them up in active force mode. */
-void stac_sched_probe(stac_app_t *app);
+void stac_acquisition_probe(stac_app_t *app);
 
 /* Begin streaming (sample_seq restarts at 0); idempotent while streaming. */
-void stac_sched_start(stac_app_t *app);
+void stac_acquisition_start(stac_app_t *app);
 
 /* Stop streaming: the integration in flight is abandoned, no SAMPLE follows, LEDs go dark. */
-void stac_sched_stop(stac_app_t *app);
+void stac_acquisition_stop(stac_app_t *app);
 
 /* Advance the state machine as far as the time allows. */
-void stac_sched_run(stac_app_t *app);
+void stac_acquisition_run(stac_app_t *app);
 
 /* Next time the scheduler needs a pass, or now + idle_us when it waits for nothing. */
-uint32_t stac_sched_next_wake(const stac_app_t *app, uint32_t idle_us);
+uint32_t stac_acquisition_next_wake(const stac_app_t *app, uint32_t idle_us);
 
-#endif /* STAC_SCHED_H */
+#endif /* STAC_ACQUISITION_H */
