@@ -44,21 +44,13 @@ def native_figures() -> list[benchlib.Figure]:
     frame = int(v["frame_bytes"])
     return [
         benchlib.Figure(
-            f"SAMPLE frame encode ({frame} B)",
-            v["encode_ns"],
-            "ns/frame",
-            f"memcpy of {frame} B",
-            v["memcpy_ns"],
-            v["encode_ns"] / v["memcpy_ns"],
+            f"SAMPLE frame encode ({frame} B)", v["encode_ns"], "ns/frame",
+            f"memcpy of {frame} B", v["memcpy_ns"], v["encode_ns"] / v["memcpy_ns"],
             {"what": "pack + CRC-32C + COBS + delimiter, native -O2"},
         ),
         benchlib.Figure(
-            "integration end -> frame to UART",
-            v["pass_us"],
-            "us",
-            "idle superloop pass",
-            v["idle_pass_us"],
-            v["pass_us"] / v["idle_pass_us"],
+            "integration end -> frame to UART", v["pass_us"], "us",
+            "idle superloop pass", v["idle_pass_us"], v["pass_us"] / v["idle_pass_us"],
             {"passes": 1, "what": "one pass: poll 3 sensors, read 15 channels, frame, hand over"},
         ),
     ]
@@ -74,35 +66,17 @@ def image_figures() -> list[benchlib.Figure]:
         if result.returncode != 0:
             raise SystemExit(result.stdout[-3000:] + result.stderr[-3000:])
         elf = REPO / "build" / "pio" / env / "firmware.elf"
-        out = subprocess.run(
-            ["arm-none-eabi-size", "-A", "-d", str(elf)],
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=60,
-        ).stdout
+        out = subprocess.run(["arm-none-eabi-size", "-A", "-d", str(elf)], capture_output=True,
+                             text=True, check=True, timeout=60).stdout
         s = {m[1]: int(m[2]) for m in re.finditer(r"^(\.\S+)\s+(\d+)\s+\d+", out, flags=re.M)}
         flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
         ram = s.get(".data", 0) + s[".bss"]
         figures += [
-            benchlib.Figure(
-                f"STM32F411 image flash ({link})",
-                flash,
-                "B",
-                "budget",
-                FLASH_BUDGET,
-                flash / FLASH_BUDGET,
-                {"env": env, "sections": s},
-            ),
-            benchlib.Figure(
-                f"STM32F411 static RAM ({link})",
-                ram,
-                "B",
-                "budget",
-                RAM_BUDGET,
-                ram / RAM_BUDGET,
-                {"env": env, "data": s.get(".data", 0), "bss": s[".bss"]},
-            ),
+            benchlib.Figure(f"STM32F411 image flash ({link})", flash, "B", "budget",
+                            FLASH_BUDGET, flash / FLASH_BUDGET, {"env": env, "sections": s}),
+            benchlib.Figure(f"STM32F411 static RAM ({link})", ram, "B", "budget", RAM_BUDGET,
+                            ram / RAM_BUDGET,
+                            {"env": env, "data": s.get(".data", 0), "bss": s[".bss"]}),
         ]
     return figures
 

@@ -1,4 +1,5 @@
-"""Render firmware/ports/stm32f411/generated/board.h from the board's pinmap.toml.
+"""Render firmware/ports/stm32f411/generated/board.h from the board's pin map
+(hardware/definitions/stm32f411_pinmap.toml).
 
 Each MCU pin's alternate function, peripheral instance and timer channel are read from its
 `function` text ("I2C1_SCL AF4", "TIM2_CH1 AF1", "USART1_TX AF7"). Row order is fixed by the
@@ -21,7 +22,7 @@ ROLES = {"SCL": "PIN_I2C_SCL", "SDA": "PIN_I2C_SDA", "TX": "PIN_UART_TX", "RX": 
 
 
 class PinmapError(ValueError):
-    """pinmap.toml has a pin or function the generator cannot read."""
+    """The pin map has a pin or function the generator cannot read."""
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,7 @@ def render_header(p: Pinmap) -> str:
             "enum pin_role { PIN_I2C_SCL, PIN_I2C_SDA, PIN_LED, PIN_UART_TX, PIN_UART_RX };",
             "",
             "typedef struct board_pin {",
-            "    const char *signal; /* as in pinmap.toml */",
+            "    const char *signal; /* as in the pin map */",
             "    char port;          /* 'A' or 'B' */",
             "    uint8_t pin;",
             "    uint8_t af;         /* alternate function number */",

@@ -36,7 +36,7 @@ def render(d: Definition) -> str:
         f"# SpectraTac protocol {p['major']}.{p['minor']}: message reference",
         "",
         f"Definition hash: `0x{d.hash:08X}` (sent in INFO.definition_hash). "
-        "Rules (framing, CRC, versioning, timing) are in [SPEC.md](SPEC.md).",
+        "Rules (framing, CRC, versioning, timing) are in [SPEC.md](../SPEC.md).",
         "",
         "## Constants",
         "",

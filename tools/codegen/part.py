@@ -1,4 +1,4 @@
-"""Load and check a part definition (hardware/parts/<part>.toml): registers and CONF bit fields.
+"""Load and check a part definition (hardware/definitions/<part>.toml): registers and CONF fields.
 
 >>> from pathlib import Path
 >>> p = load(Path(__file__).resolve().parents[2] / "hardware/definitions/veml3328.toml")

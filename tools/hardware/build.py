@@ -29,9 +29,8 @@ from params import REPO, load
 SYSTEM_PYTHON = "/usr/bin/python3"
 HERE = Path(__file__).resolve().parent
 # Lines that carry the run's date: dropped so that regenerating changes nothing in git.
-DATED = re.compile(
-    r"^(G04 #@! TF\.CreationDate.*|; #@! TF\.CreationDate.*|\*\* Created on .*)\n", re.MULTILINE
-)
+DATED = re.compile(r"^(G04 #@! TF\.CreationDate.*|; #@! TF\.CreationDate.*|\*\* Created on .*)\n",
+                   re.MULTILINE)
 
 
 def _undate(folder: Path) -> None:
@@ -44,19 +43,14 @@ def build_pcb(kicad_dir: Path) -> dict[str, object]:
     """Run the pcbnew generator with a throw-away HOME (KiCad writes settings there)."""
     with tempfile.TemporaryDirectory() as home:
         env = dict(os.environ, HOME=home)
-        proc = subprocess.run(
-            [SYSTEM_PYTHON, str(HERE / "pcb_build.py"), str(kicad_dir)],
-            capture_output=True,
-            text=True,
-            env=env,
-        )
+        proc = subprocess.run([SYSTEM_PYTHON, str(HERE / "pcb_build.py"), str(kicad_dir)],
+                              capture_output=True, text=True, env=env)
     (kicad_dir / "spectratac.kicad_prl").unlink(missing_ok=True)  # per-user view state
     _undate(kicad_dir)
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     if proc.returncode != 0 or not lines:
-        raise SystemExit(
-            f"PCB generation failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
-        )
+        raise SystemExit(f"PCB generation failed ({proc.returncode}):\n{proc.stdout}\n"
+                         f"{proc.stderr}")
     result: dict[str, object] = json.loads(lines[-1])
     return result
 
@@ -68,26 +62,15 @@ def render_board(gerber_dir: Path, render_dir: Path) -> list[Path]:
     render_dir.mkdir(parents=True, exist_ok=True)
     stem = "spectratac-"
     views = {
-        "board_top.png": [
-            ("F_Cu", "#c89b3c"),
-            ("F_Silkscreen", "#ffffff"),
-            ("Edge_Cuts", "#000000"),
-        ],
-        "board_bottom.png": [
-            ("B_Cu", "#c89b3c"),
-            ("B_Silkscreen", "#ffffff"),
-            ("Edge_Cuts", "#000000"),
-        ],
+        "board_top.png": [("F_Cu", "#c89b3c"), ("F_Silkscreen", "#ffffff"),
+                          ("Edge_Cuts", "#000000")],
+        "board_bottom.png": [("B_Cu", "#c89b3c"), ("B_Silkscreen", "#ffffff"),
+                             ("Edge_Cuts", "#000000")],
     }
     paths = []
     for name, layers in views.items():
-        args = [
-            "gerbv",
-            "--export=png",
-            "--dpi=900",
-            f"--output={render_dir / name}",
-            "--background=#1f5f3a",
-        ]
+        args = ["gerbv", "--export=png", "--dpi=900", f"--output={render_dir / name}",
+                "--background=#1f5f3a"]
         for layer, colour in reversed(layers):
             args += [f"--foreground={colour}", str(gerber_dir / f"{stem}{layer}.gbr")]
         subprocess.run(args, check=True, capture_output=True)
@@ -118,11 +101,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_render:
         renders = render_board(kicad_dir / "gerber", render_dir)
         renders += moulds.render_pngs(mould_dir, render_dir)
-    print(
-        json.dumps(
-            {"drc": pcb["drc"], "stl": [p.name for p in stls], "renders": [p.name for p in renders]}
-        )
-    )
+    print(json.dumps({"drc": pcb["drc"], "stl": [p.name for p in stls],
+                      "renders": [p.name for p in renders]}))
     return 0
 
 

@@ -98,106 +98,40 @@ def parts(geo: Geometry) -> list[Part]:
     r = geo.ring_radius
     for k, a in enumerate(geo.sensor_angles):
         bus = k + 1
-        out.append(
-            Part(
-                f"U{bus}",
-                "VEML3328",
-                "VEML3328",
-                "top",
-                r,
-                a,
-                a,
-                {
-                    pad: f"{name}{bus}" if name in ("SDA", "SCL") else name
-                    for pad, name in SENSOR_PINS.items()
-                },
-                "VEML3328",
-                f"RGBCIR colour sensor {k}, I2C bus {bus} (address 0x10)",
-            )
-        )
+        out.append(Part(f"U{bus}", "VEML3328", "VEML3328", "top", r, a, a,
+                        {pad: f"{name}{bus}" if name in ("SDA", "SCL") else name
+                         for pad, name in SENSOR_PINS.items()},
+                        "VEML3328", f"RGBCIR colour sensor {k}, I2C bus {bus} (address 0x10)"))
     for j, a in enumerate(geo.led_angles):
         n = j + 1
         pins = {"1": "VLED"} | {str(i + 2): f"LED{n}_{c}_K" for i, c in enumerate(LED_COLOURS)}
-        out.append(
-            Part(
-                f"D{n}",
-                "RGB_CA",
-                "LED_RGB_1615",
-                "top",
-                r,
-                a,
-                a,
-                pins,
-                "XL-1615RGBC",
-                f"RGB LED {j}, common anode",
-            )
-        )
+        out.append(Part(f"D{n}", "RGB_CA", "LED_RGB_1615", "top", r, a, a, pins,
+                        "XL-1615RGBC", f"RGB LED {j}, common anode"))
     # Bottom side: decoupling right under each sensor, pull-ups inboard of it, LED resistors
     # under each LED, so that every part is a via away from the pad it serves.
     for k, a in enumerate(geo.sensor_angles):
         bus = k + 1
-        out.append(
-            Part(
-                f"C{bus}",
-                DECOUPLING,
-                "C_0402",
-                "bottom",
-                r,
-                a,
-                a + 90.0,
-                {"1": "VDD", "2": "GND"},
-                "CL05B104KO5NNNC",
-                f"100 nF X7R decoupling, sensor {k}",
-            )
-        )
+        out.append(Part(f"C{bus}", DECOUPLING, "C_0402", "bottom", r, a, a + 90.0,
+                        {"1": "VDD", "2": "GND"}, "CL05B104KO5NNNC",
+                        f"100 nF X7R decoupling, sensor {k}"))
         for i, (sig, offset) in enumerate((("SCL", -14.0), ("SDA", 14.0))):
-            out.append(
-                Part(
-                    f"R{2 * k + i + 1}",
-                    format_ohms(PULLUP_OHMS),
-                    "R_0402",
-                    "bottom",
-                    3.6,
-                    (a + offset) % 360.0,
-                    a + offset,
-                    {"1": "VDD", "2": f"{sig}{bus}"},
-                    uniohm_0402(PULLUP_OHMS),
-                    f"I2C pull-up, {sig}{bus}",
-                )
-            )
+            out.append(Part(f"R{2 * k + i + 1}", format_ohms(PULLUP_OHMS), "R_0402", "bottom",
+                            3.6, (a + offset) % 360.0, a + offset,
+                            {"1": "VDD", "2": f"{sig}{bus}"}, uniohm_0402(PULLUP_OHMS),
+                            f"I2C pull-up, {sig}{bus}"))
     for j, a in enumerate(geo.led_angles):
         n = j + 1
         for i, (c, offset) in enumerate(zip(LED_COLOURS, (-16.0, 0.0, 16.0), strict=True)):
             ohms = led_resistor(c)
-            out.append(
-                Part(
-                    f"R{7 + 3 * j + i}",
-                    format_ohms(ohms),
-                    "R_0402",
-                    "bottom",
-                    r,
-                    (a + offset) % 360.0,
-                    a + offset,
-                    {"1": f"LED{n}_{c}", "2": f"LED{n}_{c}_K"},
-                    uniohm_0402(ohms),
-                    f"LED {j} {c} series resistor ({LED_MA:g} mA)",
-                )
-            )
+            out.append(Part(f"R{7 + 3 * j + i}", format_ohms(ohms), "R_0402", "bottom", r,
+                            (a + offset) % 360.0, a + offset,
+                            {"1": f"LED{n}_{c}", "2": f"LED{n}_{c}_K"}, uniohm_0402(ohms),
+                            f"LED {j} {c} series resistor ({LED_MA:g} mA)"))
     pinmap = load_pinmap()
-    out.append(
-        Part(
-            "J1",
-            "SENSOR_LINK",
-            "SensorLink_18pad",
-            "bottom",
-            0.0,
-            0.0,
-            0.0,
-            {str(pad): row["signal"] for pad, row in sorted(pinmap.items())},
-            "",
-            "18 solder pads to the Black Pill (hardware/definitions/stm32f411_pinmap.toml)",
-        )
-    )
+    out.append(Part("J1", "SENSOR_LINK", "SensorLink_18pad", "bottom", 0.0, 0.0, 0.0,
+                    {str(pad): row["signal"] for pad, row in sorted(pinmap.items())},
+                    "", "18 solder pads to the Black Pill (hardware/definitions/"
+                    "stm32f411_pinmap.toml)"))
     return out
 
 

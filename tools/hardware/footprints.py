@@ -44,30 +44,18 @@ class Land:
 
 def _quad(px: float, py: float, w: float, h: float) -> tuple[PadSpec, ...]:
     """Four corner pads numbered counter-clockwise on screen from the top-left one."""
-    return (
-        PadSpec("1", -px, -py, w, h),
-        PadSpec("2", -px, py, w, h),
-        PadSpec("3", px, py, w, h),
-        PadSpec("4", px, -py, w, h),
-    )
+    return (PadSpec("1", -px, -py, w, h), PadSpec("2", -px, py, w, h),
+            PadSpec("3", px, py, w, h), PadSpec("4", px, -py, w, h))
 
 
 def lands(geo: Geometry) -> dict[str, Land]:
     sb, lb = geo.sensor_body, geo.led_body
     two = (PadSpec("1", -0.5, 0.0, 0.55, 0.6), PadSpec("2", 0.5, 0.0, 0.55, 0.6))
     return {
-        "VEML3328": Land(
-            _quad(0.65, 0.375, 0.5, 0.45),
-            (sb[0], sb[1]),
-            (sb[0] + 0.3, sb[1] + 0.3),
-            (-sb[0] / 2 - 0.25, -0.375),
-        ),
-        "LED_RGB_1615": Land(
-            _quad(0.55, 0.45, 0.5, 0.5),
-            (lb[0], lb[1]),
-            (lb[0] + 0.3, lb[1] + 0.3),
-            (-lb[0] / 2 - 0.25, -0.45),
-        ),
+        "VEML3328": Land(_quad(0.65, 0.375, 0.5, 0.45), (sb[0], sb[1]),
+                         (sb[0] + 0.3, sb[1] + 0.3), (-sb[0] / 2 - 0.25, -0.375)),
+        "LED_RGB_1615": Land(_quad(0.55, 0.45, 0.5, 0.5), (lb[0], lb[1]),
+                             (lb[0] + 0.3, lb[1] + 0.3), (-lb[0] / 2 - 0.25, -0.45)),
         "R_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "C_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "SensorLink_18pad": Land(_connector_pads(geo), (0.0, 0.0), (0.0, 0.0), None),
@@ -85,9 +73,8 @@ def _connector_pads(geo: Geometry) -> tuple[PadSpec, ...]:
     for pad, row in sorted(load_pinmap().items()):
         a = math.radians(angles[row["signal"]])
         r = geo.connector_radius
-        out.append(
-            PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9, -angles[row["signal"]])
-        )
+        out.append(PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9,
+                           -angles[row["signal"]]))
     return tuple(out)
 
 
@@ -106,9 +93,8 @@ def _rect(fp: pcbnew.FOOTPRINT, w: float, h: float, layer: int, width: float) ->
     fp.Add(s)
 
 
-def make(
-    board: pcbnew.BOARD, part: Part, geo: Geometry, nets: dict[str, pcbnew.NETINFO_ITEM]
-) -> pcbnew.FOOTPRINT:
+def make(board: pcbnew.BOARD, part: Part, geo: Geometry,
+         nets: dict[str, pcbnew.NETINFO_ITEM]) -> pcbnew.FOOTPRINT:
     land = lands(geo)[part.footprint]
     fp = pcbnew.FOOTPRINT(board)
     fp.SetFPID(pcbnew.LIB_ID(LIB, part.footprint))

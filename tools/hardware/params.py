@@ -74,11 +74,8 @@ def load(path: Path = PARAMS_TOML) -> Geometry:
         skin_wall=float(s["skin_wall"]),
         pocket_clearance=float(s["pocket_clearance"]),
         pocket_extra_depth=float(s["pocket_extra_depth"]),
-        sensor_body=(
-            float(p["sensor_body"][0]),
-            float(p["sensor_body"][1]),
-            float(p["sensor_body"][2]),
-        ),
+        sensor_body=(float(p["sensor_body"][0]), float(p["sensor_body"][1]),
+                     float(p["sensor_body"][2])),
         led_body=(float(p["led_body"][0]), float(p["led_body"][1]), float(p["led_body"][2])),
         mould_wall=float(m["wall"]),
         mould_floor=float(m["floor"]),

@@ -26,14 +26,9 @@ NAME = "spectratac"
 # Route the supplies first (they branch to many pads), then the short signal nets.
 PRIORITY = ("GND", "VDD", "VLED")
 GERBER_LAYERS = (
-    (pcbnew.F_Cu, "F_Cu"),
-    (pcbnew.B_Cu, "B_Cu"),
-    (pcbnew.F_Mask, "F_Mask"),
-    (pcbnew.B_Mask, "B_Mask"),
-    (pcbnew.F_Paste, "F_Paste"),
-    (pcbnew.B_Paste, "B_Paste"),
-    (pcbnew.F_SilkS, "F_Silkscreen"),
-    (pcbnew.B_SilkS, "B_Silkscreen"),
+    (pcbnew.F_Cu, "F_Cu"), (pcbnew.B_Cu, "B_Cu"), (pcbnew.F_Mask, "F_Mask"),
+    (pcbnew.B_Mask, "B_Mask"), (pcbnew.F_Paste, "F_Paste"), (pcbnew.B_Paste, "B_Paste"),
+    (pcbnew.F_SilkS, "F_Silkscreen"), (pcbnew.B_SilkS, "B_Silkscreen"),
     (pcbnew.Edge_Cuts, "Edge_Cuts"),
 )
 
@@ -91,32 +86,19 @@ def pad_labels(board: pcbnew.BOARD, geo: Geometry, j1: Part) -> list[Shape]:
     return areas
 
 
-def route(
-    board: pcbnew.BOARD,
-    geo: Geometry,
-    names: list[str],
-    netinfo: dict[str, pcbnew.NETINFO_ITEM],
-    no_via: list[Shape],
-) -> Router:
+def route(board: pcbnew.BOARD, geo: Geometry, names: list[str],
+          netinfo: dict[str, pcbnew.NETINFO_ITEM], no_via: list[Shape]) -> Router:
     pads = []
     for fp in sorted(board.GetFootprints(), key=lambda f: f.GetReference()):
         for pad in sorted(fp.Pads(), key=lambda p: int(p.GetNumber())):
             layer = 0 if pad.IsOnLayer(pcbnew.F_Cu) else 1
             pos, size = pad.GetPosition(), pad.GetSize()
-            pads.append(
-                Shape(
-                    pad.GetNetname(),
-                    (layer,),
-                    "rect",
-                    pcbnew.ToMM(pos.x),
-                    pcbnew.ToMM(pos.y),
-                    pcbnew.ToMM(size.x) / 2,
-                    pcbnew.ToMM(size.y) / 2,
-                    pad.GetOrientationDegrees(),
-                )
-            )
+            pads.append(Shape(pad.GetNetname(), (layer,), "rect", pcbnew.ToMM(pos.x),
+                              pcbnew.ToMM(pos.y), pcbnew.ToMM(size.x) / 2,
+                              pcbnew.ToMM(size.y) / 2, pad.GetOrientationDegrees()))
     order = [n for n in PRIORITY if n in names] + [n for n in names if n not in PRIORITY]
-    router = route_all(geo.centre[0], geo.centre[1], geo.board_radius, RULES, pads, order, no_via)
+    router = route_all(geo.centre[0], geo.centre[1], geo.board_radius, RULES, pads, order,
+                       no_via)
     for r in router.routes:
         for x1, y1, x2, y2, layer in r.segments:
             t = pcbnew.PCB_TRACK(board)
@@ -163,11 +145,9 @@ def drc(path: Path, report: Path) -> dict[str, int]:
     pcbnew.WriteDRCReport(board, str(report), pcbnew.EDA_UNITS_MILLIMETRES, True)
     text = report.read_text()
     counts = {}
-    for key, pattern in (
-        ("violations", r"Found (\d+) DRC violations"),
-        ("unconnected", r"Found (\d+) unconnected pads"),
-        ("footprint_errors", r"Found (\d+) Footprint errors"),
-    ):
+    for key, pattern in (("violations", r"Found (\d+) DRC violations"),
+                         ("unconnected", r"Found (\d+) unconnected pads"),
+                         ("footprint_errors", r"Found (\d+) Footprint errors")):
         m = re.search(pattern, text)
         counts[key] = int(m.group(1)) if m else -1
     counts["errors"] = len(re.findall(r"Severity: error", text))
@@ -215,15 +195,8 @@ def assembly_files(path: Path, out: Path) -> None:
             x = pcbnew.ToMM(pos.x) - geo.centre[0]
             y = geo.centre[1] - pcbnew.ToMM(pos.y)
             side = "Bottom" if fp.IsFlipped() else "Top"
-            w.writerow(
-                [
-                    fp.GetReference(),
-                    f"{x:.3f}mm",
-                    f"{y:.3f}mm",
-                    side,
-                    f"{fp.GetOrientationDegrees() % 360:.1f}",
-                ]
-            )
+            w.writerow([fp.GetReference(), f"{x:.3f}mm", f"{y:.3f}mm", side,
+                        f"{fp.GetOrientationDegrees() % 360:.1f}"])
     groups: dict[tuple[str, str, str], list[str]] = {}
     for p in parts(geo):
         if p.footprint.startswith("SensorLink"):

@@ -51,11 +51,8 @@ class Shape:
         if self.kind == "segment":
             dx, dy = self.a - self.x, self.b - self.y
             length2 = dx * dx + dy * dy
-            t = (
-                np.zeros_like(px)
-                if length2 == 0
-                else np.clip(((px - self.x) * dx + (py - self.y) * dy) / length2, 0.0, 1.0)
-            )
+            t = np.zeros_like(px) if length2 == 0 else np.clip(
+                ((px - self.x) * dx + (py - self.y) * dy) / length2, 0.0, 1.0)
             return np.hypot(px - (self.x + t * dx), py - (self.y + t * dy)) - self.width / 2
         # KiCad rotates counter-clockwise on screen, i.e. clockwise in y-down coordinates.
         c, s = math.cos(math.radians(self.angle)), math.sin(math.radians(self.angle))
@@ -151,7 +148,8 @@ class Router:
         """Forbid vias over an area (silkscreen labels stay legible); traces may pass."""
         grow = self.rules.via_diameter / 2 + self.rules.margin
         win = self._window(s, grow)
-        self.pad_via_block[win] += (s.distance(self.gx[win], self.gy[win]) < grow).astype(np.int16)
+        self.pad_via_block[win] += (s.distance(self.gx[win], self.gy[win]) < grow).astype(
+            np.int16)
 
     # -- search ----------------------------------------------------------------------------
     def _free(self, net: str) -> tuple[np.ndarray, np.ndarray]:
@@ -173,29 +171,16 @@ class Router:
                 nodes.add(base + int(i) * self.n + int(j))
         return nodes
 
-    def _astar(
-        self,
-        sources: set[int],
-        targets: set[int],
-        track_ok: np.ndarray,
-        via_ok: np.ndarray,
-        goal: tuple[float, float],
-    ) -> list[int]:
+    def _astar(self, sources: set[int], targets: set[int], track_ok: np.ndarray,
+               via_ok: np.ndarray, goal: tuple[float, float]) -> list[int]:
         n, nn = self.n, self.n * self.n
         free = track_ok.reshape(-1).tolist()
         via_free = via_ok.reshape(-1).tolist()
         via_steps = self.rules.via_cost / self.rules.pitch
         gi, gj = goal
-        steps = [
-            (-1, 0, 1.0),
-            (1, 0, 1.0),
-            (0, -1, 1.0),
-            (0, 1, 1.0),
-            (-1, -1, math.sqrt(2)),
-            (-1, 1, math.sqrt(2)),
-            (1, -1, math.sqrt(2)),
-            (1, 1, math.sqrt(2)),
-        ]
+        steps = [(-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
+                 (-1, -1, math.sqrt(2)), (-1, 1, math.sqrt(2)), (1, -1, math.sqrt(2)),
+                 (1, 1, math.sqrt(2))]
 
         def h(node: int) -> float:
             rem = node % nn
@@ -260,17 +245,11 @@ class Router:
             route.segments.append(self._seg(start, prev))
         return route
 
-    def _seg(
-        self, a: tuple[int, int, int], b: tuple[int, int, int]
-    ) -> tuple[float, float, float, float, int]:
+    def _seg(self, a: tuple[int, int, int], b: tuple[int, int, int]
+             ) -> tuple[float, float, float, float, int]:
         p = self.rules.pitch
-        return (
-            self.x0 + a[2] * p,
-            self.y0 + a[1] * p,
-            self.x0 + b[2] * p,
-            self.y0 + b[1] * p,
-            a[0],
-        )
+        return (self.x0 + a[2] * p, self.y0 + a[1] * p, self.x0 + b[2] * p, self.y0 + b[1] * p,
+                a[0])
 
     def _commit(self, route: Route) -> set[int]:
         """Make a new route an obstacle for other nets; return its grid nodes."""
@@ -279,9 +258,8 @@ class Router:
         for x1, y1, x2, y2, layer in route.segments:
             s = Shape(route.net, (layer,), "segment", x1, y1, x2, y2, width=ru.track)
             self.add(s)
-            nodes |= self._pad_nodes(
-                Shape(route.net, (layer,), "segment", x1, y1, x2, y2, width=0.05)
-            )
+            nodes |= self._pad_nodes(Shape(route.net, (layer,), "segment", x1, y1, x2, y2,
+                                           width=0.05))
         for x, y in route.vias:
             self.add(Shape(route.net, (0, 1), "circle", x, y, ru.via_diameter / 2))
             nodes |= self._pad_nodes(Shape(route.net, (0, 1), "circle", x, y, 0.03))
@@ -305,25 +283,17 @@ class Router:
             try:
                 path = self._astar(tree, targets, track_ok, via_ok, goal)
             except RoutingError as exc:
-                raise RoutingError(
-                    f"net {net}: cannot reach pad at ({pad.x:.2f}, {pad.y:.2f})", net
-                ) from exc
+                raise RoutingError(f"net {net}: cannot reach pad at ({pad.x:.2f}, "
+                                   f"{pad.y:.2f})", net) from exc
             route = self._to_route(net, path)
             tree |= self._commit(route) | targets
             tree_pts.append(pad.centre())
-            tree_pts.extend(((x1 + x2) / 2, (y1 + y2) / 2) for x1, y1, x2, y2, _ in route.segments)
+            tree_pts.extend(((x1 + x2) / 2, (y1 + y2) / 2) for x1, y1, x2, y2, _ in
+                            route.segments)
 
 
-def route_all(
-    cx: float,
-    cy: float,
-    radius: float,
-    rules: Rules,
-    pads: list[Shape],
-    order: list[str],
-    no_via: list[Shape],
-    attempts: int = 40,
-) -> Router:
+def route_all(cx: float, cy: float, radius: float, rules: Rules, pads: list[Shape],
+              order: list[str], no_via: list[Shape], attempts: int = 40) -> Router:
     """Route every net; when one gets walled in, start over with it first (rip-up by restart).
 
     Deterministic: the same pads and order always give the same board.

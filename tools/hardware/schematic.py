@@ -43,24 +43,16 @@ class PinDef:
 # Symbol pin types: J1's supply pins are where power enters the board, so they are the
 # power outputs the ERC expects to drive the sensors' power inputs.
 SYMBOLS: dict[str, tuple[PinDef, ...]] = {
-    "VEML3328": (
-        PinDef("4", "VDD", "power_in", "L", 0),
-        PinDef("3", "SCL", "input", "L", 1),
-        PinDef("2", "SDA", "bidirectional", "L", 2),
-        PinDef("1", "GND", "power_in", "L", 3),
-    ),
-    "LED_RGB_CA": (
-        PinDef("1", "A", "passive", "L", 0),
-        PinDef("2", "RK", "passive", "R", 0),
-        PinDef("3", "GK", "passive", "R", 1),
-        PinDef("4", "BK", "passive", "R", 2),
-    ),
+    "VEML3328": (PinDef("4", "VDD", "power_in", "L", 0), PinDef("3", "SCL", "input", "L", 1),
+                 PinDef("2", "SDA", "bidirectional", "L", 2),
+                 PinDef("1", "GND", "power_in", "L", 3)),
+    "LED_RGB_CA": (PinDef("1", "A", "passive", "L", 0), PinDef("2", "RK", "passive", "R", 0),
+                   PinDef("3", "GK", "passive", "R", 1), PinDef("4", "BK", "passive", "R", 2)),
     "R": (PinDef("1", "~", "passive", "L", 0), PinDef("2", "~", "passive", "R", 0)),
     "C": (PinDef("1", "~", "passive", "L", 0), PinDef("2", "~", "passive", "R", 0)),
     "SensorLink": tuple(
         PinDef(str(n), f"P{n}", "power_out" if n <= 3 else "passive", "L", n - 1)
-        for n in range(1, 19)
-    ),
+        for n in range(1, 19)),
 }
 REF_PREFIX = {"VEML3328": "U", "LED_RGB_CA": "D", "R": "R", "C": "C", "SensorLink": "J"}
 BODY_HALF_WIDTH = 5.08
@@ -98,35 +90,23 @@ def lib_symbol(name: str) -> Symbol:
     sym = Symbol(libraryNickname=LIB, entryName=name, inBom=True, onBoard=True)
     sym.pinNamesOffset = 0.508
     sym.properties = [
-        Property("Reference", REF_PREFIX[name], 0, Position(0, half_h + 1.27, 0), _effects()),
+        Property("Reference", REF_PREFIX[name], 0,
+                 Position(0, half_h + 1.27, 0), _effects()),
         Property("Value", name, 1, Position(0, -half_h - 1.27, 0), _effects()),
         Property("Footprint", "", 2, Position(0, 0, 0), _effects(hide=True)),
         Property("Datasheet", "", 3, Position(0, 0, 0), _effects(hide=True)),
     ]
     body = Symbol(entryName=name, unitId=0, styleId=1)
-    body.graphicItems = [
-        SyRect(
-            start=Position(-BODY_HALF_WIDTH, half_h),
-            end=Position(BODY_HALF_WIDTH, -half_h),
-            stroke=Stroke(width=0.254),
-            fill=Fill(type="background"),
-        )
-    ]
+    body.graphicItems = [SyRect(start=Position(-BODY_HALF_WIDTH, half_h),
+                                end=Position(BODY_HALF_WIDTH, -half_h),
+                                stroke=Stroke(width=0.254), fill=Fill(type="background"))]
     unit = Symbol(entryName=name, unitId=1, styleId=1)
     for p in pins:
         x, y = pin_offset(p, pins)
-        unit.pins.append(
-            SymbolPin(
-                electricalType=p.etype,
-                graphicalStyle="line",
-                position=Position(x, y, 0 if p.side == "L" else 180),
-                length=PIN_LENGTH,
-                name=p.name,
-                number=p.number,
-                nameEffects=_effects(),
-                numberEffects=_effects(),
-            )
-        )
+        unit.pins.append(SymbolPin(electricalType=p.etype, graphicalStyle="line",
+                                   position=Position(x, y, 0 if p.side == "L" else 180),
+                                   length=PIN_LENGTH, name=p.name, number=p.number,
+                                   nameEffects=_effects(), numberEffects=_effects()))
     sym.units = [body, unit]
     return sym
 
@@ -160,22 +140,15 @@ def build(geo: Geometry) -> Schematic:
     for part in all_parts:
         name = symbol_of(part)
         x, y = (round(v, 4) for v in where[part.ref])
-        sym = SchematicSymbol(
-            libraryNickname=LIB,
-            entryName=name,
-            position=Position(x, y, 0),
-            unit=1,
-            inBom=not part.ref.startswith("J"),
-            onBoard=True,
-            uuid=_uuid(part.ref),
-        )
+        sym = SchematicSymbol(libraryNickname=LIB, entryName=name, position=Position(x, y, 0),
+                              unit=1, inBom=not part.ref.startswith("J"), onBoard=True,
+                              uuid=_uuid(part.ref))
         half_h = round(_rows(SYMBOLS[name]) * GRID / 2 + GRID / 2 + 1.27, 4)
         sym.properties = [
             Property("Reference", part.ref, 0, Position(x, round(y - half_h, 4), 0), _effects()),
             Property("Value", part.value, 1, Position(x, round(y + half_h, 4), 0), _effects()),
-            Property(
-                "Footprint", f"{LIB}:{part.footprint}", 2, Position(x, y, 0), _effects(hide=True)
-            ),
+            Property("Footprint", f"{LIB}:{part.footprint}", 2, Position(x, y, 0),
+                     _effects(hide=True)),
             Property("Datasheet", "", 3, Position(x, y, 0), _effects(hide=True)),
             Property("MPN", part.mpn, 4, Position(x, y, 0), _effects(hide=True)),
         ]
@@ -184,26 +157,15 @@ def build(geo: Geometry) -> Schematic:
         for p in SYMBOLS[name]:
             dx, dy = pin_offset(p, SYMBOLS[name])
             left = p.side == "L"
-            sch.labels.append(
-                LocalLabel(
-                    text=part.pins[p.number],
-                    position=Position(round(x + dx, 4), round(y - dy, 4), 180 if left else 0),
-                    effects=Effects(
-                        font=Font(width=1.27, height=1.27),
-                        justify=Justify(horizontally="right" if left else "left"),
-                    ),
-                    uuid=_uuid(part.ref, p.number, "label"),
-                )
-            )
-        sch.symbolInstances.append(
-            SymbolInstance(
-                path=f"/{sym.uuid}",
-                reference=part.ref,
-                unit=1,
-                value=part.value,
-                footprint=f"{LIB}:{part.footprint}",
-            )
-        )
+            sch.labels.append(LocalLabel(
+                text=part.pins[p.number],
+                position=Position(round(x + dx, 4), round(y - dy, 4), 180 if left else 0),
+                effects=Effects(font=Font(width=1.27, height=1.27),
+                                justify=Justify(horizontally="right" if left else "left")),
+                uuid=_uuid(part.ref, p.number, "label")))
+        sch.symbolInstances.append(SymbolInstance(
+            path=f"/{sym.uuid}", reference=part.ref, unit=1, value=part.value,
+            footprint=f"{LIB}:{part.footprint}"))
     return sch
 
 
@@ -216,14 +178,8 @@ def write_library(geo: Geometry, folder: Path) -> None:
         lib.symbols.append(sym)
     lib.to_file(str(folder / f"{LIB.lower()}.kicad_sym"))
     table = LibTable.create_new("sym_lib_table")
-    table.libs.append(
-        Library(
-            name=LIB,
-            type="KiCad",
-            uri=f"${{KIPRJMOD}}/{LIB.lower()}.kicad_sym",
-            description="SpectraTac sensor board symbols (generated)",
-        )
-    )
+    table.libs.append(Library(name=LIB, type="KiCad", uri=f"${{KIPRJMOD}}/{LIB.lower()}.kicad_sym",
+                              description="SpectraTac sensor board symbols (generated)"))
     table.to_file(str(folder / "sym-lib-table"))
 
 

@@ -28,13 +28,8 @@ def run(args: list[str], timeout: float | None = None) -> subprocess.CompletedPr
     """Run pio in the repository root and capture its output (text)."""
     env = {**os.environ, **environment()}
     return subprocess.run(
-        [pio_executable(), *args],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
+        [pio_executable(), *args], cwd=REPO, env=env, capture_output=True, text=True,
+        timeout=timeout, check=False,
     )
 
 

@@ -15,7 +15,7 @@
 enum pin_role { PIN_I2C_SCL, PIN_I2C_SDA, PIN_LED, PIN_UART_TX, PIN_UART_RX };
 
 typedef struct board_pin {
-    const char *signal; /* as in pinmap.toml */
+    const char *signal; /* as in the pin map */
     char port;          /* 'A' or 'B' */
     uint8_t pin;
     uint8_t af;         /* alternate function number */

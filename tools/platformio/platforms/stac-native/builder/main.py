@@ -13,16 +13,8 @@ from SCons.Script import AlwaysBuild, Default, DefaultEnvironment
 
 env = DefaultEnvironment()
 # No SIZETOOL: PlatformIO's program-size check is for the flash images of embedded targets.
-env.Replace(
-    AR="ar",
-    AS="as",
-    CC="gcc",
-    CXX="g++",
-    LINK="gcc",
-    RANLIB="ranlib",
-    OBJCOPY="objcopy",
-    PROGSUFFIX="",
-)
+env.Replace(AR="ar", AS="as", CC="gcc", CXX="g++", LINK="gcc", RANLIB="ranlib",
+            OBJCOPY="objcopy", PROGSUFFIX="")
 
 PROJECT = env.subst("$PROJECT_DIR")
 
@@ -38,9 +30,8 @@ def description_target(name):
 
 name = env.GetProjectOption("custom_native_target", "")
 if not name:
-    sys.stderr.write(
-        "stac-native: set custom_native_target to a target of tools/firmware/build.toml\n"
-    )
+    sys.stderr.write("stac-native: set custom_native_target to a target of "
+                     "tools/firmware/build.toml\n")
     env.Exit(1)
 target = description_target(name)
 shared = target.kind == "shared"
@@ -52,9 +43,8 @@ env.Append(
 )
 compile_one = env.SharedObject if shared else env.Object
 objects = [
-    compile_one(
-        os.path.join("$BUILD_DIR", "obj", os.path.relpath(str(src), PROJECT)[:-2]), str(src)
-    )
+    compile_one(os.path.join("$BUILD_DIR", "obj", os.path.relpath(str(src), PROJECT)[:-2]),
+                str(src))
     for src in target.sources
 ]
 output = os.path.join("$BUILD_DIR", target.output)
@@ -65,9 +55,8 @@ def run_program(target, source, env):
     """Run the built program and show its report (bounded, so a hang fails the run)."""
     del target, env
     try:
-        result = subprocess.run(
-            [source[0].get_abspath()], capture_output=True, text=True, timeout=600, check=False
-        )
+        result = subprocess.run([source[0].get_abspath()], capture_output=True, text=True,
+                                timeout=600, check=False)
     except subprocess.TimeoutExpired:
         sys.stdout.write("program did not finish within 600 s\n")
         return 1

@@ -17,10 +17,7 @@ def build_id():
     try:
         out = subprocess.run(
             ["git", "describe", "--always", "--dirty", "--abbrev=7"],
-            cwd=env.subst("$PROJECT_DIR"),
-            capture_output=True,
-            text=True,
-            timeout=10,
+            cwd=env.subst("$PROJECT_DIR"), capture_output=True, text=True, timeout=10,
         ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         out = ""
@@ -56,7 +53,9 @@ env.Append(
 )
 
 elf = env.BuildProgram()
-bin_file = env.Command("$BUILD_DIR/${PROGNAME}.bin", elf, "$OBJCOPY -O binary $SOURCE $TARGET")
+bin_file = env.Command(
+    "$BUILD_DIR/${PROGNAME}.bin", elf, "$OBJCOPY -O binary $SOURCE $TARGET"
+)
 size = env.Alias("size", elf, "$SIZETOOL -A -d $SOURCE")
 AlwaysBuild(size)
 upload = env.Alias("upload", bin_file, "$UPLOADCMD")
