@@ -21,10 +21,10 @@ import re
 import sys
 from pathlib import Path
 
+from spectratac.decode.generated.model_image_layout import MAGIC, WEIGHT_FORMATS
 from spectratac.errors import SpectraTacError
 
 BYTES_PER_LINE = 16
-IMAGE_MAGIC = b"STMI"
 
 
 def render(image: bytes, symbol: str, source: str) -> str:
@@ -55,7 +55,7 @@ def render(image: bytes, symbol: str, source: str) -> str:
 def image_of(path: Path, weights: str) -> bytes:
     """The model image in `path`: as it is when it is one, else encoded from a .stac file."""
     data = path.read_bytes()
-    if data[:4] == IMAGE_MAGIC:
+    if data[: len(MAGIC)] == MAGIC:
         return data
     from spectratac.decode import Decoder
     from spectratac.decode.export.model_image import encode
@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model", type=Path, help=".stac decoder file or STMI model image")
     parser.add_argument("-o", "--output", type=Path, required=True, help="C file to write")
-    parser.add_argument("--weights", choices=("f32", "f16", "i8"), default="f32")
+    parser.add_argument("--weights", choices=WEIGHT_FORMATS, default="f32")
     parser.add_argument("--symbol", default="stac_builtin_model", help="name of the C array")
     args = parser.parse_args(argv)
     try:
