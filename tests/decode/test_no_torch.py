@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 import pytest
-from spectratac.decode import TrainSpec, train
+from spectratac.train import TrainSpec, train
 
 from tests.decode.conftest import synthetic
 

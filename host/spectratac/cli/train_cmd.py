@@ -15,22 +15,22 @@ exactly the held-out rows; without it every row trains the model.
 
 Training error and held-out error are always printed side by side (and in --json:
 train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
-else guarded time blocks: decode/groups.py): the --holdout split's test rows, else the
+else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
 model's own validation groups (--val-fraction), else those of a check model trained on the
 other 80 % of the groups. When the held-out error exceeds the training error by more than
-2x (evaluate/gap.py) a warning goes to stderr and into the JSON.
+2x (train/gap.py) a warning goes to stderr and into the JSON.
 
 --recipe auto searches linear and polynomial ridge, MLPs and ResMLPs with and without
 temporal context, drift baseline and regularisation by grouped K-fold cross-validation
 within --budget (e.g. 300, 90s, 5m, 1h; the final refit included), on --workers local
 processes or on the Ray cluster at --ray ADDRESS, keeps the cheapest model within one
 standard error of the best and prints every candidate's CV error and inference cost
-(evaluate/auto_recipe).
+(train/auto_recipe).
 
 --holdout-sessions 3,4 (or 30-35) leaves whole sessions out of training and records them.
 
 --finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
-unit's data (spectratac.decode.finetune): BASE's layout, features and targets are kept, its
+unit's data (spectratac.train.finetune): BASE's layout, features and targets are kept, its
 weights are the start, and data of other inputs, LED configuration or targets is refused.
 --epochs, --lr and --seed apply; the other recipe options are BASE's.
 
@@ -76,8 +76,8 @@ EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt",
 
 
 def register(subparsers: Any) -> None:
-    from spectratac.decode.spec import AUGMENTS, DRIFT, FEATURES, LOSSES, MODELS
-    from spectratac.evaluate.splits import KINDS as SPLIT_KINDS
+    from spectratac.train.groups import KINDS as SPLIT_KINDS
+    from spectratac.train.spec import AUGMENTS, DRIFT, FEATURES, LOSSES, MODELS
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
     p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
@@ -134,8 +134,9 @@ def register(subparsers: Any) -> None:
 
 def _train(args: argparse.Namespace) -> int:
     from spectratac.dataset.generic_io import load_data
-    from spectratac.decode import DecoderError, TrainSpec, train
+    from spectratac.decode import DecoderError
     from spectratac.decode.export import FORMATS
+    from spectratac.train import TrainSpec, train
 
     exports = column_names(args.export) or []
     unknown = [f for f in exports if f not in FORMATS]
@@ -168,14 +169,14 @@ def _train(args: argparse.Namespace) -> int:
     if args.holdout and args.holdout_sessions:
         raise DecoderError("give --holdout or --holdout-sessions, not both")
     if args.holdout_sessions:
-        from spectratac.evaluate.holdout import parse_sessions, session_rows
+        from spectratac.train.holdout import parse_sessions, session_rows
 
         held = parse_sessions(args.holdout_sessions)
         rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, held))
         if rows.size == 0:
             raise DecoderError(f"--holdout-sessions {args.holdout_sessions} leaves no training row")
     if args.holdout:
-        from spectratac.evaluate.splits import SplitSpec, split_dataset
+        from spectratac.train.groups import SplitSpec, split_dataset
 
         split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
         rows = split.train
@@ -189,11 +190,11 @@ def _train(args: argparse.Namespace) -> int:
         dec = train(ds, spec, rows=rows, progress=not args.no_progress)
         check = _check(dec, ds, rows, split, held, _check_trainer(ds, spec, args.no_progress))
     if split is not None:
-        from spectratac.evaluate.holdout import mark
+        from spectratac.train.holdout import mark
 
         mark(dec, ds, split)
     if held is not None:
-        from spectratac.evaluate.holdout import mark_sessions
+        from spectratac.train.holdout import mark_sessions
 
         mark_sessions(dec, ds, held)
     dec.save(out)
@@ -231,7 +232,7 @@ def parse_duration(text: str) -> float:
 
 
 def _mae(dec: Any, ds: Any, rows: Any) -> dict[str, float]:
-    from spectratac.evaluate.auto_recipe.trial import fold_errors
+    from spectratac.train.auto_recipe.trial import fold_errors
 
     return fold_errors(dec, ds, np.asarray(rows, np.intp))
 
@@ -240,8 +241,8 @@ def _check(dec: Any, ds: Any, rows: Any, split: Any, held_sessions: Any,
            trainer: Callable[[Any], Any]) -> dict[str, Any]:  # fmt: skip
     """Training and held-out-group MAE of `dec` (or of a check model made by `trainer` on the
     other groups, when `dec` held nothing out) and the gap warning."""
-    from spectratac.decode.train import rows_of
-    from spectratac.evaluate.gap import gap
+    from spectratac.train.gap import gap
+    from spectratac.train.plan import rows_of
 
     if split is not None:
         fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
@@ -272,7 +273,7 @@ def _check(dec: Any, ds: Any, rows: Any, split: Any, held_sessions: Any,
 def _heldout_groups(ds: Any, rows: Any) -> tuple[Any, Any, str]:
     """(fit, held-out, group kind): about HELDOUT_FRACTION of the whole groups of `rows`."""
     from spectratac.decode.assemble import session_order
-    from spectratac.decode.groups import row_groups, val_split
+    from spectratac.train.groups import row_groups, val_split
 
     sel = np.arange(ds.n) if rows is None else np.asarray(rows)
     groups = row_groups(ds.session, ds.press, ds.t_end, sel)
@@ -283,15 +284,15 @@ def _heldout_groups(ds: Any, rows: Any) -> tuple[Any, Any, str]:
 
 def _check_trainer(ds: Any, spec: Any, quiet: bool) -> Callable[[Any], Any]:
     """Trains the check model like the real one, on the given rows."""
-    from spectratac.decode import train
+    from spectratac.train import train
 
     return lambda fit: train(ds, spec, rows=fit, progress=not quiet)
 
 
 def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...],
           features: str) -> tuple[Any, dict[str, Any]]:  # fmt: skip
-    from spectratac.evaluate.auto_recipe import search
-    from spectratac.evaluate.gap import gap
+    from spectratac.train.auto_recipe import search
+    from spectratac.train.gap import gap
 
     def say(line: str) -> None:
         if not args.no_progress:
@@ -320,7 +321,7 @@ def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...]
 def _finetune(args: argparse.Namespace, ds: Any, rows: Any, quiet: bool = False) -> Any:
     """BASE recalibrated on `rows` of `ds`, with its file's name in `finetuned_from`."""
     from spectratac.decode import Decoder
-    from spectratac.decode.finetune import finetune
+    from spectratac.train.finetune import finetune
 
     dec = finetune(
         Decoder.load(args.finetune),

@@ -3,7 +3,7 @@ fidelity report (`twin_fidelity`) and the decoder benchmarks (`evaluate.bench`).
 
 Two splits are always reported: the paper's random split and a blocked split (whole presses
 or time blocks held out, with a guard gap) that measures generalisation. A model records the
-split it was trained under (`evaluate.holdout`), so evaluation scores only unseen rows.
+split it was trained under (`train.holdout`), so evaluation scores only unseen rows.
 
 >>> from spectratac.evaluate import SplitSpec
 >>> SplitSpec().kind, SplitSpec("random").test_fraction
@@ -12,7 +12,6 @@ split it was trained under (`evaluate.holdout`), so evaluation scores only unsee
 
 from __future__ import annotations
 
-from spectratac.evaluate.holdout import fingerprint, mark, resolve
 from spectratac.evaluate.metrics import (
     contact_scores,
     improvement,
@@ -26,7 +25,7 @@ from spectratac.evaluate.predictions import Predictions, predict
 from spectratac.evaluate.report import write_report
 from spectratac.evaluate.run import Evaluation, Section, evaluate_model
 from spectratac.evaluate.scoring import Scored, score
-from spectratac.evaluate.splits import (
+from spectratac.train.groups import (
     KINDS,
     Split,
     SplitError,
@@ -34,6 +33,7 @@ from spectratac.evaluate.splits import (
     make_split,
     split_dataset,
 )
+from spectratac.train.holdout import fingerprint, mark, resolve
 
 __all__ = [
     "KINDS",

@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import train
+from spectratac.train.fitting import train
+from spectratac.train.spec import TrainSpec
 
 Fold = tuple[NDArray[np.intp], NDArray[np.intp]]  # (fit rows, held-out rows)
 TIMING_ROWS = 2000

@@ -1,12 +1,12 @@
 """`search`: honest model selection within a time budget (`spectratac train --recipe auto`).
 
-    from spectratac.evaluate.auto_recipe import search
+    from spectratac.train.auto_recipe import search
     result = search(dataset, budget_s=300)          # grouped K-fold CV, local processes
     result.decoder.save("model.stac")               # the chosen model, refitted on all rows
     print(result.text()); result.report             # every candidate: CV error, cost
 
 Each candidate (auto_recipe/space.py) is cross-validated by groups: whole sessions, else
-presses, else guarded time blocks (decode/groups.py), or the `groups` given. Trials run in
+presses, else guarded time blocks (train/groups.py), or the `groups` given. Trials run in
 parallel (local processes, or Ray with `ray_address`), cheapest first, while the budget
 allows (auto_recipe/budget.py). The linear baselines always run; polynomial ridge runs
 when it fits the budget and has at most MAX_RIDGE_FEATURES monomials. The winner is the model
@@ -30,14 +30,15 @@ from numpy.typing import ArrayLike, NDArray
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.groups import Groups, group_folds, purge, row_groups
 from spectratac.decode.networks import flops
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import plan, select_rows, train
-from spectratac.evaluate.auto_recipe.budget import Budget, CostModel, work
-from spectratac.evaluate.auto_recipe.report import render
-from spectratac.evaluate.auto_recipe.space import Candidate, candidates
-from spectratac.evaluate.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.auto_recipe.budget import Budget, CostModel, work
+from spectratac.train.auto_recipe.report import render
+from spectratac.train.auto_recipe.space import Candidate, candidates
+from spectratac.train.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.fitting import train
+from spectratac.train.groups import Groups, group_folds, purge, row_groups
+from spectratac.train.plan import plan, select_rows
+from spectratac.train.spec import TrainSpec
 
 DEFAULT_FOLDS = 4
 MAX_FIT_ROWS = 20_000  # network trials: rows per fold fit (every k-th row)
@@ -289,7 +290,7 @@ def search(
 
 
 def _runner(ds: Dataset, ray_address: str | None, workers: int) -> Any:
-    from spectratac.evaluate.auto_recipe import runners
+    from spectratac.train.auto_recipe import runners
 
     if ray_address:
         return runners.RayRunner(ds, ray_address)

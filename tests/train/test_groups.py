@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.decode.errors import DecoderDataError
-from spectratac.decode.groups import group_folds, purge, row_groups, val_split
 from spectratac.sim.generic_skin import generic_skin
+from spectratac.train.groups import group_folds, purge, row_groups, val_split
 
 
 def test_sessions_are_the_groups_when_there_are_several() -> None:
