@@ -27,7 +27,7 @@ from spectratac.dataset.schema import Dataset
 from spectratac.train import TrainSpec, train
 from spectratac.train.auto_recipe import search
 from spectratac.train.auto_recipe.search import MAX_RIDGE_FEATURES
-from spectratac.train.auto_recipe.trial import fold_errors
+from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import plan
 
 CLASSICAL = {
@@ -71,7 +71,7 @@ def twin(seed: int) -> tuple[Dataset, np.ndarray, np.ndarray, str, tuple[str, ..
 
 
 def score(ds: Dataset, dec: Any, rows: np.ndarray, std: dict[str, float]) -> tuple[float, dict]:
-    mae = fold_errors(dec, ds, rows)
+    mae = decoder_mae(dec, ds, rows)
     return float(np.mean([mae[t] / std[t] for t in mae])), mae
 
 

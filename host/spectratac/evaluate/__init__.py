@@ -16,9 +16,7 @@ from spectratac.evaluate.metrics import (
     contact_scores,
     improvement,
     interval_coverage,
-    region_accuracy,
     region_scores,
-    regression_metrics,
     regression_scores,
 )
 from spectratac.evaluate.predictions import Predictions, predict
@@ -52,9 +50,7 @@ __all__ = [
     "make_split",
     "mark",
     "predict",
-    "region_accuracy",
     "region_scores",
-    "regression_metrics",
     "regression_scores",
     "resolve",
     "score",

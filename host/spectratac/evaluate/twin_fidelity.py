@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.schema import FT_NAMES as AXES
-from spectratac.evaluate.metrics import region_accuracy, regression_metrics
 from spectratac.evaluate.paper import PAPER
 from spectratac.train.fitting import train
+from spectratac.train.metrics import region_accuracy, regression_metrics
 from spectratac.train.spec import TrainSpec
 
 BAND = 0.30

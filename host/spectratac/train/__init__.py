@@ -19,21 +19,28 @@ Groups and splits: train/groups.py. Torch is imported only when a network is fit
 
 from __future__ import annotations
 
-from spectratac.train.finetune import FinetuneMismatchError, finetune
+from spectratac.train.check import HeldOutCheck
+from spectratac.train.finetune import FinetuneMismatchError, FinetuneOptions, finetune
 from spectratac.train.fitting import train
 from spectratac.train.groups import KINDS, Split, SplitError, SplitSpec, make_split, split_dataset
 from spectratac.train.spec import TrainSpec
 from spectratac.train.torch_loop import PAPER_LOSS_WEIGHTS
+from spectratac.train.trained import Trained, default_spec, fit
 
 __all__ = [
     "KINDS",
     "PAPER_LOSS_WEIGHTS",
     "FinetuneMismatchError",
+    "FinetuneOptions",
+    "HeldOutCheck",
     "Split",
     "SplitError",
     "SplitSpec",
     "TrainSpec",
+    "Trained",
+    "default_spec",
     "finetune",
+    "fit",
     "make_split",
     "split_dataset",
     "train",

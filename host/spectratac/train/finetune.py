@@ -60,7 +60,7 @@ from __future__ import annotations
 import hashlib
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -85,6 +85,19 @@ DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
 VAL_FRACTION = 0.2  # share of presses held out for early stopping
 MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
+
+
+@dataclass(frozen=True)
+class FinetuneOptions:
+    """How `spectratac.train.fit(..., finetune_from=base)` recalibrates: `finetune`'s keyword
+    arguments (None: its defaults)."""
+
+    mode: str = DEFAULT_MODE
+    refit_scaler: bool | None = None
+    epochs: int | None = None
+    lr: float | None = None
+    seed: int = 0
+    targets: tuple[str, ...] | None = None
 
 
 class FinetuneMismatchError(DecoderConfigError):

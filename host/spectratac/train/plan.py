@@ -1,5 +1,7 @@
 """What a TrainSpec means for one dataset, and which of its rows can train.
 
+`default_targets` / `default_features`: what a recipe decodes from a dataset unless told.
+
 `plan` resolves the spec's targets, LED steps, features and heads against the dataset
 (DecoderConfigError when it asks for what the data lacks); `check_rows` refuses unusable
 training rows, naming them; `ranges` / `rows_of` record row sets compactly in a model's
@@ -33,6 +35,19 @@ class Plan:
     reg_cols: list[int]  # dataset target columns of the regression targets
     class_name: str | None
     class_labels: list[str] | None
+
+
+def default_targets(dataset: Dataset) -> tuple[str, ...]:
+    """Every target of `dataset`, and its classes when any row is labelled."""
+    t = list(dataset.target_names)
+    if np.any(np.asarray(dataset.region) > 0):
+        t.append(dataset.meta.get("region_name", "region"))
+    return tuple(t)
+
+
+def default_features(dataset: Dataset) -> str:
+    """The paper's 33 features for SpectraTac data, else the generic set."""
+    return "paper33" if dataset.meta.get("kind") == "spectratac" else "generic"
 
 
 def plan(dataset: Dataset, spec: TrainSpec) -> Plan:

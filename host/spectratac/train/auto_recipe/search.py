@@ -37,7 +37,7 @@ from spectratac.train.auto_recipe.space import Candidate, candidates
 from spectratac.train.auto_recipe.trial import Fold, TrialJob
 from spectratac.train.fitting import train
 from spectratac.train.groups import Groups, group_folds, purge, row_groups
-from spectratac.train.plan import plan, select_rows
+from spectratac.train.plan import default_features, default_targets, plan, select_rows
 from spectratac.train.spec import TrainSpec
 
 DEFAULT_FOLDS = 4
@@ -58,13 +58,6 @@ class SearchResult:
 
     def text(self) -> str:
         return render(self.report)
-
-
-def _default_targets(ds: Dataset) -> tuple[str, ...]:
-    t = list(ds.target_names)
-    if np.any(np.asarray(ds.region) > 0):
-        t.append(ds.meta.get("region_name", "region"))
-    return tuple(t)
 
 
 def _folds(ds: Dataset, rows: NDArray[np.intp], g: Groups, k: int) -> list[Fold]:
@@ -176,8 +169,8 @@ def search(
     """
     budget = Budget(budget_s, clock)
     sel = select_rows(dataset.n, rows)
-    tg = tuple(targets) if targets else _default_targets(dataset)
-    feats = features or ("paper33" if dataset.meta.get("kind") == "spectratac" else "generic")
+    tg = tuple(targets) if targets else default_targets(dataset)
+    feats = features or default_features(dataset)
     if groups is not None:
         ids = np.asarray(groups, np.int64)
         if ids.shape != (dataset.n,):
