@@ -51,9 +51,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 import benchlib
 from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.decode import DecoderUnitWarning
-from spectratac.evaluate import auto_recipe
 from spectratac.sim.twin_dataset import population
-from spectratac.train import TrainSpec, train
+from spectratac.train import TrainSpec, auto_recipe, train
 from spectratac.train.finetune import MODES, finetune
 
 FORCES = ("Fx", "Fy", "Fz")
