@@ -28,6 +28,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -115,6 +116,7 @@ def fit(
     rows: Rows | None = None
     split: Split | None = None
     held: list[int] | None = None
+    test: Rows | None = None  # the rows held out of training, if any
     if holdout_sessions is not None:
         text = (
             holdout_sessions
@@ -122,7 +124,8 @@ def fit(
             else ",".join(str(int(s)) for s in holdout_sessions)
         )
         held = parse_sessions(text)
-        rows = np.setdiff1d(np.arange(dataset.n), session_rows(dataset, held))
+        test = session_rows(dataset, held)
+        rows = np.setdiff1d(np.arange(dataset.n), test)
         if rows.size == 0:
             raise DecoderError(f"holding out sessions {text} leaves no training row")
     if holdout is not None:
@@ -162,13 +165,11 @@ def fit(
         check = held_out_check(
             dec, dataset, rows, split=split, held_sessions=held is not None, trainer=again
         )
-    test = None
     if split is not None:
         mark(dec, dataset, split)
         test = split.test
     if held is not None:
         mark_sessions(dec, dataset, held)
-        test = np.setdiff1d(np.arange(dataset.n), rows)
     return Trained(dec, check, summarise(dec, dataset, test), found)
 
 
@@ -180,7 +181,7 @@ def _tuner(
 
     def tune(rows: Rows | None, bar: Progress) -> Decoder:
         dec = finetune(
-            base if isinstance(base, Decoder) else Decoder.load(base),
+            base if isinstance(base, Decoder) else Decoder.load(Path(base)),
             dataset,
             rows,
             mode=options.mode,
