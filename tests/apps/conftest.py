@@ -31,8 +31,8 @@ def training_scene():
 @pytest.fixture(scope="session")
 def press_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Path of a .stac decoding Fx, Fy, Fz, region and contact (seconds to train)."""
-    from spectratac.decode import TrainSpec, train
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.train import TrainSpec, train
     from spectratac.twin import generate_session
 
     scene = training_scene()

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.cli import main
-from spectratac.decode import Decoder, TrainSpec, train
+from spectratac.decode import Decoder
+from spectratac.train import TrainSpec, train
 
 from tests.decode.conftest import synthetic
 

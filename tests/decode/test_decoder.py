@@ -12,17 +12,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
-from spectratac.decode import (
-    Decoder,
-    DecoderConfigError,
-    DecoderError,
-    DecoderUnitWarning,
-    TrainSpec,
-    train,
-)
+from spectratac.decode import Decoder, DecoderConfigError, DecoderError, DecoderUnitWarning
 from spectratac.decode.assemble import GATE, STUCK, Assembler, assemble
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.layout import Layout
+from spectratac.train import TrainSpec, train
 
 pytestmark = pytest.mark.train
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.decode import Decoder, DecoderError, Runtime, TrainSpec, train
+from spectratac.decode import Decoder, DecoderError, Runtime
+from spectratac.train import TrainSpec, train
 
 pytestmark = [pytest.mark.train, pytest.mark.subprocess]
 

@@ -126,7 +126,7 @@ def test_what_the_firmware_cannot_run_is_refused(dec) -> None:
 
 @pytest.mark.train
 def test_polynomial_ridge_is_refused_not_miscomputed() -> None:
-    from spectratac.decode import TrainSpec, train
+    from spectratac.train import TrainSpec, train
 
     ridge = train(dataset(200), TrainSpec(model="ridge", degree=2, targets=("Fz",)), progress=False)
     assert ridge.runtime.features.M.shape[0] > 0

@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 import pytest
-from spectratac.decode import TrainSpec, train
+from spectratac.train import TrainSpec, train
 
 from tests.decode.conftest import synthetic
 
@@ -60,3 +60,17 @@ def test_live_and_snake_apps_do_not_import_torch() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout
     assert out.split() == ["False"]
+
+
+def test_the_model_part_imports_neither_torch_nor_training() -> None:
+    code = (
+        "import sys\n"
+        "import spectratac.decode, spectratac.decode.export\n"
+        "from spectratac.decode import Decoder\n"
+        "trained = any(m.startswith('spectratac.train') for m in sys.modules)\n"
+        "print('torch' in sys.modules, trained)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.split() == ["False", "False"]

@@ -10,7 +10,8 @@ import pytest
 from spectratac.cli import main
 from spectratac.dataset import DatasetError
 from spectratac.dataset.generic_io import load_any, load_table
-from spectratac.decode import Decoder, TrainSpec, train
+from spectratac.decode import Decoder
+from spectratac.train import TrainSpec, train
 
 pytestmark = pytest.mark.train
 
@@ -122,7 +123,7 @@ def test_cli_trains_a_spectratac_dataset(twin_ds, tmp_path, capsys) -> None:
 
 
 def test_cli_recipe_best_with_a_blocked_holdout(twin_ds, tmp_path, capsys) -> None:
-    from spectratac.evaluate.holdout import resolve
+    from spectratac.train.holdout import resolve
 
     path = twin_ds.save(tmp_path / "d.npz")
     rc = main(["train", str(path), "-o", str(tmp_path / "m.stac"), "--recipe", "best",

@@ -10,14 +10,13 @@ from spectratac.decode import (
     Decoder,
     DecoderDataError,
     FeatureError,
-    TrainSpec,
     ZeroAnchoredScaler,
     features33,
     raw12_from_counts,
-    train,
 )
 from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.layout import Layout
+from spectratac.train import TrainSpec, train
 
 from tests.decode.conftest import SPECTRATAC_INPUTS
 

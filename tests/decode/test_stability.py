@@ -9,10 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
-from spectratac.decode import Decoder, DecoderDataError, TrainSpec, train
+from spectratac.decode import Decoder, DecoderDataError
 from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.layout import Layout
 from spectratac.decode.scaling import Standardizer
+from spectratac.train import TrainSpec, train
 
 from tests.decode.conftest import synthetic
 

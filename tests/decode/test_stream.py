@@ -6,8 +6,9 @@ import itertools
 
 import numpy as np
 import pytest
-from spectratac.decode import DecoderConfigError, Estimate, TrainSpec, train
+from spectratac.decode import DecoderConfigError, Estimate
 from spectratac.device import Sensor
+from spectratac.train import TrainSpec, train
 
 pytestmark = pytest.mark.train
 

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from spectratac.cli import main
 from spectratac.dataset import Dataset
-from spectratac.decode import Decoder, DecoderUnitWarning, TrainSpec
+from spectratac.decode import Decoder, DecoderUnitWarning
 from spectratac.evaluate.fit_both_splits import fit_and_evaluate, save_models
 from spectratac.sim.twin_dataset import from_twin_session
+from spectratac.train import TrainSpec
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 

@@ -11,13 +11,13 @@ import pytest
 from spectratac.cli import main
 from spectratac.dataset.generic_io import load_data
 from spectratac.decode import Decoder
-from spectratac.evaluate.holdout import (
+from spectratac.evaluate.run import evaluate_model
+from spectratac.train.holdout import (
     SessionLeakError,
     SessionSelectionError,
     check_sessions_unseen,
     parse_sessions,
 )
-from spectratac.evaluate.run import evaluate_model
 
 pytestmark = pytest.mark.train
 

@@ -9,18 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.dataset import Dataset
-from spectratac.evaluate import (
-    Predictions,
-    SplitSpec,
-    evaluate_model,
-    fingerprint,
-    mark,
-    resolve,
-    split_dataset,
-    write_report,
-)
+from spectratac.evaluate import Predictions, evaluate_model, write_report
 from spectratac.evaluate.oracle_floor import twin_oracle
 from spectratac.sim.twin_dataset import from_twin_session
+from spectratac.train import SplitSpec, split_dataset
+from spectratac.train.holdout import fingerprint, mark, resolve
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 

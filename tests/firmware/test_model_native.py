@@ -14,9 +14,10 @@ from pathlib import Path
 import crcmod.predefined
 import numpy as np
 import pytest
-from spectratac.decode import Decoder, TrainSpec, train
+from spectratac.decode import Decoder
 from spectratac.decode.export import model_image as mi
 from spectratac.decode.generated.model_image_layout import OFFSETS
+from spectratac.train import TrainSpec, train
 
 from tests.firmware.conftest import OUT, REPO
 

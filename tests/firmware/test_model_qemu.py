@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.decode import TrainSpec, train
 from spectratac.decode.export import model_image as mi
+from spectratac.train import TrainSpec, train
 
 from tests.firmware.conftest import REPO, build_image
 from tests.firmware.test_model_native import twin, with_faults

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.decode import Decoder, TrainSpec, train
+from spectratac.decode import Decoder
 from spectratac.decode.assemble import Assembler
 from spectratac.decode.estimates import FORCE, TORQUE
 from spectratac.decode.export import model_image as mi
@@ -21,6 +21,7 @@ from spectratac.device import Sensor
 from spectratac.protocol.framing import crc32c
 from spectratac.protocol.generated import messages as m
 from spectratac.sim.generated.native_abi import STORE_CAPACITY
+from spectratac.train import TrainSpec, train
 
 from .conftest import REPO
 from .test_model_store_sim import Link, configure

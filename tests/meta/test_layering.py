@@ -21,6 +21,7 @@ DATA_FLOW = (
     "record",
     "dataset",
     "decode",
+    "train",
     "evaluate",
     "apps",
     "cli",

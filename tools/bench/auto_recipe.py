@@ -24,11 +24,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import benchlib
 from spectratac.dataset.schema import Dataset
-from spectratac.decode import TrainSpec, train
-from spectratac.decode.train import plan
-from spectratac.evaluate.auto_recipe import search
-from spectratac.evaluate.auto_recipe.search import MAX_RIDGE_FEATURES
-from spectratac.evaluate.auto_recipe.trial import fold_errors
+from spectratac.train import TrainSpec, train
+from spectratac.train.auto_recipe import search
+from spectratac.train.auto_recipe.search import MAX_RIDGE_FEATURES
+from spectratac.train.metrics import decoder_mae
+from spectratac.train.plan import plan
 
 CLASSICAL = {
     "linear": {"degree": 1},
@@ -61,7 +61,7 @@ def twin(seed: int) -> tuple[Dataset, np.ndarray, np.ndarray, str, tuple[str, ..
             ("paper33"),
             targets,
         )
-    from spectratac.evaluate.splits import SplitSpec, split_dataset
+    from spectratac.train.groups import SplitSpec, split_dataset
     from spectratac.twin import builtin_scenes, generate_session
 
     scene = builtin_scenes.calibration_session(seed=seed, duration_s=900.0)
@@ -71,7 +71,7 @@ def twin(seed: int) -> tuple[Dataset, np.ndarray, np.ndarray, str, tuple[str, ..
 
 
 def score(ds: Dataset, dec: Any, rows: np.ndarray, std: dict[str, float]) -> tuple[float, dict]:
-    mae = fold_errors(dec, ds, rows)
+    mae = decoder_mae(dec, ds, rows)
     return float(np.mean([mae[t] / std[t] for t in mae])), mae
 
 

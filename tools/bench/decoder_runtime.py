@@ -149,8 +149,8 @@ def percentile_figures(
 
 def training_figure(samples: int, epochs: int) -> benchlib.Figure:
     import torch
-    from spectratac.decode import TrainSpec, train
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.train import TrainSpec, train
     from spectratac.twin import builtin_scenes as scenes
     from spectratac.twin import generate_session
 

@@ -13,7 +13,7 @@ MAE, N).
 
 Recipes: the paper's, TrainSpec.best(), the classical baselines (linear and degree-2
 polynomial ridge on the paper's features with the drift baseline, closed form) and
-`--recipe auto` (spectratac.evaluate.auto_recipe.search, grouped by unit in (a)).
+`--recipe auto` (spectratac.train.auto_recipe.search, grouped by unit in (a)).
 
 (a) held-out unit: each recipe trained on the population, scored on the new unit's test
     session; as a ratio to the paper recipe trained on the same population in this run.
@@ -22,7 +22,7 @@ polynomial ridge on the paper's features with the drift baseline, closed form) a
     Targets for (a) and (b): auto at least 20 % below the paper recipe and never above the
     best classical baseline.
 (c) few-shot curve: the population's model (--few-shot-base) recalibrated with
-    `decode.finetune` on 0.5, 1, 2 and 5 minutes of the new unit, and the paper recipe
+    `train.finetune` on 0.5, 1, 2 and 5 minutes of the new unit, and the paper recipe
     trained from scratch on the same minutes; ratios to the base's recipe trained on the new
     unit's own full calibration (the paper recipe's own calibration is shown beside it). The
     base model with no recalibration is the 0-minute point. Target: 2 minutes within 1.3x of
@@ -50,10 +50,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
 from spectratac.dataset.schema import FT_NAMES, Dataset
-from spectratac.decode import DecoderUnitWarning, TrainSpec, train
-from spectratac.decode.finetune import MODES, finetune
-from spectratac.evaluate import auto_recipe
+from spectratac.decode import DecoderUnitWarning
 from spectratac.sim.twin_dataset import population
+from spectratac.train import TrainSpec, auto_recipe, train
+from spectratac.train.finetune import MODES, finetune
 
 FORCES = ("Fx", "Fy", "Fz")
 NEW_UNIT = 1000  # a unit seed far from the population's 1..N
@@ -75,7 +75,7 @@ class Config:
     epochs: int | None = 10  # None: the recipe's own
     best_epochs: int | None = 3
     minutes: tuple[float, ...] = MINUTES
-    modes: tuple[str, ...] = ("first", "full")  # the two best of MODES (decode/finetune.py)
+    modes: tuple[str, ...] = ("first", "full")  # the two best of MODES (train/finetune.py)
     few_shot_base: str = "best"  # the population model that (c) recalibrates
     sections: str = "abc"  # (c) always runs, with the (a) model it starts from
     auto_budget_s: float = 300.0  # the auto recipe's search budget per training (--budget 5m)

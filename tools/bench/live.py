@@ -41,8 +41,8 @@ CHROMIUM_FLAGS = (
 def small_model(folder: Path) -> Path:
     """A decoder of Fx, Fy, Fz, region and contact trained on twin presses of every region."""
     import numpy as np
-    from spectratac.decode import TrainSpec, train
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.train import TrainSpec, train
     from spectratac.twin import generate_session
     from spectratac.twin.scripted_presses import scripted_presses
 

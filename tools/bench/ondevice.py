@@ -184,8 +184,8 @@ def build(env: str) -> Path:
 
 
 def models(epochs: int) -> dict:
-    from spectratac.decode import TrainSpec, train
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.train import TrainSpec, train
     from spectratac.twin import builtin_scenes as scenes
     from spectratac.twin import generate_session
 

@@ -29,7 +29,7 @@ def best_spec(epochs: int, seed: int) -> Any:
     """Our best decoder at no more than the paper's inference cost (`TrainSpec.best`):
     temporal context for the elastomer's hysteresis and creep, drift compensation against a
     running no-contact baseline, and a smaller ResMLP."""
-    from spectratac.decode import TrainSpec
+    from spectratac.train import TrainSpec
 
     return TrainSpec.best(epochs=epochs, seed=seed)
 
@@ -150,9 +150,9 @@ def on_scene_clock(dataset: Any, scene_s: float) -> Any:
 
 
 def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, Any]:
-    from spectratac.decode import TrainSpec
     from spectratac.evaluate import write_report
     from spectratac.evaluate.fit_both_splits import fit_and_evaluate, save_models
+    from spectratac.train import TrainSpec
 
     out: dict[str, Any] = {}
     specs = {

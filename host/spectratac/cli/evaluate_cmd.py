@@ -1,7 +1,7 @@
 """`spectratac evaluate MODEL DATA -o DIR`: score a trained decoder on a dataset.
 
 Trains nothing. The model's metadata says which rows it was trained on (see
-`spectratac.evaluate.holdout`): on its own training dataset only the held-out rows of its
+`spectratac.train.holdout`): on its own training dataset only the held-out rows of its
 split are scored (the companion model named in the file scores the other split); on any other
 dataset every row is held out; a model trained with --holdout-sessions is scored on the sessions
 it left out. --holdout-sessions 3,4,7 (or 30-35) scores only those sessions, and refuses when
@@ -69,9 +69,9 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.dataset.generic_io import load_data
     from spectratac.decode import Decoder
     from spectratac.evaluate.fit_both_splits import load_companions
-    from spectratac.evaluate.holdout import fingerprint, parse_sessions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
+    from spectratac.train.holdout import fingerprint, parse_sessions
 
     if args.oracle_samples < 0:
         from spectratac.errors import SpectraTacError

@@ -13,24 +13,25 @@ option given replaces that one field. --holdout trains on the training rows of t
 only and records it in the model, so that `spectratac evaluate model.stac data.npz` scores
 exactly the held-out rows; without it every row trains the model.
 
-Training error and held-out error are always printed side by side (and in --json:
-train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
-else guarded time blocks: decode/groups.py): the --holdout split's test rows, else the
+The work is `spectratac.train.fit`'s; this verb parses the options, writes the files and
+prints the result. Training error and held-out error are always printed side by side (and in
+--json: train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
+else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
 model's own validation groups (--val-fraction), else those of a check model trained on the
 other 80 % of the groups. When the held-out error exceeds the training error by more than
-2x (evaluate/gap.py) a warning goes to stderr and into the JSON.
+2x (train/check.py) a warning goes to stderr and into the JSON.
 
 --recipe auto searches linear and polynomial ridge, MLPs and ResMLPs with and without
 temporal context, drift baseline and regularisation by grouped K-fold cross-validation
 within --budget (e.g. 300, 90s, 5m, 1h; the final refit included), on --workers local
 processes or on the Ray cluster at --ray ADDRESS, keeps the cheapest model within one
 standard error of the best and prints every candidate's CV error and inference cost
-(evaluate/auto_recipe).
+(train/auto_recipe).
 
 --holdout-sessions 3,4 (or 30-35) leaves whole sessions out of training and records them.
 
 --finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
-unit's data (spectratac.decode.finetune): BASE's layout, features and targets are kept, its
+unit's data (spectratac.train.finetune): BASE's layout, features and targets are kept, its
 weights are the start, and data of other inputs, LED configuration or targets is refused.
 --epochs, --lr and --seed apply; the other recipe options are BASE's.
 
@@ -44,17 +45,13 @@ import argparse
 import json
 import re
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
 
 RECIPES = ("paper", "best", "auto")
-HELDOUT_FRACTION = 0.2  # groups held out by the check model
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
 SPEC_OPTIONS = {
     "model": "model",
@@ -76,8 +73,8 @@ EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt",
 
 
 def register(subparsers: Any) -> None:
-    from spectratac.decode.spec import AUGMENTS, DRIFT, FEATURES, LOSSES, MODELS
-    from spectratac.evaluate.splits import KINDS as SPLIT_KINDS
+    from spectratac.train.groups import KINDS as SPLIT_KINDS
+    from spectratac.train.spec import AUGMENTS, DRIFT, FEATURES, LOSSES, MODELS
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
     p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
@@ -134,8 +131,10 @@ def register(subparsers: Any) -> None:
 
 def _train(args: argparse.Namespace) -> int:
     from spectratac.dataset.generic_io import load_data
-    from spectratac.decode import DecoderError, TrainSpec, train
+    from spectratac.decode import DecoderError
     from spectratac.decode.export import FORMATS
+    from spectratac.train import FinetuneOptions, SplitSpec, TrainSpec, fit
+    from spectratac.train.plan import default_features, default_targets
 
     exports = column_names(args.export) or []
     unknown = [f for f in exports if f not in FORMATS]
@@ -146,15 +145,68 @@ def _train(args: argparse.Namespace) -> int:
         [out, *(out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports)],
         args.force,
     )
-    targets = column_names(args.targets)
+    given = column_names(args.targets)
     classes = None if args.classes is None else (column_names(args.classes) or [])
-    ds = load_data(args.data, column_names(args.inputs), targets, classes)
-    if targets is None:
-        targets = list(ds.target_names)
-        if np.any(ds.region > 0):
-            targets.append(ds.meta.get("region_name", "region"))
-    features = args.features or ("paper33" if ds.meta.get("kind") == "spectratac" else "generic")
-    changes: dict[str, Any] = {"features": features, "targets": tuple(targets)}
+    ds = load_data(args.data, column_names(args.inputs), given, classes)
+    if args.holdout and args.holdout_sessions:
+        raise DecoderError("give --holdout or --holdout-sessions, not both")
+    targets = tuple(given) if given is not None else default_targets(ds)
+    features = args.features or default_features(ds)
+    spec, tune = None, None
+    if args.finetune:
+        tune = FinetuneOptions(
+            epochs=args.epochs,
+            lr=args.lr,
+            seed=args.seed or 0,
+            targets=None if given is None else tuple(given),
+        )
+    elif args.recipe == "auto":
+        spec = TrainSpec.paper(features=features, targets=targets)
+    else:
+        spec = getattr(TrainSpec, args.recipe)(**_changes(args, features, targets))
+
+    def say(line: str) -> None:
+        if not args.no_progress:
+            print(f"  {line}", file=sys.stderr)
+
+    trained = fit(
+        ds,
+        spec,
+        holdout=SplitSpec(args.holdout, seed=args.split_seed) if args.holdout else None,
+        holdout_sessions=args.holdout_sessions,
+        finetune_from=args.finetune,
+        finetune_options=tune,
+        budget=args.budget if args.recipe == "auto" and not args.finetune else None,
+        workers=args.workers,
+        ray_address=args.ray,
+        progress=not args.no_progress,
+        log=say,
+    )
+    if trained.search is not None and not args.json:
+        print(trained.search.text())
+    dec = trained.decoder
+    dec.save(out)
+    written = {"model": str(out)}
+    for fmt in exports:
+        path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
+        written[fmt] = str(dec.export(fmt, path))
+    summary = trained.report(written)
+    check = trained.check
+    if check.warning:
+        print(f"warning: {check.warning}: the model fits what is particular to its "
+              f"training {check.heldout_groups}s; expect the held-out error on new data "
+              f"(try --recipe auto, --drift baseline, or more {check.heldout_groups}s)",
+              file=sys.stderr)  # fmt: skip
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(_human(summary))
+    return ExitCode.OK
+
+
+def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:
+    """The TrainSpec fields the options replace in the recipe."""
+    changes: dict[str, Any] = {"features": features, "targets": targets}
     changes.update(
         {f: getattr(args, o) for o, f in SPEC_OPTIONS.items() if getattr(args, o) is not None}
     )
@@ -164,58 +216,7 @@ def _train(args: argparse.Namespace) -> int:
         changes["context_ema"] = tuple(float(v) for v in column_names(args.ema) or ())
     if args.uncertainty:
         changes["uncertainty"] = True
-    rows, split, held = None, None, None
-    if args.holdout and args.holdout_sessions:
-        raise DecoderError("give --holdout or --holdout-sessions, not both")
-    if args.holdout_sessions:
-        from spectratac.evaluate.holdout import parse_sessions, session_rows
-
-        held = parse_sessions(args.holdout_sessions)
-        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, held))
-        if rows.size == 0:
-            raise DecoderError(f"--holdout-sessions {args.holdout_sessions} leaves no training row")
-    if args.holdout:
-        from spectratac.evaluate.splits import SplitSpec, split_dataset
-
-        split = split_dataset(ds, SplitSpec(args.holdout, seed=args.split_seed))
-        rows = split.train
-    if args.finetune:
-        dec = _finetune(args, ds, rows)
-        check = _check(dec, ds, rows, split, held, lambda r: _finetune(args, ds, r, quiet=True))
-    elif args.recipe == "auto":
-        dec, check = _auto(args, ds, rows, tuple(targets), features)
-    else:
-        spec = getattr(TrainSpec, args.recipe)(**changes)
-        dec = train(ds, spec, rows=rows, progress=not args.no_progress)
-        check = _check(dec, ds, rows, split, held, _check_trainer(ds, spec, args.no_progress))
-    if split is not None:
-        from spectratac.evaluate.holdout import mark
-
-        mark(dec, ds, split)
-    if held is not None:
-        from spectratac.evaluate.holdout import mark_sessions
-
-        mark_sessions(dec, ds, held)
-    dec.save(out)
-    written = {"model": str(out)}
-    for fmt in exports:
-        path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
-        written[fmt] = str(dec.export(fmt, path))
-    test = split.test if split is not None else None
-    if held is not None:
-        test = np.setdiff1d(np.arange(ds.n), rows)
-    summary = _summary(dec, ds, written, test)
-    summary.update(check)
-    if check["warning"]:
-        print(f"warning: {check['warning']}: the model fits what is particular to its "
-              f"training {check['heldout_groups']}s; expect the held-out error on new data "
-              f"(try --recipe auto, --drift baseline, or more {check['heldout_groups']}s)",
-              file=sys.stderr)  # fmt: skip
-    if args.json:
-        print(json.dumps(summary))
-    else:
-        print(_human(summary))
-    return ExitCode.OK
+    return changes
 
 
 def parse_duration(text: str) -> float:
@@ -228,148 +229,6 @@ def parse_duration(text: str) -> float:
     if not m or float(m.group(1)) <= 0:
         raise argparse.ArgumentTypeError(f"{text!r}: give a duration like 300, 90s, 5m or 1h")
     return float(m.group(1)) * {"": 1, "s": 1, "m": 60, "h": 3600}[m.group(2)]
-
-
-def _mae(dec: Any, ds: Any, rows: Any) -> dict[str, float]:
-    from spectratac.evaluate.auto_recipe.trial import fold_errors
-
-    return fold_errors(dec, ds, np.asarray(rows, np.intp))
-
-
-def _check(dec: Any, ds: Any, rows: Any, split: Any, held_sessions: Any,
-           trainer: Callable[[Any], Any]) -> dict[str, Any]:  # fmt: skip
-    """Training and held-out-group MAE of `dec` (or of a check model made by `trainer` on the
-    other groups, when `dec` held nothing out) and the gap warning."""
-    from spectratac.decode.train import rows_of
-    from spectratac.evaluate.gap import gap
-
-    if split is not None:
-        fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
-        model = dec
-    elif held_sessions is not None:
-        fit, kind, source, model = rows, "session", "--holdout-sessions", dec
-        held = np.setdiff1d(np.arange(ds.n), rows)
-    elif dec.meta.get("n_val", 0) > 0:
-        model, source = dec, "the model's validation groups"
-        fit, held = rows_of(dec.meta["fit_rows"]), rows_of(dec.meta["val_rows"])
-        kind = dec.meta["val_groups"]
-    else:
-        fit, held, kind = _heldout_groups(ds, rows)
-        model, source = trainer(fit), "a check model trained on the other groups"
-    train_mae, held_mae = _mae(model, ds, fit), _mae(model, ds, held)
-    ratio, warning = gap(train_mae, held_mae)
-    return {
-        "train_mae": train_mae,
-        "heldout_mae": held_mae,
-        "heldout_groups": kind,
-        "heldout_source": source,
-        "n_heldout": int(np.asarray(held).size),
-        "gap": ratio,
-        "warning": warning,
-    }
-
-
-def _heldout_groups(ds: Any, rows: Any) -> tuple[Any, Any, str]:
-    """(fit, held-out, group kind): about HELDOUT_FRACTION of the whole groups of `rows`."""
-    from spectratac.decode.assemble import session_order
-    from spectratac.decode.groups import row_groups, val_split
-
-    sel = np.arange(ds.n) if rows is None else np.asarray(rows)
-    groups = row_groups(ds.session, ds.press, ds.t_end, sel)
-    order = np.concatenate(session_order(np.asarray(ds.session), np.asarray(ds.t_end)))
-    fit, held = val_split(order[np.isin(order, sel)], HELDOUT_FRACTION, groups)
-    return fit, held, groups.kind
-
-
-def _check_trainer(ds: Any, spec: Any, quiet: bool) -> Callable[[Any], Any]:
-    """Trains the check model like the real one, on the given rows."""
-    from spectratac.decode import train
-
-    return lambda fit: train(ds, spec, rows=fit, progress=not quiet)
-
-
-def _auto(args: argparse.Namespace, ds: Any, rows: Any, targets: tuple[str, ...],
-          features: str) -> tuple[Any, dict[str, Any]]:  # fmt: skip
-    from spectratac.evaluate.auto_recipe import search
-    from spectratac.evaluate.gap import gap
-
-    def say(line: str) -> None:
-        if not args.no_progress:
-            print(f"  {line}", file=sys.stderr)
-
-    result = search(ds, args.budget, rows=rows, targets=targets, features=features,
-                    workers=args.workers, ray_address=args.ray, progress=say)  # fmt: skip
-    rep = result.report
-    chosen = next(c for c in rep["candidates"] if c["name"] == rep["chosen"])
-    held = {t: v["mean"] for t, v in chosen["cv_mae"].items()}
-    ratio, warning = gap(chosen["train_mae"], held)
-    if not args.json:
-        print(result.text())
-    return result.decoder, {
-        "train_mae": chosen["train_mae"],
-        "heldout_mae": held,
-        "heldout_groups": rep["groups"]["kind"],
-        "heldout_source": f"{rep['folds']}-fold cross-validation of the chosen candidate",
-        "n_heldout": rep["rows"],
-        "gap": ratio,
-        "warning": warning,
-        "auto_recipe": rep,
-    }
-
-
-def _finetune(args: argparse.Namespace, ds: Any, rows: Any, quiet: bool = False) -> Any:
-    """BASE recalibrated on `rows` of `ds`, with its file's name in `finetuned_from`."""
-    from spectratac.decode import Decoder
-    from spectratac.decode.finetune import finetune
-
-    dec = finetune(
-        Decoder.load(args.finetune),
-        ds,
-        rows,
-        epochs=args.epochs,
-        lr=args.lr,
-        seed=args.seed or 0,
-        targets=column_names(args.targets),
-        progress=not (args.no_progress or quiet),
-    )
-    dec.meta["finetuned_from"]["path"] = str(args.finetune)
-    return dec
-
-
-def _summary(dec: Any, ds: Any, written: dict[str, str], test: Any = None) -> dict[str, Any]:
-    """Training summary with the MAE on the held-out rows `test`, or on every row (training
-    rows included: optimistic) when there is no holdout."""
-    rows = np.arange(ds.n) if test is None else np.asarray(test)
-    est = dec.predict(ds, rows)
-    names = list(ds.target_names)
-    fit: dict[str, float] = {}
-    for i, t in enumerate(dec.target_names):
-        y = ds.targets[rows, names.index(t)]
-        ok = ~est.invalid & ds.target_valid[rows]
-        fit[t] = float(np.mean(np.abs(est.targets[ok, i] - y[ok]))) if ok.any() else float("nan")
-    region = ds.region[rows]
-    lab = region > 0
-    acc = float(np.mean(est.region[lab] == region[lab])) if dec.heads.n_classes else None
-    m = dec.meta
-    held = m.get("holdout")
-    return {
-        "mae_rows": "held-out" if test is not None else "all (training rows included)",
-        "holdout": (held.get("split") or {"kind": "sessions", **held["sessions"]})
-        if held
-        else None,
-        "n_test": int(rows.size) if test is not None else 0,
-        "written": written,
-        "spec": m["spec"],
-        "n_train": m["n_train"],
-        "train_seconds": round(m["train_seconds"], 2),
-        "final_loss": m["history"][-1] if m["history"] else float("nan"),
-        "params": dec.n_params,
-        "flops_per_sample": dec.flops_per_sample,
-        "mae": fit,
-        "class_accuracy": acc,
-        "unit_id": dec.unit_id,
-        "finetuned_from": m.get("finetuned_from"),
-    }
 
 
 def _human(s: dict[str, Any]) -> str:

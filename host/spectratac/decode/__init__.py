@@ -1,16 +1,17 @@
-"""Decoding counts into F/T, contact region and contact: train, predict, save, export, stream.
+"""The decoder as a NumPy model: counts in, F/T, contact region and contact out; load, save,
+predict, export and stream. Training lives in `spectratac.train`.
 
-Importing this package never imports torch; `train` imports it when called, and so do the
-ONNX and TorchScript exporters. Prediction, `Decoder.load` and `Decoder.stream` are NumPy.
+Importing this package never imports torch; the ONNX and TorchScript exporters import it
+when called. Prediction, `Decoder.load` and `Decoder.stream` are NumPy.
 
-    from spectratac.decode import TrainSpec, train, Decoder
-    dec = train(dataset, TrainSpec.paper(), rows=train_rows)
+    from spectratac.decode import Decoder
+    dec = Decoder.load("model.stac", expect_config=cfg)
     est = dec.predict(dataset, rows=test_rows)       # Estimates
-    dec.save("model.stac"); Decoder.load("model.stac", expect_config=cfg)
+    for e in dec.stream(sensor): ...                 # Estimate per live sample
 
->>> from spectratac.decode import features33, TrainSpec
->>> features33([[1.0] * 12]).shape, TrainSpec.paper().model
-((1, 33), 'resmlp')
+>>> from spectratac.decode import features33
+>>> features33([[1.0] * 12]).shape
+(1, 33)
 """
 
 from __future__ import annotations
@@ -33,13 +34,10 @@ from spectratac.decode.paper_features import (
 )
 from spectratac.decode.runtime import Runtime
 from spectratac.decode.scaling import Standardizer, ZeroAnchoredScaler
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import PAPER_LOSS_WEIGHTS, train
 
 __all__ = [
     "EPS",
     "FEATURE_NAMES",
-    "PAPER_LOSS_WEIGHTS",
     "Decoder",
     "DecoderConfigError",
     "DecoderDataError",
@@ -51,9 +49,7 @@ __all__ = [
     "FeatureError",
     "Runtime",
     "Standardizer",
-    "TrainSpec",
     "ZeroAnchoredScaler",
     "features33",
     "raw12_from_counts",
-    "train",
 ]

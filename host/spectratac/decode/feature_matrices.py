@@ -11,7 +11,7 @@ Every feature set here has the form
 so that one small description runs identically in NumPy, torch, ONNX and C. The ratio
 denominators are >= EPS, so dark (all-zero) inputs give finite features. Monomials (degree
 2 or 3 over the linear and ratio features, `degree`) turn a linear head into a polynomial
-ridge regression (decode/ridge.py).
+ridge regression (train/ridge.py).
 
 kinds (per LED step, on the current sample x_t):
 - paper33: the paper's 33 (raw 12, pairwise sensor differences 12, R/C, G/C, B/C 9);

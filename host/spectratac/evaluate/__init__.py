@@ -1,63 +1,42 @@
-"""Evaluating decoders honestly: splits, metrics, the oracle floor, Fig. 3 reports, the twin
+"""Evaluating trained decoders honestly: scores, the oracle floor, Fig. 3 reports, the twin
 fidelity report (`twin_fidelity`) and the decoder benchmarks (`evaluate.bench`).
 
-Two splits are always reported: the paper's random split and a blocked split (whole presses
-or time blocks held out, with a guard gap) that measures generalisation. A model records the
-split it was trained under (`evaluate.holdout`), so evaluation scores only unseen rows.
+Two splits (spectratac.train.groups) are always reported: the paper's random split and a
+blocked split (whole presses or time blocks held out, with a guard gap) that measures
+generalisation. A model records the split it was trained under (`train.holdout`), so
+evaluation scores only unseen rows.
 
->>> from spectratac.evaluate import SplitSpec
->>> SplitSpec().kind, SplitSpec("random").test_fraction
-('blocked', 0.2)
+>>> from spectratac.evaluate import improvement
+>>> improvement(0.4, 0.3) > 24.9
+True
 """
 
 from __future__ import annotations
 
-from spectratac.evaluate.holdout import fingerprint, mark, resolve
 from spectratac.evaluate.metrics import (
     contact_scores,
     improvement,
     interval_coverage,
-    region_accuracy,
     region_scores,
-    regression_metrics,
     regression_scores,
 )
 from spectratac.evaluate.predictions import Predictions, predict
 from spectratac.evaluate.report import write_report
 from spectratac.evaluate.run import Evaluation, Section, evaluate_model
 from spectratac.evaluate.scoring import Scored, score
-from spectratac.evaluate.splits import (
-    KINDS,
-    Split,
-    SplitError,
-    SplitSpec,
-    make_split,
-    split_dataset,
-)
 
 __all__ = [
-    "KINDS",
     "Evaluation",
     "Predictions",
     "Scored",
     "Section",
-    "Split",
-    "SplitError",
-    "SplitSpec",
     "contact_scores",
     "evaluate_model",
-    "fingerprint",
     "improvement",
     "interval_coverage",
-    "make_split",
-    "mark",
     "predict",
-    "region_accuracy",
     "region_scores",
-    "regression_metrics",
     "regression_scores",
-    "resolve",
     "score",
-    "split_dataset",
     "write_report",
 ]

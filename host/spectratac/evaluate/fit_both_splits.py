@@ -1,7 +1,7 @@
 """Train and evaluate under both splits: the protocol every reported number goes through.
 
 `fit_and_evaluate(dataset, spec)` trains one decoder per split kind on that split's training
-rows only, records the split in the decoder's metadata (`evaluate.holdout.mark`), and scores
+rows only, records the split in the decoder's metadata (`train.holdout.mark`), and scores
 it on the split's test rows. `save_models` writes them as ``model.stac`` (blocked: the honest
 one) and ``model.random.stac`` (its companion), each naming the other, so that
 ``spectratac evaluate model.stac data.npz`` later rebuilds both test sets without training.
@@ -32,9 +32,9 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.holdout import mark
 from spectratac.evaluate.run import Evaluation, Section, evaluate_model
-from spectratac.evaluate.splits import KINDS, Split, SplitSpec, split_dataset
+from spectratac.train.groups import KINDS, Split, SplitSpec, split_dataset
+from spectratac.train.holdout import mark
 
 Trainer = Callable[..., Any]  # (dataset, spec, rows=..., progress=...) -> decoder
 
@@ -54,7 +54,7 @@ class FitResult:
 
 
 def default_trainer() -> Trainer:
-    from spectratac.decode import train
+    from spectratac.train import train
 
     return train
 

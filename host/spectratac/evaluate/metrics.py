@@ -2,9 +2,9 @@
 percentiles, region accuracy with its 9x9 confusion matrix, contact detection, and the
 coverage of predicted uncertainty intervals.
 
-`regression_metrics` and `region_accuracy` are the plain definitions of MAE, RMSE, R² and
-accuracy; the scores built on them decide which rows count (finite target, target_valid) and
-add what the paper's Fig. 3 shows.
+The scores are built on training's own definitions of MAE, RMSE, R² and accuracy
+(`spectratac.train.metrics`: one implementation for the held-out check and evaluation); they
+decide which rows count (finite target, target_valid) and add what the paper's Fig. 3 shows.
 
 >>> import numpy as np
 >>> y = np.array([[0.0], [1.0], [np.nan], [3.0]])
@@ -12,8 +12,6 @@ add what the paper's Fig. 3 shows.
 >>> m = regression_scores(y, p, ["Fz"])["Fz"]
 >>> m["n"], m["mae"], m["p50"]
 (3, 0.16666666666666666, 0.0)
->>> regression_metrics(np.array([[0.0], [2.0]]), np.array([[1.0], [2.0]]), ("Fz",))["Fz"]["r2"]
-0.5
 >>> c = region_scores(np.array([1, 2, -1, 2]), np.array([1, 3, 5, 2]))
 >>> c["accuracy"], c["n"], c["confusion"][1][2]
 (0.6666666666666666, 3, 1)
@@ -28,38 +26,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.decode.estimates import interval_factor
+from spectratac.train.metrics import region_accuracy, regression_metrics
 
 F64 = NDArray[np.float64]
 PERCENTILES = (50, 90, 95, 99)
 N_REGIONS = 9
 #: Central interval levels reported for calibrated uncertainty.
 COVERAGE_LEVELS = (0.68, 0.95)
-
-
-def regression_metrics(
-    y_true: NDArray[np.float64], y_pred: NDArray[np.float64], names: Sequence[str]
-) -> dict[str, dict[str, float]]:
-    """MAE, RMSE and R² per named column, over every row."""
-    err = y_pred - y_true
-    out: dict[str, dict[str, float]] = {}
-    for i, name in enumerate(names):
-        e = err[:, i]
-        ss_res = float(np.sum(e * e))
-        ss_tot = float(np.sum((y_true[:, i] - y_true[:, i].mean()) ** 2))
-        out[name] = {
-            "mae": float(np.mean(np.abs(e))),
-            "rmse": float(np.sqrt(np.mean(e * e))),
-            "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else float("nan"),
-        }
-    return out
-
-
-def region_accuracy(labels: NDArray[np.integer], predicted: NDArray[np.integer]) -> float:
-    """Accuracy over samples with a valid label (label -1 excluded)."""
-    valid = labels > 0
-    if not np.any(valid):
-        return float("nan")
-    return float(np.mean(predicted[valid] == labels[valid]))
 
 
 def valid_rows(y_true: ArrayLike, valid: ArrayLike | None = None) -> NDArray[np.bool_]:

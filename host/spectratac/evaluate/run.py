@@ -1,7 +1,7 @@
 """Evaluate a trained model on a dataset: which rows are honest to score, on which split,
 beside the oracle floor and an optional baseline model.
 
-A model's `meta["holdout"]` (see `evaluate.holdout`) names the split it was trained under;
+A model's `meta["holdout"]` (see `train.holdout`) names the split it was trained under;
 only that split's test rows are scored with it. The other split is scored with a companion
 model trained under that split (`fit_and_evaluate` writes both), or reported as unavailable.
 A model without the record, or one trained on another dataset, is scored on every row.
@@ -34,12 +34,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.holdout import check_sessions_unseen, resolve, session_rows
 from spectratac.evaluate.metrics import regression_scores
 from spectratac.evaluate.oracle_floor import oracle_predictions
 from spectratac.evaluate.predictions import predict
 from spectratac.evaluate.scoring import Scored, score
-from spectratac.evaluate.splits import KINDS
+from spectratac.train.groups import KINDS
+from spectratac.train.holdout import check_sessions_unseen, resolve, session_rows
 from spectratac.twin.scene_model import Scene
 
 Progress = Callable[[str], None]

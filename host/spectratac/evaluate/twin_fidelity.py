@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.schema import FT_NAMES as AXES
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import train
-from spectratac.evaluate.metrics import region_accuracy, regression_metrics
 from spectratac.evaluate.paper import PAPER
+from spectratac.train.fitting import train
+from spectratac.train.metrics import region_accuracy, regression_metrics
+from spectratac.train.spec import TrainSpec
 
 BAND = 0.30
 TARGET_REGION_ACCURACY = 0.99

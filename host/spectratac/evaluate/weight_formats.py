@@ -6,7 +6,7 @@ its estimates are the Python decoder's on those weights; both are scored here on
 with a valid target.
 
 >>> from spectratac.sim.generic_skin import generic_skin
->>> from spectratac.decode import TrainSpec, train
+>>> from spectratac.train import TrainSpec, train
 >>> ds = generic_skin(sessions=2, session_s=4.0, seed=1)
 >>> dec = train(ds, TrainSpec(model="mlp", hidden=16, blocks=1, epochs=2,
 ...                           features="generic", targets=("Fz",)), progress=False)

@@ -19,7 +19,7 @@ def export_onnx(dec: Any, path: Path) -> Path:
     import onnx
     import torch
 
-    from spectratac.decode.torch_net import Exported
+    from spectratac.decode.export.torch_net import Exported
 
     module = Exported(dec.runtime).eval()
     example = torch.zeros((2, dec.runtime.n_inputs), dtype=torch.float32)

@@ -11,7 +11,7 @@ from typing import Any
 def export_torchscript(dec: Any, path: Path) -> Path:
     import torch
 
-    from spectratac.decode.torch_net import Exported
+    from spectratac.decode.export.torch_net import Exported
 
     module = Exported(dec.runtime).eval()
     example = torch.zeros((2, dec.runtime.n_inputs), dtype=torch.float32)

@@ -124,8 +124,8 @@ def variants_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None
     from spectratac.evaluate.bench.latency import side_by_side_latency, single_sample_fn
     from spectratac.evaluate.oracle_floor import oracle_predictions
     from spectratac.evaluate.scoring import score
-    from spectratac.evaluate.splits import SplitSpec, split_dataset
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.train.groups import SplitSpec, split_dataset
     from spectratac.twin import generate_session
 
     tick = progress or (lambda s: None)

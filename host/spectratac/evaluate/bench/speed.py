@@ -59,9 +59,9 @@ def grid_point(
     split: Any,
 ) -> tuple[dict[str, Any], Any]:
     """Train one model on one acquisition's dataset; its table row and the decoder."""
-    from spectratac.decode import TrainSpec, train
     from spectratac.evaluate.predictions import predict
     from spectratac.evaluate.scoring import score
+    from spectratac.train import TrainSpec, train
 
     spec = TrainSpec.paper(
         epochs=epochs, batch_size=batch_for(acq.integration_ms), seed=seed, **MODELS[model_name]
@@ -108,7 +108,7 @@ def run_grid(
 
     HEAVY models train on the white sequence only (every integration time) unless
     `full_grid`: the LED sequence's effect is measured with the other models."""
-    from spectratac.evaluate.splits import SplitSpec, split_dataset
+    from spectratac.train.groups import SplitSpec, split_dataset
 
     rows: list[dict[str, Any]] = []
     trained: dict[tuple[str, str], tuple[Any, Any]] = {}

@@ -67,7 +67,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 
 def best_changes() -> dict[str, Any]:
     """What the decoder's own `TrainSpec.best()` changes against the paper's recipe."""
-    from spectratac.decode import TrainSpec
+    from spectratac.train import TrainSpec
 
     if not hasattr(TrainSpec, "best"):
         return {}
@@ -220,8 +220,8 @@ def run_variants(
     same splits (split seed `seed`). The blocked split is repeated for every training seed
     in `train_seeds` (scores are means, with the MAE's spread); the other kinds use the first.
     Returns the table rows and the trained models (by variant, blocked split, first seed)."""
-    from spectratac.decode import TrainSpec
     from spectratac.evaluate.fit_both_splits import fit_and_evaluate
+    from spectratac.train import TrainSpec
 
     rows: list[dict[str, Any]] = []
     models: dict[str, Any] = {}

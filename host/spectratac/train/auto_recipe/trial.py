@@ -3,7 +3,8 @@
 A trial trains the candidate once per fold on the other folds' rows (network candidates on
 at most `max_fit_rows` of them, every k-th row: at 100 Hz neighbours are near-duplicates)
 and scores it on the fold's held-out groups. The error is the mean absolute error per
-regression target, and a unit-free score: the mean over targets of MAE / the target's std.
+regression target (train/metrics.py), and a unit-free score: the mean over targets of
+MAE / the target's std.
 The fold-0 decoder's inference cost is measured too: batch µs per sample and the latency of
 one sample through the fused single-sample path.
 
@@ -22,8 +23,9 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import train
+from spectratac.train.fitting import train
+from spectratac.train.metrics import decoder_mae
+from spectratac.train.spec import TrainSpec
 
 Fold = tuple[NDArray[np.intp], NDArray[np.intp]]  # (fit rows, held-out rows)
 TIMING_ROWS = 2000
@@ -47,18 +49,6 @@ def thin(rows: NDArray[np.intp], limit: int) -> NDArray[np.intp]:
     if limit <= 0 or rows.size <= limit:
         return rows
     return rows[:: -(-rows.size // limit)]
-
-
-def fold_errors(dec: Decoder, ds: Dataset, held: NDArray[np.intp]) -> dict[str, float]:
-    """MAE per regression target on the held-out rows with valid targets and estimates."""
-    est = dec.predict(ds, held)
-    names = list(ds.target_names)
-    out = {}
-    for i, t in enumerate(dec.target_names):
-        y = np.asarray(ds.targets, np.float64)[held, names.index(t)]
-        ok = ~est.invalid & np.asarray(ds.target_valid, bool)[held] & np.isfinite(y)
-        out[t] = float(np.mean(np.abs(est.targets[ok, i] - y[ok]))) if ok.any() else float("nan")
-    return out
 
 
 def inference_cost(dec: Decoder, ds: Dataset, rows: NDArray[np.intp]) -> dict[str, float]:
@@ -101,10 +91,10 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
     for i, (fit, held) in enumerate(job.folds):
         rows = fit if spec.model == "ridge" else thin(fit, job.max_fit_rows)
         dec = train(ds, spec, rows=rows, progress=False)
-        err = fold_errors(dec, ds, held)
+        err = decoder_mae(dec, ds, held)
         per_fold.append(err)
         scores.append(float(np.mean([err[t] / job.target_std[t] for t in err])))
-        tr = fold_errors(dec, ds, thin(rows, TIMING_ROWS))
+        tr = decoder_mae(dec, ds, thin(rows, TIMING_ROWS))
         train_scores.append(float(np.mean([tr[t] / job.target_std[t] for t in tr])))
         train_mae.append(tr)
         if i == 0:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from spectratac.decode.spec import TrainSpec
+from spectratac.train.spec import TrainSpec
 
 NETWORK_EPOCHS = 30
 

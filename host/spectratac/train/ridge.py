@@ -9,7 +9,7 @@ The penalty `alpha` multiplies the number of rows, so that it means the same for
 data (features are z-scored: alpha 1e-3 shrinks a weight noticeably only where a feature's
 share of variance is below 1e-3). With `ridge_alpha=0` it is chosen among ALPHAS by K-fold
 cross-validation over the training rows' groups (whole sessions, presses or time blocks:
-decode/groups.py), minimising the mean absolute error the decoder is judged by.
+train/groups.py), minimising the mean absolute error the decoder is judged by.
 
 >>> rng = np.random.default_rng(0)
 >>> z = rng.normal(size=(200, 3))
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.groups import group_folds, row_groups
+from spectratac.train.groups import group_folds, row_groups
 
 F64 = NDArray[np.float64]
 ALPHAS = tuple(float(a) for a in np.logspace(-5, 1, 7))

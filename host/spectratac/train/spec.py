@@ -44,10 +44,10 @@ class TrainSpec:
     loss_weights: per-target weights of the regression loss replacing the loss's own
     (the paper's: Fx 1, Fy 1, Fz 0.5, torques 0.1-0.2; l1 and huber: 1), e.g. (("Fz", 1.0),).
     augment: also train on the training rows rotated by 120° and 240° ("rotate") and
-    mirrored ("rotate+mirror"), from the sensor's three-fold symmetry (decode/symmetry.py).
+    mirrored ("rotate+mirror"), from the sensor's three-fold symmetry (train/symmetry.py).
     uncertainty: a calibrated per-target standard deviation head.
     val_fraction: share of the training rows' groups (whole sessions, else presses, else
-    guarded time blocks: decode/groups.py) held out for calibrating uncertainty, keeping the
+    guarded time blocks: train/groups.py) held out for calibrating uncertainty, keeping the
     best epoch and reporting a validation loss; 0 uses all rows for fitting.
     model="ridge": the linear head fitted in closed form (least squares with an L2 penalty
     `ridge_alpha` on z-scored features; 0 picks it by cross-validation over the training

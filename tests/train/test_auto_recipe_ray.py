@@ -8,9 +8,9 @@ import shutil
 import tempfile
 
 import pytest
-from spectratac.decode import TrainSpec
-from spectratac.evaluate.auto_recipe import Candidate, search
 from spectratac.sim.generic_skin import generic_skin
+from spectratac.train import TrainSpec
+from spectratac.train.auto_recipe import Candidate, search
 
 pytestmark = [pytest.mark.train, pytest.mark.subprocess, pytest.mark.slow]
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from spectratac.evaluate.splits import SplitError, SplitSpec, make_split
+from spectratac.train.groups import SplitError, SplitSpec, make_split
 
 
 @st.composite

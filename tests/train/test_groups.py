@@ -5,8 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.decode.errors import DecoderDataError
-from spectratac.decode.groups import group_folds, purge, row_groups, val_split
 from spectratac.sim.generic_skin import generic_skin
+from spectratac.train.groups import (
+    group_folds,
+    press_units,
+    purge,
+    row_groups,
+    time_blocks,
+    val_split,
+)
 
 
 def test_sessions_are_the_groups_when_there_are_several() -> None:
@@ -60,3 +67,32 @@ def test_folds_partition_the_rows_by_group_and_purge_next_to_blocks() -> None:
     assert np.min(np.abs(fit[:, None] - held[None, :])) > 5
     with pytest.raises(DecoderDataError, match="at least 8 groups"):
         group_folds(g.ids, np.arange(ds.n), 8)
+
+
+def test_validation_press_groups_are_the_splits_press_units() -> None:
+    """One grouping: a validation press group is the split's press units of that press, the
+    session's leading idle unit joined to its first press."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(2, 80))
+        session = np.zeros(n, np.int64)
+        t = rng.permutation(n).astype(np.float64)
+        press = np.where(rng.random(n) < 0.4, -1, rng.integers(0, 5, n))
+        g = row_groups(session, press, t)
+        if g.kind != "press":
+            continue
+        units = press_units(t, session, press)
+        in_time = press[np.argsort(t, kind="stable")]
+        first_press = in_time[in_time >= 0][0]
+        for u in np.unique(units):
+            ids = np.unique(g.ids[units == u])
+            assert ids.size == 1  # a unit never straddles two groups
+            own = press[units == u]
+            assert ids[0] == (own.max() if own.max() >= 0 else first_press)
+
+
+def test_time_blocks_in_seconds_and_in_rows() -> None:
+    t = np.arange(10.0)
+    session = np.array([0] * 5 + [1] * 5)
+    assert time_blocks(t, session, block_s=2.0).tolist() == [0, 0, 1, 1, 2, 3, 3, 4, 4, 5]
+    assert time_blocks(t, session, n_blocks=2).tolist() == [0] * 5 + [1] * 5

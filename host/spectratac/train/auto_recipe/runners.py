@@ -14,7 +14,7 @@ import os
 from typing import Any
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.auto_recipe.trial import TrialJob, run_trial
+from spectratac.train.auto_recipe.trial import TrialJob, run_trial
 
 Finished = list[tuple[TrialJob, dict[str, Any] | BaseException]]
 

@@ -1,4 +1,4 @@
-"""Few-shot recalibration (`decode.finetune`, `spectratac train --finetune`), real training."""
+"""Few-shot recalibration (`train.finetune`, `spectratac train --finetune`), real training."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from spectratac.cli import main
 from spectratac.dataset import Dataset
-from spectratac.decode import Decoder, DecoderConfigError, DecoderUnitWarning, TrainSpec, train
-from spectratac.decode.finetune import (
+from spectratac.decode import Decoder, DecoderConfigError, DecoderUnitWarning
+from spectratac.train import TrainSpec, train
+from spectratac.train.finetune import (
     MIN_VAL_GROUPS,
     FinetuneMismatchError,
     finetune,

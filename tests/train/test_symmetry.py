@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from spectratac.dataset import FT_NAMES
-from spectratac.decode import TrainSpec, train
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.symmetry import (
+from spectratac.train import TrainSpec, train
+from spectratac.train.symmetry import (
     check_symmetric,
     permute_assembled,
     rotate_targets,

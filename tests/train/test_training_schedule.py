@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from spectratac.decode.train import average_decay, batch_sizes
+from spectratac.train.torch_loop import average_decay, batch_sizes
 
 pytestmark = pytest.mark.train
 

@@ -40,7 +40,7 @@ never make a good base worse by what they happen to hold.
 
 >>> import numpy as np
 >>> from spectratac.dataset import Dataset
->>> from spectratac.decode import TrainSpec, train
+>>> from spectratac.train import TrainSpec, train
 >>> rng = np.random.default_rng(0)
 >>> x = rng.normal(size=(200, 2)); y = (x @ [1.0, -2.0])[:, None]
 >>> base = train(Dataset.generic(x, y, ["a", "b"], ["Fz"]),
@@ -52,7 +52,7 @@ never make a good base worse by what they happen to hold.
 >>> finetune(base, Dataset.generic(x, y, ["a", "c"], ["Fz"]), progress=False)
 Traceback (most recent call last):
 ...
-spectratac.decode.finetune.FinetuneMismatchError: the new data does not match ... ['a', 'c'] ...
+spectratac.train.finetune.FinetuneMismatchError: the new data does not match ... ['a', 'c'] ...
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ from __future__ import annotations
 import hashlib
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -71,20 +71,13 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.groups import GUARD_ROWS, row_groups, val_split
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import (
-    Plan,
-    Progress,
-    _augmented,
-    _fit,
-    _ranges,
-    check_rows,
-    plan,
-    select_rows,
-)
+from spectratac.train.fitting import augmented
+from spectratac.train.groups import GUARD_ROWS, row_groups, val_split
+from spectratac.train.plan import Plan, check_rows, plan, ranges, select_rows
+from spectratac.train.spec import TrainSpec
+from spectratac.train.torch_loop import Progress, fit_network
 
 MODES = ("scaler", "head", "first", "full")
 DEFAULT_MODE = "first"
@@ -92,6 +85,19 @@ DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
 VAL_FRACTION = 0.2  # share of presses held out for early stopping
 MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
+
+
+@dataclass(frozen=True)
+class FinetuneOptions:
+    """How `spectratac.train.fit(..., finetune_from=base)` recalibrates: `finetune`'s keyword
+    arguments (None: its defaults)."""
+
+    mode: str = DEFAULT_MODE
+    refit_scaler: bool | None = None
+    epochs: int | None = None
+    lr: float | None = None
+    seed: int = 0
+    targets: tuple[str, ...] | None = None
 
 
 class FinetuneMismatchError(DecoderConfigError):
@@ -162,7 +168,7 @@ def grouped_validation(
     dataset: Dataset, order: NDArray[np.intp], fraction: float = VAL_FRACTION
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """(fit, val) rows of `order`: about `fraction` of the whole groups that training's
-    validation uses (decode/groups.py: sessions, else a press with the idle rows after it,
+    validation uses (train/groups.py: sessions, else a press with the idle rows after it,
     else guarded time blocks) go to validation. No validation rows when there are fewer than
     MIN_VAL_GROUPS groups.
 
@@ -261,9 +267,9 @@ def finetune(
         }
         net_rows = fit_rows
         if spec.augment != "none":
-            data, net_rows = _augmented(dataset, p, rt, data, u, rt.y_scale, fit_rows)
+            data, net_rows = augmented(dataset, p, rt, data, u, rt.y_scale, fit_rows)
         run_spec = replace(spec, best_val=bool(val_rows.size))
-        weights, hist, val_hist = _fit(
+        weights, hist, val_hist = fit_network(
             run_spec, p, data, net_rows, val_rows, progress, start=dict(rt.weights),
             trainable=predicate,
         )  # fmt: skip
@@ -303,8 +309,8 @@ def finetune(
             "unit_id": dataset.meta.get("unit_id"),
             "n_train": int(fit_rows.size),
             "n_val": int(val_rows.size),
-            "fit_rows": _ranges(fit_rows),  # rows of `dataset`, not of the base's data
-            "val_rows": _ranges(val_rows),
+            "fit_rows": ranges(fit_rows),  # rows of `dataset`, not of the base's data
+            "val_rows": ranges(val_rows),
             "val_groups": row_groups(dataset.session, dataset.press, dataset.t_end).kind,
             "n_augmented": n_augmented,
             "train_seconds": time.perf_counter() - t0,

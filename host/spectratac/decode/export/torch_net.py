@@ -1,12 +1,13 @@
-"""The decoder networks in torch (training, ONNX and TorchScript export only).
+"""The decoder networks in torch: the module training fits and the graph the ONNX and
+TorchScript exports trace.
 
-Importing this module imports torch: only `train` and the exporters do. Parameter names
-match `spectratac.decode.networks`, whose NumPy forward is the reference.
+Importing this module imports torch: only the exporters (inside their functions) and the
+training loop (spectratac.train.torch_loop) do. Parameter names match
+`spectratac.decode.networks`, whose NumPy forward is the reference.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -62,10 +63,6 @@ class Net(nn.Module):
         return self.head(z)
 
 
-def numpy_weights(net: nn.Module) -> dict[str, np.ndarray]:
-    return {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()}
-
-
 class Exported(nn.Module):
     """Assembled vector (N, D) -> physical outputs (N, O): features, normalisation, network
     and output transform in one graph, built from a `Runtime`."""
@@ -116,9 +113,3 @@ class Exported(nn.Module):
         if self.k[1] > self.k[0]:
             parts.append(0.5 * (1.0 + torch.tanh(0.5 * raw[:, self.k[0] : self.k[1]])))
         return torch.cat(parts, dim=1)
-
-
-def laplace_nll(err: torch.Tensor, log_std: torch.Tensor) -> torch.Tensor:
-    """Laplace negative log-likelihood per element, with std = sqrt(2) b."""
-    log_b = log_std - 0.5 * math.log(2.0)
-    return err.abs() * torch.exp(-log_b) + log_b

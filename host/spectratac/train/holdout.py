@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.errors import SpectraTacError
-from spectratac.evaluate.splits import Split, SplitSpec, split_dataset
+from spectratac.train.groups import Split, SplitSpec, split_dataset
 
 KEY = "holdout"
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from spectratac.dataset import Dataset
-from spectratac.decode import Decoder, DecoderError, TrainSpec, train
+from spectratac.decode import Decoder, DecoderError
 from spectratac.decode.assemble import assemble
+from spectratac.train import TrainSpec, train
 
 from tests.decode.test_export import run_c
 

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
 from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
-from spectratac.decode.spec import AUGMENTS
+from spectratac.train.spec import AUGMENTS
 
 F64 = NDArray[np.float64]
 CHANNELS_PER_SENSOR = 4

@@ -1,12 +1,12 @@
 """`search`: honest model selection within a time budget (`spectratac train --recipe auto`).
 
-    from spectratac.evaluate.auto_recipe import search
+    from spectratac.train.auto_recipe import search
     result = search(dataset, budget_s=300)          # grouped K-fold CV, local processes
     result.decoder.save("model.stac")               # the chosen model, refitted on all rows
     print(result.text()); result.report             # every candidate: CV error, cost
 
 Each candidate (auto_recipe/space.py) is cross-validated by groups: whole sessions, else
-presses, else guarded time blocks (decode/groups.py), or the `groups` given. Trials run in
+presses, else guarded time blocks (train/groups.py), or the `groups` given. Trials run in
 parallel (local processes, or Ray with `ray_address`), cheapest first, while the budget
 allows (auto_recipe/budget.py). The linear baselines always run; polynomial ridge runs
 when it fits the budget and has at most MAX_RIDGE_FEATURES monomials. The winner is the model
@@ -30,14 +30,15 @@ from numpy.typing import ArrayLike, NDArray
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.groups import Groups, group_folds, purge, row_groups
 from spectratac.decode.networks import flops
-from spectratac.decode.spec import TrainSpec
-from spectratac.decode.train import plan, select_rows, train
-from spectratac.evaluate.auto_recipe.budget import Budget, CostModel, work
-from spectratac.evaluate.auto_recipe.report import render
-from spectratac.evaluate.auto_recipe.space import Candidate, candidates
-from spectratac.evaluate.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.auto_recipe.budget import Budget, CostModel, work
+from spectratac.train.auto_recipe.report import render
+from spectratac.train.auto_recipe.space import Candidate, candidates
+from spectratac.train.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.fitting import train
+from spectratac.train.groups import Groups, group_folds, purge, row_groups
+from spectratac.train.plan import default_features, default_targets, plan, select_rows
+from spectratac.train.spec import TrainSpec
 
 DEFAULT_FOLDS = 4
 MAX_FIT_ROWS = 20_000  # network trials: rows per fold fit (every k-th row)
@@ -57,13 +58,6 @@ class SearchResult:
 
     def text(self) -> str:
         return render(self.report)
-
-
-def _default_targets(ds: Dataset) -> tuple[str, ...]:
-    t = list(ds.target_names)
-    if np.any(np.asarray(ds.region) > 0):
-        t.append(ds.meta.get("region_name", "region"))
-    return tuple(t)
 
 
 def _folds(ds: Dataset, rows: NDArray[np.intp], g: Groups, k: int) -> list[Fold]:
@@ -175,8 +169,8 @@ def search(
     """
     budget = Budget(budget_s, clock)
     sel = select_rows(dataset.n, rows)
-    tg = tuple(targets) if targets else _default_targets(dataset)
-    feats = features or ("paper33" if dataset.meta.get("kind") == "spectratac" else "generic")
+    tg = tuple(targets) if targets else default_targets(dataset)
+    feats = features or default_features(dataset)
     if groups is not None:
         ids = np.asarray(groups, np.int64)
         if ids.shape != (dataset.n,):
@@ -289,7 +283,7 @@ def search(
 
 
 def _runner(ds: Dataset, ray_address: str | None, workers: int) -> Any:
-    from spectratac.evaluate.auto_recipe import runners
+    from spectratac.train.auto_recipe import runners
 
     if ray_address:
         return runners.RayRunner(ds, ray_address)

@@ -6,10 +6,11 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from spectratac.decode import Decoder, TrainSpec
-from spectratac.evaluate.auto_recipe import Candidate, one_se_choice, search
-from spectratac.evaluate.auto_recipe.budget import PRIOR_S_PER_WORK, Budget, CostModel
+from spectratac.decode import Decoder
 from spectratac.sim.generic_skin import generic_skin
+from spectratac.train import TrainSpec
+from spectratac.train.auto_recipe import Candidate, one_se_choice, search
+from spectratac.train.auto_recipe.budget import PRIOR_S_PER_WORK, Budget, CostModel
 
 pytestmark = pytest.mark.train
 
