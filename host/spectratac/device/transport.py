@@ -1,7 +1,7 @@
 """Byte transports behind one small interface: serial ports, pyserial URLs, plug-ins.
 
 A transport moves bytes and nothing else; framing lives in spectratac.protocol and the
-request/reply logic in spectratac.device.sensor. `open_transport` picks the opener by the
+request/reply logic in spectratac.device.link. `open_transport` picks the opener by the
 URL's scheme: a plug-in registered for it (the simulated device registers ``sim://``
 through the ``spectratac.transports`` entry points), else pyserial for a port path or one
 of pyserial's URL schemes (``socket://``, ``rfc2217://``, ``loop://``...).
