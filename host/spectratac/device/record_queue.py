@@ -6,7 +6,7 @@ A full queue drops records by its overflow policy and counts them. A link error 
 `fail` is raised only once every record received before it has been read; `end` marks a
 source that has no more records (a replay), `close` wakes every waiting reader.
 
->>> queue = RecordQueue(3, lambda rows: np.array(rows), what="numbers")
+>>> queue = RecordQueue(3, lambda batches: np.array([x for b in batches for x in b]))
 >>> queue.put([1, 2]), queue.put([3, 4])  # records dropped: the oldest one goes
 (0, 1)
 >>> queue.read(5, timeout=0.0).tolist(), queue.dropped
