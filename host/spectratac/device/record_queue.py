@@ -137,9 +137,7 @@ class RecordQueue(Generic[T]):
             try:
                 return self._to_array(out)
             except (OverflowError, ValueError):
-                self._batches.extendleft(reversed(out))  # nothing received is lost
-                self._head = 0
-                self._size += got
+                self._unread(out, got)  # nothing received is lost
                 raise
 
     def read_available(self) -> np.ndarray:
@@ -216,6 +214,14 @@ class RecordQueue(Generic[T]):
             got += k
         self._size -= got
         return got
+
+    def _unread(self, out: list[Sequence[T]], got: int) -> None:
+        """Put `got` records taken into `out` back at the front, in order."""
+        if self._head:  # the rest of a batch taken in part becomes a batch of its own
+            self._batches[0] = self._batches[0][self._head :]
+            self._head = 0
+        self._batches.extendleft(reversed(out))
+        self._size += got
 
     def _discard(self, n: int) -> None:
         """Drop the `n` oldest records."""

@@ -79,10 +79,10 @@ def check_socket_url(url: str) -> None:
 
 
 class Transport(Protocol):
-    """What Sensor needs from a link.
+    """What a Link (and so a Sensor) needs from the bytes it talks over.
 
     A transport may also have `fileno() -> int | None`: a non-blocking descriptor that
-    os.read() drains. Sensor then reads it from the process's shared I/O thread
+    os.read() drains. The Link then reads it from the process's shared I/O thread
     (spectratac.device.iohub) instead of calling read() from a thread of its own."""
 
     url: str
