@@ -222,7 +222,7 @@ class Decoder:
         """
         if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
-        if self._decoded_by(sensor):
+        if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
             return
         config_id = None
@@ -249,10 +249,8 @@ class Decoder:
 
         return model_image.model_id(model_image.encode(self, weights=weights))
 
-    def _decoded_by(self, sensor: SampleStream) -> bool:
+    def _decoded_by(self, sensor: EstimateStream) -> bool:
         """True if `sensor` streams on-device estimates of this decoder."""
-        if not isinstance(sensor, EstimateStream):
-            return False
         mode = sensor.estimates
         if mode == "off":
             return False

@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from spectratac.device.errors import (
     CommandRejectedError,
@@ -499,5 +499,7 @@ class Link:
 
 def _printable_info(info: m.Info) -> m.Info:
     """INFO with its text fields made safe to print (a device names itself)."""
-    text = {f.name: printable(getattr(info, f.name)) for f in info.FIELDS if f.type == "char"}
+    text: dict[str, Any] = {
+        f.name: printable(getattr(info, f.name)) for f in info.FIELDS if f.type == "char"
+    }
     return dataclasses.replace(info, **text)

@@ -139,7 +139,7 @@ class SerialTransport:
         try:
             if port.timeout != timeout:
                 port.timeout = timeout
-            first = port.read(1)  # returns as soon as one byte arrives: keeps latency low
+            first: bytes = port.read(1)  # returns as soon as one byte arrives: keeps latency low
             if not first:
                 return b""
             waiting = port.in_waiting
