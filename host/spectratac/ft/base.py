@@ -168,20 +168,17 @@ class FTSensor(ABC):
             try:
                 batch = self._poll(0.05)
             except FTError as exc:
-                self._fail(exc)
+                self._queue.fail(exc)
                 return
             except OSError as exc:
                 if not self._closed:
-                    self._fail(FTDisconnectedError(f"lost {self.url}: {exc}; reopen it"))
+                    self._queue.fail(FTDisconnectedError(f"lost {self.url}: {exc}; reopen it"))
                 return
             if batch is None:
                 self._queue.end()
                 return
             if len(batch):
                 self._push(batch)
-
-    def _fail(self, exc: FTError) -> None:
-        self._queue.fail(exc)
 
     def _push(self, batch: np.ndarray) -> None:
         self.stats.received += len(batch)
