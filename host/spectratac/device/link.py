@@ -21,8 +21,9 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TypeVar
 
+from spectratac.device import handshake
 from spectratac.device.errors import (
     CommandRejectedError,
     DeviceError,
@@ -37,7 +38,6 @@ from spectratac.errors import printable
 from spectratac.protocol import Frame, StreamDecoder, encode_frame, encode_raw
 from spectratac.protocol import messages as m
 from spectratac.protocol.schema import Message
-from spectratac.protocol.versions import expected_definition_hash
 
 log = logging.getLogger("spectratac.device")
 
@@ -182,44 +182,9 @@ class Link:
 
     def handshake(self) -> m.Info:
         """Read the device's INFO and check protocol version and definition hash (a hash
-        mismatch only warns unless `strict_hash`); sets and returns `info`."""
-        self.write(b"\x00")  # ends any partial frame the device holds from earlier garbage
-        # Ask again every 0.5 s within the timeout: a board that is still booting (or reset
-        # by opening its port) loses what it receives before its UART is up.
-        deadline = time.monotonic() + self.timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            try:
-                info = self.request(m.GetInfo(), m.Info, timeout=min(0.5, remaining), attempts=1)
-                break
-            except DeviceTimeoutError:
-                if deadline - time.monotonic() <= 0:
-                    raise DeviceTimeoutError(
-                        f"no reply to GET_INFO from {self.url} within {self.timeout:.1f} s: is "
-                        f"the device powered, running SpectraTac firmware, and on this "
-                        f"port/baud rate?"
-                    ) from None
-        host = (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)
-        device = (info.protocol_major, info.protocol_minor)
-        if info.protocol_major != m.PROTOCOL_MAJOR:
-            raise ProtocolMismatchError(
-                f"{self.url} speaks protocol {device[0]}.{device[1]}, this host library "
-                f"{host[0]}.{host[1]}: update the library or reflash the firmware",
-                device,
-                host,
-            )
-        # compare with the hash of the device's own minor version; a newer one is a superset
-        expected = expected_definition_hash(info.protocol_minor)
-        if expected is not None and info.definition_hash != expected:
-            text = (
-                f"{self.url} was built from other protocol definitions (hash "
-                f"0x{info.definition_hash:08X}, protocol {device[0]}.{device[1]} has "
-                f"0x{expected:08X}): rebuild firmware and host from one checkout"
-            )
-            if self.strict_hash:
-                raise ProtocolMismatchError(text, device, host)
-            log.warning(text)
-        self.info = _printable_info(info)
+        mismatch only warns unless `strict_hash`; spectratac.device.handshake); sets and
+        returns `info`."""
+        self.info = handshake.read_info(self)
         return self.info
 
     # ------------------------------------------------------------------ listeners
@@ -495,11 +460,3 @@ class Link:
             self._on_resume()
         except Exception as exc:  # the reader reports the next loss; log why resuming failed
             log.warning("%s: resuming after reconnect failed: %s", self.url, exc)
-
-
-def _printable_info(info: m.Info) -> m.Info:
-    """INFO with its text fields made safe to print (a device names itself)."""
-    text: dict[str, Any] = {
-        f.name: printable(getattr(info, f.name)) for f in info.FIELDS if f.type == "char"
-    }
-    return dataclasses.replace(info, **text)
