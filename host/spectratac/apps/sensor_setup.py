@@ -11,9 +11,15 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from spectratac.device.records import Sample
+from spectratac.device.streams import SampleStream
 from spectratac.errors import SpectraTacError
+from spectratac.protocol.generated import messages as m
+
+if TYPE_CHECKING:
+    from spectratac.device import Sensor
 
 SETTINGS = ("integration_ms", "gain", "digital_gain", "sensitivity", "leds", "settle_us")
 
@@ -35,7 +41,7 @@ def sensor_settings(config: dict[str, Any] | None) -> dict[str, Any]:
 @contextlib.contextmanager
 def open_for_decoder(
     decoder: Any, url: str, *, keep_config: bool = False, **options: Any
-) -> Iterator[Any]:
+) -> Iterator[Sensor]:
     """The sensor at `url`, configured as `decoder` was trained (unless `keep_config`:
     then `Decoder.stream` refuses a device configured otherwise) and streaming; stopped
     and closed on exit. `options` go to `Sensor.open` (timeout, buffer_size, ...)."""
@@ -58,14 +64,14 @@ class SampleTap:
     """A sensor as `Decoder.stream` sees it, keeping the sample behind each estimate in
     `last` (the raw counts, the device clock) while the decoder consumes it."""
 
-    def __init__(self, sensor: Any) -> None:
+    def __init__(self, sensor: SampleStream) -> None:
         self.sensor = sensor
-        self.last: Any = None
+        self.last: Sample | None = None
 
-    def __iter__(self) -> Iterator[Any]:
+    def __iter__(self) -> Iterator[Sample]:
         for sample in self.sensor:
             self.last = sample
             yield sample
 
-    def get_config(self) -> Any:
+    def get_config(self) -> m.Config:
         return self.sensor.get_config()

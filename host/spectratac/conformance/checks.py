@@ -124,7 +124,7 @@ def configure_nack(s: Sensor) -> Outcome:
     before = s.get_config()
     wrong = []
     for overrides, code, field in INVALID:
-        reply = s.request_raw(m.Configure.TYPE_ID, _configure_payload(**overrides))
+        reply = s.link.request_raw(m.Configure.TYPE_ID, _configure_payload(**overrides))
         if not (isinstance(reply, m.Nack) and reply.error == code and reply.field_index == field):
             wrong.append(f"{overrides}: got {reply}")
     after = s.get_config()
@@ -146,7 +146,7 @@ def bad_messages(s: Sensor) -> Outcome:
     ]
     wrong = []
     for type_id, payload, version, code in cases:
-        reply = s.request_raw(type_id, payload, version=version)
+        reply = s.link.request_raw(type_id, payload, version=version)
         if not (isinstance(reply, m.Nack) and reply.error == code):
             wrong.append(f"type 0x{type_id:02X} v{version}: got {reply}")
     return Outcome(
@@ -235,7 +235,7 @@ def garbage_recovery(s: Sensor) -> Outcome:
         s.read(3, timeout=2)
         rng = random.Random(3)
         junk = bytes(rng.randrange(256) for _ in range(600))
-        s.write_raw(junk + b"\x00")
+        s.link.write(junk + b"\x00")
         info_ok = s.get_config().integration_ms == 50
         after = s.read(10, timeout=3)
     finally:

@@ -69,7 +69,7 @@ ModelCheck = Callable[[ModelSession], Outcome]
 
 def _raw(s: Sensor, msg: Message, timeout: float | None = None) -> Message:
     """Send `msg` unvalidated (as a faulty host could) and return the device's ACK or NACK."""
-    return s.request_raw(msg.TYPE_ID, msg.pack(), timeout=timeout)
+    return s.link.request_raw(msg.TYPE_ID, msg.pack(), timeout=timeout)
 
 
 def _is_nack(reply: Message, error: m.Error) -> bool:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.device.sensor import TimeSyncExchange
+from spectratac.device.clock_sync import TimeSyncExchange
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
 
 _WRAP = 1 << 32

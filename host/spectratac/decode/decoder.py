@@ -32,6 +32,8 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
+from spectratac.device.records import Sample
+from spectratac.device.streams import EstimateStream, SampleStream
 
 F64 = NDArray[np.float64]
 CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
@@ -206,8 +208,9 @@ class Decoder:
         return est
 
     # ------------------------------------------------------------------ live
-    def stream(self, sensor: Any, check_config: bool = True) -> Iterator[Estimate]:
-        """Estimates of a live, streaming `spectratac.device.Sensor`, one per sample.
+    def stream(self, sensor: SampleStream, check_config: bool = True) -> Iterator[Estimate]:
+        """Estimates of a live, streaming sensor (a `spectratac.device.SampleStream` such as
+        `spectratac.device.Sensor`), one per sample.
 
         When the sensor streams on-device estimates (configured with estimates="beside" or
         "instead", protocol 1.1) of this very decoder (the device's model_id is this
@@ -219,7 +222,7 @@ class Decoder:
         """
         if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
-        if self._decoded_by(sensor):
+        if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
             return
         config_id = None
@@ -246,9 +249,9 @@ class Decoder:
 
         return model_image.model_id(model_image.encode(self, weights=weights))
 
-    def _decoded_by(self, sensor: Any) -> bool:
+    def _decoded_by(self, sensor: EstimateStream) -> bool:
         """True if `sensor` streams on-device estimates of this decoder."""
-        mode = getattr(sensor, "estimates", "off")
+        mode = sensor.estimates
         if mode == "off":
             return False
         info = sensor.model_info()
@@ -262,7 +265,7 @@ class Decoder:
             )
         return False
 
-    def _device_estimates(self, sensor: Any, check_config: bool) -> Iterator[Estimate]:
+    def _device_estimates(self, sensor: EstimateStream, check_config: bool) -> Iterator[Estimate]:
         config_id = None
         for row in sensor.iter_estimates():
             if check_config and row.config_id != config_id:
@@ -270,7 +273,9 @@ class Decoder:
             config_id = row.config_id
             yield Estimate.from_device(row, self.target_names)
 
-    def _one(self, sample: Any, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any) -> Estimate:
+    def _one(
+        self, sample: Sample, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any
+    ) -> Estimate:
         heads = self.heads
         out = run1(u).astype(np.float64) if ok else None
         if out is None or not np.all(np.isfinite(out)):  # no estimate: invalid, all NaN

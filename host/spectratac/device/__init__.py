@@ -1,7 +1,10 @@
 """Talking to a SpectraTac device: transports (by URL scheme, extensible with
-`register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API, the
-optional ground truth of simulated links, typed errors."""
+`register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API (a
+façade over a Link and two RecordQueues), the typed stream protocols that consumers of a
+sensor take (SampleStream, EstimateStream, DeviceStream), the optional ground truth of
+simulated links, typed errors."""
 
+from spectratac.device.clock_sync import ClockSync, TimeSyncExchange
 from spectratac.device.errors import (
     BufferOverflowError,
     CommandRejectedError,
@@ -16,20 +19,18 @@ from spectratac.device.errors import (
 )
 from spectratac.device.estimate_records import ESTIMATE_RECORD, EstimateRow
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
+from spectratac.device.link import Link
 from spectratac.device.model_store import ModelInfo
+from spectratac.device.record_queue import RecordQueue
 from spectratac.device.records import (
     SAMPLE_RECORD,
     SAMPLE_TIME_INVERTED,
     SAMPLE_WINDOW_CLIPPED,
     Sample,
 )
-from spectratac.device.sensor import (
-    ClockSync,
-    EstimatesMode,
-    Sensor,
-    SensorStats,
-    TimeSyncExchange,
-)
+from spectratac.device.sensor import EstimatesMode, Sensor
+from spectratac.device.stats import SensorStats
+from spectratac.device.streams import DeviceStream, EstimateStream, SampleStream
 from spectratac.device.transport import (
     BadAddressError,
     TransportOpener,
@@ -51,17 +52,22 @@ __all__ = [
     "CommandRejectedError",
     "DeviceError",
     "DeviceNotFoundError",
+    "DeviceStream",
     "DeviceTimeoutError",
     "DisconnectedError",
     "EstimateRow",
+    "EstimateStream",
     "EstimatesMode",
     "GroundTruth",
+    "Link",
     "MissingCapabilityError",
     "ModelInfo",
     "ModelUploadError",
     "PermissionDeniedError",
     "ProtocolMismatchError",
+    "RecordQueue",
     "Sample",
+    "SampleStream",
     "Sensor",
     "SensorStats",
     "TimeSyncExchange",

@@ -37,7 +37,7 @@ OnLost = Callable[[OSError], None]  # the link ended: EOF or a read error (link 
 CHUNK = 65536
 
 
-class Link:
+class Watch:
     """One registered descriptor. close() removes it; no callback of it runs afterwards
     (except the one close() is called from, if any)."""
 
@@ -58,9 +58,9 @@ class IoHub:
         self._lock = threading.Condition()
         self._sel: selectors.BaseSelector | None = None
         self._wake_r = self._wake_w = -1
-        self._links: dict[int, Link] = {}
+        self._links: dict[int, Watch] = {}
         self._thread: threading.Thread | None = None
-        self._busy: Link | None = None  # the link whose callback is running
+        self._busy: Watch | None = None  # the link whose callback is running
 
     @property
     def links(self) -> int:
@@ -72,9 +72,9 @@ class IoHub:
         thread = self._thread
         return thread is not None and thread.is_alive()
 
-    def add(self, fd: int, on_data: OnData, on_lost: OnLost, name: str = "") -> Link:
+    def add(self, fd: int, on_data: OnData, on_lost: OnLost, name: str = "") -> Watch:
         """Watch `fd` (non-blocking, readable by os.read) from the hub thread."""
-        link = Link(self, fd, on_data, on_lost, name or f"fd {fd}")
+        link = Watch(self, fd, on_data, on_lost, name or f"fd {fd}")
         with self._lock:
             if fd in self._links:
                 raise ValueError(f"fd {fd} is already watched ({self._links[fd].name})")
@@ -94,7 +94,7 @@ class IoHub:
         self._wake()
         return link
 
-    def remove(self, link: Link) -> None:
+    def remove(self, link: Watch) -> None:
         """Stop watching; returns once no callback of `link` is running (unless called from
         one). The caller closes the descriptor afterwards."""
         with self._lock:
@@ -106,7 +106,7 @@ class IoHub:
                     self._lock.wait(0.5)
         self._wake()
 
-    def _drop(self, link: Link) -> None:  # under the lock
+    def _drop(self, link: Watch) -> None:  # under the lock
         link.closed = True
         if self._links.get(link.fd) is link:
             del self._links[link.fd]
@@ -145,7 +145,7 @@ class IoHub:
                     continue
                 self._service(link)
 
-    def _service(self, link: Link) -> None:
+    def _service(self, link: Watch) -> None:
         with self._lock:
             if link.closed:
                 return
@@ -169,7 +169,7 @@ class IoHub:
                 self._busy = None
                 self._lock.notify_all()
 
-    def _lost(self, link: Link, exc: OSError) -> None:
+    def _lost(self, link: Watch, exc: OSError) -> None:
         with self._lock:
             self._drop(link)
         link.on_lost(exc)

@@ -102,14 +102,12 @@ def require(sensor: Sensor, capability: m.Capabilities, wanted: str) -> None:
 
 def read_info(sensor: Sensor) -> ModelInfo:
     require(sensor, m.Capabilities.CAP_ESTIMATE, "report its model (GET_MODEL)")
-    reply = sensor._request(m.GetModel(), (m.ModelInfo.TYPE_ID,))
-    assert isinstance(reply, m.ModelInfo)
-    return ModelInfo.from_message(reply)
+    return ModelInfo.from_message(sensor.link.request(m.GetModel(), m.ModelInfo))
 
 
 def clear(sensor: Sensor) -> None:
     require(sensor, m.Capabilities.CAP_MODEL_UPLOAD, "erase its model (MODEL_CLEAR)")
-    sensor._command(m.ModelClear(), timeout=max(sensor.timeout, FLASH_TIMEOUT))
+    sensor.link.command(m.ModelClear(), timeout=max(sensor.timeout, FLASH_TIMEOUT))
 
 
 def upload(sensor: Sensor, image: bytes, model_id: int, progress: Progress | None = None) -> None:
@@ -164,13 +162,16 @@ def upload(sensor: Sensor, image: bytes, model_id: int, progress: Progress | Non
 def _send(sensor: Sensor, image: bytes, model_id: int, crc: int, progress: Progress | None) -> None:
     flash = max(sensor.timeout, FLASH_TIMEOUT)
     # one attempt per command: a resent chunk would be out of order (SPEC.md section 13)
-    sensor._command(m.ModelBegin(model_id=model_id, size=len(image), crc=crc), 1, flash)
+    link = sensor.link
+    link.command(
+        m.ModelBegin(model_id=model_id, size=len(image), crc=crc), attempts=1, timeout=flash
+    )
     if progress is not None:
         progress(0, len(image))
     for offset in range(0, len(image), CHUNK):
         data = image[offset : offset + CHUNK]
         chunk = m.ModelChunk(offset=offset, length=len(data), data=data.ljust(CHUNK, b"\x00"))
-        sensor._command(chunk, 1)
+        link.command(chunk, attempts=1)
         if progress is not None:
             progress(offset + len(data), len(image))
-    sensor._command(m.ModelCommit(model_id=model_id), 1, flash)
+    link.command(m.ModelCommit(model_id=model_id), attempts=1, timeout=flash)

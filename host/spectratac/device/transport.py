@@ -1,7 +1,7 @@
 """Byte transports behind one small interface: serial ports, pyserial URLs, plug-ins.
 
 A transport moves bytes and nothing else; framing lives in spectratac.protocol and the
-request/reply logic in spectratac.device.sensor. `open_transport` picks the opener by the
+request/reply logic in spectratac.device.link. `open_transport` picks the opener by the
 URL's scheme: a plug-in registered for it (the simulated device registers ``sim://``
 through the ``spectratac.transports`` entry points), else pyserial for a port path or one
 of pyserial's URL schemes (``socket://``, ``rfc2217://``, ``loop://``...).
@@ -79,10 +79,10 @@ def check_socket_url(url: str) -> None:
 
 
 class Transport(Protocol):
-    """What Sensor needs from a link.
+    """What a Link (and so a Sensor) needs from the bytes it talks over.
 
     A transport may also have `fileno() -> int | None`: a non-blocking descriptor that
-    os.read() drains. Sensor then reads it from the process's shared I/O thread
+    os.read() drains. The Link then reads it from the process's shared I/O thread
     (spectratac.device.iohub) instead of calling read() from a thread of its own."""
 
     url: str
@@ -139,7 +139,7 @@ class SerialTransport:
         try:
             if port.timeout != timeout:
                 port.timeout = timeout
-            first = port.read(1)  # returns as soon as one byte arrives: keeps latency low
+            first: bytes = port.read(1)  # returns as soon as one byte arrives: keeps latency low
             if not first:
                 return b""
             waiting = port.in_waiting

@@ -2,7 +2,8 @@
 
 A driver connects in its constructor (so a wrong URL fails at open), then a background
 reader thread parses whatever arrives into FT_RECORD batches and appends them to a bounded
-buffer (oldest records are dropped first when it is full, counted in stats.overflows).
+RecordQueue (spectratac.device.record_queue; oldest records are dropped first when it is
+full, counted in stats.overflows).
 Users read NumPy batches (read, read_available) or iterate record by record. Closing is
 idempotent and thread-safe; records received before a link loss stay readable, the error
 is raised once they are all read.
@@ -15,15 +16,14 @@ is raised once they are all read.
 
 from __future__ import annotations
 
-import collections
 import threading
-import time
 from abc import ABC, abstractmethod
-from collections.abc import Iterator
-from typing import Any, ClassVar
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
+from spectratac.device.record_queue import RecordQueue
 from spectratac.ft.errors import FTDisconnectedError, FTError
 from spectratac.ft.open import open_url
 from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
@@ -43,15 +43,13 @@ class FTSensor(ABC):
         self.stats = FTStats()
         self.timeout = float(timeout)
         self.buffer_size = int(buffer_size)
-        self._chunks: collections.deque[np.ndarray] = collections.deque()
-        self._buffered = 0
-        self._cond = threading.Condition()
+        #: FT_RECORD rows, in the batches the reader parsed them in
+        self._queue: RecordQueue[np.void] = RecordQueue(self.buffer_size, _join, what="records")
+        self._lock = threading.Lock()  # open/streaming state
         self._closed = False
-        self._ended = False  # the source has no more records (end of a CSV file)
-        self._error: FTError | None = None
         self._streaming = False
         self._thread: threading.Thread | None = None  # started by the first start()
-        self._on_close: list[Any] = []  # callables run after the driver closed (sim servers)
+        self._on_close: list[Callable[[], object]] = []  # run after the driver closed (sim)
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -69,11 +67,11 @@ class FTSensor(ABC):
 
     def close(self) -> None:
         """Stop the stream and the reader, close the link. Safe to call more than once."""
-        with self._cond:
+        with self._lock:
             if self._closed:
                 return
             self._closed = True
-            self._cond.notify_all()
+        self._queue.close()
         try:
             if self._streaming:
                 self._send_stop()
@@ -97,7 +95,7 @@ class FTSensor(ABC):
     # ------------------------------------------------------------------ streaming
     def start(self) -> None:
         """Ask the sensor to stream (idempotent); records then arrive in the buffer."""
-        with self._cond:
+        with self._lock:
             if self._closed:
                 raise FTError(f"{self.url} is closed: open it again")
             if self._streaming:
@@ -112,7 +110,7 @@ class FTSensor(ABC):
 
     def stop(self) -> None:
         """Ask the sensor to stop streaming; records already received stay readable."""
-        with self._cond:
+        with self._lock:
             if not self._streaming or self._closed:
                 return
             self._streaming = False
@@ -125,38 +123,23 @@ class FTSensor(ABC):
         Raises the link's error only once everything received before it has been read."""
         if self._thread is None and not self._closed:
             self.start()
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
-        with self._cond:
-            while self._buffered < n:
-                if self._closed or self._ended or self._error is not None:
-                    break
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                self._cond.wait(remaining)
-            if self._buffered == 0 and self._error is not None:
-                raise self._error
-            return self._take(n)
+        return self._queue.read(n, self.timeout if timeout is None else timeout)
 
     def read_available(self) -> np.ndarray:
         """Everything buffered now (possibly nothing), without waiting."""
-        with self._cond:
-            if self._buffered == 0 and self._error is not None:
-                raise self._error
-            return self._take(self._buffered)
+        return self._queue.read_available()
 
     def __iter__(self) -> Iterator[np.void]:
         """Records one by one until the sensor is closed, the replay ends or the link fails."""
         while True:
             batch = self.read(4096, timeout=0.5)
-            if len(batch) == 0 and (self._closed or self._ended):
+            if len(batch) == 0 and (self._closed or self._queue.ended):
                 return
             yield from batch
 
     @property
     def buffered(self) -> int:
-        with self._cond:
-            return self._buffered
+        return self._queue.buffered
 
     @property
     def streaming(self) -> bool:
@@ -185,60 +168,29 @@ class FTSensor(ABC):
             try:
                 batch = self._poll(0.05)
             except FTError as exc:
-                self._fail(exc)
+                self._queue.fail(exc)
                 return
             except OSError as exc:
                 if not self._closed:
-                    self._fail(FTDisconnectedError(f"lost {self.url}: {exc}; reopen it"))
+                    self._queue.fail(FTDisconnectedError(f"lost {self.url}: {exc}; reopen it"))
                 return
             if batch is None:
-                with self._cond:
-                    self._ended = True
-                    self._cond.notify_all()
+                self._queue.end()
                 return
             if len(batch):
                 self._push(batch)
 
-    def _fail(self, exc: FTError) -> None:
-        with self._cond:
-            if not self._closed:
-                self._error = exc
-            self._cond.notify_all()
-
     def _push(self, batch: np.ndarray) -> None:
-        with self._cond:
-            self.stats.received += len(batch)
-            self._chunks.append(batch)
-            self._buffered += len(batch)
-            excess = self._buffered - self.buffer_size
-            while excess > 0:
-                head = self._chunks[0]
-                if len(head) <= excess:
-                    self._chunks.popleft()
-                    dropped = len(head)
-                else:
-                    self._chunks[0] = head[excess:]
-                    dropped = excess
-                self._buffered -= dropped
-                self.stats.overflows += dropped
-                excess -= dropped
-            self._cond.notify_all()
+        self.stats.received += len(batch)
+        # a structured array is a sequence of its rows (np.void)
+        self.stats.overflows += self._queue.put(cast("Sequence[np.void]", batch))
 
-    def _take(self, n: int) -> np.ndarray:
-        parts: list[np.ndarray] = []
-        need = min(n, self._buffered)
-        while need > 0:
-            head = self._chunks[0]
-            if len(head) <= need:
-                parts.append(self._chunks.popleft())
-                need -= len(head)
-            else:
-                parts.append(head[:need])
-                self._chunks[0] = head[need:]
-                need = 0
-        out = np.concatenate(parts) if parts else np.empty(0, dtype=FT_RECORD)
-        self._buffered -= len(out)
-        return out
+
+def _join(batches: list[Sequence[np.void]]) -> np.ndarray:
+    """FT_RECORD batches (or slices of them) as one array."""
+    if not batches:
+        return np.empty(0, dtype=FT_RECORD)
+    return np.concatenate(cast("list[np.ndarray]", batches))
 
 
 def _example_csv() -> str:

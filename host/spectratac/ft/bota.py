@@ -223,7 +223,7 @@ class BotaSensor(FTSensor):
         frames = np.concatenate([f for f, _ in self._held])
         times = np.concatenate([np.full(len(f), t) for f, t in self._held])
         self._held.clear()
-        steps = np.diff(frames["timestamp"].astype(np.int64)) % (1 << 32)
+        steps = np.mod(np.diff(frames["timestamp"].astype(np.int64)), 1 << 32)
         steps = steps[steps > 0]
         period_us = float(np.min(steps)) if len(steps) else 1000.0
         # the shortest step is one period unless every pair lost frames in between

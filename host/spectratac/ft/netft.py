@@ -60,7 +60,8 @@ class NetFTSensor(FTSensor):
     @classmethod
     def connect(cls, url: str, *, timeout: float, buffer_size: int, **options: Any) -> NetFTSensor:
         parts = urlsplit(url)
-        if not parts.hostname:
+        hostname = parts.hostname
+        if not hostname:
             raise FTURLError(
                 f"{url}: no host; example: netft://192.168.1.1?cpf=1000000&cpt=1000000"
             )
@@ -82,9 +83,9 @@ class NetFTSensor(FTSensor):
                 raise FTURLError(f"{url}: {name} must be > 0")
         deadline = time.monotonic() + timeout
         try:
-            infos = socket.getaddrinfo(parts.hostname, port, socket.AF_INET, socket.SOCK_DGRAM)
+            infos = socket.getaddrinfo(hostname, port, socket.AF_INET, socket.SOCK_DGRAM)
         except socket.gaierror as exc:
-            raise FTNotFoundError(f"{url}: cannot resolve host {parts.hostname!r}: {exc}") from None
+            raise FTNotFoundError(f"{url}: cannot resolve host {hostname!r}: {exc}") from None
         address = infos[0][4]
         # Probe from a socket of its own: late answers to retried probes then go to a closed
         # port instead of posing as the first records of the stream.
@@ -99,7 +100,7 @@ class NetFTSensor(FTSensor):
             config: dict[str, str] = {}
             if cpf is None or cpt is None or rate is None:
                 config = _config(
-                    url, parts.hostname, http_port, deadline, need=cpf is None or cpt is None
+                    url, hostname, http_port, deadline, need=cpf is None or cpt is None
                 )
         except BaseException:
             sock.close()
@@ -112,7 +113,7 @@ class NetFTSensor(FTSensor):
             sock.close()
             raise FTConfigError(
                 f"{url}: the device's netftapi2.xml has no usable cfgcpf/cfgcpt: pass them, e.g. "
-                f"netft://{parts.hostname}?cpf=1000000&cpt=1000000"
+                f"netft://{hostname}?cpf=1000000&cpt=1000000"
             ) from None
         if cpf <= 0 or cpt <= 0:
             sock.close()
@@ -215,11 +216,13 @@ class NetFTSensor(FTSensor):
             if not self._learn_seq_rate(recs):
                 return np.empty(0, dtype=FT_RECORD)
             self._held.clear()
+        seq_rate = self._seq_rate
+        assert seq_rate is not None  # given, or learned from the records held above
         seq = self._rdt_unwrap(recs["rdt_sequence"])
         ft_seq = self._ft_unwrap(recs["ft_sequence"])
         keep = self._tracker.update(seq)
         out = np.empty(len(recs), dtype=FT_RECORD)
-        out["sensor_time"] = ft_seq / self._seq_rate
+        out["sensor_time"] = ft_seq / seq_rate
         out["host_time"] = host
         out["sequence"] = seq
         out["wrench"] = recs["counts"] / self._scale

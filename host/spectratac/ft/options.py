@@ -12,7 +12,7 @@ spectratac.ft.errors.FTURLError: netft://h?cpf=1e6&x=1: unknown option(s) x; kno
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, overload
 
 from spectratac.ft.errors import FTURLError
 
@@ -29,10 +29,18 @@ class Options:
         self._asked.append(name)
         return self._values.get(name)
 
+    @overload
+    def text(self, name: str, default: str) -> str: ...
+    @overload
+    def text(self, name: str, default: None = None) -> str | None: ...
     def text(self, name: str, default: str | None = None) -> str | None:
         raw = self._raw(name)
         return default if raw is None else str(raw)
 
+    @overload
+    def number(self, name: str, default: float) -> float: ...
+    @overload
+    def number(self, name: str, default: None = None) -> float | None: ...
     def number(self, name: str, default: float | None = None) -> float | None:
         raw = self._raw(name)
         if raw is None:
@@ -45,6 +53,10 @@ class Options:
             raise FTURLError(f"{self.url}: option {name}={raw!r} must be a finite number")
         return value
 
+    @overload
+    def integer(self, name: str, default: int) -> int: ...
+    @overload
+    def integer(self, name: str, default: None = None) -> int | None: ...
     def integer(self, name: str, default: int | None = None) -> int | None:
         raw = self._raw(name)
         if raw is None:

@@ -41,12 +41,12 @@ class Unwrapper:
         if self._last_raw is None:
             self._last_raw, self._last = int(values[0]), int(values[0])
         if values.size <= 16:  # a poll's worth of packets: plain ints beat NumPy's overhead
-            raw, last, out_list = self._last_raw, self._last, []
+            prev, last, out_list = self._last_raw, self._last, []
             for v in values.tolist():
-                last += (v - raw + self._half) % self._mod - self._half
-                raw = v
+                last += (v - prev + self._half) % self._mod - self._half
+                prev = v
                 out_list.append(last)
-            self._last_raw, self._last = raw, last
+            self._last_raw, self._last = prev, last
             return np.array(out_list, dtype=np.int64)
         steps = np.diff(values, prepend=self._last_raw)
         steps = (steps + self._half) % self._mod - self._half

@@ -107,7 +107,7 @@ def decode_samples(data: bytes) -> BulkResult:
     frames = np.frombuffer(b"".join(kept), dtype=_FRAME_DTYPE)
     stats.frames_ok = len(frames) + other
     # a view (no copy) that hides the header bytes and the CRC
-    return BulkResult(frames[["seq", *SAMPLE_DTYPE.names]], other, stats, tail)
+    return BulkResult(frames[["seq", *(SAMPLE_DTYPE.names or ())]], other, stats, tail)
 
 
 def _classify(raw: bytes, encoded_len: int) -> str:

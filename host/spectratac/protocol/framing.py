@@ -126,13 +126,13 @@ def encode_frame(
     if not 0 <= seq <= 0xFFFF:
         raise ValueError(f"seq = {seq} does not fit u16 (0..65535)")
     raw = HEADER.pack(version[0], version[1], message.TYPE_ID, seq) + message.pack()
-    return cobs.encode(raw + CRC.pack(crc32c(raw))) + b"\x00"
+    return bytes(cobs.encode(raw + CRC.pack(crc32c(raw)))) + b"\x00"  # cobs is untyped
 
 
 def encode_raw(type_id: int, payload: bytes, seq: int, version: tuple[int, int] = (1, 0)) -> bytes:
     """Frame arbitrary payload bytes (for tests, vectors and future-version emulation)."""
     raw = HEADER.pack(version[0], version[1], type_id, seq) + payload
-    return cobs.encode(raw + CRC.pack(crc32c(raw))) + b"\x00"
+    return bytes(cobs.encode(raw + CRC.pack(crc32c(raw)))) + b"\x00"  # cobs is untyped
 
 
 def unframe(encoded: bytes) -> bytes:
@@ -140,7 +140,7 @@ def unframe(encoded: bytes) -> bytes:
     if len(encoded) > MAX_ENCODED:
         raise OversizeError(f"frame of {len(encoded)} B exceeds {MAX_ENCODED} B; dropped")
     try:
-        raw = cobs.decode(encoded)
+        raw: bytes = cobs.decode(encoded)
     except cobs.DecodeError as exc:
         raise CobsError(f"bad COBS encoding: {exc}") from None
     if len(raw) < MIN_FRAME:

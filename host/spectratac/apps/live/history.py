@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
 
 KEEP_S = 120.0
@@ -111,7 +112,9 @@ class History:
             w.writerows(rows)
         return len(rows)
 
-    def save_mcap(self, path: Path, seconds: float, sensor: Any, session: dict[str, Any]) -> int:
+    def save_mcap(
+        self, path: Path, seconds: float, sensor: DeviceStream, session: dict[str, Any]
+    ) -> int:
         """The raw frames (and F/T rows) of the last `seconds` as a recording; returns the
         frame count. `sensor` gives the device's INFO, configuration and clock sync."""
         from spectratac.record.describe import config_summary, info_dict

@@ -27,6 +27,7 @@ from spectratac.apps.live.latency import LatencyLog
 from spectratac.apps.live.messages import estimate_message
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
+from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
 
 Publish = Callable[[dict[str, Any]], None]
@@ -77,7 +78,7 @@ class LiveSession:
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
         self.scale = clock_scale(url)
-        self.sensor: Any = None
+        self.sensor: DeviceStream | None = None
         self.ft: Any = None
         self.estimates = 0
         self.last: dict[str, Any] | None = None
