@@ -63,7 +63,6 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     from spectratac.apps.live.server import LiveServer, bind
     from spectratac.apps.live.session import LiveSession
     from spectratac.decode import Decoder
-    from spectratac.record import ft_url_for
 
     if args.duration < 0:
         raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
@@ -71,7 +70,7 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     session = LiveSession(
         decoder,
         args.url,
-        ft_url=ft_url_for(args.url, getattr(args, "ft", None)),
+        ft_url=getattr(args, "ft", None),  # None: the F/T the link pairs, if any
         keep_config=args.keep_config,
         timeout=args.timeout,
         history_s=getattr(args, "history", 120.0),

@@ -1,6 +1,7 @@
 """Talking to a SpectraTac device: transports (by URL scheme, extensible with
-`register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API, the
-optional ground truth of simulated links, typed errors."""
+`register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API, what a
+link knows about itself (`LinkInfo`), the optional ground truth of simulated links, typed
+errors."""
 
 from spectratac.device.errors import (
     BufferOverflowError,
@@ -16,6 +17,7 @@ from spectratac.device.errors import (
 )
 from spectratac.device.estimate_records import ESTIMATE_RECORD, EstimateRow
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
+from spectratac.device.link_info import LinkInfo, link_info_of
 from spectratac.device.model_store import ModelInfo
 from spectratac.device.records import (
     SAMPLE_RECORD,
@@ -56,6 +58,7 @@ __all__ = [
     "EstimateRow",
     "EstimatesMode",
     "GroundTruth",
+    "LinkInfo",
     "MissingCapabilityError",
     "ModelInfo",
     "ModelUploadError",
@@ -68,6 +71,7 @@ __all__ = [
     "TransportOpener",
     "UnknownSchemeError",
     "ground_truth_of",
+    "link_info_of",
     "open_transport",
     "register_transport_scheme",
     "transport_schemes",

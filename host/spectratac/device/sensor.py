@@ -49,6 +49,7 @@ from spectratac.device.errors import (
 )
 from spectratac.device.estimate_records import EstimateGaps, EstimateRow, to_estimate_array
 from spectratac.device.iohub import Link, shared_hub
+from spectratac.device.link_info import LinkInfo, link_info_of
 from spectratac.device.model_store import ModelInfo, Progress
 from spectratac.device.records import (
     SAMPLE_TIME_INVERTED,
@@ -572,6 +573,11 @@ class Sensor:
                     self._cond.wait(0.5)
                 sample = self._buffer.popleft()
             yield sample
+
+    @property
+    def link_info(self) -> LinkInfo:
+        """What the link knows about itself: clock scale, a paired F/T URL, ground truth."""
+        return link_info_of(self._transport)
 
     @property
     def auto_reconnect(self) -> bool:
