@@ -36,19 +36,21 @@ import re
 import struct
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import crcmod.predefined
 import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.assemble import GATE, STUCK, TAU
-from spectratac.decode.decoder import CONTACT_FORCE_N, Decoder
 from spectratac.decode.errors import DecoderError
-from spectratac.decode.estimates import FORCE, TORQUE
+from spectratac.decode.estimates import CONTACT_FORCE_N, FORCE, TORQUE
 from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import layer_shapes, norm_names
+
+if TYPE_CHECKING:  # only the type: Decoder.model_id imports this module
+    from spectratac.decode.decoder import Decoder
 
 MAGIC = b"STMI"
 VERSION = 1
