@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from spectratac.apps.calibration_demo import DemoOptions, results_table, run_demo
 from spectratac.dataset import Dataset
+from spectratac.studies.oracle_floor import OracleFloor
 
 pytestmark = pytest.mark.train
 
@@ -17,7 +18,7 @@ pytestmark = pytest.mark.train
 def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:
     said: list[str] = []
     opts = DemoOptions(
-        out=tmp_path, scene_s=60, speed=15, epochs=2, oracle_samples=20, progress=False
+        out=tmp_path, scene_s=60, speed=15, epochs=2, floor=OracleFloor(20), progress=False
     )
     summary = run_demo(opts, say=said.append)
     json.dumps(summary)  # JSON-ready

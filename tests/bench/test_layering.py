@@ -19,4 +19,4 @@ def test_tools_bench_does_not_import_the_cli(repo: Path) -> None:
             )
             offenders += [f"{path.name}: {n}" for n in names if n.startswith("spectratac.cli")]
     assert not offenders, offenders
-    assert (repo / "tools/bench/decoder.py").read_text().count("spectratac.evaluate.bench") == 1
+    assert (repo / "tools/bench/decoder.py").read_text().count("spectratac.studies.bench") == 1

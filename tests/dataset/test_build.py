@@ -79,7 +79,7 @@ def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) ->
     TIME_SYNC at the current paced time, so what remains is the host's scheduling latency of
     the exchanges (sub-ms, more on a loaded machine): the bound is a few ms. The exact check
     of the chain is test_a_synthetic_twin_recording_builds_to_the_twin_dataset."""
-    sim = read_recording(tour_mcap).session["sim"]
+    sim = read_recording(tour_mcap).truth
     truth = sim["epoch"] + tour.device_time_us / 1e6 / sim["speed"]
     err = tour.t_end - truth
     assert abs(np.median(err)) < 3e-3 and np.ptp(err) < 2e-3, (np.median(err), np.ptp(err))
@@ -92,7 +92,7 @@ def test_labels_equal_the_scenes_truth_at_each_window_centre(
     """The labels the builder takes from the recording are the scene's own truth at each
     window's centre on the device clock: what rebuilding the scene used to give."""
     rec = read_recording(tour_mcap)
-    scene = rebuild_scene(rec.session["sim"])
+    scene = rebuild_scene(rec.truth)
     samples = recorded_samples(rec.frames, rec.frame_host_times)
     t_mid = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
     contact = scene.contact(t_mid)
@@ -134,7 +134,7 @@ def test_the_guided_threshold_is_the_scene_labels_threshold() -> None:
 
 def test_labels_and_presses_match_the_scene(tour: Dataset, tour_mcap: Path) -> None:
     rec = read_recording(tour_mcap)
-    sim = rec.session["sim"]
+    sim = rec.truth
     _, region = window_truth(tour, sim)
     np.testing.assert_array_equal(tour.region, region)
     assert set(np.unique(tour.region)) == {-1, *range(1, 10)}

@@ -31,7 +31,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Datas
     d = tmp_path_factory.mktemp("models")
     ds = _twin(5)
     data = ds.save(d / "cal.npz")
-    res = fit_and_evaluate(ds, TINY, oracle_samples=0)
+    res = fit_and_evaluate(ds, TINY)
     files = save_models(res, d / "model.stac")
     return files["blocked"], data, ds
 

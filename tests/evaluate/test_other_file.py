@@ -149,7 +149,7 @@ def test_a_model_trained_on_every_row_refuses_any_session(files) -> None:
     )
     held = Decoder.load(files["held"])
     with pytest.raises(SessionLeakError, match="trained on sessions 0"):
-        evaluate_model(held, ds, sessions=[0], oracle_samples=0)
+        evaluate_model(held, ds, sessions=[0])
 
 
 def test_a_split_model_refuses_sessions_it_trained_on(files, tmp_path) -> None:

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from spectratac.dataset import Dataset
 from spectratac.evaluate import Predictions, evaluate_model, write_report
-from spectratac.evaluate.oracle_floor import twin_oracle
 from spectratac.sim.twin_dataset import from_twin_session
+from spectratac.studies.oracle_floor import OracleFloor
 from spectratac.train import SplitSpec, split_dataset
 from spectratac.train.holdout import fingerprint, mark, resolve
 from spectratac.twin import builtin_scenes as scenes
@@ -58,15 +58,6 @@ def test_holdout_rebuilds_the_models_test_rows(twin_ds: Dataset) -> None:
     assert resolve({}, twin_ds).status == "unknown"
 
 
-def test_oracle_scene_is_rebuilt_and_checked(twin_ds: Dataset) -> None:
-    o = twin_oracle(twin_ds)
-    assert o.oracle is not None and o.scene_name == "calibration"
-    wrong = scenes.calibration_session(seed=8, duration_s=120.0)
-    assert "does not match" in twin_oracle(twin_ds, scene=wrong).reason
-    generic = Dataset.generic(np.zeros((5, 2)), np.zeros(5), ["a", "b"], ["Fz"])
-    assert "not a SpectraTac" in twin_oracle(generic).reason
-
-
 def test_both_splits_with_companion_baseline_and_oracle(twin_ds: Dataset, tmp_path: Path) -> None:
     models = {}
     for kind in ("blocked", "random"):
@@ -78,7 +69,7 @@ def test_both_splits_with_companion_baseline_and_oracle(twin_ds: Dataset, tmp_pa
         twin_ds,
         companions={"random": models["random"]},
         baseline=base,
-        oracle_samples=40,
+        floor=OracleFloor(40),
     )
     assert list(ev.sections) == ["random", "blocked"]
     for sec in ev.sections.values():
@@ -103,19 +94,19 @@ def test_both_splits_with_companion_baseline_and_oracle(twin_ds: Dataset, tmp_pa
 def test_a_split_without_a_companion_is_reported_missing(twin_ds: Dataset) -> None:
     m = Noisy(0.1)
     mark(m, twin_ds, split_dataset(twin_ds, SplitSpec("blocked")))
-    ev = evaluate_model(m, twin_ds, oracle_samples=0)
+    ev = evaluate_model(m, twin_ds)
     assert not ev.sections["random"].available
     assert "companion" in ev.sections["random"].note
     # A baseline trained on the random split saw most blocked test rows: not comparable.
     b = Noisy(0.1)
     mark(b, twin_ds, split_dataset(twin_ds, SplitSpec("random")))
-    ev = evaluate_model(m, twin_ds, baseline=b, oracle_samples=0)
+    ev = evaluate_model(m, twin_ds, baseline=b)
     assert ev.sections["blocked"].baseline is None
     assert "not comparable" in ev.sections["blocked"].baseline_note
 
 
 def test_unknown_training_rows_score_the_whole_dataset(twin_ds: Dataset) -> None:
-    ev = evaluate_model(Noisy(0.1), twin_ds, oracle_samples=0)
+    ev = evaluate_model(Noisy(0.1), twin_ds)
     assert list(ev.sections) == ["all"] and ev.sections["all"].rows.size == twin_ds.n
     assert "every row" in ev.notes[0]
 
@@ -132,7 +123,7 @@ def test_other_sensors_get_no_paper_column(tmp_path: Path) -> None:
     )
     m = Noisy(0.1)
     mark(m, ds, split_dataset(ds, SplitSpec("blocked")))
-    write_report(evaluate_model(m, ds, oracle_samples=0), tmp_path, {"path": "g"}, None, ds)
+    write_report(evaluate_model(m, ds), tmp_path, {"path": "g"}, None, ds)
     md = (tmp_path / "report.md").read_text()
     assert "paper" not in md.lower().replace("paper's protocol", "")
     assert "| Fz |" in md and "(oracle" not in md

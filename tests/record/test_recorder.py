@@ -28,10 +28,13 @@ def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Reco
     summary, rec = tour_session
     assert summary.stopped_by == "duration" and summary.error is None
     assert rec.end is not None and rec.end["samples"] == summary.samples
-    # session: URLs, the simulated world, both clocks, versions
+    # session: URLs, what the link knows, the simulated world, both clocks, versions
     s = rec.session
     assert s["url"] == s["ft_url"] and "ft=bota" in s["url"]
-    assert s["sim"]["scene"] == "tour" and s["sim"]["seed"] == 1 and s["sim"]["speed"] == 10.0
+    assert s["version"] == 3 and "sim" not in s
+    assert s["link"] == {"clock_scale": 10.0, "paired_ft_url": s["url"], "ground_truth": True}
+    assert rec.link.clock_scale == 10.0 and rec.link.ground_truth
+    assert s["truth"]["scene"] == "tour" and s["truth"]["seed"] == 1 and s["truth"]["speed"] == 10.0
     assert s["unix_minus_monotonic_ns"] > 0 and s["library_version"]
     assert s["labels"] == "scene"
     # device identity and the acknowledged configuration, keyed by its id
@@ -59,7 +62,7 @@ def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Reco
     _, rec = tour_session
     from spectratac.sim.world import rebuild_scene
 
-    scene = rebuild_scene(rec.session["sim"])
+    scene = rebuild_scene(rec.truth)
     p = scene.presses
     last_scene_s = recorded_samples(rec.frames, rec.frame_host_times)["t_end_us"][-1] / 1e6
     indices = [e["index"] for e in rec.labels]
@@ -72,7 +75,7 @@ def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Reco
         assert e["scene_start"] == pytest.approx(p.start[i]) and e["scene_end"] == pytest.approx(
             p.end[i]
         )
-        epoch, speed = rec.session["sim"]["epoch"], 10.0
+        epoch, speed = rec.truth["epoch"], 10.0
         assert e["t_start"] == pytest.approx(epoch + p.start[i] / speed)
     assert [e["region"] for e in rec.labels[:9]] == list(range(1, 10))  # the tour's order
 
@@ -176,7 +179,7 @@ def test_a_simulated_session_ends_with_its_scene(tmp_path: Path) -> None:
     path = tmp_path / "press.mcap"
     summary = record_url("sim://?scene=press&speed=10", path, RecordOptions())
     rec = read_recording(path)
-    duration = rec.session["sim"]["duration_s"]
+    duration = rec.truth["duration_s"]
     assert summary.stopped_by == "scene_end"
     last = recorded_samples(rec.frames, rec.frame_host_times)["t_end_us"][-1] / 1e6
     assert duration <= last < duration + 2.0  # within a loop pass (20 ms x speed) or so
@@ -211,7 +214,7 @@ def test_every_sample_carries_the_scenes_truth(
     assert truth is not None and len(truth) == len(samples) > 200
     for key in ("sequence", "t_start_us", "t_end_us"):
         np.testing.assert_array_equal(truth[key], samples[key])
-    scene = rebuild_scene(rec.session["sim"])
+    scene = rebuild_scene(rec.truth)
     t_mid = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
     contact = scene.contact(t_mid)
     np.testing.assert_array_equal(truth["region"], contact.region)

@@ -15,7 +15,7 @@ pytestmark = pytest.mark.subprocess
 def test_twin_and_decode_do_not_import_torch() -> None:
     code = (
         "import sys, spectratac.twin, spectratac.decode, spectratac.twin.rig, "
-        "spectratac.twin.oracle, spectratac.evaluate.twin_fidelity; print('torch' in sys.modules)"
+        "spectratac.twin.oracle, spectratac.studies.twin_fidelity; print('torch' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -4,7 +4,7 @@ inside the calibration band on the built layer stack: the README's twin figures.
 from __future__ import annotations
 
 import pytest
-from spectratac.evaluate.twin_fidelity import PAPER, ReportConfig, band, fidelity_report
+from spectratac.studies.twin_fidelity import PAPER, ReportConfig, band, fidelity_report
 
 pytestmark = [pytest.mark.train, pytest.mark.slow]
 

@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.evaluate.bench import add_options, config_from_args, run_with_progress
+from spectratac.studies.bench import add_options, config_from_args, run_with_progress
 
 
 def figures(result: dict) -> list[benchlib.Figure]:

@@ -4,10 +4,12 @@
    a simulated Bota F/T sensor of the same scene (both over their real wire protocols);
 2. build the aligned dataset from the recording;
 3. train the paper's recipe and our best decoder, each under the random and the blocked split;
-4. evaluate them beside the paper's figures and the twin oracle's floor, with the Fig. 3
+4. evaluate them beside the paper's figures and a floor column (`DemoOptions.floor`: the
+   command line passes the twin oracle's, spectratac.studies.oracle_floor), with the Fig. 3
    panels written to a folder.
 
-Every figure it prints is measured in this run. Torch is imported only in step 3.
+Every figure it prints is measured in this run. Torch is imported only in step 3. The demo
+names the simulated devices by URL only: it never imports the twin or the simulator.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.evaluate.paper import paper_mae
+from spectratac.evaluate.run import Floor
 
 FORCES = ("Fx", "Fy", "Fz")
 COMPONENTS = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
@@ -43,7 +46,7 @@ class DemoOptions:
     ft: str = "bota"
     ft_rate: int = 500
     epochs: int = 40
-    oracle_samples: int = 300
+    floor: Floor | None = None  # scored beside the paper's recipe, e.g. studies' OracleFloor
     progress: bool = True
     timings: dict[str, float] = field(default_factory=dict)
 
@@ -166,7 +169,7 @@ def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, 
             dataset,
             spec,
             seed=opts.seed,
-            oracle_samples=opts.oracle_samples if name == "paper" else 0,
+            floor=opts.floor if name == "paper" else None,
             progress=opts.progress,
         )
         files = save_models(res, opts.out / f"{name}.stac")

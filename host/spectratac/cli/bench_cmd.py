@@ -8,7 +8,7 @@ spectratac bench decoder --variants [--quick] [--out DIR]   the paper's recipe v
 
 Data: the twin's calibration scene (shortened; --duration), generated per setting. The full
 runs take minutes on 2 cores; --quick takes seconds and its numbers mean nothing. The
-benchmarks themselves live in `spectratac.evaluate.bench`, which tools/bench/ calls too.
+benchmarks themselves live in `spectratac.studies.bench`, which tools/bench/ calls too.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.options import add_force, refuse_overwrite
-from spectratac.evaluate.bench.options import add_options
+from spectratac.studies.bench.options import add_options
 
 
 def register(subparsers: Any) -> None:
@@ -41,7 +41,7 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from spectratac.evaluate.bench import config_from_args, run_with_progress
+    from spectratac.studies.bench import config_from_args, run_with_progress
 
     out = Path(args.out)
     config = config_from_args(args)  # bad settings first: they say more than "it exists"

@@ -45,6 +45,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         args.duration = args.duration or 10.0
         return _demo(args)
     from spectratac.apps.calibration_demo import DemoOptions, run_demo
+    from spectratac.studies.oracle_floor import OracleFloor
 
     refuse_overwrite(args.output, args.force)
     opts = DemoOptions(
@@ -53,7 +54,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         speed=float(args.speed or 15.0),
         seed=0 if args.seed is None else args.seed,
         epochs=args.epochs,
-        oracle_samples=args.oracle_samples,
+        floor=OracleFloor(args.oracle_samples) if args.oracle_samples > 0 else None,
         progress=not (args.no_progress or args.json),
     )
     summary = run_demo(opts, say=(lambda _: None) if args.json else print)

@@ -71,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
+    from spectratac.studies.oracle_floor import OracleFloor
     from spectratac.train.holdout import fingerprint, parse_sessions
 
     if args.oracle_samples < 0:
@@ -110,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
             sessions=sessions,
             companions=companions,
             baseline=baseline,
-            oracle_samples=args.oracle_samples,
+            floor=OracleFloor(args.oracle_samples) if args.oracle_samples > 0 else None,
             seed=args.seed,
             progress=tick,
         )

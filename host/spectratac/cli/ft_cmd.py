@@ -1,19 +1,15 @@
-"""`spectratac ft info|stream URL` and `spectratac sim ft --netft|--bota`: reference F/T
-sensors from the shell, and simulated ones served to other programs.
+"""`spectratac ft info|stream URL`: reference F/T sensors from the shell (any URL
+`spectratac.ft.FTSensor.open` takes; `spectratac sim ft` serves simulated ones).
 
     spectratac ft info netft://192.168.1.1 --json
     spectratac ft stream bota:///dev/ttyUSB0 --count 1000 --format csv > ft.csv
-    spectratac sim ft --netft --port 49152 --scene calibration --speed 1
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
-import threading
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,30 +37,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_count(stream, 20, "records to print (0: forever)")
     add_row_format(stream)
     stream.set_defaults(func=_stream)
-    _register_sim_ft(subparsers)
-
-
-def _register_sim_ft(subparsers: argparse._SubParsersAction) -> None:
-    """Add `ft` under the `sim` verb (registered by sim_cmd, listed earlier)."""
-    sim = subparsers.choices.get("sim")
-    actions = [a for a in sim._actions if isinstance(a, argparse._SubParsersAction)] if sim else []
-    if not actions:
-        return
-    p = actions[0].add_parser("ft", help="serve a simulated reference F/T sensor")
-    kind = p.add_mutually_exclusive_group(required=True)
-    kind.add_argument("--netft", action="store_true", help="ATI Net F/T: RDT on UDP + HTTP")
-    kind.add_argument("--bota", action="store_true", help="Bota serial sensor on a pty")
-    p.add_argument("--port", type=int, default=49152, help="netft: UDP port (0: any free)")
-    p.add_argument("--link", type=Path, help="bota: keep a symlink to the pty here")
-    p.add_argument("--scene", default="calibration", help="idle, press, tour, calibration, …")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--speed", default="1", help="time scale (a number: F/T needs a clock)")
-    p.add_argument("--rate", type=float, default=1000.0, help="samples per scene second")
-    p.add_argument("--loss", type=float, default=0.001, help="fraction of samples lost")
-    p.add_argument("--offset", type=float, default=0.05, help="sensor clock offset, s")
-    p.add_argument("--drift", type=float, default=1e-4, help="sensor clock drift (ratio - 1)")
-    p.add_argument("--json", action="store_true", help="announce the address as JSON")
-    p.set_defaults(func=_serve)
 
 
 # ------------------------------------------------------------------ ft info / stream
@@ -153,44 +125,3 @@ def _values(r: np.void) -> list[float | int]:
 
 def _rounded(v: object) -> object:
     return f"{v:.4f}" if isinstance(v, float) else v
-
-
-# ------------------------------------------------------------------ sim ft
-def _serve(args: argparse.Namespace) -> int:
-    from spectratac.sim.ft_serve import start_server
-    from spectratac.sim.url import parse_sim_url
-    from spectratac.sim.world import SimWorld
-
-    kind = "netft" if args.netft else "bota"
-    url = (
-        f"sim://?scene={args.scene}&seed={args.seed}&speed={args.speed}&ft={kind}"
-        f"&ft_rate={args.rate}&ft_loss={args.loss}&ft_offset={args.offset}&ft_drift={args.drift}"
-    )
-    try:
-        opts = parse_sim_url(url)
-    except ValueError as exc:
-        raise SpectraTacError(str(exc)) from None
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    world = SimWorld.join(opts)
-    try:
-        try:
-            server = start_server(world, opts, kind, port=args.port, link=args.link)
-        except OSError as exc:
-            raise SpectraTacError(
-                f"cannot serve a simulated F/T: {exc}; pick another --port (0: any free)"
-            ) from None
-        try:
-            if args.json:
-                print(json.dumps({"url": server.url, "kind": kind, "sim": url}), flush=True)
-            else:
-                print(f"serving simulated {kind} at {server.url} (Ctrl-C to stop)", flush=True)
-            stop.wait()
-        except KeyboardInterrupt:
-            pass
-        finally:
-            server.stop()
-    finally:
-        world.release()
-    return ExitCode.OK

@@ -17,16 +17,16 @@ latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or
 from __future__ import annotations
 
 import argparse
-import json
-import threading
-import webbrowser
 from pathlib import Path
 from typing import Any
 
-from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.live_page import (
+    add_device_options,
+    add_game_options,
+    controller_from_args,
+    serve,
+)
 from spectratac.cli.options import add_duration
-from spectratac.cli.snake_cmd import add_device_options, add_game_options, controller_from_args
-from spectratac.errors import SpectraTacError
 
 
 def register(subparsers: Any) -> None:
@@ -56,38 +56,3 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     return serve(args, controller_from_args(args), tab="live")
-
-
-def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
-    """Serve the page of a live session on `args` until Ctrl-C or --duration."""
-    from spectratac.apps.live.server import LiveServer, bind
-    from spectratac.apps.live.session import LiveSession
-    from spectratac.decode import Decoder
-    from spectratac.record import ft_url_for
-
-    if args.duration < 0:
-        raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
-    decoder = Decoder.load(args.model, expect_unit=args.unit)
-    session = LiveSession(
-        decoder,
-        args.url,
-        ft_url=ft_url_for(args.url, getattr(args, "ft", None)),
-        keep_config=args.keep_config,
-        timeout=args.timeout,
-        history_s=getattr(args, "history", 120.0),
-        snake=controller,
-        out_dir=getattr(args, "output", Path("live-clips")),
-        model_path=str(args.model),
-    )
-    server = LiveServer(session, bind(args.port))
-    url = server.url + ("#snake" if tab == "snake" else "")
-    if args.duration:
-        threading.Timer(args.duration, lambda: setattr(server.server, "should_exit", True)).start()
-    if getattr(args, "json", False):
-        print(json.dumps({"url": url}), flush=True)
-    else:
-        print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
-    if not args.no_browser:
-        threading.Timer(0.5, webbrowser.open, args=(url,)).start()
-    server.run()
-    return ExitCode.OK

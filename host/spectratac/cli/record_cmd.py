@@ -95,7 +95,6 @@ def parse_leds(spec: str) -> list[list[list[int]]]:
 
 def _record(args: argparse.Namespace) -> int:
     from spectratac.record import GuidedProtocol, RecordOptions, record_url
-    from spectratac.record.session import ft_url_for
 
     options = RecordOptions(
         duration_s=args.duration,
@@ -117,11 +116,14 @@ def _record(args: argparse.Namespace) -> int:
             seed=args.guided_seed,
             out=sys.stderr,
         )
-    if ft_url_for(args.url, args.ft) is None and not args.json:
-        print(
-            "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
-            file=sys.stderr,
-        )
+
+    def note(_link: Any, ft_url: str | None) -> None:
+        if ft_url is None and not args.json:
+            print(
+                "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
+                file=sys.stderr,
+            )
+
     stop = threading.Event()
     progress, bar = (None, None) if args.no_progress or guided else _progress_bar(options)
     previous = _on_signals(stop)
@@ -135,6 +137,7 @@ def _record(args: argparse.Namespace) -> int:
             stop=stop,
             progress=progress,
             sensor_options={"timeout": args.timeout},
+            on_open=note,
         )
     finally:
         _restore(previous)

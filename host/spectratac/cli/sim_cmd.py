@@ -1,9 +1,16 @@
-"""`spectratac sim serve`: expose a simulated device as a pty or TCP socket."""
+"""`spectratac sim serve|ft`: a simulated device on a pty or TCP socket, and a simulated
+reference F/T sensor served to other programs.
+
+    spectratac sim serve --pty --link /tmp/tac0
+    spectratac sim ft --netft --port 49152 --scene calibration --speed 1
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import signal
+import threading
 from pathlib import Path
 
 from spectratac.cli.exit_codes import ExitCode
@@ -27,6 +34,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     serve.add_argument("--absent", default="", help="sensors that do not answer, e.g. 1,2")
     serve.add_argument("--json", action="store_true", help="announce the address as JSON")
     serve.set_defaults(func=_serve)
+    ft = verbs.add_parser("ft", help="serve a simulated reference F/T sensor")
+    kind = ft.add_mutually_exclusive_group(required=True)
+    kind.add_argument("--netft", action="store_true", help="ATI Net F/T: RDT on UDP + HTTP")
+    kind.add_argument("--bota", action="store_true", help="Bota serial sensor on a pty")
+    ft.add_argument("--port", type=int, default=49152, help="netft: UDP port (0: any free)")
+    ft.add_argument("--link", type=Path, help="bota: keep a symlink to the pty here")
+    ft.add_argument("--scene", default="calibration", help="idle, press, tour, calibration, …")
+    ft.add_argument("--seed", type=int, default=0)
+    ft.add_argument("--speed", default="1", help="time scale (a number: F/T needs a clock)")
+    ft.add_argument("--rate", type=float, default=1000.0, help="samples per scene second")
+    ft.add_argument("--loss", type=float, default=0.001, help="fraction of samples lost")
+    ft.add_argument("--offset", type=float, default=0.05, help="sensor clock offset, s")
+    ft.add_argument("--drift", type=float, default=1e-4, help="sensor clock drift (ratio - 1)")
+    ft.add_argument("--json", action="store_true", help="announce the address as JSON")
+    ft.set_defaults(func=_serve_ft)
 
 
 def _serve(args: argparse.Namespace) -> int:
@@ -57,4 +79,37 @@ def _serve(args: argparse.Namespace) -> int:
         pass
     except OSError as exc:
         raise SpectraTacError(f"cannot serve: {exc}") from None
+    return ExitCode.OK
+
+
+def _serve_ft(args: argparse.Namespace) -> int:
+    from spectratac.sim.ft_serve import serving, simulated_ft_url
+
+    kind = "netft" if args.netft else "bota"
+    url = simulated_ft_url(
+        kind,
+        scene=args.scene,
+        seed=args.seed,
+        speed=args.speed,
+        rate=args.rate,
+        loss=args.loss,
+        offset=args.offset,
+        drift=args.drift,
+    )
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    try:
+        with serving(url, port=args.port, link=args.link) as server:
+            if args.json:
+                print(json.dumps({"url": server.url, "kind": kind, "sim": url}), flush=True)
+            else:
+                print(f"serving simulated {kind} at {server.url} (Ctrl-C to stop)", flush=True)
+            stop.wait()
+    except KeyboardInterrupt:
+        pass
+    except OSError as exc:
+        raise SpectraTacError(
+            f"cannot serve a simulated F/T: {exc}; pick another --port (0: any free)"
+        ) from None
     return ExitCode.OK

@@ -23,81 +23,14 @@ import sys
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_device_url, add_duration
+from spectratac.cli.live_page import (
+    add_device_options,
+    add_game_options,
+    controller_from_args,
+    serve,
+)
+from spectratac.cli.options import add_duration
 from spectratac.errors import SpectraTacError
-
-
-def add_game_options(p: argparse.ArgumentParser) -> None:
-    """The options that set the game up (shared with `spectratac live`)."""
-    from spectratac.apps.snake.control import CONFIRM, HYSTERESIS_N, THRESHOLD_N
-    from spectratac.apps.snake.controller import TICK_S
-
-    g = p.add_argument_group("Snake game")
-    g.add_argument(
-        "--threshold",
-        type=float,
-        default=THRESHOLD_N,
-        help="normal force (N) a press must exceed to command (default: %(default)s)",
-    )
-    g.add_argument(
-        "--hysteresis",
-        type=float,
-        default=HYSTERESIS_N,
-        help="re-arm once the force falls this far below the threshold (N)",
-    )
-    g.add_argument(
-        "--confirm",
-        type=int,
-        default=CONFIRM,
-        help="estimates the region must stay the same before a press is decided",
-    )
-    g.add_argument(
-        "--map",
-        default="cross",
-        dest="mapping",
-        help="region -> direction: cross | keypad | pairs like 1=up,3=right",
-    )
-    g.add_argument("--tick", type=float, default=TICK_S, help="seconds per snake move")
-    g.add_argument("--grid", default="16x12", help="board columns x rows")
-    g.add_argument("--game-seed", type=int, default=0, help="seed of the food positions")
-    g.add_argument("--accept-ood", action="store_true",
-                   help="let out-of-distribution estimates command too")  # fmt: skip
-
-
-def controller_from_args(args: argparse.Namespace) -> Any:
-    from spectratac.apps.snake.control import CommandDetector
-    from spectratac.apps.snake.controller import SnakeController
-    from spectratac.apps.snake.game import SnakeGame
-    from spectratac.apps.snake.mapping import DirectionMap
-
-    try:
-        width, height = (int(v) for v in args.grid.lower().split("x"))
-    except ValueError:
-        raise SpectraTacError(f"--grid {args.grid!r}: give columns x rows, e.g. 16x12") from None
-    detector = CommandDetector(
-        DirectionMap.parse(args.mapping),
-        threshold_n=args.threshold,
-        hysteresis_n=args.hysteresis,
-        confirm=args.confirm,
-        accept_ood=args.accept_ood,
-    )
-    try:
-        return SnakeController(SnakeGame(width, height, seed=args.game_seed), detector,
-                               tick_s=args.tick)  # fmt: skip
-    except ValueError as exc:
-        raise SpectraTacError(f"--tick: {exc}") from None
-
-
-def add_device_options(p: argparse.ArgumentParser) -> None:
-    """Model and device options shared by the live verbs (as `spectratac decode` has them)."""
-    p.add_argument("model", help="decoder file (.stac)")
-    add_device_url(p)
-    p.add_argument(
-        "--keep-config",
-        action="store_true",
-        help="do not configure the sensor; decode only if its configuration matches",
-    )
-    p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
 
 
 def register(subparsers: Any) -> None:
@@ -129,8 +62,6 @@ def run(args: argparse.Namespace) -> int:
         raise SpectraTacError("--duration must be >= 0 (0: until quit)")
     controller = controller_from_args(args)
     if args.web:
-        from spectratac.cli.live_cmd import serve
-
         return serve(args, controller, tab="snake")
     decoder = Decoder.load(args.model, expect_unit=args.unit)
     from spectratac.apps.snake.play import play

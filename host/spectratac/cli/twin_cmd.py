@@ -84,7 +84,7 @@ def register(subparsers: Any) -> None:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from spectratac.evaluate.twin_fidelity import ReportConfig, fidelity_report, format_report
+    from spectratac.studies.twin_fidelity import ReportConfig, fidelity_report, format_report
     from spectratac.twin.errors import TwinError
 
     if args.duration < 60 or args.epochs < 1 or args.oracle_samples < 1:

@@ -2,9 +2,10 @@
 and frame arrival times) and the reference F/T's (from its arrival times), with
 `spectratac.fusion.fit_clock`, then average the F/T over each optical integration window.
 
-`scale` is device seconds per host second: 1 for real hardware; a paced simulation's
-speed for sim:// sessions, whose device and F/T clocks both run on scene time. Dividing by
-it first leaves fit_clock the small offset and drift it is built for.
+`scale` is device seconds per host second, the recorded link's clock scale
+(`spectratac.device.LinkInfo`): 1 for real hardware; a paced simulation's speed, whose device
+and F/T clocks both run on scene time. Dividing by it first leaves fit_clock the small
+offset and drift it is built for.
 """
 
 from __future__ import annotations

@@ -90,10 +90,9 @@ def build_datasets(
 def session_datasets(rec: Recording, options: BuildOptions | None = None) -> list[Dataset]:
     """One recording as datasets, one per configuration its samples were taken under."""
     opts = options or BuildOptions()
-    sim = rec.session.get("sim")
-    paced = bool(sim) and not isinstance(sim.get("speed"), str)
-    scale = float(sim["speed"]) if paced else 1.0
-    samples, windows = _timed_samples(rec, scale, device_clock=bool(sim) and not paced)
+    link = rec.link  # a device clock not tied to the host's (clock_scale None) is used as is
+    scale = 1.0 if link.clock_scale is None else link.clock_scale
+    samples, windows = _timed_samples(rec, scale, device_clock=link.clock_scale is None)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
     valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
@@ -205,16 +204,16 @@ def _session_meta(
     config_id: int,
 ) -> dict[str, Any]:
     s = rec.session
-    sim = s.get("sim") or {}
+    truth = rec.truth
     seq = samples["sequence"].astype(np.int64)
     return {
         "source": "record",
         "path": str(rec.path),
         "url": s.get("url"),
         "ft_url": s.get("ft_url"),
-        "scene": sim.get("scene"),
-        "seed": sim.get("seed"),
-        "speed": sim.get("speed"),
+        "scene": truth.get("scene"),
+        "seed": truth.get("seed"),
+        "speed": truth.get("speed"),
         "unit_id": (rec.info or {}).get("unit_id"),
         "started_unix": s.get("started_unix"),
         "library_version": s.get("library_version"),

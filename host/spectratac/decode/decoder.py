@@ -25,7 +25,7 @@ from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
-from spectratac.decode.estimates import FORCE, TORQUE, Estimate, Estimates
+from spectratac.decode.estimates import CONTACT_FORCE_N, FORCE, TORQUE, Estimate, Estimates
 from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.guard import Guard
 from spectratac.decode.heads import Heads
@@ -36,7 +36,6 @@ from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
 
 F64 = NDArray[np.float64]
-CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
 
 
 @dataclass
@@ -345,7 +344,7 @@ class Decoder:
         (DecoderUnitWarning) if `expect_unit` is another unit."""
         from spectratac.decode.stac_file import read_model
 
-        dec = read_model(path)
+        dec = read_model(path, cls)
         if expect_config is not None:
             dec.check_config(expect_config, "the expected configuration")
         dec.check_unit(expect_unit, "the expected unit")

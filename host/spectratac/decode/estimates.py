@@ -19,6 +19,8 @@ from numpy.typing import NDArray
 
 from spectratac.protocol.generated.messages import EstimateFlags
 
+CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
+
 F64 = NDArray[np.float64]
 FORCE = ("Fx", "Fy", "Fz")
 TORQUE = ("Tx", "Ty", "Tz")

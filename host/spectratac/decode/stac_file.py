@@ -18,8 +18,9 @@ import io
 import json
 import zipfile
 import zlib
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -29,8 +30,12 @@ from spectratac.decode.guard import Guard
 from spectratac.decode.layout import Layout
 from spectratac.decode.runtime import Runtime
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # only the type: Decoder imports this module to load and save itself
     from spectratac.decode.decoder import Decoder
+
+D = TypeVar("D")
+#: Builds the decoder from the pieces a file holds: Decoder itself (`Decoder.load`).
+Build = Callable[[Runtime, Layout, Guard, dict[str, Any]], D]
 
 FORMAT = "spectratac.decoder"
 VERSION = "1.0"
@@ -100,9 +105,8 @@ def read_meta(path: str | Path) -> dict[str, Any]:
     return meta
 
 
-def read_model(path: str | Path) -> Decoder:
-    from spectratac.decode.decoder import Decoder
-
+def read_model(path: str | Path, build: Build[D]) -> D:
+    """The model in `path`, made by `build(runtime, layout, guard, decoder meta)`."""
     meta = read_meta(path)
     try:
         with zipfile.ZipFile(path) as z:
@@ -118,8 +122,8 @@ def read_model(path: str | Path) -> Decoder:
         guard.validate(layout.base, runtime.heads.n_reg)
         if not isinstance(meta["decoder"], dict):
             raise TypeError(f"decoder meta is {type(meta['decoder']).__name__}, not an object")
-        dec = Decoder(runtime, layout, guard, meta["decoder"])
-        old = [n for n in dec.target_names if n in RETIRED_TORQUE_NAMES]
+        dec = build(runtime, layout, guard, meta["decoder"])
+        old = [n for n in runtime.heads.regression if n in RETIRED_TORQUE_NAMES]
     except DecoderFileError as exc:
         raise DecoderFileError(f"{path}: {exc}") from None
     except _DAMAGE as exc:

@@ -1,8 +1,8 @@
 """Talking to a SpectraTac device: transports (by URL scheme, extensible with
 `register_transport_scheme` or ``spectratac.transports`` entry points), the Sensor API (a
-façade over a Link and two RecordQueues), the typed stream protocols that consumers of a
-sensor take (SampleStream, EstimateStream, DeviceStream), the optional ground truth of
-simulated links, typed errors."""
+façade over a Link and two RecordQueues), what a link knows about itself (`LinkInfo`), the
+typed stream protocols that consumers of a sensor take (SampleStream, EstimateStream,
+DeviceStream), the optional ground truth of simulated links, typed errors."""
 
 from spectratac.device.clock_sync import ClockSync, TimeSyncExchange
 from spectratac.device.errors import (
@@ -20,6 +20,7 @@ from spectratac.device.errors import (
 from spectratac.device.estimate_records import ESTIMATE_RECORD, EstimateRow
 from spectratac.device.ground_truth import CONTACT_TRUTH, GroundTruth, ground_truth_of
 from spectratac.device.link import Link
+from spectratac.device.link_info import LinkInfo, link_info_of
 from spectratac.device.model_store import ModelInfo
 from spectratac.device.record_queue import RecordQueue
 from spectratac.device.records import (
@@ -60,6 +61,7 @@ __all__ = [
     "EstimatesMode",
     "GroundTruth",
     "Link",
+    "LinkInfo",
     "MissingCapabilityError",
     "ModelInfo",
     "ModelUploadError",
@@ -74,6 +76,7 @@ __all__ = [
     "TransportOpener",
     "UnknownSchemeError",
     "ground_truth_of",
+    "link_info_of",
     "open_transport",
     "register_transport_scheme",
     "transport_schemes",

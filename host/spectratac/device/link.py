@@ -32,6 +32,7 @@ from spectratac.device.errors import (
     ProtocolMismatchError,
 )
 from spectratac.device.iohub import Watch, shared_hub
+from spectratac.device.link_info import LinkInfo, link_info_of
 from spectratac.device.stats import SensorStats
 from spectratac.device.transport import Transport, open_transport
 from spectratac.errors import printable
@@ -226,6 +227,12 @@ class Link:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    @property
+    def link_info(self) -> LinkInfo:
+        """What the current transport knows about itself: clock scale, a paired F/T URL,
+        ground truth (the defaults of hardware when it says nothing)."""
+        return link_info_of(self._transport)
 
     # ------------------------------------------------------------------ the request table
     def _next_seq(self) -> int:

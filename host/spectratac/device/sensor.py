@@ -34,6 +34,7 @@ from spectratac.device.clock_sync import ClockSync, TimeSyncExchange, sync_clock
 from spectratac.device.errors import DeviceError
 from spectratac.device.estimate_records import EstimateGaps, EstimateRow, to_estimate_array
 from spectratac.device.link import EpochListener, FrameListener, Link
+from spectratac.device.link_info import LinkInfo
 from spectratac.device.model_store import ModelInfo, Progress
 from spectratac.device.record_queue import OverflowPolicy, RecordQueue
 from spectratac.device.records import (
@@ -193,6 +194,11 @@ class Sensor:
     def epoch(self) -> int:
         """Connections so far minus one: samples and time syncs carry it (SAMPLE_RECORD)."""
         return self._link.epoch
+
+    @property
+    def link_info(self) -> LinkInfo:
+        """What the link knows about itself: clock scale, a paired F/T URL, ground truth."""
+        return self._link.link_info
 
     @property
     def auto_reconnect(self) -> bool:

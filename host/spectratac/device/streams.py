@@ -23,6 +23,7 @@ import numpy as np
 from spectratac.device.clock_sync import ClockSync, TimeSyncExchange
 from spectratac.device.estimate_records import EstimateRow
 from spectratac.device.link import FrameListener
+from spectratac.device.link_info import LinkInfo
 from spectratac.device.model_store import ModelInfo
 from spectratac.device.records import Sample
 from spectratac.device.sensor import EstimatesMode
@@ -56,13 +57,17 @@ class EstimateStream(SampleStream, Protocol):
 @runtime_checkable
 class DeviceStream(EstimateStream, Protocol):
     """A connected device as the live applications use it: samples in batches too, its
-    identity, link health, clock sync and raw frames (for clips), and closing."""
+    identity, what its link knows about itself, link health, clock sync and raw frames (for
+    clips), and closing."""
 
     @property
     def url(self) -> str: ...
 
     @property
     def info(self) -> m.Info: ...
+
+    @property
+    def link_info(self) -> LinkInfo: ...
 
     @property
     def stats(self) -> SensorStats: ...

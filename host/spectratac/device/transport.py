@@ -39,6 +39,7 @@ from spectratac.device.errors import (
     DisconnectedError,
     PermissionDeniedError,
 )
+from spectratac.device.link_info import HARDWARE
 from spectratac.url_schemes import SchemeRegistry
 
 DEFAULT_BAUD = 921_600
@@ -83,7 +84,9 @@ class Transport(Protocol):
 
     A transport may also have `fileno() -> int | None`: a non-blocking descriptor that
     os.read() drains. The Link then reads it from the process's shared I/O thread
-    (spectratac.device.iohub) instead of calling read() from a thread of its own."""
+    (spectratac.device.iohub) instead of calling read() from a thread of its own. And it may
+    have `link_info` (spectratac.device.link_info.LinkInfo): what it knows about itself;
+    without one it is taken for hardware."""
 
     url: str
 
@@ -110,6 +113,8 @@ def _ports_hint() -> str:
 
 class SerialTransport:
     """A serial port path or any pyserial URL (socket://, rfc2217://, loop://)."""
+
+    link_info = HARDWARE  # a port carries bytes only
 
     def __init__(self, url: str, baudrate: int = DEFAULT_BAUD) -> None:
         self.url = url

@@ -1,5 +1,6 @@
-"""Evaluating trained decoders honestly: scores, the oracle floor, Fig. 3 reports, the twin
-fidelity report (`twin_fidelity`) and the decoder benchmarks (`evaluate.bench`).
+"""Evaluating decoders honestly: metrics, Fig. 3 reports, a pluggable floor column
+(`run.Floor`). What needs the twin (its oracle's floor, its fidelity report, the decoder
+benchmarks) is in spectratac.studies; this part never imports the twin or the simulator.
 
 Two splits (spectratac.train.groups) are always reported: the paper's random split and a
 blocked split (whole presses or time blocks held out, with a guard gap) that measures

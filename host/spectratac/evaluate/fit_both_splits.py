@@ -18,7 +18,7 @@ with the same signature works, e.g. a stand-in:
 ...     def predict(self, dataset, rows):
 ...         return Predictions(["Fz"], np.zeros((len(rows), 1)))
 >>> ds = Dataset.generic(np.zeros((100, 1)), np.ones(100), ["a"], ["Fz"])
->>> res = fit_and_evaluate(ds, None, trainer=lambda *a, **k: Zero(), oracle_samples=0)
+>>> res = fit_and_evaluate(ds, None, trainer=lambda *a, **k: Zero())
 >>> sorted(res.sections), res.sections["blocked"].decoder.scores["components"]["Fz"]["mae"]
 (['blocked', 'random'], 1.0)
 """
@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.run import Evaluation, Section, evaluate_model
+from spectratac.evaluate.run import Evaluation, Floor, Section, evaluate_model
 from spectratac.train.groups import KINDS, Split, SplitSpec, split_dataset
 from spectratac.train.holdout import mark
 
@@ -67,10 +67,11 @@ def fit_and_evaluate(
     seed: int = 0,
     split_options: dict[str, Any] | None = None,
     trainer: Trainer | None = None,
-    oracle_samples: int = 500,
+    floor: Floor | None = None,
     progress: bool = False,
 ) -> FitResult:
-    """Train `spec` on each split's training rows and score it on the split's test rows."""
+    """Train `spec` on each split's training rows and score it on the split's test rows
+    (beside `floor`, e.g. the twin oracle's: `evaluate_model`)."""
     fit = trainer or default_trainer()
     models: dict[str, Any] = {}
     splits: dict[str, Split] = {}
@@ -88,7 +89,7 @@ def fit_and_evaluate(
         dataset,
         splits=kinds,
         companions={k: models[k] for k in rest},
-        oracle_samples=oracle_samples,
+        floor=floor,
         seed=seed,
     )
     return FitResult(models, splits, ev, seconds)

@@ -14,7 +14,7 @@ and an optional baseline side by side.
 ...         return Predictions(["Fz"], 0.5 * dataset.targets[rows])
 >>> ds = Dataset.generic(np.zeros((30, 1)), np.linspace(0, 3, 30), ["a"], ["Fz"])
 >>> out = pathlib.Path(tempfile.mkdtemp())
->>> rep = write_report(evaluate_model(Half(), ds, oracle_samples=0), out, {"path": "x.npz"})
+>>> rep = write_report(evaluate_model(Half(), ds), out, {"path": "x.npz"})
 >>> sorted(p.name for p in out.iterdir())
 ['all_abs_error.png', 'all_scatter.png', 'all_timeseries.png', 'report.json', 'report.md']
 >>> round(json.loads((out / "report.json").read_text())["sections"]["all"]["decoder"]

@@ -1,5 +1,6 @@
 """Evaluate a trained model on a dataset: which rows are honest to score, on which split,
-beside the oracle floor and an optional baseline model.
+beside an optional floor column (`Floor`: the twin oracle's, from spectratac.studies) and an
+optional baseline model.
 
 A model's `meta["holdout"]` (see `train.holdout`) names the split it was trained under;
 only that split's test rows are scored with it. The other split is scored with a companion
@@ -17,7 +18,7 @@ scored section also reports its MAE per session (`Section.per_session`).
 ...     def predict(self, dataset, rows):
 ...         return Predictions(["Fz"], np.ones((len(rows), 1)))
 >>> ds = Dataset.generic(np.zeros((10, 1)), np.arange(10.0), ["a"], ["Fz"])
->>> ev = evaluate_model(Mean(), ds, oracle_samples=0)
+>>> ev = evaluate_model(Mean(), ds)
 >>> list(ev.sections), ev.sections["all"].decoder.scores["components"]["Fz"]["mae"]
 (['all'], 3.7)
 >>> ev.sections["all"].per_session
@@ -35,14 +36,18 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.metrics import regression_scores
-from spectratac.evaluate.oracle_floor import oracle_predictions
-from spectratac.evaluate.predictions import predict
+from spectratac.evaluate.predictions import Predictions, predict
 from spectratac.evaluate.scoring import Scored, score
 from spectratac.train.groups import KINDS
 from spectratac.train.holdout import check_sessions_unseen, resolve, session_rows
-from spectratac.twin.scene_model import Scene
 
 Progress = Callable[[str], None]
+#: A floor column beside the decoder: (dataset, test rows, seed) -> (the rows it decoded, their
+#: predictions or None, a note for the report). The twin oracle's is
+#: `spectratac.studies.oracle_floor.OracleFloor`; this part never imports the twin.
+Floor = Callable[
+    [Dataset, NDArray[np.int64], int], tuple[NDArray[np.int64], Predictions | None, str]
+]
 
 
 @dataclass
@@ -119,13 +124,13 @@ def evaluate_model(
     sessions: Sequence[int] | None = None,
     companions: dict[str, Any] | None = None,
     baseline: Any | None = None,
-    scene: Scene | None = None,
-    oracle_samples: int = 500,
+    floor: Floor | None = None,
     seed: int = 0,
     progress: Progress | None = None,
 ) -> Evaluation:
-    """Score `model` (and `baseline`, and the twin oracle) on the honest rows of `dataset`,
-    or on `sessions` of it (SessionLeakError if the model was trained on any of them)."""
+    """Score `model` (and `baseline`, and the `floor` column) on the honest rows of `dataset`,
+    or on `sessions` of it (SessionLeakError if the model was trained on any of them).
+    `seed` picks the floor's subsample."""
     tick = progress or (lambda stage: None)
     meta = getattr(model, "meta", {}) or {}
     h = resolve(meta, dataset)
@@ -169,10 +174,8 @@ def evaluate_model(
         if baseline is not None:
             sec.baseline, sec.baseline_note = _score_baseline(baseline, dataset, rows)
             tick(f"{name}: baseline")
-        if oracle_samples > 0:
-            o_rows, o_pred, sec.oracle_note = oracle_predictions(
-                dataset, rows, scene, oracle_samples, seed
-            )
+        if floor is not None:
+            o_rows, o_pred, sec.oracle_note = floor(dataset, rows, seed)
             if o_pred is not None:
                 sec.oracle = score(dataset, o_rows, o_pred)
             tick(f"{name}: oracle")

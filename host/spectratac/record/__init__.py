@@ -16,7 +16,7 @@ from spectratac.record.recorder import (
     RecordingSummary,
     RecordOptions,
 )
-from spectratac.record.session import ft_url_for, record_url
+from spectratac.record.session import record_url
 from spectratac.record.writer import RecordingWriter
 
 __all__ = [
@@ -30,7 +30,6 @@ __all__ = [
     "RecordingSummary",
     "RecordingWriter",
     "TruncatedRecordingWarning",
-    "ft_url_for",
     "read_recording",
     "record_url",
 ]

@@ -21,10 +21,12 @@ from spectratac.device.ground_truth import CONTACT_TRUTH
 
 FORMAT = "spectratac.recording"
 #: 2 added GROUND_TRUTH: version-1 readers cannot skip a binary channel they do not know.
-VERSION = 2
+#: 3 put the link's facts in the session's "link" (LinkInfo) and its truth's description in
+#: "truth", where older files have "sim": a version-2 reader would take the file for hardware.
+VERSION = 3
 
 # topic -> message encoding; JSON topics carry one JSON object per message.
-SESSION = "/spectratac/session"  # once, first: URLs, sim scene, clocks, versions
+SESSION = "/spectratac/session"  # once, first: URLs, link facts, truth, clocks, versions
 FRAMES = "/spectratac/frames"  # one decoded device frame per message (header+payload+CRC)
 INFO = "/spectratac/info"  # the device's INFO, on connect
 CONFIG = "/spectratac/config"  # every configuration: id, request, GET_CONFIG reply

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from mcap.records import Channel, Message
 
+from spectratac.device.link_info import LinkInfo
 from spectratac.record.errors import (
     CorruptedRecordingWarning,
     RecordingError,
@@ -91,6 +92,24 @@ class Recording:
     @property
     def clock(self) -> HostClock:
         return HostClock(int(self.session.get("unix_minus_monotonic_ns", 0)))
+
+    @property
+    def link(self) -> LinkInfo:
+        """What the device's link knew about itself (FORMAT.md: "link"; files before
+        version 3 say it in their "sim" block: a paced scene's speed, "max" unpaced)."""
+        if "link" in self.session:
+            return LinkInfo.from_dict(self.session["link"] or {})
+        sim = self.session.get("sim")
+        if not sim:
+            return LinkInfo()
+        speed = sim.get("speed")
+        scale = None if isinstance(speed, str) else float(speed)
+        return LinkInfo(clock_scale=scale, ground_truth=True)
+
+    @property
+    def truth(self) -> dict[str, Any]:
+        """The ground truth's description (scene, seed, speed...); {} for hardware."""
+        return dict(self.session.get("truth", self.session.get("sim")) or {})
 
 
 def read_recording(path: str | Path) -> Recording:

@@ -139,7 +139,7 @@ class Recorder:
         """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
         message (URLs, host). `ground_truth`: the link's truth (simulated devices: see
         spectratac.device.ground_truth_of); it is described in the session message
-        ("sim"), labels every sample, gives the scene's label events, and ends the session
+        ("truth"), labels every sample, gives the scene's label events, and ends the session
         when the device clock passes its `duration_s`. `guided`: the guided labelling
         protocol (real sessions). `clock` drives guided prompts."""
         self.sensor = sensor
@@ -147,12 +147,13 @@ class Recorder:
         self.options = options or RecordOptions()
         self.options.validate()
         self.ft = ft
-        self.session = dict(session or {})
+        # what the link knows of itself (clock scale...), stored generically: FORMAT.md
+        self.session = dict(session or {}) | {"link": sensor.link_info.as_dict(), "truth": None}
         self.ground_truth = ground_truth
         self.labeler: LabelQueue | None = None
         self.scene_end_s: float | None = None
         if ground_truth is not None:
-            self.session["sim"] = ground_truth.describe()
+            self.session["truth"] = ground_truth.describe()
             self.labeler = LabelQueue(ground_truth.label_events())
             self.scene_end_s = ground_truth.duration_s  # a scene that ends ends the session
         self.guided = guided

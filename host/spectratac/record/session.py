@@ -1,10 +1,10 @@
 """`record_url`: open a device (and its reference F/T sensor) by URL and record a session.
 
 A link with ground truth (a simulated device: its transport answers
-spectratac.device.GroundTruth) gives the session message its "sim" description, every
+spectratac.device.GroundTruth) gives the session message its "truth" description, every
 sample its truth and the file its scene's label events, and ends the session with its scene
-at the latest; a sim:// URL that says ``ft=bota`` or ``ft=netft`` opens the simulated
-reference sensor of the same world when no F/T URL is given.
+at the latest. Without an F/T URL the link's paired one is used (`LinkInfo.paired_ft_url`:
+a sim:// URL that says ``ft=bota`` opens the simulated reference sensor of the same world).
 
 >>> import tempfile
 >>> path = tempfile.mkdtemp() + "/press.mcap"
@@ -22,28 +22,13 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
-from urllib.parse import parse_qs, urlsplit
 
-from spectratac.device import Sensor, ground_truth_of, open_transport
+from spectratac.device import LinkInfo, Sensor, ground_truth_of, link_info_of, open_transport
 from spectratac.device.transport import DEFAULT_BAUD
 from spectratac.record.guided import GuidedProtocol
 from spectratac.record.recorder import Recorder, RecordingStatus, RecordingSummary, RecordOptions
 
-__all__ = ["RecordOptions", "ft_url_for", "record_url"]
-
-
-def ft_url_for(url: str, ft_url: str | None) -> str | None:
-    """The F/T URL to use: the one given, else the sim URL itself if it asks for F/T.
-
-    >>> ft_url_for("sim://?scene=tour&ft=bota", None), ft_url_for("/dev/ttyACM0", None)
-    ('sim://?scene=tour&ft=bota', None)
-    """
-    if ft_url:
-        return ft_url
-    parts = urlsplit(url)
-    if parts.scheme == "sim" and parse_qs(parts.query).get("ft"):
-        return url
-    return None
+__all__ = ["RecordOptions", "record_url"]
 
 
 def record_url(
@@ -56,18 +41,22 @@ def record_url(
     stop: threading.Event | None = None,
     progress: Callable[[RecordingStatus], None] | None = None,
     sensor_options: dict[str, Any] | None = None,
+    on_open: Callable[[LinkInfo, str | None], None] | None = None,
 ) -> RecordingSummary:
-    """Record `url` into `path`; returns the summary (see Recorder.run)."""
-    ft_url = ft_url_for(url, ft_url)
+    """Record `url` into `path`; returns the summary (see Recorder.run). `on_open` is told,
+    once the device is open, what its link knows and which F/T URL the session uses."""
     session: dict[str, Any] = {
         "host": {"hostname": socket.gethostname(), "python": sys.version.split()[0]},
-        "sim": None,
     }
     sensor_options = dict(sensor_options or {})
     baudrate = sensor_options.pop("baudrate", DEFAULT_BAUD)
     with contextlib.ExitStack() as stack:
         transport = open_transport(url, baudrate)  # opened here to ask it for ground truth
         sensor = stack.enter_context(Sensor.attach(transport, **sensor_options))
+        link = link_info_of(transport)
+        ft_url = ft_url or link.paired_ft_url
+        if on_open is not None:
+            on_open(link, ft_url)
         ft = None
         if ft_url is not None:
             from spectratac.ft import FTSensor

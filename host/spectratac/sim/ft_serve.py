@@ -17,6 +17,8 @@ ft_loss (0.001), ft_offset (s, 0.05), ft_drift (1e-4), ft_port (netft UDP port, 
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +66,47 @@ def start_server(
                 raise FTURLError(f"{opts.query()}: ft_port must be an integer") from None
         return NetFTServer(source, port=port)
     return BotaServer(source, link=link)
+
+
+def simulated_ft_url(
+    kind: str,
+    *,
+    scene: str,
+    seed: int,
+    speed: str,
+    rate: float,
+    loss: float,
+    offset: float,
+    drift: float,
+) -> str:
+    """The sim:// URL of a simulated `kind` F/T sensor (what `spectratac sim ft` serves).
+
+    >>> simulated_ft_url("bota", scene="press", seed=1, speed="2", rate=500.0, loss=0.0,
+    ...                  offset=0.0, drift=0.0)  # fmt: skip
+    'sim://?scene=press&seed=1&speed=2&ft=bota&ft_rate=500.0&ft_loss=0.0&ft_offset=0.0&ft_drift=0.0'
+    """
+    return (
+        f"sim://?scene={scene}&seed={seed}&speed={speed}&ft={kind}"
+        f"&ft_rate={rate}&ft_loss={loss}&ft_offset={offset}&ft_drift={drift}"
+    )
+
+
+@contextlib.contextmanager
+def serving(
+    url: str, *, port: int | None = None, link: Path | None = None
+) -> Iterator[NetFTServer | BotaServer]:
+    """Serve the simulated F/T sensor of `url` (``ft=netft|bota``) to other programs until
+    the block ends. FTURLError for a bad URL, OSError when the port or pty cannot be had."""
+    opts, kind = sim_options(url)
+    world = SimWorld.join(opts)
+    try:
+        server = start_server(world, opts, kind, port=port, link=link)
+        try:
+            yield server
+        finally:
+            server.stop()
+    finally:
+        world.release()
 
 
 def open_sim_ft(url: str, *, timeout: float, buffer_size: int, **options: Any) -> FTSensor:

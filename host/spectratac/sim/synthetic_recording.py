@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.device.link_info import LinkInfo
 from spectratac.protocol.bulk import SAMPLE_DTYPE
 from spectratac.protocol.framing import crc32c
 from spectratac.protocol.generated import messages as m
@@ -115,7 +116,14 @@ def write_twin_recording(
         "duration_s": scene.duration_s,
         "presses": len(scene.presses),
     }
-    meta: dict[str, Any] = {"url": url, "ft_url": url, "labels": "scene", "sim": sim}
+    link = LinkInfo(clock_scale=speed, paired_ft_url=url, ground_truth=True)
+    meta: dict[str, Any] = {
+        "url": url,
+        "ft_url": url,
+        "labels": "scene",
+        "link": link.as_dict(),
+        "truth": sim,
+    }
     t0 = epoch - 0.5 / speed
     writer = RecordingWriter(
         path, meta | {"synthetic": True}, ft_dtype=FT_RECORD, ground_truth=True

@@ -1,7 +1,9 @@
 """The in-process transport behind sim:// URLs: Sensor.open("sim://?scene=tour&speed=max").
 
 It reaches spectratac.device through the ``spectratac.transports`` entry point ``sim``
-(`open_sim_transport`) and carries its world's ground truth (`SimTransport.ground_truth`).
+(`open_sim_transport`), carries its world's ground truth (`SimTransport.ground_truth`) and
+says what it is (`SimTransport.link_info`: the scene's speed as clock scale, itself as the
+paired F/T URL when the URL asks for one with ``ft=``).
 
 >>> from spectratac.device.ground_truth import ground_truth_of
 >>> import numpy as np
@@ -9,6 +11,8 @@ It reaches spectratac.device through the ``spectratac.transports`` entry point `
 >>> truth = ground_truth_of(link)
 >>> truth.describe()["scene"], truth.contact(np.array([1.5]))["region"].tolist()
 ('press', [5])
+>>> link.link_info
+LinkInfo(clock_scale=None, paired_ft_url=None, ground_truth=True)
 >>> link.close()
 """
 
@@ -18,6 +22,7 @@ import threading
 from typing import Any
 
 from spectratac.device.errors import DeviceError, DisconnectedError
+from spectratac.device.link_info import LinkInfo
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.ground_truth import SceneTruth
@@ -39,6 +44,11 @@ class SimTransport:
             raise DeviceError(str(exc)) from None
         self.options = opts
         self.ground_truth = SceneTruth(self.world.scene, self._describe())
+        self.link_info = LinkInfo(
+            clock_scale=None if opts.speed == MAX else float(opts.speed),
+            paired_ft_url=url if opts.scene_params.get("ft") else None,  # ft=bota|netft
+            ground_truth=True,
+        )
         self._out = bytearray()
         self._cond = threading.Condition()
         self._closed = False

@@ -155,7 +155,7 @@ class TrainSpec:
         training on every press also rotated and mirrored (the sensor's symmetry), batch
         256, weight decay 0.05, weight averaging and Fz weighted 2 in the loss. On a blocked
         split of the twin's 3000 s calibration session it cuts MAE by 29, 32 and 27 %
-        (Fx, Fy, Fz; 3 seeds) against the paper's recipe (evaluate/README.md)."""
+        (Fx, Fy, Fz; 3 seeds) against the paper's recipe (studies/README.md)."""
         best = {
             "context": 8,
             "context_ema": (10.0, 40.0, 160.0),

@@ -21,8 +21,8 @@ from tests.apps.conftest import PRESSES_URL
 def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     press_model, tmp_path
 ) -> None:
-    url = PRESSES_URL + "&speed=4&ft=bota"
-    session = LiveSession(Decoder.load(press_model), url, ft_url=url, out_dir=tmp_path)
+    url = PRESSES_URL + "&speed=4&ft=bota"  # no ft_url: the link pairs its simulated Bota
+    session = LiveSession(Decoder.load(press_model), url, out_dir=tmp_path)
     got: list[dict] = []
     done = threading.Event()
 
@@ -32,6 +32,7 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
             done.set()
 
     session.start(publish)
+    assert session.ft_url == url and session.scale == 4.0  # the link's facts (LinkInfo)
     try:
         assert done.wait(120)
         csv_clip = session.save(1.5, "csv")

@@ -7,6 +7,8 @@ and Snake game, publishing one JSON message per sample. No UI: the web server
     ...                               # ... and decodes on a worker thread
     session.stop()
 
+Without `ft_url` the session uses the F/T sensor the link pairs with the device, if any
+(`Sensor.link_info`: a sim:// URL with ``ft=bota``), and the link's clock scale.
 Torch is never imported: decoding runs on the model file's NumPy runtime.
 """
 
@@ -22,6 +24,7 @@ from typing import Any
 
 import numpy as np
 from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
+from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
 from spectratac.apps.live.latency import LatencyLog
 from spectratac.apps.live.messages import estimate_message
@@ -32,23 +35,6 @@ from spectratac.errors import SpectraTacError
 
 Publish = Callable[[dict[str, Any]], None]
 STATS_EVERY_S = 0.5
-
-
-def clock_scale(url: str) -> float | None:
-    """Device seconds per host second of a sensor URL: a paced sim's speed, 1 for
-    hardware, None for a sim at speed=max (its clock is not tied to the host's).
-
-    >>> clock_scale("/dev/ttyACM0"), clock_scale("sim://?scene=tour&speed=4"), clock_scale(
-    ...     "sim://?speed=max")
-    (1.0, 4.0, None)
-    """
-    if not url.startswith("sim://"):
-        return 1.0
-    from spectratac.sim.runner import MAX
-    from spectratac.sim.url import parse_sim_url
-
-    speed = parse_sim_url(url).speed
-    return None if speed == MAX else float(speed)
 
 
 class LiveSession:
@@ -77,7 +63,7 @@ class LiveSession:
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
-        self.scale = clock_scale(url)
+        self.scale: float | None = 1.0  # device s per host s: the link's, once open
         self.sensor: DeviceStream | None = None
         self.ft: Any = None
         self.estimates = 0
@@ -100,6 +86,10 @@ class LiveSession:
                 )
             )
             self.sensor.add_listener(lambda frame, t: self.history.add_frame(frame.raw, t))
+            link = self.sensor.link_info
+            self.scale = link.clock_scale
+            if self.ft_url is None:
+                self.ft_url = link.paired_ft_url
             if self.ft_url is not None:
                 from spectratac.ft import FTSensor
 
@@ -129,8 +119,6 @@ class LiveSession:
     # ------------------------------------------------------------------ what clients see
     def meta(self) -> dict[str, Any]:
         """Everything the page needs once: model, devices, geometry, game settings."""
-        from spectratac.twin import geometry as g
-
         det = self.snake.detector
         dec = self.decoder
         return {
@@ -148,15 +136,7 @@ class LiveSession:
             "config": dec.config,
             "history_s": self.history.keep_s,
             "formats": list(FORMATS),
-            "geometry": {
-                "disc_mm": g.DISC_RADIUS_MM,
-                "centre_mm": g.CENTER_RADIUS_MM,
-                "active_mm": g.ACTIVE_RADIUS_MM,
-                "ring_mm": g.RING_RADIUS_MM,
-                "sectors_deg": {str(k): v for k, v in g.SECTOR_CENTRE_DEG.items()},
-                "sensors_deg": g.SENSOR_ANGLES_DEG.tolist(),
-                "leds_deg": g.LED_ANGLES_DEG.tolist(),
-            },
+            "geometry": page_geometry(),
             "snake": self.snake_state(),
             "threshold_n": det.threshold_n,
             "release_n": det.release_n,

@@ -38,15 +38,15 @@ import json
 import re
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import crcmod.predefined
 import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.assemble import GATE, STUCK, TAU
-from spectratac.decode.decoder import CONTACT_FORCE_N, Decoder
 from spectratac.decode.errors import DecoderError
+from spectratac.decode.estimates import CONTACT_FORCE_N
 from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
 from spectratac.decode.generated.model_image_layout import (
     ALIGN,
@@ -69,6 +69,9 @@ from spectratac.decode.generated.model_image_layout import (
 )
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import layer_shapes, norm_names
+
+if TYPE_CHECKING:  # only the type: Decoder.model_id imports this module
+    from spectratac.decode.decoder import Decoder
 
 #: The STM32 model store: flash sectors 4-7 (448 KiB) less the 64 bytes of its commit record.
 MAX_IMAGE_BYTES = 458752 - 64

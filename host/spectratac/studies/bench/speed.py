@@ -1,6 +1,6 @@
 """Speed against error: integration time x LED sequencing x model size on one scene.
 
-Every acquisition setting (`evaluate.bench.acquisition`) records the same calibration scene (same
+Every acquisition setting (`studies.bench.acquisition`) records the same calibration scene (same
 presses, same unit), so the settings differ only in how they sample it. Each model is trained
 on the blocked split's training rows and scored on its test rows. Training budget: the same
 epochs and the same optimiser steps per epoch everywhere (the batch shrinks with the number
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.schema import Dataset
-from spectratac.evaluate.bench.acquisition import Acquisition
+from spectratac.studies.bench.acquisition import Acquisition
 
 MODELS: dict[str, dict[str, Any]] = {
     "linear": {"model": "linear"},
@@ -134,7 +134,7 @@ def add_latency(
 ) -> None:
     """Single-sample latency of every decoder, timed side by side; ratios to the reference
     (the paper's model at 50 ms white, or the first point if that was not run). In place."""
-    from spectratac.evaluate.bench.latency import side_by_side_latency, single_sample_fn
+    from spectratac.studies.bench.latency import side_by_side_latency, single_sample_fn
 
     fns, inputs = {}, {}
     for key, (dec, ds) in trained.items():

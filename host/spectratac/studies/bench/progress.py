@@ -1,6 +1,6 @@
 """Run a decoder benchmark with a progress bar on stderr, one step per trained model.
 
->>> from spectratac.evaluate.bench.decoder import BenchConfig
+>>> from spectratac.studies.bench.decoder import BenchConfig
 >>> planned_points(BenchConfig.quick(models=("resmlp",), sequences=("white",)))
 [(50, 'white', 'resmlp'), (200, 'white', 'resmlp')]
 """
@@ -11,8 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from spectratac.evaluate.bench.decoder import BenchConfig, speed_bench, variants_bench
-from spectratac.evaluate.bench.speed import HEAVY
+from spectratac.studies.bench.decoder import BenchConfig, speed_bench, variants_bench
+from spectratac.studies.bench.speed import HEAVY
 
 
 def planned_points(cfg: BenchConfig) -> list[tuple[int, str, str]]:

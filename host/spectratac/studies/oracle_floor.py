@@ -27,6 +27,12 @@ them as `Predictions` for the report's floor column; a dataset without an oracle
 >>> rows, pred, note = oracle_predictions(plain, np.arange(4))
 >>> rows.size, pred, note[:22]
 (0, None, 'no oracle: not a Spect')
+
+`OracleFloor` is the same as the floor column `spectratac.evaluate` takes
+(`evaluate_model(model, dataset, floor=OracleFloor(500))`):
+
+>>> OracleFloor(4)(plain, np.arange(4), 0)[2] == note
+True
 """
 
 from __future__ import annotations
@@ -215,3 +221,17 @@ def oracle_predictions(
     if reasons:
         note += f"; rows of other sessions skipped: {'; '.join(sorted(set(reasons)))}"
     return done[order], pred, note
+
+
+@dataclass(frozen=True)
+class OracleFloor:
+    """The oracle as `spectratac.evaluate.run.Floor`: `samples` rows decoded per section,
+    with `scene` given or rebuilt from the dataset's metadata."""
+
+    samples: int = DEFAULT_SAMPLES
+    scene: Scene | None = None
+
+    def __call__(
+        self, dataset: Dataset, rows: NDArray[np.int64], seed: int
+    ) -> tuple[NDArray[np.int64], Predictions | None, str]:
+        return oracle_predictions(dataset, rows, self.scene, self.samples, seed)

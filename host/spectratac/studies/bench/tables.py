@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from spectratac.evaluate.bench.speed import pareto_front
+from spectratac.studies.bench.speed import pareto_front
 
 LATENCY_TOL = 0.10  # latencies within 10 % are treated as equal on the latency front
 

@@ -23,15 +23,15 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from spectratac.evaluate.bench.acquisition import INTEGRATION_MS, SEQUENCES, grid
-from spectratac.evaluate.bench.speed import MODELS, REFERENCE, add_latency, pareto_front, run_grid
-from spectratac.evaluate.bench.tables import (
+from spectratac.studies.bench.acquisition import INTEGRATION_MS, SEQUENCES, grid
+from spectratac.studies.bench.speed import MODELS, REFERENCE, add_latency, pareto_front, run_grid
+from spectratac.studies.bench.tables import (
     grid_markdown,
     latency_front,
     pareto_plot,
     variants_markdown,
 )
-from spectratac.evaluate.bench.variants import VARIANTS, run_variants, target_check
+from spectratac.studies.bench.variants import VARIANTS, run_variants, target_check
 
 Progress = Callable[[str], None]
 # Scene lengths of the full runs (s of the calibration protocol; the paper's is 3000 s):
@@ -121,10 +121,10 @@ def _clean(v: Any) -> Any:
 
 def variants_bench(cfg: BenchConfig, out: Path, progress: Progress | None = None) -> dict:
     """Every variant and the paper's recipe on the same data and splits."""
-    from spectratac.evaluate.bench.latency import side_by_side_latency, single_sample_fn
-    from spectratac.evaluate.oracle_floor import oracle_predictions
     from spectratac.evaluate.scoring import score
     from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.studies.bench.latency import side_by_side_latency, single_sample_fn
+    from spectratac.studies.oracle_floor import oracle_predictions
     from spectratac.train.groups import SplitSpec, split_dataset
     from spectratac.twin import generate_session
 

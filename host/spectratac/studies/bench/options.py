@@ -20,10 +20,10 @@ from dataclasses import replace
 from typing import Any
 
 from spectratac.errors import SpectraTacError
-from spectratac.evaluate.bench.acquisition import Acquisition
-from spectratac.evaluate.bench.decoder import BenchConfig
-from spectratac.evaluate.bench.speed import MODELS
-from spectratac.evaluate.bench.variants import VARIANTS
+from spectratac.studies.bench.acquisition import Acquisition
+from spectratac.studies.bench.decoder import BenchConfig
+from spectratac.studies.bench.speed import MODELS
+from spectratac.studies.bench.variants import VARIANTS
 
 
 def add_options(d: argparse.ArgumentParser) -> None:

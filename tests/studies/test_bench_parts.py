@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from spectratac.evaluate.bench.acquisition import Acquisition, AcquisitionError, grid
-from spectratac.evaluate.bench.latency import side_by_side_latency
-from spectratac.evaluate.bench.speed import batch_for, pareto_front
-from spectratac.evaluate.bench.variants import add_improvements, merge_seeds, target_check
 from spectratac.hardware.generated.veml3328 import INTEGRATION_MS
+from spectratac.studies.bench.acquisition import Acquisition, AcquisitionError, grid
+from spectratac.studies.bench.latency import side_by_side_latency
+from spectratac.studies.bench.speed import batch_for, pareto_front
+from spectratac.studies.bench.variants import add_improvements, merge_seeds, target_check
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 

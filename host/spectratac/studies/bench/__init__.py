@@ -10,7 +10,7 @@ Both write ``<name>.md`` and ``<name>.json`` (the speed bench also its Pareto PN
 and return the JSON dict; `run_with_progress` adds a progress bar. `add_options` and
 `config_from_args` give every entry point the same options and the same `BenchConfig`.
 
-    from spectratac.evaluate.bench import BenchConfig, speed_bench
+    from spectratac.studies.bench import BenchConfig, speed_bench
     result = speed_bench(BenchConfig.quick(), Path("build/bench-decoder"))
 
 >>> BenchConfig.quick().models
@@ -19,9 +19,9 @@ and return the JSON dict; `run_with_progress` adds a progress bar. `add_options`
 
 from __future__ import annotations
 
-from spectratac.evaluate.bench.decoder import BenchConfig, speed_bench, variants_bench
-from spectratac.evaluate.bench.options import add_options, config_from_args
-from spectratac.evaluate.bench.progress import planned_points, run_with_progress
+from spectratac.studies.bench.decoder import BenchConfig, speed_bench, variants_bench
+from spectratac.studies.bench.options import add_options, config_from_args
+from spectratac.studies.bench.progress import planned_points, run_with_progress
 
 __all__ = [
     "BenchConfig",

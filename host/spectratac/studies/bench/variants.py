@@ -230,7 +230,7 @@ def run_variants(
         for k, ts in enumerate(train_seeds):
             spec = TrainSpec.paper(**{**base, **VARIANTS[name], "seed": ts})
             run_kinds = kinds if k == 0 else [c for c in kinds if c == "blocked"]
-            fit = fit_and_evaluate(dataset, spec, run_kinds, seed=seed, oracle_samples=0)
+            fit = fit_and_evaluate(dataset, spec, run_kinds, seed=seed)
             per_seed.append(row_of(name, fit, fit.train_seconds))
             if k == 0:
                 models[name] = fit.models.get("blocked") or next(iter(fit.models.values()))

@@ -1,0 +1,122 @@
+"""What `spectratac live` and `spectratac snake --web` share: the model and device options,
+the Snake game's options and its controller, and serving the live page of a session."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import threading
+import webbrowser
+from pathlib import Path
+from typing import Any
+
+from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.options import add_device_url
+from spectratac.errors import SpectraTacError
+
+
+def add_device_options(p: argparse.ArgumentParser) -> None:
+    """Model and device options shared by the live verbs (as `spectratac decode` has them)."""
+    p.add_argument("model", help="decoder file (.stac)")
+    add_device_url(p)
+    p.add_argument(
+        "--keep-config",
+        action="store_true",
+        help="do not configure the sensor; decode only if its configuration matches",
+    )
+    p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
+
+
+def add_game_options(p: argparse.ArgumentParser) -> None:
+    """The options that set the Snake game up (`spectratac snake` and `spectratac live`)."""
+    from spectratac.apps.snake.control import CONFIRM, HYSTERESIS_N, THRESHOLD_N
+    from spectratac.apps.snake.controller import TICK_S
+
+    g = p.add_argument_group("Snake game")
+    g.add_argument(
+        "--threshold",
+        type=float,
+        default=THRESHOLD_N,
+        help="normal force (N) a press must exceed to command (default: %(default)s)",
+    )
+    g.add_argument(
+        "--hysteresis",
+        type=float,
+        default=HYSTERESIS_N,
+        help="re-arm once the force falls this far below the threshold (N)",
+    )
+    g.add_argument(
+        "--confirm",
+        type=int,
+        default=CONFIRM,
+        help="estimates the region must stay the same before a press is decided",
+    )
+    g.add_argument(
+        "--map",
+        default="cross",
+        dest="mapping",
+        help="region -> direction: cross | keypad | pairs like 1=up,3=right",
+    )
+    g.add_argument("--tick", type=float, default=TICK_S, help="seconds per snake move")
+    g.add_argument("--grid", default="16x12", help="board columns x rows")
+    g.add_argument("--game-seed", type=int, default=0, help="seed of the food positions")
+    g.add_argument("--accept-ood", action="store_true",
+                   help="let out-of-distribution estimates command too")  # fmt: skip
+
+
+def controller_from_args(args: argparse.Namespace) -> Any:
+    from spectratac.apps.snake.control import CommandDetector
+    from spectratac.apps.snake.controller import SnakeController
+    from spectratac.apps.snake.game import SnakeGame
+    from spectratac.apps.snake.mapping import DirectionMap
+
+    try:
+        width, height = (int(v) for v in args.grid.lower().split("x"))
+    except ValueError:
+        raise SpectraTacError(f"--grid {args.grid!r}: give columns x rows, e.g. 16x12") from None
+    detector = CommandDetector(
+        DirectionMap.parse(args.mapping),
+        threshold_n=args.threshold,
+        hysteresis_n=args.hysteresis,
+        confirm=args.confirm,
+        accept_ood=args.accept_ood,
+    )
+    try:
+        return SnakeController(SnakeGame(width, height, seed=args.game_seed), detector,
+                               tick_s=args.tick)  # fmt: skip
+    except ValueError as exc:
+        raise SpectraTacError(f"--tick: {exc}") from None
+
+
+def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
+    """Serve the page of a live session on `args` until Ctrl-C or --duration."""
+    from spectratac.apps.live.server import LiveServer, bind
+    from spectratac.apps.live.session import LiveSession
+    from spectratac.decode import Decoder
+
+    if args.duration < 0:
+        raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
+    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    session = LiveSession(
+        decoder,
+        args.url,
+        ft_url=getattr(args, "ft", None),  # None: the F/T the link pairs, if any
+        keep_config=args.keep_config,
+        timeout=args.timeout,
+        history_s=getattr(args, "history", 120.0),
+        snake=controller,
+        out_dir=getattr(args, "output", Path("live-clips")),
+        model_path=str(args.model),
+    )
+    server = LiveServer(session, bind(args.port))
+    url = server.url + ("#snake" if tab == "snake" else "")
+    if args.duration:
+        threading.Timer(args.duration, lambda: setattr(server.server, "should_exit", True)).start()
+    if getattr(args, "json", False):
+        print(json.dumps({"url": url}), flush=True)
+    else:
+        print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
+    if not args.no_browser:
+        threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+    server.run()
+    return ExitCode.OK
