@@ -37,7 +37,8 @@ lint: $(STAMP)
 
 # Regenerate every committed generated file from its one definition (a test fails on drift):
 # protocol/messages.toml, hardware/parts/veml3328.toml, the STM32 pinmap.toml (board.h) and
-# hardware/params.toml (the twin's board geometry).
+# hardware/params.toml (the twin's board geometry) and hardware/definitions/vocabulary.toml
+# (the sensor's regions, channels and axes).
 regen: $(STAMP)
 	$(BIN)/python tools/codegen/generate.py
 

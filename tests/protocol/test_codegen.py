@@ -1,7 +1,8 @@
 """Generated code is committed; regenerating it from its definitions must change nothing.
 
 Definitions: protocol/messages.toml (the protocol), hardware/parts/veml3328.toml (the sensor
-chip), firmware/ports/stm32f411/pinmap.toml (board.h) and hardware/params.toml (the geometry).
+chip), firmware/ports/stm32f411/pinmap.toml (board.h), hardware/params.toml (the geometry) and
+hardware/definitions/vocabulary.toml (regions, channels, axes).
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ GENERATED = [
     "host/spectratac/hardware/veml3328.py",
     "firmware/ports/stm32f411/board.h",
     "host/spectratac/hardware/board.py",
+    "host/spectratac/hardware/generated/vocabulary.py",
+    "firmware/core/generated/stac_vocabulary.h",
 ]
 
 

@@ -4,6 +4,7 @@ protocol/messages.toml          -> the protocol's C header/source, Python module
 hardware/parts/veml3328.toml    -> the VEML3328 register map for the firmware and the host
 firmware/ports/stm32f411/pinmap.toml -> the STM32 port's board.h
 hardware/params.toml            -> the board geometry the digital twin uses
+hardware/definitions/vocabulary.toml -> the sensor's regions, channels and axes (Python and C)
 
 python tools/codegen/generate.py            # rewrite the committed files
 python tools/codegen/generate.py --root DIR # write the same tree under DIR (drift check)
@@ -29,6 +30,7 @@ import part_c_backend
 import part_python_backend
 import python_backend
 import sim_abi_backend
+import vocabulary_backend
 from definition import load
 
 REPO = Path(__file__).resolve().parents[2]
@@ -36,12 +38,14 @@ DEFINITION = REPO / "protocol" / "messages.toml"
 VEML3328 = REPO / "hardware" / "parts" / "veml3328.toml"
 PINMAP = "firmware/ports/stm32f411/pinmap.toml"
 PARAMS = "hardware/params.toml"
+VOCABULARY = "hardware/definitions/vocabulary.toml"
 
 
 def outputs() -> dict[str, Callable[[], str]]:
     """Generated file (relative to the repository) -> how to render it."""
     definition = load(DEFINITION)
     veml = part.load(VEML3328)
+    vocabulary = vocabulary_backend.load(REPO / VOCABULARY, REPO / PARAMS, VOCABULARY)
     return {
         "firmware/core/generated/stac_messages.h": lambda: c_backend.render_header(definition),
         "firmware/core/generated/stac_messages.c": lambda: c_backend.render_source(definition),
@@ -54,6 +58,12 @@ def outputs() -> dict[str, Callable[[], str]]:
         ),
         "host/spectratac/hardware/board.py": lambda: board_geometry_backend.render(
             REPO / PARAMS, PARAMS
+        ),
+        "host/spectratac/hardware/generated/vocabulary.py": (
+            lambda: vocabulary_backend.render_python(vocabulary)
+        ),
+        "firmware/core/generated/stac_vocabulary.h": (
+            lambda: vocabulary_backend.render_header(vocabulary)
         ),
     }
 
