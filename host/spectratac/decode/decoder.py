@@ -32,6 +32,7 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
+from spectratac.hardware.generated import vocabulary as vocab
 
 F64 = NDArray[np.float64]
 CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
@@ -217,7 +218,7 @@ class Decoder:
         (DecoderConfigError on mismatch) and again whenever the configuration id changes;
         warns if the unit differs.
         """
-        if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
+        if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         if self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
@@ -368,7 +369,7 @@ class Decoder:
         fs = build_features(features, layout)
         heads = Heads(
             tuple(t for t in targets if t not in ("region", "contact")),
-            n_classes=9 if "region" in targets else 0,
+            n_classes=vocab.N_REGIONS if "region" in targets else 0,
             contact="contact" in targets,
         )
         w = init_weights(arch, fs.n_features, heads.n_out, np.random.default_rng(seed))

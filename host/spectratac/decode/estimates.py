@@ -17,11 +17,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol.messages import EstimateFlags
 
 F64 = NDArray[np.float64]
-FORCE = ("Fx", "Fy", "Fz")
-TORQUE = ("Tx", "Ty", "Tz")
+FORCE = vocab.FORCE_AXES
+TORQUE = vocab.TORQUE_AXES
 
 
 def interval_factor(level: float) -> float:

@@ -28,7 +28,7 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import assemble, session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.feature_matrices import FeatureSet, build_features
 from spectratac.decode.groups import GUARD_ROWS, row_groups
 from spectratac.decode.groups import val_split as groups_val_split
 from spectratac.decode.guard import SATURATION, Guard
@@ -36,6 +36,7 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.runtime import Runtime
 from spectratac.decode.spec import TrainSpec
+from spectratac.hardware.generated import vocabulary as vocab
 
 F64 = NDArray[np.float64]
 PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
@@ -86,9 +87,9 @@ def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
         raise DecoderConfigError(
             f"target {class_name!r} asked for, but no row of the dataset has a class label"
         )
-    spectratac = tuple(dataset.input_names) == SPECTRATAC_CHANNELS
+    spectratac = tuple(dataset.input_names) == vocab.DECODED_INPUTS
     if dataset.meta.get("kind") == "spectratac" and spectratac:
-        n_classes = 9
+        n_classes = vocab.N_REGIONS
     else:
         n_classes = len(labels) if labels else int(region.max(initial=0))
     steps = sensor_config.n_steps(sensor_config.normalise(dataset.meta.get("config")))

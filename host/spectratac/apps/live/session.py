@@ -28,6 +28,8 @@ from spectratac.apps.live.messages import estimate_message
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
 from spectratac.errors import SpectraTacError
+from spectratac.hardware import board
+from spectratac.hardware.generated import vocabulary as vocab
 
 Publish = Callable[[dict[str, Any]], None]
 STATS_EVERY_S = 0.5
@@ -128,8 +130,6 @@ class LiveSession:
     # ------------------------------------------------------------------ what clients see
     def meta(self) -> dict[str, Any]:
         """Everything the page needs once: model, devices, geometry, game settings."""
-        from spectratac.twin import geometry as g
-
         det = self.snake.detector
         dec = self.decoder
         return {
@@ -148,13 +148,13 @@ class LiveSession:
             "history_s": self.history.keep_s,
             "formats": list(FORMATS),
             "geometry": {
-                "disc_mm": g.DISC_RADIUS_MM,
-                "centre_mm": g.CENTER_RADIUS_MM,
-                "active_mm": g.ACTIVE_RADIUS_MM,
-                "ring_mm": g.RING_RADIUS_MM,
-                "sectors_deg": {str(k): v for k, v in g.SECTOR_CENTRE_DEG.items()},
-                "sensors_deg": g.SENSOR_ANGLES_DEG.tolist(),
-                "leds_deg": g.LED_ANGLES_DEG.tolist(),
+                "disc_mm": board.BOARD_RADIUS,
+                "centre_mm": vocab.CENTRE_RADIUS_MM,
+                "active_mm": vocab.ACTIVE_RADIUS_MM,
+                "ring_mm": board.LAYOUT_RING_RADIUS,
+                "sectors_deg": {str(k): v for k, v in vocab.SECTOR_CENTRE_DEG.items()},
+                "sensors_deg": list(board.LAYOUT_SENSOR_ANGLES),
+                "leds_deg": list(board.LAYOUT_LED_ANGLES),
             },
             "snake": self.snake_state(),
             "threshold_n": det.threshold_n,
@@ -294,19 +294,16 @@ class LiveSession:
 
     @staticmethod
     def _row(msg: dict[str, Any], est: Any, sample: Any) -> dict[str, Any]:
-        names = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
         return {
             "t_s": msg["t"],
             "host_time": sample.host_time,
             "device_time_s": sample.device_time_us / 1e6,
             "step": msg["step"],
-            **dict(zip(names, [*msg["force"], *msg["torque"]], strict=True)),
+            **dict(zip(vocab.FT_AXES, [*msg["force"], *msg["torque"]], strict=True)),
             "region": msg["region"],
             "region_prob": msg["p"],
             "contact": int(msg["contact"]),
             "ood": int(msg["ood"]),
             "invalid": int(msg["invalid"]),
-            **dict(
-                zip([f"s{s}.{c}" for s in range(3) for c in "RGBC"], msg["counts"], strict=True)
-            ),
+            **dict(zip(vocab.DECODED_INPUTS, msg["counts"], strict=True)),
         }
