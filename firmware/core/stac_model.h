@@ -20,6 +20,8 @@
 
 #include <stdint.h>
 
+#include "generated/stac_vocabulary.h"
+
 /* ---- image format ---- */
 #define STAC_MODEL_MAGIC 0x494D5453u /* "STMI" little-endian */
 #define STAC_MODEL_VERSION 1u
@@ -75,7 +77,7 @@ typedef struct {
     uint8_t weight_format, arch, steps, n_lags, n_emas, drift, uncertainty, contact_head;
     uint16_t n_in, n_base, n_feat, n_lin, n_rat, hidden, blocks, n_out, n_reg, n_classes;
     uint16_t n_dark, hist;
-    uint8_t target_map[6]; /* Fx Fy Fz Tx Ty Tz -> regression index, 0xFF when absent */
+    uint8_t target_map[STAC_FT_AXES]; /* Fx Fy Fz Tx Ty Tz -> regression index, 0xFF: absent */
     float saturation;      /* inputs at or above it are out of distribution; 0: none */
     float dark_counts;     /* a guarded Clear column below it is dark: out of distribution */
     double contact_force;  /* |F| above it is contact (models without a contact head) */
@@ -111,8 +113,8 @@ typedef struct {
 } stac_model_state_t;
 
 typedef struct {
-    float force[3];  /* Fx Fy Fz [N]; NaN when absent from the model or EST_INVALID */
-    float torque[3]; /* Tx Ty Tz [N m]; likewise */
+    float force[STAC_FORCE_AXES];   /* Fx Fy Fz [N]; NaN if absent from the model or EST_INVALID */
+    float torque[STAC_TORQUE_AXES]; /* Tx Ty Tz [N m]; likewise */
     uint8_t region;  /* 1..K, 0 without a region head or when EST_INVALID */
     float region_prob;  /* NaN without a region head */
     float contact_prob; /* NaN without a contact head */
@@ -133,7 +135,7 @@ void stac_model_reset(const stac_model_t *m, stac_model_state_t *st);
  * convert uint16_t (*)[5] to const uint16_t (*)[5] implicitly (-pedantic warns): pass a
  * non-const array as (const uint16_t(*)[5])counts. */
 int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_step,
-                    const uint16_t counts[3][5], const uint8_t sensor_status[3],
-                    stac_model_output_t *out);
+                    const uint16_t counts[STAC_SENSORS][STAC_CHANNELS],
+                    const uint8_t sensor_status[STAC_SENSORS], stac_model_output_t *out);
 
 #endif /* STAC_MODEL_H */
