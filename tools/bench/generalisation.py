@@ -53,9 +53,10 @@ from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.decode import DecoderUnitWarning, TrainSpec, train
 from spectratac.decode.finetune import MODES, finetune
 from spectratac.evaluate import auto_recipe
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.sim.twin_dataset import population
 
-FORCES = ("Fx", "Fy", "Fz")
+FORCES = vocab.FORCE_AXES
 NEW_UNIT = 1000  # a unit seed far from the population's 1..N
 MINUTES = (0.5, 1.0, 2.0, 5.0)
 TARGET_RATIO = 1.3  # few-shot at 2 minutes against the full calibration
