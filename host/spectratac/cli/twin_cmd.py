@@ -2,6 +2,7 @@
 
 spectratac twin report [--json] [--check]     train the paper recipe on a simulated session
 spectratac twin generate -o OUT.npz [--scene S] write a session (counts, F/T, truth) to .npz
+                                               (scenes: sim/named_scenes.py, as in sim:// URLs)
 spectratac twin population -o OUT.npz --units 0,1,2,3 --sessions 3 --duration 300
                                                a dataset of several units x sessions each
 """
