@@ -44,8 +44,7 @@ class NamedScene:
 
 
 def _idle(seed: int, duration_s: float | None, params: Mapping[str, str]) -> Scene:
-    assert duration_s is not None  # named_scene gives open-ended scenes their length
-    return builtin_scenes.idle(duration_s)
+    return builtin_scenes.idle(*(() if duration_s is None else (duration_s,)))
 
 
 def _press(seed: int, duration_s: float | None, params: Mapping[str, str]) -> Scene:
