@@ -8,15 +8,16 @@
 #include <string.h>
 
 #include "generated/stac_messages.h"
+#include "generated/stac_vocabulary.h"
 #include "stac_crc32c.h"
 
 #define FEATURE_EPS 1e-5f  /* paper_features.EPS: ratio denominators stay positive */
 #define LN_EPS 1e-5f       /* networks.LN_EPS */
 #define GELU_K 0.7978845608028654f
 #define STATUS_BAD 0x0Fu   /* guard.STATUS_BAD: saturated, bus fault, stale, absent */
-#define N_SENSORS 3u
-#define SENSOR_CHANNELS 5u /* counts per sensor on the wire: R G B C IR */
-#define PER_SENSOR 4u      /* of which the decoder uses R G B C */
+#define PER_SENSOR STAC_DECODED_CHANNELS /* of the wire's R G B C IR, the decoder uses R G B C */
+_Static_assert(STAC_MODEL_CHANNELS == STAC_SENSORS * PER_SENSOR, "a step: every sensor's R G B C");
+_Static_assert(STAC_MODEL_N_TARGETS == STAC_FT_AXES, "the image maps every F/T axis of the vocabulary");
 
 static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
 
@@ -569,7 +570,7 @@ static void assemble(const stac_model_t *m, stac_model_state_t *st) {
 /* ------------------------------------------------------------------ one sample */
 
 static void no_estimate(stac_model_output_t *out, uint8_t flags) {
-    for (unsigned i = 0; i < 3u; ++i) out->force[i] = out->torque[i] = NAN;
+    for (unsigned i = 0; i < STAC_FORCE_AXES; ++i) out->force[i] = out->torque[i] = NAN;
     out->region = 0u;
     out->region_prob = NAN;
     out->contact_prob = NAN;
@@ -577,14 +578,14 @@ static void no_estimate(stac_model_output_t *out, uint8_t flags) {
 }
 
 int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_step,
-                    const uint16_t counts[3][5], const uint8_t sensor_status[3],
-                    stac_model_output_t *out) {
+                    const uint16_t counts[STAC_SENSORS][STAC_CHANNELS],
+                    const uint8_t sensor_status[STAC_SENSORS], stac_model_output_t *out) {
     if (m->image == NULL || led_step >= m->steps) {
         no_estimate(out, STAC_EST_INVALID);
         return 1;
     }
     float *x = st->latest + (uint32_t)led_step * STAC_MODEL_CHANNELS;
-    for (uint32_t s = 0; s < N_SENSORS; ++s)
+    for (uint32_t s = 0; s < STAC_SENSORS; ++s)
         for (uint32_t c = 0; c < PER_SENSOR; ++c) x[s * PER_SENSOR + c] = (float)counts[s][c];
     st->seen[led_step] = 1u;
     for (uint32_t s = 0; s < m->steps; ++s)
@@ -611,14 +612,14 @@ int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_s
         if (st->u[m->dark_cols[k]] < m->dark_counts) ood = 1;
     for (uint32_t r = 0; r < m->n_reg; ++r)
         if (st->out[r] < m->t_lo[r] || st->out[r] > m->t_hi[r]) ood = 1;
-    for (uint32_t s = 0; s < N_SENSORS; ++s)
+    for (uint32_t s = 0; s < STAC_SENSORS; ++s)
         if (sensor_status[s] & STATUS_BAD) ood = 1;
     if (ood) flags |= STAC_EST_OOD;
 
     double f2 = 0.0; /* decoder.py: |F| from the float32 outputs in float64 */
     int any_force = 0;
-    for (unsigned i = 0; i < 3u; ++i) {
-        const uint8_t fi = m->target_map[i], ti = m->target_map[3u + i];
+    for (unsigned i = 0; i < STAC_FORCE_AXES; ++i) {
+        const uint8_t fi = m->target_map[i], ti = m->target_map[STAC_FORCE_AXES + i];
         out->force[i] = fi == STAC_MODEL_TARGET_ABSENT ? NAN : st->out[fi];
         out->torque[i] = ti == STAC_MODEL_TARGET_ABSENT ? NAN : st->out[ti];
         if (fi != STAC_MODEL_TARGET_ABSENT) {

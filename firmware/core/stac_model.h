@@ -20,6 +20,8 @@
 
 #include <stdint.h>
 
+#include "generated/stac_vocabulary.h"
+
 /* The image's layout (header offsets, section ids, formats, flags) and the interpreter's
  * compile-time limits (static scratch; an image beyond them is STAC_MODEL_INVALID) are generated
  * from hardware/definitions/model_image.toml, the definition the exporter writes images from.
@@ -89,8 +91,8 @@ typedef struct {
 } stac_model_state_t;
 
 typedef struct {
-    float force[3];  /* Fx Fy Fz [N]; NaN when absent from the model or EST_INVALID */
-    float torque[3]; /* Tx Ty Tz [N m]; likewise */
+    float force[STAC_FORCE_AXES];   /* Fx Fy Fz [N]; NaN if absent from the model or EST_INVALID */
+    float torque[STAC_TORQUE_AXES]; /* Tx Ty Tz [N m]; likewise */
     uint8_t region;  /* 1..K, 0 without a region head or when EST_INVALID */
     float region_prob;  /* NaN without a region head */
     float contact_prob; /* NaN without a contact head */
@@ -111,7 +113,7 @@ void stac_model_reset(const stac_model_t *m, stac_model_state_t *st);
  * convert uint16_t (*)[5] to const uint16_t (*)[5] implicitly (-pedantic warns): pass a
  * non-const array as (const uint16_t(*)[5])counts. */
 int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_step,
-                    const uint16_t counts[3][5], const uint8_t sensor_status[3],
-                    stac_model_output_t *out);
+                    const uint16_t counts[STAC_SENSORS][STAC_CHANNELS],
+                    const uint8_t sensor_status[STAC_SENSORS], stac_model_output_t *out);
 
 #endif /* STAC_MODEL_H */

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from spectratac.hardware.generated import vocabulary as vocab
 
 #: The scripted scene the pipeline tests play: a press below the threshold (0.6 N) on
 #: "up" must not command; the centre is neutral.
@@ -22,7 +23,7 @@ def training_scene():
     from spectratac.twin.scripted_presses import scripted_presses
 
     rng = np.random.default_rng(5)
-    regions = list(range(1, 10)) * 6
+    regions = list(vocab.REGIONS) * 6
     rng.shuffle(regions)
     forces = np.tile([0.6, 1.5, 3.0, 2.0, 4.0, 1.0], 9)  # either side of the 1.0 N threshold
     return scripted_presses(regions, forces)

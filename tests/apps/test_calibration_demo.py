@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from spectratac.apps.calibration_demo import DemoOptions, results_table, run_demo
 from spectratac.dataset import Dataset
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.studies.oracle_floor import OracleFloor
 
 pytestmark = pytest.mark.train
@@ -33,10 +34,10 @@ def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:
         assert list((tmp_path / f"report-{name}").glob("*.png"))
         res = summary["results"][name]
         for kind in ("random", "blocked"):
-            assert set(res[kind]["mae"]) == {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz"}
+            assert set(res[kind]["mae"]) == set(vocab.FT_AXES)
             assert all(np.isfinite(v) and v > 0 for v in res[kind]["mae"].values())
     table = results_table(summary["results"])
     assert table[2].startswith("Fx") and "0.161" in table[2]
     oracle = summary["results"]["paper"]["blocked"]["oracle_mae"]
-    assert oracle is not None and set(oracle) == {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz"}
+    assert oracle is not None and set(oracle) == set(vocab.FT_AXES)
     assert any("[4/4]" in line for line in said)

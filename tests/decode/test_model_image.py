@@ -147,32 +147,35 @@ def test_the_paper_size_float32_decoder_fits_the_store() -> None:
 
 
 @pytest.mark.parametrize(
-    ("old", "new", "message"),
+    ("broken", "old", "new", "message"),
     [
-        ('name = "reserved0"\ntype = "u32"', 'name = "reserved0"\ntype = "u16"',
+        ("model_image.toml", 'name = "reserved0"\ntype = "u32"', 'name = "reserved0"\ntype = "u16"',
          "base_tau at offset 62 is not aligned"),
-        ('name = "n_sections"\ntype = "u16"', 'name = "n_sections"\ntype = "u32"',
-         "n_sections at offset 50 is not aligned"),
-        ("header_size = 96", "header_size = 100", "take 96 bytes; .* says 100"),
-        ('"Ty", "Tz"]', '"Ty"]', "target_map holds 6 entries; .* names 5"),
+        ("model_image.toml", 'name = "n_sections"\ntype = "u16"',
+         'name = "n_sections"\ntype = "u32"', "n_sections at offset 50 is not aligned"),
+        ("model_image.toml", "header_size = 96", "header_size = 100", "take 96 bytes; .* says 100"),
+        ("vocabulary.toml", '"Ty", "Tz"]', '"Ty"]', "target_map holds 6 entries; .* names 5"),
     ],
 )  # fmt: skip
 def test_the_layout_definition_refuses_padding_and_wrong_sizes(
-    tmp_path: Path, old: str, new: str, message: str
+    tmp_path: Path, broken: str, old: str, new: str, message: str
 ) -> None:
     """Offsets come from the definition's field order: a field that would need padding, or
-    fields that do not fill the declared header, are refused when generating."""
+    fields that do not fill the declared header, are refused when generating; so is a
+    target_map that does not hold every F/T axis of the vocabulary beside it."""
     sys.path.insert(0, str(REPO / "tools" / "codegen"))
     try:
         import model_image_backend as backend  # type: ignore[import-not-found]
     finally:
         sys.path.remove(str(REPO / "tools" / "codegen"))
-    definition = REPO / "hardware" / "definitions" / "model_image.toml"
-    layout = backend.load(definition)
+    definitions = REPO / "hardware" / "definitions"
+    layout = backend.load(definitions / "model_image.toml")
     assert layout.offset("n_sections") == 50 and layout.struct_format() == mi.HEADER.format
-    text = definition.read_text(encoding="utf-8")
-    assert text.count(old) == 1
-    path = tmp_path / "model_image.toml"
-    path.write_text(text.replace(old, new), encoding="utf-8")
+    for name in ("model_image.toml", "vocabulary.toml"):
+        text = (definitions / name).read_text(encoding="utf-8")
+        if name == broken:
+            assert text.count(old) == 1
+            text = text.replace(old, new)
+        (tmp_path / name).write_text(text, encoding="utf-8")
     with pytest.raises(backend.ModelImageDefinitionError, match=message):
-        backend.load(path)
+        backend.load(tmp_path / "model_image.toml")

@@ -15,6 +15,7 @@ from spectratac.evaluate.metrics import (
     region_scores,
     regression_scores,
 )
+from spectratac.hardware.generated import vocabulary as vocab
 
 FINITE = st.floats(-100, 100, allow_nan=False)
 
@@ -53,7 +54,7 @@ def test_r2_is_one_for_perfect_and_zero_for_the_mean() -> None:
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(st.tuples(st.sampled_from([-1, *range(1, 10)]), st.integers(1, 9)), min_size=1))
+@given(st.lists(st.tuples(st.sampled_from([-1, *vocab.REGIONS]), st.integers(1, 9)), min_size=1))
 def test_confusion_counts_each_labelled_row_once(pairs) -> None:
     lab = np.array([a for a, _ in pairs])
     pred = np.array([b for _, b in pairs])

@@ -1,8 +1,9 @@
 """What the generator makes of the protocol, part and board definitions means what they say.
 
 Definitions (hardware/definitions/): messages.toml (the protocol), veml3328.toml (the sensor
-chip), stm32f411_pinmap.toml (board.h) and params.toml (the geometry). That the committed
-outputs equal a fresh run is tests/meta/test_generated.py's job (one drift test for all).
+chip), stm32f411_pinmap.toml (board.h), params.toml (the geometry) and vocabulary.toml (regions,
+channels, axes). That the committed outputs equal a fresh run is tests/meta/test_generated.py's
+job (one drift test for all).
 """
 
 from __future__ import annotations

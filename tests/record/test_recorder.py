@@ -10,6 +10,7 @@ import pytest
 from spectratac.dataset.frames import recorded_samples
 from spectratac.device import Sensor
 from spectratac.device.errors import DisconnectedError
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.record import (
     GuidedProtocol,
     Recorder,
@@ -77,7 +78,7 @@ def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Reco
         )
         epoch, speed = rec.truth["epoch"], 10.0
         assert e["t_start"] == pytest.approx(epoch + p.start[i] / speed)
-    assert [e["region"] for e in rec.labels[:9]] == list(range(1, 10))  # the tour's order
+    assert [e["region"] for e in rec.labels[:9]] == list(vocab.REGIONS)  # the tour's order
 
 
 def test_a_stop_request_finishes_the_file(tmp_path: Path) -> None:
@@ -222,7 +223,7 @@ def test_every_sample_carries_the_scenes_truth(
     np.testing.assert_array_equal(truth["press"], scene.press_index(t_mid))
     np.testing.assert_array_equal(truth["force_n"][:, 2], contact.normal)
     np.testing.assert_array_equal(truth["position_mm"][:, 0], contact.x)
-    assert set(np.unique(truth["region"])) == {-1, *range(1, 10)}
+    assert set(np.unique(truth["region"])) == {-1, *vocab.REGIONS}
 
 
 def test_truth_is_written_before_its_frames(tmp_path: Path) -> None:

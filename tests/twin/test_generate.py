@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.twin import Scene, Session, TwinError, builtin_scenes, generate_session
 
 
@@ -13,11 +14,11 @@ def test_calibration_protocol_shape(short_cal: tuple[Scene, Session]) -> None:
     assert s.counts.shape == (len(s), 3, 5) and s.counts.dtype == np.uint16
     assert s.ft.shape == (s.ft_t.shape[0], 6)
     np.testing.assert_allclose(np.diff(s.ft_t), 1e-3)
-    assert set(np.unique(s.region)) <= {-1, *range(1, 10)}
+    assert set(np.unique(s.region)) <= {-1, *vocab.REGIONS}
     assert s.in_contact.mean() > 0.5 and (s.region > 0).mean() > 0.3
     # Labels only on contacts; every region visited.
     assert np.all(s.in_contact[s.region > 0])
-    assert set(np.unique(s.region[s.region > 0])) == set(range(1, 10))
+    assert set(np.unique(s.region[s.region > 0])) == set(vocab.REGIONS)
     assert np.abs(s.force[:, 2]).max() <= 10.0 * 1.25 + 0.1
     assert np.abs(s.force[:, :2]).max() <= 3.0 + 1e-9
 

@@ -1,12 +1,13 @@
-"""The twin's layout is the board's: every twin geometry value either comes from
-hardware/definitions/params.toml (through the generated spectratac.hardware.generated.board) or has
-no board counterpart. A new twin constant must be sorted into one of these lists, and a new mismatch
-fails here. The unit draw's spreads are the board's [tolerances], one source."""
+"""The twin's layout is the board's: every twin geometry value comes from
+hardware/definitions/params.toml (through the generated spectratac.hardware.generated.board), from
+the sensor's vocabulary (the regions, hardware/definitions/vocabulary.toml) or has no counterpart
+there. A new twin constant must be sorted into one of these lists, and a new mismatch fails here.
+The unit draw's spreads are the board's [tolerances], one source."""
 
 from __future__ import annotations
 
 import numpy as np
-from spectratac.hardware.generated import board
+from spectratac.hardware.generated import board, vocabulary
 from spectratac.twin import geometry
 from spectratac.twin.unit import TOLERANCES, VARIATION, UnitParams
 
@@ -21,15 +22,14 @@ SHARED = {
     "PDMS_MM": "STACK_PDMS",
     "SKIN_MM": "STACK_SKIN_TOP",
 }
-# Twin-only: region layout, and values derived from the ones above.
-TWIN_ONLY = {
-    "CENTER_RADIUS_MM",
-    "ACTIVE_RADIUS_MM",
-    "SURFACE_Z_MM",
-    "SENSOR_XY",
-    "LED_XY",
-    "SECTOR_CENTRE_DEG",
+# Twin constant -> vocabulary constant it equals (the region layout).
+REGIONS = {
+    "CENTER_RADIUS_MM": "CENTRE_RADIUS_MM",
+    "ACTIVE_RADIUS_MM": "ACTIVE_RADIUS_MM",
+    "SECTOR_CENTRE_DEG": "SECTOR_CENTRE_DEG",
 }
+# Twin-only: values derived from the ones above.
+TWIN_ONLY = {"SURFACE_Z_MM", "SENSOR_XY", "LED_XY"}
 
 
 def _numeric_constants() -> set[str]:
@@ -46,6 +46,17 @@ def test_shared_values_equal_the_board() -> None:
     for twin_name, board_name in SHARED.items():
         twin, built = getattr(geometry, twin_name), getattr(board, board_name)
         assert np.array_equal(twin, built), f"{twin_name} {twin} != params.toml {board_name}"
+
+
+def test_region_layout_is_the_vocabulary() -> None:
+    for twin_name, vocab_name in REGIONS.items():
+        assert getattr(geometry, twin_name) == getattr(vocabulary, vocab_name), twin_name
+    # The regions lie on the board: the centre disc inside the part ring, the ring inside
+    # the skin's disc, and the vocabulary's sensor count is the board's.
+    assert 0 < vocabulary.CENTRE_RADIUS_MM < board.LAYOUT_RING_RADIUS
+    assert vocabulary.ACTIVE_RADIUS_MM < board.BOARD_RADIUS
+    assert len(board.LAYOUT_SENSOR_ANGLES) == vocabulary.N_SENSORS
+    assert len(board.LAYOUT_LED_ANGLES) == vocabulary.N_LEDS
 
 
 def test_nominal_unit_is_built_on_the_board_stack() -> None:
@@ -70,7 +81,7 @@ def test_unit_spreads_are_the_board_tolerances() -> None:
 
 
 def test_every_twin_geometry_constant_is_classified() -> None:
-    listed = set(SHARED) | TWIN_ONLY
+    listed = set(SHARED) | set(REGIONS) | TWIN_ONLY
     assert _numeric_constants() == listed
 
 

@@ -47,9 +47,10 @@ def skin(seed: int) -> tuple[Dataset, np.ndarray, np.ndarray, str, tuple[str, ..
 
 
 def twin(seed: int) -> tuple[Dataset, np.ndarray, np.ndarray, str, tuple[str, ...]]:
+    from spectratac.hardware.generated import vocabulary as vocab
     from spectratac.sim import twin_dataset
 
-    targets = ("Fx", "Fy", "Fz")
+    targets = vocab.FORCE_AXES
     if hasattr(twin_dataset, "population"):
         ds = twin_dataset.population(units=1, sessions_per_unit=9, session_s=120.0, seed=seed)
         n = int(ds.session.max()) + 1

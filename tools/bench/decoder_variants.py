@@ -21,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.studies.bench import add_options, config_from_args, run_with_progress
 
 
@@ -32,7 +33,7 @@ def figures(result: dict) -> list[benchlib.Figure]:
         for kind in ("blocked", "random"):
             if kind not in r:
                 continue
-            for axis in ("Fx", "Fy", "Fz"):
+            for axis in vocab.FORCE_AXES:
                 v, rv = r[kind]["mae"][axis], ref[kind]["mae"][axis]
                 out.append(
                     benchlib.Figure(

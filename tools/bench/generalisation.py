@@ -51,11 +51,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 import benchlib
 from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.decode import DecoderUnitWarning
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.sim.twin_dataset import population
 from spectratac.train import TrainSpec, auto_recipe, train
 from spectratac.train.finetune import MODES, finetune
 
-FORCES = ("Fx", "Fy", "Fz")
+FORCES = vocab.FORCE_AXES
 NEW_UNIT = 1000  # a unit seed far from the population's 1..N
 MINUTES = (0.5, 1.0, 2.0, 5.0)
 TARGET_RATIO = 1.3  # few-shot at 2 minutes against the full calibration

@@ -41,12 +41,13 @@ CHROMIUM_FLAGS = (
 def small_model(folder: Path) -> Path:
     """A decoder of Fx, Fy, Fz, region and contact trained on twin presses of every region."""
     import numpy as np
+    from spectratac.hardware.generated import vocabulary as vocab
     from spectratac.sim.twin_dataset import from_twin_session
     from spectratac.train import TrainSpec, train
     from spectratac.twin import generate_session
     from spectratac.twin.scripted_presses import scripted_presses
 
-    regions = list(range(1, 10)) * 4
+    regions = list(vocab.REGIONS) * 4
     scene = scripted_presses(regions, np.tile([0.6, 1.5, 3.0, 4.0], 9))
     ds = from_twin_session(generate_session(scene, seed=0), scene)
     spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=10,

@@ -29,6 +29,7 @@ import board_geometry_backend
 import model_image_backend
 import part
 import sim_abi_backend
+import vocabulary_backend
 from definition import load
 
 REPO = Path(__file__).resolve().parents[2]
@@ -44,6 +45,10 @@ LOADERS: dict[str, Callable[[Path, str], Any]] = {
     "params": board_geometry_backend.load,
     "sim_abi": lambda path, source: sim_abi_backend.load(path),
     "model_image": model_image_backend.load,
+    # The vocabulary counts the board's sensors and LEDs: it reads params.toml beside it.
+    "vocabulary": lambda path, source: vocabulary_backend.load(
+        path, path.parent / "params.toml", source
+    ),
 }
 
 

@@ -112,11 +112,14 @@ def load(path: Path, source: str = "hardware/definitions/model_image.toml") -> L
         not 0 <= bit < 8 for bit, _ in flags.values()
     ):
         raise ModelImageDefinitionError("[flags]: each flag needs its own bit 0..7")
-    targets = tuple(raw["targets"]["names"])
+    # target_map's order is the vocabulary's F/T axes (vocabulary.toml beside this definition).
+    vocabulary = tomllib.loads((path.parent / "vocabulary.toml").read_text(encoding="utf-8"))
+    targets = tuple(vocabulary["axes"]["names"])
     target_map = next(f for f in header if f.name == "target_map")
     if target_map.count != len(targets):
         raise ModelImageDefinitionError(
-            f"header.target_map holds {target_map.count} entries; [targets] names {len(targets)}"
+            f"header.target_map holds {target_map.count} entries; "
+            f"vocabulary.toml's [axes] names {len(targets)}"
         )
     limits = {
         name: (int(v["value"]), v.get("doc", "")) if isinstance(v, dict) else (int(v), "")
@@ -231,6 +234,8 @@ def render_python(layout: Layout) -> str:
         "",
         "import struct",
         "",
+        "from spectratac.hardware.generated.vocabulary import FT_AXES",
+        "",
         f'MAGIC = b"{img["magic"]}"',
         f"VERSION = {img['version']}",
         f"HEADER_SIZE = {img['header_size']}",
@@ -259,8 +264,9 @@ def render_python(layout: Layout) -> str:
     out += [
         f"FLAGS_DEFINED = 0x{defined:02X}  # any other bit: refused",
         "",
-        "#: header.target_map: the regression index of each of these, or TARGET_ABSENT.",
-        f"TARGETS = {_tuple([repr(t) for t in layout.targets])}",
+        "#: header.target_map: the regression index of each of these (the vocabulary's F/T axes),",
+        "#: or TARGET_ABSENT.",
+        "TARGETS = FT_AXES",
         f"TARGET_ABSENT = 0x{layout.target_absent:02X}",
         "",
         "#: Sections in table order.",

@@ -22,9 +22,8 @@ from typing import Any
 
 from spectratac.evaluate.paper import paper_mae
 from spectratac.evaluate.run import Floor
+from spectratac.hardware.generated import vocabulary as vocab
 
-FORCES = ("Fx", "Fy", "Fz")
-COMPONENTS = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
 Say = Callable[[str], None]
 
 
@@ -194,11 +193,11 @@ def _scores(section: Any) -> dict[str, Any]:
     dec = section.decoder.scores if section.decoder is not None else {}
     ora = section.oracle.scores if section.oracle is not None else None
     return {
-        "mae": {c: dec["components"][c]["mae"] for c in COMPONENTS if c in dec["components"]},
-        "r2": {c: dec["components"][c]["r2"] for c in COMPONENTS if c in dec["components"]},
+        "mae": {c: dec["components"][c]["mae"] for c in vocab.FT_AXES if c in dec["components"]},
+        "r2": {c: dec["components"][c]["r2"] for c in vocab.FT_AXES if c in dec["components"]},
         "region_accuracy": (dec.get("region") or {}).get("accuracy"),
         "oracle_mae": (
-            {c: ora["components"][c]["mae"] for c in COMPONENTS if c in ora["components"]}
+            {c: ora["components"][c]["mae"] for c in vocab.FT_AXES if c in ora["components"]}
             if ora
             else None
         ),
@@ -220,7 +219,7 @@ def results_table(results: dict[str, Any]) -> list[str]:
     )
     lines = [head, sub]
     oracle = p["blocked"]["oracle_mae"] or {}
-    for c in COMPONENTS:
+    for c in vocab.FT_AXES:
         pb, bb = p["blocked"]["mae"][c], b["blocked"]["mae"][c]
         gain = f"{100 * (1 - bb / pb):+.0f}%" if pb > 0 else "–"
         ora = f"{oracle[c]:.3g}" if c in oracle else "–"

@@ -30,9 +30,10 @@ from spectratac.cli.options import (
 )
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 # t_s: seconds since the first sample (host clock)
-COLUMNS = ("t_s", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "region", "p", "contact", "ood", "invalid")
+COLUMNS = ("t_s", *vocab.FT_AXES, "region", "p", "contact", "ood", "invalid")
 
 
 def register(subparsers: Any) -> None:

@@ -16,6 +16,7 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_count, add_device_url, add_row_format
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.hardware.generated.veml3328 import INTEGRATION_MS
 
 
@@ -76,9 +77,9 @@ def _info(args: argparse.Namespace) -> int:
     return ExitCode.OK
 
 
-CHANNELS = ("R", "G", "B", "C", "IR")
-SAMPLE_COLUMNS = ["seq", "t_ms", "step", *(f"s{k}{c}" for k in range(3) for c in CHANNELS)]
-ESTIMATE_COLUMNS = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "region", "est_flags"]
+# Table columns spell a count without the dot of its dataset name: s0R, ..., s2IR.
+SAMPLE_COLUMNS = ["seq", "t_ms", "step", *(n.replace(".", "") for n in vocab.SENSOR_CHANNELS)]
+ESTIMATE_COLUMNS = [*vocab.FT_AXES, "region", "est_flags"]
 PAIRING_WAIT_S = 0.5  # how long a sample waits for its estimate (it follows the SAMPLE frame)
 
 

@@ -18,9 +18,10 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_count, add_device_url, add_renamed, add_row_format
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError, printable
+from spectratac.hardware.generated import vocabulary as vocab
 
 URL_HELP = "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, or sim://?…&ft=netft|bota"
-COLUMNS = ("sensor_time", "host_time", "sequence", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status")
+COLUMNS = ("sensor_time", "host_time", "sequence", *vocab.FT_AXES, "status")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

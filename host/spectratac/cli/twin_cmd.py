@@ -2,6 +2,7 @@
 
 spectratac twin report [--json] [--check]     train the paper recipe on a simulated session
 spectratac twin generate -o OUT.npz [--scene S] write a session (counts, F/T, truth) to .npz
+                                               (scenes: sim/named_scenes.py, as in sim:// URLs)
 spectratac twin population -o OUT.npz --units 0,1,2,3 --sessions 3 --duration 300
                                                a dataset of several units x sessions each
 """
@@ -26,8 +27,10 @@ from spectratac.cli.options import (
     refuse_overwrite,
 )
 from spectratac.hardware.generated.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
+from spectratac.sim.named_scenes import POPULATION_SCENES, SCENES
 
-SCENES = ("calibration", "idle", "drift", "press")
+#: A generated file of a scene without a length of its own (idle) lasts this long (s).
+OPEN_ENDED_S = 10.0
 
 
 def register(subparsers: Any) -> None:
@@ -76,7 +79,7 @@ def register(subparsers: Any) -> None:
     pop.add_argument("--sessions", type=int, required=True, help="sessions per unit")
     add_duration(pop, 300.0, "length of each session in s")
     pop.add_argument("--seed", type=int, default=0, help="seed of the session conditions")
-    pop.add_argument("--scene", default="calibration", choices=("calibration", "idle", "drift"))
+    pop.add_argument("--scene", default="calibration", choices=POPULATION_SCENES)
     pop.add_argument("--json", action="store_true", help="print a JSON summary")
     pop.add_argument("--no-progress", action="store_true")
     pop.set_defaults(func=_population)
@@ -122,31 +125,19 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.sim.named_scenes import named_scene, scene_names, scene_settings
     from spectratac.twin import generate_session, white_step
-    from spectratac.twin.errors import TwinError
 
-    hard = scenes.hard_cases()
     if args.list:
-        for name in (*SCENES, *sorted(hard)):
+        for name in scene_names():
             print(name)
         return ExitCode.OK
     if args.output is None:
         raise UsageError("the following arguments are required: -o/--output")
     refuse_overwrite(npz_name(args.output), args.force)
-    settings: dict[str, Any] = {}
-    if args.scene == "calibration":
-        scene = scenes.calibration_session(args.seed, args.duration or scenes.CAL_DURATION_S)
-    elif args.scene == "idle":
-        scene = scenes.idle(args.duration or 10.0)
-    elif args.scene == "drift":
-        scene = scenes.drift_session(args.duration or 1200.0)
-    elif args.scene == "press":
-        scene = scenes.single_press(6, 6.0, (1.0, 0.5))
-    elif args.scene in hard:
-        scene, settings = hard[args.scene].scene, dict(hard[args.scene].settings)
-    else:
-        raise TwinError(f"unknown scene {args.scene!r}; `spectratac twin generate --list`")
+    duration = args.duration or None  # 0 or none: the scene's own length
+    scene = named_scene(args.scene, args.seed, duration, open_ended_s=OPEN_ENDED_S)
+    settings = scene_settings(args.scene)
     settings.setdefault("integration_ms", args.integration_ms)
     settings.setdefault("gain", args.gain)
     settings.setdefault("dg", args.digital_gain)

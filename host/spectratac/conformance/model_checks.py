@@ -21,6 +21,7 @@ import numpy as np
 
 from spectratac.conformance.checks import WHITE, Outcome
 from spectratac.device import ModelInfo, Sensor
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol import crc32c
 from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
@@ -230,8 +231,8 @@ def _estimate_problems(rows: np.ndarray, model_id: int) -> list[str]:
     invalid = (rows["flags"] & m.EstimateFlags.EST_INVALID) != 0
     if np.any(~np.isnan(rows["force"][invalid])):
         problems.append("EST_INVALID estimates with a finite force")
-    if np.any(rows["region"] > 9):
-        problems.append(f"region {rows['region'].max()} outside 0..9")
+    if np.any(rows["region"] > vocab.N_REGIONS):
+        problems.append(f"region {rows['region'].max()} outside 0..{vocab.N_REGIONS}")
     return problems
 
 

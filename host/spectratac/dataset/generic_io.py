@@ -33,11 +33,12 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.dataset.schema import Dataset, DatasetError
+from spectratac.hardware.generated import vocabulary as vocab
 
 SPECIAL = {"t": "t", "time": "t", "session": "session", "press": "press", "contact": "contact"}
 UNLABELLED = {"", "-1", "nan", "none", "null"}
 MAX_AUTO_CLASSES = 20
-KNOWN_TARGETS = {"Fx", "Fy", "Fz", "Tx", "Ty", "Tz"}
+KNOWN_TARGETS = set(vocab.FT_AXES)
 #: Accepted input spelling of torque columns (and of --inputs/--targets naming them).
 TORQUE_SPELLING = {"Mx": "Tx", "My": "Ty", "Mz": "Tz"}
 CLASS_SUFFIX = ":class"

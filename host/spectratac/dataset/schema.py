@@ -53,11 +53,12 @@ from numpy.typing import NDArray
 
 from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 FORMAT = "spectratac.dataset"
 VERSION = 1
-FT_NAMES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
-SPECTRATAC_INPUTS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")
+FT_NAMES = vocab.FT_AXES  # a SpectraTac dataset's targets
+SPECTRATAC_INPUTS = vocab.DECODED_INPUTS  # and its inputs
 
 #: key -> (dtype, trailing shape or None for "any width"); required keys first
 COLUMNS: dict[str, tuple[str, tuple[int, ...] | None]] = {

@@ -34,6 +34,7 @@ from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
 from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
+from spectratac.hardware.generated import vocabulary as vocab
 
 F64 = NDArray[np.float64]
 
@@ -219,7 +220,7 @@ class Decoder:
         (DecoderConfigError on mismatch) and again whenever the configuration id changes;
         warns if the unit differs.
         """
-        if self.layout.channels != tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC"):
+        if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
@@ -372,7 +373,7 @@ class Decoder:
         fs = build_features(features, layout)
         heads = Heads(
             tuple(t for t in targets if t not in ("region", "contact")),
-            n_classes=9 if "region" in targets else 0,
+            n_classes=vocab.N_REGIONS if "region" in targets else 0,
             contact="contact" in targets,
         )
         w = init_weights(arch, fs.n_features, heads.n_out, np.random.default_rng(seed))

@@ -17,13 +17,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol.generated.messages import EstimateFlags
 
 CONTACT_FORCE_N = 0.3  # |F| above which a decoder without a contact head reports contact
 
 F64 = NDArray[np.float64]
-FORCE = ("Fx", "Fy", "Fz")
-TORQUE = ("Tx", "Ty", "Tz")
+FORCE = vocab.FORCE_AXES
+TORQUE = vocab.TORQUE_AXES
 
 
 def interval_factor(level: float) -> float:

@@ -46,9 +46,9 @@ from numpy.typing import NDArray
 from spectratac.decode.errors import DecoderConfigError
 from spectratac.decode.layout import Layout
 from spectratac.decode.paper_features import EPS
+from spectratac.hardware.generated import vocabulary as vocab
 
 F64 = NDArray[np.float64]
-SPECTRATAC_CHANNELS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")
 MAX_DEGREE = 3
 NO_FACTOR = -1  # a monomial's unused factor slot (the product skips it)
 
@@ -136,9 +136,9 @@ def build_features(kind: str, layout: Layout, degree: int = 1) -> FeatureSet:
         v[i] = 1.0
         return v
 
-    if kind == "paper33" and tuple(layout.channels) != SPECTRATAC_CHANNELS:
+    if kind == "paper33" and tuple(layout.channels) != vocab.DECODED_INPUTS:
         raise DecoderConfigError(
-            f"features='paper33' needs the 12 SpectraTac inputs {', '.join(SPECTRATAC_CHANNELS)}"
+            f"features='paper33' needs the 12 SpectraTac inputs {', '.join(vocab.DECODED_INPUTS)}"
             f" in that order; this data has {', '.join(layout.channels)}: use features="
             f"'generic' or 'raw'"
         )

@@ -17,10 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.decode.errors import DecoderDataError
+from spectratac.hardware.generated import vocabulary as vocab
 
 EPS = 1e-5
 N_RAW = 12
-_CH = ("R", "G", "B", "C")
+_CH = vocab.DECODED_CHANNELS
 
 FEATURE_NAMES: tuple[str, ...] = (
     tuple(f"{c}{i}" for i in (1, 2, 3) for c in _CH)

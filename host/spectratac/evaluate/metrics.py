@@ -26,11 +26,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.decode.estimates import interval_factor
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.train.metrics import region_accuracy, regression_metrics
 
 F64 = NDArray[np.float64]
 PERCENTILES = (50, 90, 95, 99)
-N_REGIONS = 9
 #: Central interval levels reported for calibrated uncertainty.
 COVERAGE_LEVELS = (0.68, 0.95)
 
@@ -75,7 +75,7 @@ def regression_scores(
 
 
 def region_scores(
-    labels: ArrayLike, predicted: ArrayLike, n_classes: int = N_REGIONS
+    labels: ArrayLike, predicted: ArrayLike, n_classes: int = vocab.N_REGIONS
 ) -> dict[str, Any]:
     """Accuracy over labelled rows (label >= 1; -1 ignored) and the confusion matrix (row: true
     class, column: predicted; counts as nested lists). The matrix has `n_classes` rows, or

@@ -14,20 +14,21 @@ from __future__ import annotations
 
 from typing import Any
 
+from spectratac.hardware.generated import vocabulary as vocab
+
 PAPER: dict[str, Any] = {
     "mae": {"Fx": 0.161, "Fy": 0.164, "Fz": 0.429},
     "r2_min": 0.91,
     "region_accuracy": 0.999,
     "torque_mae_max": 0.004,
 }
-TORQUES = ("Tx", "Ty", "Tz")
 
 
 def paper_mae(name: str) -> str:
     """The paper's MAE for a component as text ("" if it reports none)."""
     if name in PAPER["mae"]:
         return f"{PAPER['mae'][name]:.3f}"
-    if name in TORQUES:
+    if name in vocab.TORQUE_AXES:
         return f"<= {PAPER['torque_mae_max']}"
     return ""
 
@@ -38,9 +39,9 @@ def paper_figures() -> dict[str, Any]:
         "source": "spectratac.tex: abstract and section 'Decoding Performance'",
         "mae": {
             **PAPER["mae"],
-            **{t: f"<= {PAPER['torque_mae_max']}" for t in TORQUES},
+            **{t: f"<= {PAPER['torque_mae_max']}" for t in vocab.TORQUE_AXES},
         },
-        "rmse": {t: f"<= {PAPER['torque_mae_max']}" for t in TORQUES},
+        "rmse": {t: f"<= {PAPER['torque_mae_max']}" for t in vocab.TORQUE_AXES},
         "r2_min": PAPER["r2_min"],
         "region_accuracy": PAPER["region_accuracy"],
         "split": "unseen test set; drawing not stated (read as random)",

@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import vocabulary as vocab
+
 F64 = NDArray[np.float64]
 DPI = 110
 MAX_SCATTER = 20_000  # points per panel; more only slows the PNG down
@@ -35,7 +37,7 @@ def _plt() -> Any:
 
 
 def _unit(name: str) -> str:
-    return "N" if name.startswith("F") else "N·m"
+    return vocab.AXIS_UNITS.get(name, "N" if name.startswith("F") else "N·m")
 
 
 def _save(fig: Any, path: Path) -> Path:

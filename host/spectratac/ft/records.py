@@ -14,6 +14,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from spectratac.hardware.generated import vocabulary as vocab
+
 #: One F/T sample. sensor_time is on the F/T's own clock (s, unwrapped, monotone per sensor
 #: stream); host_time is time.monotonic() when its bytes arrived; sequence is the sensor's
 #: sample sequence (unwrapped), so a gap of k means k lost samples; wrench is Fx Fy Fz [N],
@@ -28,7 +30,7 @@ FT_RECORD = np.dtype(
     ]
 )
 
-AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+AXES = vocab.FT_AXES  # the order of FT_RECORD's wrench
 
 FTKind = Literal["netft", "bota", "csv"]
 

@@ -25,20 +25,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.record.errors import RecordingError
-
-REGION_NAMES = {
-    1: "upper left",
-    2: "top",
-    3: "upper right",
-    4: "left",
-    5: "centre",
-    6: "right, at sensor 0",
-    7: "lower left",
-    8: "bottom",
-    9: "lower right",
-}
-KEYPAD = ("1 2 3", "4 5 6", "7 8 9")
 
 
 def region_map(highlight: int | None = None) -> str:
@@ -50,14 +38,14 @@ def region_map(highlight: int | None = None) -> str:
      7  8  9
     """
     rows = []
-    for row in KEYPAD:
-        cells = [f"[{c}]" if highlight == int(c) else f" {c} " for c in row.split()]
+    for row in vocab.KEYPAD:
+        cells = [f"[{r}]" if highlight == r else f" {r} " for r in row]
         rows.append("".join(cells).rstrip())
     return "\n".join(rows)
 
 
 def prompt_order(n: int, seed: int | None = None) -> list[int]:
-    """`n` regions: shuffled rounds of 1..9, so every region comes up equally often.
+    """`n` regions: shuffled rounds of every region, so each comes up equally often.
 
     >>> sorted(prompt_order(9, seed=1)) == list(range(1, 10))
     True
@@ -65,7 +53,7 @@ def prompt_order(n: int, seed: int | None = None) -> list[int]:
     rng = np.random.default_rng(seed)
     out: list[int] = []
     while len(out) < n:
-        out += [int(r) for r in rng.permutation(np.arange(1, 10))]
+        out += [int(r) for r in rng.permutation(np.array(vocab.REGIONS))]
     return out[:n]
 
 
@@ -88,8 +76,8 @@ class GuidedProtocol:
         if countdown_s < 0 or hold_s <= 0 or rest_s < 0:
             raise RecordingError("guided timing: countdown >= 0, hold > 0 and rest >= 0 s")
         self.regions = list(regions) if regions is not None else prompt_order(n, seed)
-        if len(self.regions) < n or any(r not in REGION_NAMES for r in self.regions):
-            raise RecordingError("guided regions: give n regions, each 1..9")
+        if len(self.regions) < n or any(r not in vocab.REGIONS for r in self.regions):
+            raise RecordingError(f"guided regions: give n regions, each 1..{vocab.N_REGIONS}")
         self.n = n
         self.countdown_s = int(countdown_s)
         self.hold_s = float(hold_s)
@@ -152,9 +140,8 @@ class GuidedProtocol:
         region = self.regions[k]
         head = f"[{k + 1}/{self.n}]"
         if what == "ready":
-            text = (
-                f"{head} next: press region {region} ({REGION_NAMES[region]})\n{region_map(region)}"
-            )
+            name = vocab.REGION_PROMPTS[region]
+            text = f"{head} next: press region {region} ({name})\n{region_map(region)}"
         elif what == "press":
             text = f"{head} PRESS region {region} now and hold for {self.hold_s:g} s"
         elif what == "release":

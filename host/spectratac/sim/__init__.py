@@ -8,8 +8,9 @@ registers its openers as entry points (``spectratac.transports``: ``sim`` ->
 `transport.open_sim_transport`; ``spectratac.ft_sensors``: ``sim`` ->
 `ft_serve.open_sim_ft`), and its transports carry the scene's ground truth
 (`ground_truth.SceneTruth`), which the recorder stores. Also here, because they are built
-from the twin: `synthetic_recording` (twin sessions written as recordings) and
-`twin_dataset` (twin sessions as datasets).
+from the twin: `named_scenes` (the one table of scenes by name, for sim:// URLs, `spectratac
+twin generate` and populations), `synthetic_recording` (twin sessions written as recordings)
+and `twin_dataset` (twin sessions as datasets).
 """
 
 from spectratac.sim.device import SimDevice

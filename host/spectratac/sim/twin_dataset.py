@@ -17,19 +17,12 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from spectratac.dataset.schema import FT_NAMES, SPECTRATAC_INPUTS, Dataset, concat
-from spectratac.twin import builtin_scenes
+from spectratac.sim.named_scenes import POPULATION_SCENES, named_scene
 from spectratac.twin.errors import TwinError
 from spectratac.twin.generate import Session, generate_session
 from spectratac.twin.scene_model import Scene
 from spectratac.twin.session import SessionConditions
 from spectratac.twin.unit import UnitParams
-
-#: Scenes a population can record: name -> scene of (scene seed, duration in s).
-POPULATION_SCENES: dict[str, Callable[[int, float], Scene]] = {
-    "calibration": lambda seed, duration: builtin_scenes.calibration_session(seed, duration),
-    "idle": lambda seed, duration: builtin_scenes.idle(duration),
-    "drift": lambda seed, duration: builtin_scenes.drift_session(duration),
-}
 
 
 def twin_config(session: Session) -> dict[str, object]:
@@ -110,14 +103,16 @@ def population(
         raise TwinError(f"session_s must be >= 5 s, got {session_s!r}")
     if scene not in POPULATION_SCENES:
         raise TwinError(f"scene must be one of {sorted(POPULATION_SCENES)}, got {scene!r}")
-    make_scene = POPULATION_SCENES[scene]
     total = len(unit_seeds) * sessions_per_unit
     parts: list[Dataset] = []
     for unit_seed in unit_seeds:
         unit = UnitParams.from_seed(unit_seed)
         for k in range(sessions_per_unit):
             cond = SessionConditions.draw(unit_seed, k, seed)
-            sc = cond.apply_scene(make_scene(cond.scene_seed, float(session_s)))
+            seconds = float(session_s)
+            sc = cond.apply_scene(
+                named_scene(scene, cond.scene_seed, seconds, open_ended_s=seconds)
+            )
             run = generate_session(sc, seed=cond.noise_seed, unit=cond.apply_unit(unit))
             ds = from_twin_session(run, sc)
             ds.meta["unit_id"] = f"twin-{unit_seed}"

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.dataset.schema import FT_NAMES as AXES
 from spectratac.evaluate.paper import PAPER
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.train.fitting import train
 from spectratac.train.metrics import region_accuracy, regression_metrics
 from spectratac.train.spec import TrainSpec
@@ -46,7 +46,7 @@ class ReportConfig:
 
 def _scores(y: np.ndarray, pred_ft: np.ndarray, lab: np.ndarray, pred_reg: np.ndarray) -> dict:
     return {
-        "axes": regression_metrics(y, pred_ft, AXES),
+        "axes": regression_metrics(y, pred_ft, vocab.FT_AXES),
         "region_accuracy": region_accuracy(lab, pred_reg),
         "n": int(y.shape[0]),
     }
@@ -103,10 +103,10 @@ def fidelity_report(
         f"{a}_mae_within_30pct": bool(
             band(PAPER["mae"][a])[0] <= rnd["axes"][a]["mae"] <= band(PAPER["mae"][a])[1]
         )
-        for a in ("Fx", "Fy", "Fz")
+        for a in vocab.FORCE_AXES
     }
     checks["r2_above_0.91_all_six"] = bool(
-        all(rnd["axes"][a]["r2"] > PAPER["r2_min"] for a in AXES)
+        all(rnd["axes"][a]["r2"] > PAPER["r2_min"] for a in vocab.FT_AXES)
     )
     checks["region_accuracy_at_least_99pct"] = bool(
         rnd["region_accuracy"] >= TARGET_REGION_ACCURACY
@@ -146,9 +146,9 @@ def format_report(rep: dict[str, Any]) -> str:
             f"  {'axis':<4} {'MAE':>9} {'RMSE':>9} {'R2':>7} | {'paper MAE':>9} | "
             f"{'oracle MAE':>10} {'R2':>7}"
         )
-        for a in AXES:
+        for a in vocab.FT_AXES:
             r, o = s["recipe"]["axes"][a], s["oracle"]["axes"][a]
-            unit = "N" if a.startswith("F") else "N·m"
+            unit = vocab.AXIS_UNITS[a]
             p = f"{paper[a]:9.3f}" if a in paper else f"{'<=0.004':>9}"
             lines.append(
                 f"  {a:<4} {r['mae']:9.4f} {r['rmse']:9.4f} {r['r2']:7.3f} | {p} | "

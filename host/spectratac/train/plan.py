@@ -18,9 +18,10 @@ from numpy.typing import ArrayLike, NDArray
 from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
-from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS, FeatureSet, build_features
+from spectratac.decode.feature_matrices import FeatureSet, build_features
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.train.spec import TrainSpec
 
 
@@ -76,9 +77,9 @@ def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
         raise DecoderConfigError(
             f"target {class_name!r} asked for, but no row of the dataset has a class label"
         )
-    spectratac = tuple(dataset.input_names) == SPECTRATAC_CHANNELS
+    spectratac = tuple(dataset.input_names) == vocab.DECODED_INPUTS
     if dataset.meta.get("kind") == "spectratac" and spectratac:
-        n_classes = 9
+        n_classes = vocab.N_REGIONS
     else:
         n_classes = len(labels) if labels else int(region.max(initial=0))
     steps = sensor_config.n_steps(sensor_config.normalise(dataset.meta.get("config")))

@@ -22,13 +22,14 @@ from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 from spectratac.decode.errors import DecoderError
+from spectratac.hardware.generated import vocabulary as vocab
 
 FEATURES = ("paper33", "raw", "generic")
 MODELS = ("linear", "ridge", "mlp", "resmlp", "resmlp-large")
 DRIFT = ("none", "baseline")
 LOSSES = ("paper", "l1", "huber")
 AUGMENTS = ("none", "rotate", "rotate+mirror")
-ALL_FT = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "region")
+ALL_FT = (*vocab.FT_AXES, "region")
 CLASS_TARGETS = ("region", "contact")
 
 

@@ -17,7 +17,7 @@ alike (otherwise a rotation would also change which LED each step lights). Unit-
 variation (placement, binning) breaks the symmetry by a few %; the transformed rows are
 training data only.
 
->>> ft = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+>>> ft = vocab.FT_AXES
 >>> y = np.array([[1.0, 0.0, -2.0, 0.0, 1.0, 0.5]])
 >>> rotate_targets(y, ft, turns=1, mirror=False).round(3).tolist()
 [[-0.5, 0.866, -2.0, -0.866, -0.5, 0.5]]
@@ -36,17 +36,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from spectratac.decode.errors import DecoderConfigError
-from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.train.spec import AUGMENTS
 
 F64 = NDArray[np.float64]
-CHANNELS_PER_SENSOR = 4
-# Keypad regions under the mirror y -> -y (sectors at 45°, 90°, 135° <-> 315°, 270°, 225°).
-MIRROR_REGION = {1: 7, 2: 8, 3: 9, 4: 4, 5: 5, 6: 6, 7: 1, 8: 2, 9: 3}
-CENTRE_REGION = 5
+N_SENSORS = vocab.N_SENSORS
+CHANNELS_PER_SENSOR = len(vocab.DECODED_CHANNELS)
 # (force or torque x, y) pairs and the sign of the z component under the mirror
 # (other targets are taken as invariant scalars)
-VECTORS = (("Fx", "Fy", "Fz", 1.0), ("Tx", "Ty", "Tz", -1.0))
+VECTORS = ((*vocab.FORCE_AXES, 1.0), (*vocab.TORQUE_AXES, -1.0))
 
 
 def transforms(augment: str) -> list[tuple[int, bool]]:
@@ -56,18 +54,19 @@ def transforms(augment: str) -> list[tuple[int, bool]]:
     if augment == "none":
         return []
     mirrors = (False, True) if augment == "rotate+mirror" else (False,)
-    return [(t, m) for m in mirrors for t in range(3) if (t, m) != (0, False)]
+    return [(t, m) for m in mirrors for t in range(N_SENSORS) if (t, m) != (0, False)]
 
 
 def sensor_permutation(turns: int, mirror: bool) -> list[int]:
     """perm[k]: the original sensor whose reading the transformed sensor k gets."""
-    src = [(-k) % 3 if mirror else k for k in range(3)]  # mirror first: k -> -k
-    return [src[(k - turns) % 3] for k in range(3)]
+    n = N_SENSORS
+    src = [(-k) % n if mirror else k for k in range(n)]  # mirror first: k -> -k
+    return [src[(k - turns) % n] for k in range(n)]
 
 
 def check_symmetric(input_names: Sequence[str], config: dict[str, Any] | None) -> None:
     """DecoderConfigError unless the data has SpectraTac inputs and a symmetric sequence."""
-    if tuple(input_names) != SPECTRATAC_CHANNELS:
+    if tuple(input_names) != vocab.DECODED_INPUTS:
         raise DecoderConfigError(
             "symmetry augmentation needs the 12 SpectraTac inputs (sensor order sets the "
             f"geometry); this data has {', '.join(input_names)}: use augment='none'"
@@ -84,7 +83,7 @@ def permute_assembled(u: F64, turns: int, mirror: bool) -> F64:
     """Assembled vectors (N, D) with every 12-count group's sensors permuted."""
     perm = sensor_permutation(turns, mirror)
     n, d = u.shape
-    g = u.reshape(n, d // (3 * CHANNELS_PER_SENSOR), 3, CHANNELS_PER_SENSOR)
+    g = u.reshape(n, d // (N_SENSORS * CHANNELS_PER_SENSOR), N_SENSORS, CHANNELS_PER_SENSOR)
     return g[:, :, perm, :].reshape(n, d)
 
 
@@ -92,7 +91,7 @@ def rotate_targets(y: F64, names: Sequence[str], turns: int, mirror: bool) -> F6
     """Targets (N, T) named `names` as the transformed press would have them."""
     out = np.array(y, dtype=np.float64, copy=True)
     col = {n: i for i, n in enumerate(names)}
-    a = 2.0 * np.pi * turns / 3.0
+    a = 2.0 * np.pi * turns / N_SENSORS
     c, s = np.cos(a), np.sin(a)
     for nx, ny, nz, z_sign in VECTORS:
         if nx in col and ny in col:
@@ -108,7 +107,8 @@ def rotate_targets(y: F64, names: Sequence[str], turns: int, mirror: bool) -> F6
 def transform_labels(region: NDArray[Any], turns: int, mirror: bool) -> NDArray[np.int64]:
     """Keypad region labels of the transformed press (-1 where no region maps)."""
     r = np.asarray(region, dtype=np.int64)
-    out = np.array([MIRROR_REGION.get(int(v), -1) for v in r]) if mirror else r.copy()
-    if turns % 3:
-        out = np.where(out == CENTRE_REGION, CENTRE_REGION, -1)
+    none = vocab.NO_REGION
+    out = np.array([vocab.MIRROR_REGION.get(int(v), none) for v in r]) if mirror else r.copy()
+    if turns % N_SENSORS:
+        out = np.array([vocab.TURN_REGION.get(int(v), none) for v in out], dtype=np.int64)
     return np.where(r > 0, out, r)

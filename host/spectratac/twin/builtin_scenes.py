@@ -1,4 +1,5 @@
-"""Built-in scenes: idle, single press, the paper's calibration session, drift, hard cases.
+"""Built-in scenes: idle, single press, a tour of the regions, the paper's calibration
+session, drift, hard cases. `spectratac.sim.named_scenes` names them for sim:// URLs and the CLI.
 
 >>> cal = calibration_session(seed=0)
 >>> round(cal.duration_s / 60), 500 < len(cal.presses) < 900
@@ -14,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.twin.errors import TwinError
 from spectratac.twin.geometry import (
     ACTIVE_RADIUS_MM,
@@ -46,7 +48,7 @@ def idle(duration_s: float = 10.0, env: Environment | None = None) -> Scene:
 
 
 def single_press(
-    region: int = 5,
+    region: int = vocab.CENTRE_REGION,
     normal_n: float = 5.0,
     shear_n: tuple[float, float] = (0.0, 0.0),
     **kwargs: Any,
@@ -54,6 +56,26 @@ def single_press(
     """One press at the centre of `region` (1-9); see `Scene.single_press` for timing."""
     x, y = region_centre(region)
     return Scene.single_press(x=x, y=y, normal_n=normal_n, shear_n=shear_n, **kwargs)
+
+
+def region_tour(period_s: float = 10.0 / 9.0, normal_n: float = 4.0, laps: int = 100) -> Scene:
+    """Presses every region in turn (1, 2, ...), one per `period_s`, repeating `laps` times."""
+    n = len(vocab.REGIONS) * laps
+    centres = np.array([region_centre(r) for r in vocab.REGIONS] * laps)
+    edge = 0.2 * period_s
+    return Scene(
+        "tour",
+        float(n * period_s),
+        Presses.steady(
+            start=np.arange(n) * period_s + 0.05 * period_s,
+            rise=edge,
+            hold=period_s - 2 * edge - 0.1 * period_s,
+            fall=edge,
+            xy=centres,
+            normal_peak=normal_n,
+        ),
+        Environment(),
+    )
 
 
 def sample_in_region(rng: np.random.Generator, regions: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -83,12 +105,12 @@ def _uniform_in_region(rng: np.random.Generator, regions: np.ndarray) -> tuple[n
     r_out = ACTIVE_RADIUS_MM - m
     r_in = CENTER_RADIUS_MM + m
     r_ring = np.sqrt(rng.uniform(r_in**2, r_out**2, n))
-    half = np.deg2rad(22.5) - m / r_ring
+    half = np.deg2rad(180.0 / len(vocab.RING_REGIONS)) - m / r_ring  # half a sector
     centre = np.deg2rad(np.array([SECTOR_CENTRE_DEG.get(int(g), 0.0) for g in regions]))
     ang = centre + rng.uniform(-1.0, 1.0, n) * half
     r_c = (CENTER_RADIUS_MM - m) * np.sqrt(rng.uniform(0, 1, n))
     ang_c = rng.uniform(0, 2 * np.pi, n)
-    is_c = regions == 5
+    is_c = regions == vocab.CENTRE_REGION
     r = np.where(is_c, r_c, r_ring)
     a = np.where(is_c, ang_c, ang)
     return r * np.cos(a), r * np.sin(a)
@@ -107,7 +129,7 @@ def calibration_session(seed: int = 0, duration_s: float = CAL_DURATION_S) -> Sc
     gap = rng.uniform(*CAL_GAP_S, cap)
     start = 1.0 + np.concatenate([[0.0], np.cumsum(rise + hold + fall + gap)[:-1]])
     keep = start + rise + hold + fall <= duration_s - 0.5
-    regions = rng.integers(1, 10, cap)
+    regions = rng.integers(1, vocab.N_REGIONS + 1, cap)
     x, y = sample_in_region(rng, regions)
     rim = rng.uniform(0, 1, cap) < CAL_RIM_FRACTION
     rim_r = rng.uniform(ACTIVE_RADIUS_MM + 0.3, 9.2, cap)

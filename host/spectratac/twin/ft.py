@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.twin.unit import UnitParams
 
 F64 = NDArray[np.float64]
 
-AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+AXES = vocab.FT_AXES
 
 
 def wrench(

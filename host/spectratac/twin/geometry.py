@@ -6,13 +6,16 @@ outline, part ring, angles and layer thicknesses come from hardware/definitions/
 (generated `spectratac.hardware.generated.board`), so the twin is laid out like the board that
 is built.
 
-Regions are numbered like a phone keypad so that the Snake game's directions read naturally:
+The regions are the sensor vocabulary's (hardware/definitions/vocabulary.toml, generated
+`spectratac.hardware.generated.vocabulary`), numbered like a phone keypad:
 
     1 2 3        region 5: the central disc r < CENTER_RADIUS_MM
     4 5 6        regions 1-4, 6-9: eight 45° sectors of the ring
     7 8 9        CENTER_RADIUS_MM <= r <= ACTIVE_RADIUS_MM, centred on 135°, 90°, 45°, 180°, 0°, ...
 
 Contacts beyond ACTIVE_RADIUS_MM (the rim, where the skin is clamped) carry no region (-1).
+This module turns those definitions into positions: which region a point lies in, and where
+a region's centre is.
 
 >>> int(region_of(0.0, 0.0)), int(region_of(6.0, 0.0)), int(region_of(0.0, -6.0))
 (5, 6, 8)
@@ -26,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.hardware.generated import board
+from spectratac.hardware.generated import vocabulary as vocab
 
 DISC_RADIUS_MM = board.BOARD_RADIUS
 STACK_HEIGHT_MM = board.STACK_HEIGHT
@@ -38,18 +42,16 @@ PDMS_MM = board.STACK_PDMS
 SKIN_MM = board.STACK_SKIN_TOP
 SURFACE_Z_MM = PDMS_MM + SKIN_MM  # skin surface above the PCB top
 
-CENTER_RADIUS_MM = 2.6
-ACTIVE_RADIUS_MM = 8.0
+CENTER_RADIUS_MM = vocab.CENTRE_RADIUS_MM
+ACTIVE_RADIUS_MM = vocab.ACTIVE_RADIUS_MM
 
 SENSOR_ANGLES_DEG = np.array(board.LAYOUT_SENSOR_ANGLES)
 LED_ANGLES_DEG = np.array(board.LAYOUT_LED_ANGLES)
 
-CHANNELS = ("R", "G", "B", "C", "IR")
-LED_COLOURS = ("R", "G", "B")
-
 # Region number -> sector centre angle in degrees (ring regions only).
-SECTOR_CENTRE_DEG = {6: 0.0, 3: 45.0, 2: 90.0, 1: 135.0, 4: 180.0, 7: 225.0, 8: 270.0, 9: 315.0}
-_SECTOR_TO_REGION = np.array([6, 3, 2, 1, 4, 7, 8, 9], dtype=np.int8)
+SECTOR_CENTRE_DEG = vocab.SECTOR_CENTRE_DEG
+_SECTOR_TO_REGION = np.array(vocab.RING_REGIONS, dtype=np.int8)
+_SECTOR_DEG = 360.0 / len(vocab.RING_REGIONS)
 
 
 def polar_xy(radius: float, angles_deg: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -67,11 +69,11 @@ def region_of(x: ArrayLike, y: ArrayLike) -> NDArray[np.int8]:
     xa = np.asarray(x, dtype=np.float64)
     ya = np.asarray(y, dtype=np.float64)
     r = np.hypot(xa, ya)
-    ang = np.mod(np.degrees(np.arctan2(ya, xa)) + 22.5, 360.0)
-    sector = np.minimum((ang // 45.0).astype(np.int64), 7)
+    ang = np.mod(np.degrees(np.arctan2(ya, xa)) + _SECTOR_DEG / 2, 360.0)
+    sector = np.minimum((ang // _SECTOR_DEG).astype(np.int64), len(_SECTOR_TO_REGION) - 1)
     out = _SECTOR_TO_REGION[sector]
-    out = np.where(r < CENTER_RADIUS_MM, np.int8(5), out)
-    out = np.where(r > ACTIVE_RADIUS_MM, np.int8(-1), out)
+    out = np.where(r < CENTER_RADIUS_MM, np.int8(vocab.CENTRE_REGION), out)
+    out = np.where(r > ACTIVE_RADIUS_MM, np.int8(vocab.NO_REGION), out)
     return np.asarray(out, dtype=np.int8)
 
 
@@ -81,12 +83,12 @@ def region_centre(region: int) -> tuple[float, float]:
     >>> region_centre(5)
     (0.0, 0.0)
     """
-    if region == 5:
+    if region == vocab.CENTRE_REGION:
         return (0.0, 0.0)
     if region not in SECTOR_CENTRE_DEG:
         from spectratac.twin.errors import TwinError
 
-        raise TwinError(f"region must be 1..9, got {region!r}")
+        raise TwinError(f"region must be 1..{vocab.N_REGIONS}, got {region!r}")
     r = 0.5 * (CENTER_RADIUS_MM + ACTIVE_RADIUS_MM)
     a = np.deg2rad(SECTOR_CENTRE_DEG[region])
     return (float(r * np.cos(a)), float(r * np.sin(a)))

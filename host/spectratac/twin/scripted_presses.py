@@ -3,7 +3,8 @@
 It plays a demonstration (or a test) of the interaction apps: each press lands on the
 centre of its region with no shear, rises, holds, falls, then the skin rests for a gap.
 Regions are named by number (1-9, keypad layout, see `geometry`) or by their keypad
-position: ``up`` (2), ``down`` (8), ``left`` (4), ``right`` (6), ``centre`` (5).
+direction (the vocabulary's): ``up`` (2), ``down`` (8), ``left`` (4), ``right`` (6),
+``centre`` (5, also spelt ``center``).
 
 In sim:// URLs (scene name ``presses``)::
 
@@ -25,11 +26,12 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.twin.errors import TwinError
 from spectratac.twin.geometry import region_centre, region_of
 from spectratac.twin.scene_model import Environment, Presses, Scene
 
-REGION_NAMES = {"up": 2, "down": 8, "left": 4, "right": 6, "centre": 5, "center": 5}
+REGION_NAMES = {**vocab.DIRECTION_REGION, "center": vocab.CENTRE_REGION}
 DEFAULT_ORDER = "up,right,down,left,centre,up,left,down,right"
 DEFAULT_FORCE_N = 2.5
 LEAD_IN_S = 1.5  # rest before the first press: the decoder's no-contact baseline settles
@@ -49,11 +51,11 @@ def parse_order(text: str) -> tuple[int, ...]:
     for item in (t.strip().lower() for t in text.split(",")):
         if item in REGION_NAMES:
             out.append(REGION_NAMES[item])
-        elif item.isdigit() and 1 <= int(item) <= 9:
+        elif item.isdigit() and int(item) in vocab.REGIONS:
             out.append(int(item))
         else:
             raise TwinError(
-                f"press script item {item!r}: give a region 1-9 or one of "
+                f"press script item {item!r}: give a region 1-{vocab.N_REGIONS} or one of "
                 f"{', '.join(sorted(REGION_NAMES))} (e.g. order=up,left,5)"
             )
     if not out:

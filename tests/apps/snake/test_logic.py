@@ -11,6 +11,7 @@ from spectratac.apps.snake.controller import SnakeController
 from spectratac.apps.snake.game import SnakeGame
 from spectratac.apps.snake.mapping import DirectionMap, MappingError
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 
 def est(normal: float, region: int, *, ood: bool = False, invalid: bool = False):
@@ -25,7 +26,7 @@ def feed(det: CommandDetector, trace: list[tuple[float, int]], **flags) -> list:
 # ---------------------------------------------------------------- mapping
 def test_default_mapping_follows_the_paper_centre_neutral() -> None:
     m = DirectionMap()
-    assert [m.direction(r) for r in range(1, 10)] == [
+    assert [m.direction(r) for r in vocab.REGIONS] == [
         None, "up", None, "left", None, "right", None, "down", None
     ]  # fmt: skip
     keypad = DirectionMap.parse("keypad")

@@ -29,13 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
+from spectratac.hardware.generated import vocabulary as vocab
 
 F64 = NDArray[np.float64]
 WINDOW_S = 30.0
 FT_WINDOW_S = 10.0  # the F/T streams hundreds of rows a second: a shorter fit and buffer
 REFIT_S = 2.0
 MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only until then)
-AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
 
 
 class LiveClock:
@@ -173,5 +173,5 @@ class ReferenceTracker:
         """Running mean absolute error per axis (None for axes not decoded yet)."""
         return {
             a: (float(self.abs_sum[i] / self.count[i]) if self.count[i] else None)
-            for i, a in enumerate(AXES)
+            for i, a in enumerate(vocab.FT_AXES)
         }

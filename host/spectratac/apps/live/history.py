@@ -20,23 +20,22 @@ from typing import Any
 import numpy as np
 from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 KEEP_S = 120.0
-AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
-COUNTS = tuple(f"s{s}.{c}" for s in range(3) for c in "RGBC")
 CSV_COLUMNS = (
     "t_s",
     "host_time",
     "device_time_s",
     "step",
-    *AXES,
+    *vocab.FT_AXES,
     "region",
     "region_prob",
     "contact",
     "ood",
     "invalid",
-    *(f"ref_{a}" for a in AXES),
-    *COUNTS,
+    *(f"ref_{a}" for a in vocab.FT_AXES),
+    *vocab.DECODED_INPUTS,
 )
 FORMATS = ("mcap", "csv")
 
@@ -95,7 +94,10 @@ class History:
             ft = np.concatenate(list(self._ft)) if self._ft else None
             rows = [
                 r
-                | {f"ref_{a}": v for a, v in zip(AXES, self._refs.get(r["key"], []), strict=False)}
+                | {
+                    f"ref_{a}": v
+                    for a, v in zip(vocab.FT_AXES, self._refs.get(r["key"], []), strict=False)
+                }
                 for r in self._rows
                 if r["host_time"] >= since
             ]

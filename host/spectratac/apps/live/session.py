@@ -32,6 +32,7 @@ from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
 from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 Publish = Callable[[dict[str, Any]], None]
 STATS_EVERY_S = 0.5
@@ -275,19 +276,16 @@ class LiveSession:
 
     @staticmethod
     def _row(msg: dict[str, Any], est: Any, sample: Any) -> dict[str, Any]:
-        names = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
         return {
             "t_s": msg["t"],
             "host_time": sample.host_time,
             "device_time_s": sample.device_time_us / 1e6,
             "step": msg["step"],
-            **dict(zip(names, [*msg["force"], *msg["torque"]], strict=True)),
+            **dict(zip(vocab.FT_AXES, [*msg["force"], *msg["torque"]], strict=True)),
             "region": msg["region"],
             "region_prob": msg["p"],
             "contact": int(msg["contact"]),
             "ood": int(msg["ood"]),
             "invalid": int(msg["invalid"]),
-            **dict(
-                zip([f"s{s}.{c}" for s in range(3) for c in "RGBC"], msg["counts"], strict=True)
-            ),
+            **dict(zip(vocab.DECODED_INPUTS, msg["counts"], strict=True)),
         }

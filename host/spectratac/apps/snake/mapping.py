@@ -1,6 +1,7 @@
 """Contact region -> Snake direction, following the paper's interaction demo.
 
-The nine regions are numbered like a phone keypad (`spectratac.twin.geometry`)::
+The nine regions are numbered like a phone keypad (the sensor's vocabulary,
+`spectratac.hardware.generated.vocabulary`)::
 
     1 2 3          up
     4 5 6    left  .  right        5, the centre, is neutral (no command)
@@ -29,17 +30,24 @@ Or give your own, region=direction pairs on top of ``cross``: ``"1=up,3=right"``
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, cast
 
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 Direction = Literal["up", "down", "left", "right"]
 DIRECTIONS: tuple[Direction, ...] = ("up", "down", "left", "right")
 NEUTRAL = "none"  # a region that gives no command
 
+# The regions that lie in each direction from the centre (the vocabulary's keypad directions).
+_CROSS = {r: cast(Direction, d) for d, r in vocab.DIRECTION_REGION.items() if d in DIRECTIONS}
 PRESETS: dict[str, dict[int, Direction]] = {
-    "cross": {2: "up", 4: "left", 6: "right", 8: "down"},
-    "keypad": {1: "up", 2: "up", 3: "up", 4: "left", 6: "right", 7: "down", 8: "down", 9: "down"},
+    "cross": _CROSS,
+    "keypad": {
+        **_CROSS,
+        **dict.fromkeys(vocab.KEYPAD[0], cast(Direction, "up")),
+        **dict.fromkeys(vocab.KEYPAD[-1], cast(Direction, "down")),
+    },
 }
 
 
@@ -63,7 +71,7 @@ class DirectionMap:
             regions = dict(PRESETS[items.pop(0)])
         for item in items:
             region, sep, direction = item.partition("=")
-            if not sep or not region.strip().isdigit() or not 1 <= int(region) <= 9:
+            if not sep or not region.strip().isdigit() or int(region) not in vocab.REGIONS:
                 raise MappingError(
                     f"mapping item {item!r}: give a preset ({', '.join(PRESETS)}) or "
                     f"region=direction with a region 1-9, e.g. '1=up'"
@@ -88,4 +96,4 @@ class DirectionMap:
         return " ".join(f"{r}={d}" for r, d in sorted(self.regions.items()))
 
     def as_dict(self) -> dict[str, str]:
-        return {str(r): self.regions.get(r, NEUTRAL) for r in range(1, 10)}
+        return {str(r): self.regions.get(r, NEUTRAL) for r in vocab.REGIONS}

@@ -15,6 +15,7 @@ from spectratac.apps.snake.control import CommandDetector
 from spectratac.apps.snake.controller import SnakeController, Update
 from spectratac.apps.snake.game import Outcome
 from spectratac.apps.snake.play import play
+from spectratac.hardware.generated import vocabulary as vocab
 
 ARROWS = {"up": "^", "down": "v", "left": "<", "right": ">"}
 BAR = 24  # characters of the force bar (full scale: 4x the threshold)
@@ -86,13 +87,14 @@ def draw(screen: Any, controller: SnakeController, estimate: Any, t: float) -> N
     _put(screen, top, px, "regions (keypad layout)", curses.A_BOLD)
     normal = CommandDetector.normal_force(estimate)
     pressed = estimate.region if (estimate.contact and normal > det.threshold_n) else None
-    for r in range(1, 10):
-        d = det.mapping.direction(r)
-        label = f"{r}{ARROWS[d] if d else '.'}"
-        attr = curses.A_REVERSE | curses.color_pair(3) if r == pressed else 0
-        _put(screen, top + 1 + (r - 1) // 3, px + 5 * ((r - 1) % 3), f"[{label}]", attr)
+    for row, regions in enumerate(vocab.KEYPAD):
+        for col, r in enumerate(regions):
+            d = det.mapping.direction(r)
+            label = f"{r}{ARROWS[d] if d else '.'}"
+            attr = curses.A_REVERSE | curses.color_pair(3) if r == pressed else 0
+            _put(screen, top + 1 + row, px + 5 * col, f"[{label}]", attr)
     mapping = det.mapping.describe() or "all neutral"
-    _put(screen, top + 5, px, f"map {mapping}; 5 = centre (neutral)")
+    _put(screen, top + 5, px, f"map {mapping}; {vocab.CENTRE_REGION} = centre (neutral)")
     n = 0.0 if math.isnan(normal) else max(normal, 0.0)
     full = 4 * det.threshold_n
     filled = min(BAR, round(BAR * n / full))

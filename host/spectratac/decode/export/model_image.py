@@ -47,7 +47,6 @@ from numpy.typing import NDArray
 from spectratac.decode.assemble import GATE, STUCK, TAU
 from spectratac.decode.errors import DecoderError
 from spectratac.decode.estimates import CONTACT_FORCE_N
-from spectratac.decode.feature_matrices import SPECTRATAC_CHANNELS
 from spectratac.decode.generated.model_image_layout import (
     ALIGN,
     ARCHS,
@@ -69,6 +68,7 @@ from spectratac.decode.generated.model_image_layout import (
 )
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import layer_shapes, norm_names
+from spectratac.hardware.generated import vocabulary as vocab
 
 if TYPE_CHECKING:  # only the type: Decoder.model_id imports this module
     from spectratac.decode.decoder import Decoder
@@ -155,9 +155,9 @@ def check_runnable(dec: Decoder) -> None:
     rt, lay, heads = dec.runtime, dec.layout, dec.heads
     kind, hidden, blocks = rt.arch
     fix = "train a smaller decoder (TrainSpec) or decode on the host"
-    if tuple(lay.channels) != SPECTRATAC_CHANNELS:
+    if tuple(lay.channels) != vocab.DECODED_INPUTS:
         raise ModelImageError(
-            f"the device decodes the 12 SpectraTac inputs {', '.join(SPECTRATAC_CHANNELS)}; "
+            f"the device decodes the 12 SpectraTac inputs {', '.join(vocab.DECODED_INPUTS)}; "
             f"this decoder takes {', '.join(lay.channels)}: decode on the host"
         )
     if kind not in ARCHS:

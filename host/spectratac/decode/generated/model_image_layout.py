@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import struct
 
+from spectratac.hardware.generated.vocabulary import FT_AXES
+
 MAGIC = b"STMI"
 VERSION = 1
 HEADER_SIZE = 96
@@ -103,8 +105,9 @@ FLAG_UNCERTAINTY = 0x01  # the regression head also gives a standard deviation p
 FLAG_CONTACT = 0x02  # a contact head follows the other outputs
 FLAGS_DEFINED = 0x03  # any other bit: refused
 
-#: header.target_map: the regression index of each of these, or TARGET_ABSENT.
-TARGETS = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
+#: header.target_map: the regression index of each of these (the vocabulary's F/T axes),
+#: or TARGET_ABSENT.
+TARGETS = FT_AXES
 TARGET_ABSENT = 0xFF
 
 #: Sections in table order.

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.schema import Dataset
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.studies.bench.acquisition import Acquisition
 
 MODELS: dict[str, dict[str, Any]] = {
@@ -70,7 +71,7 @@ def grid_point(
     s = score(dataset, split.test, predict(dec, dataset, split.test)).scores
     comp = s["components"]
     r2 = [m["r2"] for m in comp.values() if np.isfinite(m["r2"])]
-    force = [comp[a]["mae"] for a in ("Fx", "Fy", "Fz") if a in comp]
+    force = [comp[a]["mae"] for a in vocab.FORCE_AXES if a in comp]
     row = {
         "acquisition": acq.name,
         "integration_ms": acq.integration_ms,

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.studies.bench.speed import pareto_front
 
 LATENCY_TOL = 0.10  # latencies within 10 % are treated as equal on the latency front
@@ -49,7 +50,7 @@ def variants_markdown(rows: Sequence[dict[str, Any]], kind: str) -> str:
         d = r.get(kind)
         if d is None:
             continue
-        cells = [_mae_cell(d, a) for a in ("Fx", "Fy", "Fz")]
+        cells = [_mae_cell(d, a) for a in vocab.FORCE_AXES]
         cov = d.get("coverage")
         cov_s = f"{_pct(cov['0.68'])} / {_pct(cov['0.95'])}" if cov else "–"
         lat = r.get("latency_us")

@@ -26,9 +26,10 @@ import numpy as np
 
 from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.metrics import improvement
+from spectratac.hardware.generated import vocabulary as vocab
 
-FT6 = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
-FORCES = ("Fx", "Fy", "Fz")
+FT6 = vocab.FT_AXES
+FORCES = vocab.FORCE_AXES
 TARGET_IMPROVEMENT_PCT = 25.0
 COST_TOLERANCE = 0.02  # flops above the paper's still counted as "its inference cost"
 REFERENCE = "paper"

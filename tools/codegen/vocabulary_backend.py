@@ -1,0 +1,220 @@
+"""Render the sensor's vocabulary (hardware/definitions/vocabulary.toml) into Python and C.
+
+host/spectratac/hardware/generated/vocabulary.py: names as tuples, region maps as dicts.
+firmware/core/generated/stac_vocabulary.h: the counts and indices the firmware core needs.
+
+The number of sensors and LEDs is the board's (hardware/definitions/params.toml, the length of
+its angle lists). `load` refuses a vocabulary that contradicts itself (a mirror map that is not an
+involution, a keypad that misses a region, ring sectors that do not tile the ring), so a
+broken definition never reaches the generated files.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+DIRECTIONS = ("up", "down", "left", "right", "centre")
+
+
+class VocabularyError(ValueError):
+    """The vocabulary definition contradicts itself or the board."""
+
+
+@dataclass(frozen=True)
+class Region:
+    number: int
+    prompt: str
+    direction: str | None
+    sector: float | None  # ring sector centre in degrees; None for the centre disc
+    mirror: int
+
+
+@dataclass(frozen=True)
+class Vocabulary:
+    source: str
+    sensors: int
+    leds: int
+    channels: tuple[str, ...]
+    decoded: tuple[str, ...]
+    channel_format: str
+    colours: tuple[str, ...]
+    axes: tuple[str, ...]
+    units: tuple[str, ...]
+    keypad: tuple[tuple[int, ...], ...]
+    centre: int
+    centre_radius: float
+    active_radius: float
+    none: int
+    regions: tuple[Region, ...]
+
+    def channel_names(self, channels: tuple[str, ...]) -> tuple[str, ...]:
+        f = self.channel_format
+        return tuple(f.format(sensor=s, channel=c) for s in range(self.sensors) for c in channels)
+
+    @property
+    def ring(self) -> tuple[Region, ...]:
+        """Ring regions by sector angle, from 0°."""
+        return tuple(sorted((r for r in self.regions if r.sector is not None),
+                            key=lambda r: r.sector or 0.0))  # fmt: skip
+
+
+def _check(v: Vocabulary) -> None:
+    numbers = [r.number for r in v.regions]
+    if numbers != list(range(1, len(numbers) + 1)):
+        raise VocabularyError(f"regions must be numbered 1..n in order, got {numbers}")
+    if sorted(n for row in v.keypad for n in row) != numbers:
+        raise VocabularyError(f"the keypad {v.keypad} must hold every region once")
+    mirror = {r.number: r.mirror for r in v.regions}
+    if any(mirror.get(m) != n for n, m in mirror.items()):
+        raise VocabularyError(f"the mirror map {mirror} is not an involution")
+    if [r.number for r in v.regions if r.sector is None] != [v.centre]:
+        raise VocabularyError("every region but the centre needs a sector angle")
+    width = 360.0 / len(v.ring)
+    if [r.sector for r in v.ring] != [width * k for k in range(len(v.ring))]:
+        raise VocabularyError(f"ring sectors must tile the ring in {width}° steps from 0°")
+    for r in v.ring:  # the mirror y -> -y maps a sector at a to the one at -a
+        if next(m for m in v.ring if m.number == r.mirror).sector != (-(r.sector or 0.0)) % 360:
+            raise VocabularyError(f"region {r.number}: its mirror is not at -{r.sector}°")
+    named = [r.direction for r in v.regions if r.direction]
+    if sorted(named) != sorted(DIRECTIONS):
+        raise VocabularyError(f"directions {named}: name each of {DIRECTIONS} once")
+    if len(v.axes) != len(v.units) or v.decoded != v.channels[: len(v.decoded)]:
+        raise VocabularyError("one unit per axis; decoded channels are the first channels")
+    if not 0 < v.centre_radius < v.active_radius:
+        raise VocabularyError("need 0 < centre_radius < active_radius")
+
+
+def _region(r: dict[str, Any]) -> Region:
+    sector = float(r["sector"]) if "sector" in r else None
+    return Region(int(r["number"]), r["prompt"], r.get("direction"), sector, int(r["mirror"]))
+
+
+def load(path: Path, params: Path, source: str) -> Vocabulary:
+    raw: dict[str, Any] = tomllib.loads(path.read_text(encoding="utf-8"))
+    layout = tomllib.loads(params.read_text(encoding="utf-8"))["layout"]
+    reg = raw["regions"]
+    v = Vocabulary(
+        source=source,
+        sensors=len(layout["sensor_angles"]),
+        leds=len(layout["led_angles"]),
+        channels=tuple(raw["channels"]["names"]),
+        decoded=tuple(raw["channels"]["decoded"]),
+        channel_format=raw["channels"]["format"],
+        colours=tuple(raw["leds"]["colours"]),
+        axes=tuple(raw["axes"]["names"]),
+        units=tuple(raw["axes"]["units"]),
+        keypad=tuple(tuple(row) for row in reg["keypad"]),
+        centre=int(reg["centre"]),
+        centre_radius=float(reg["centre_radius"]),
+        active_radius=float(reg["active_radius"]),
+        none=int(reg["none"]),
+        regions=tuple(_region(r) for r in raw["region"]),
+    )
+    _check(v)
+    return v
+
+
+def render_python(v: Vocabulary) -> str:
+    regions = tuple(r.number for r in v.regions)
+    force = v.axes[: len(v.axes) // 2]
+    out = [
+        f"# GENERATED by tools/codegen/generate.py from {v.source}.",
+        "# Do not edit by hand: change the definition and run `make regen` (a test fails if",
+        "# this file drifts).",
+        '"""The sensor\'s vocabulary: contact regions, colour channels, force/torque axes.',
+        "",
+        "Regions are numbered like a phone keypad (KEYPAD); region CENTRE_REGION is the central",
+        "disc, the others are sectors of the ring around it (SECTOR_CENTRE_DEG).",
+        "",
+        ">>> N_REGIONS, KEYPAD[0], MIRROR_REGION[1], FT_AXES[:3], DECODED_INPUTS[:2]",
+        f"({len(regions)}, {v.keypad[0]!r}, {v.regions[0].mirror}, {force!r}, "
+        f"{v.channel_names(v.decoded)[:2]!r})",
+        '"""',
+        "",
+        "from __future__ import annotations",
+        "",
+        "# Sensors and LEDs: as many as hardware/definitions/params.toml places on the board.",
+        f"N_SENSORS = {v.sensors}",
+        f"N_LEDS = {v.leds}",
+        f"LED_COLOURS = {v.colours!r}",
+        "",
+        "# Colour channels of one sensor, in SAMPLE.counts order; the ones decoders read.",
+        f"CHANNELS = {v.channels!r}",
+        f"DECODED_CHANNELS = {v.decoded!r}",
+        f"# Count names, {v.channel_format!r}: every channel, and the decoders' inputs.",
+        f"SENSOR_CHANNELS = {v.channel_names(v.channels)!r}",
+        f"DECODED_INPUTS = {v.channel_names(v.decoded)!r}",
+        "",
+        "# Force/torque axes (board axes) and their units.",
+        f"FT_AXES = {v.axes!r}",
+        f"FORCE_AXES = {force!r}",
+        f"TORQUE_AXES = {v.axes[len(force) :]!r}",
+        f"AXIS_UNITS = {dict(zip(v.axes, v.units, strict=True))!r}",
+        "",
+        "# Contact regions.",
+        f"N_REGIONS = {len(regions)}",
+        f"REGIONS = {regions!r}",
+        f"NO_REGION = {v.none}  # label of no region (ESTIMATE.region says 0)",
+        f"CENTRE_REGION = {v.centre}",
+        f"KEYPAD = {v.keypad!r}",
+        f"CENTRE_RADIUS_MM = {v.centre_radius!r}  # the centre region: r < this",
+        f"ACTIVE_RADIUS_MM = {v.active_radius!r}  # beyond: the clamped rim, no region",
+        "# Ring regions by sector, counter-clockwise from 0°, and each sector's centre angle.",
+        f"RING_REGIONS = {tuple(r.number for r in v.ring)!r}",
+        f"SECTOR_CENTRE_DEG = { ({r.number: r.sector for r in v.ring})!r}",
+        "# How the guided recorder names each region; keypad directions -> region.",
+        f"REGION_PROMPTS = { ({r.number: r.prompt for r in v.regions})!r}",
+        f"DIRECTION_REGION = { ({r.direction: r.number for r in v.regions if r.direction})!r}",
+        "# Symmetry: the region under the mirror y -> -y; a 120° turn keeps only the centre's.",
+        f"MIRROR_REGION = { ({r.number: r.mirror for r in v.regions})!r}",
+        f"TURN_REGION = { ({v.centre: v.centre})!r}",
+        "",
+    ]
+    return "\n".join(out)
+
+
+def _c_names(names: tuple[str, ...]) -> str:
+    return ", ".join(names)
+
+
+def render_header(v: Vocabulary) -> str:
+    force = len(v.axes) // 2
+    out = [
+        f"/* GENERATED by tools/codegen/generate.py from {v.source}.",
+        " * Do not edit by hand: change the definition and run `make regen` (a test fails if",
+        " * this file drifts). */",
+        "#ifndef STAC_VOCABULARY_H",
+        "#define STAC_VOCABULARY_H",
+        "",
+        '#include "stac_messages.h"',
+        "",
+        "/* Contact regions 1..STAC_REGIONS (keypad numbering); ESTIMATE.region 0 is none. */",
+        f"#define STAC_REGIONS {len(v.regions)}u",
+        f"#define STAC_REGION_CENTRE {v.centre}u",
+        "#define STAC_REGION_NONE 0u",
+        "",
+        f"/* Force/torque axes: {_c_names(v.axes)}. */",
+        f"#define STAC_FT_AXES {len(v.axes)}u",
+        f"#define STAC_FORCE_AXES {force}u",
+        f"#define STAC_TORQUE_AXES {len(v.axes) - force}u",
+        "",
+        f"/* Channels of one sensor in SAMPLE.counts: {_c_names(v.channels)}. */",
+    ]
+    out += [f"#define STAC_CHANNEL_{c} {i}u" for i, c in enumerate(v.channels)]
+    out += [
+        f"/* Decoders read the first {len(v.decoded)} of them: {_c_names(v.decoded)}. */",
+        f"#define STAC_DECODED_CHANNELS {len(v.decoded)}u",
+        "",
+        "/* The wire's shape (the protocol definition) must be the vocabulary's. */",
+        f'_Static_assert(STAC_SENSORS == {v.sensors}u, "one SAMPLE count row per board sensor");',
+        f'_Static_assert(STAC_CHANNELS == {len(v.channels)}u, "one count per named channel");',
+        f'_Static_assert(STAC_LEDS == {v.leds}u, "one duty row per board LED");',
+        f'_Static_assert(STAC_COLOURS == {len(v.colours)}u, "one duty per LED colour");',
+        "",
+        "#endif /* STAC_VOCABULARY_H */",
+        "",
+    ]
+    return "\n".join(out)
