@@ -23,6 +23,7 @@ from spectratac.apps.sensor_setup import sensor_settings
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import (
     add_count,
+    add_decoding_checks,
     add_device_url,
     add_duration,
     add_renamed,
@@ -49,12 +50,7 @@ def register(subparsers: Any) -> None:
     add_duration(p, 0.0, "stop after this long (0: never)")
     add_renamed(p, "--seconds", "duration", "--duration", type=float)
     add_row_format(p)
-    p.add_argument(
-        "--keep-config",
-        action="store_true",
-        help="do not configure the sensor; decode only if its configuration matches",
-    )
-    p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
+    add_decoding_checks(p)
     p.set_defaults(func=run)
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_device_url
+from spectratac.cli.options import add_decoding_checks, add_device_url
 from spectratac.errors import SpectraTacError
 
 
@@ -19,12 +19,7 @@ def add_device_options(p: argparse.ArgumentParser) -> None:
     """Model and device options shared by the live verbs (as `spectratac decode` has them)."""
     p.add_argument("model", help="decoder file (.stac)")
     add_device_url(p)
-    p.add_argument(
-        "--keep-config",
-        action="store_true",
-        help="do not configure the sensor; decode only if its configuration matches",
-    )
-    p.add_argument("--unit", help="unit id of the sensor (warns if the model is another unit's)")
+    add_decoding_checks(p)
 
 
 def add_game_options(p: argparse.ArgumentParser) -> None:

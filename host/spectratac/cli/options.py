@@ -172,6 +172,18 @@ def add_device_url(parser: argparse.ArgumentParser, help: str = DEVICE_URL_HELP)
     )
 
 
+def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
+    """--keep-config and --unit of the verbs that decode a live sensor (decode, live, snake)."""
+    parser.add_argument(
+        "--keep-config",
+        action="store_true",
+        help="do not configure the sensor; decode only if its configuration matches",
+    )
+    parser.add_argument(
+        "--unit", help="unit id of the sensor (warns if the model is another unit's)"
+    )
+
+
 def add_row_format(parser: argparse.ArgumentParser) -> None:
     """--format table|csv|jsonl of the verbs that stream rows (see output.RowWriter)."""
     parser.add_argument("--format", choices=ROW_FORMATS, default="table", help="row format")
