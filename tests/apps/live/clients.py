@@ -4,6 +4,7 @@ send what a hostile page or a confused script would."""
 
 from __future__ import annotations
 
+import contextlib
 import http.client
 import json
 import socket
@@ -21,6 +22,7 @@ from wsproto.events import (
     Request,
     TextMessage,
 )
+from wsproto.utilities import LocalProtocolError
 
 
 @dataclass
@@ -153,8 +155,6 @@ class WsClient:
                 return msg
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(OSError, LocalProtocolError):  # closed by the server already
             self.sock.sendall(self.conn.send(CloseConnection(code=1000)))
-        except Exception:  # noqa: BLE001 - already closed by the server
-            pass
         self.sock.close()

@@ -365,6 +365,7 @@ function onEstimate(msg) {
   showSnakeInput(msg);
   if (msg.snake) showSnake(msg.snake);
 }
+stac.onEstimate = onEstimate;  // for tests: replay a message
 function onMeta(meta) {
   stac.meta = meta;
   const m = meta.model;
