@@ -122,7 +122,8 @@ def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guar
         return JSONResponse(session.stats())
 
     async def save(request: Request) -> Response:
-        if not token_matches(request.headers.get(TOKEN_HEADER), token):
+        given = request.headers.getlist(TOKEN_HEADER)  # exactly one: a repeat is ambiguous
+        if len(given) != 1 or not token_matches(given[0], token):
             return refusal(403, "bad_token", "saving needs the token of the page this server "
                            f"served (the {TOKEN_HEADER} header): reload the page")  # fmt: skip
         if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
