@@ -5,8 +5,10 @@ once, in order. A fast stand-in session (`FakeSession`) publishes numbered estim
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
+import socket
 import threading
 import time
 from collections.abc import Iterator
@@ -61,6 +63,16 @@ def test_another_host_name_is_refused_on_every_route(served, path) -> None:
         assert answer.status == 403, (host, answer)
         assert answer.json()["code"] == "bad_host" and host in answer.json()["error"]
     assert http_request(port, "GET", path, headers={"Host": f"localhost:{port}"}).status == 200
+
+
+def test_static_files_stay_inside_the_package(served) -> None:
+    server, _ = served
+    port = port_of(server)
+    for path in ("/static/../server.py", "/static/%2e%2e/server.py", "/static/..%2fserver.py",
+                 "/static//etc/passwd", "/static/vendor/../../session.py"):  # fmt: skip
+        answer = http_request(port, "GET", path)
+        assert answer.status == 404 and b"LiveSession" not in answer.body, path
+    assert server.sock.getsockname()[0] == "127.0.0.1"
 
 
 def test_another_origin_is_refused_and_the_own_origin_served(served) -> None:
@@ -151,6 +163,27 @@ def test_post_bodies_are_bounded(served) -> None:
                  b'{"seconds": NaN}', b'{"format": 3}', b"\xff\xfe"):  # fmt: skip
         answer = save(port, token, body=body)
         assert answer.status == 400 and answer.json()["code"] == "bad_message", body
+    assert session.saves == []
+
+
+def test_a_streamed_body_without_a_length_is_cut_off_at_the_limit(served) -> None:
+    server, session = served
+    port = port_of(server)
+    sock = socket.create_connection(("127.0.0.1", port), timeout=60)
+    try:
+        sock.sendall(
+            f"POST /api/save HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+            f"Content-Type: application/json\r\nX-SpectraTac-Token: {server.token}\r\n"
+            "Transfer-Encoding: chunked\r\n\r\n".encode()
+        )
+        chunk = b"100000\r\n" + b" " * (1 << 20) + b"\r\n"  # 1 MiB chunks, 64 of them
+        with contextlib.suppress(OSError):  # answered and closed before the end
+            for _ in range(64):
+                sock.sendall(chunk)
+        answer = sock.recv(4096)
+    finally:
+        sock.close()
+    assert answer.startswith(b"HTTP/1.1 413"), answer[:200]
     assert session.saves == []
 
 
