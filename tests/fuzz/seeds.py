@@ -121,3 +121,25 @@ def ft_url_queries() -> list[bytes]:
         b"cpf=1000000&cpt=1000000&rate=1000&seq_rate=7000&mode=buffered&http_port=80",
         b"rate=100&realtime=0",
     ]
+
+
+def live_ws_messages() -> list[bytes]:
+    """What the live page sends its server (spectratac.apps.live.inbound)."""
+    return [
+        b'{"type": "latency", "values": [5.25, 6.0, 12, 0.5]}',
+        b'{"type": "pong", "id": 17}',
+        b'{"type": "snake_restart"}',
+    ]
+
+
+def live_http_requests() -> list[bytes]:
+    """Requests the live page makes, as raw HTTP/1.1 (port 8765; the token is "T")."""
+    host = b"Host: 127.0.0.1:8765\r\n"
+    return [
+        b"GET / HTTP/1.1\r\n" + host + b"\r\n",
+        b"GET /api/stats HTTP/1.1\r\n" + host + b"Origin: http://127.0.0.1:8765\r\n\r\n",
+        b"GET /static/app.js HTTP/1.1\r\n" + host + b"\r\n",
+        b"POST /api/save HTTP/1.1\r\n" + host + b"Content-Type: application/json\r\n"
+        b"X-SpectraTac-Token: T\r\nOrigin: http://localhost:8765\r\n\r\n"
+        b'{"seconds": 10, "format": "mcap"}',
+    ]

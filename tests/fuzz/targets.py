@@ -283,6 +283,68 @@ def _device_url(data: bytes, workdir: Path) -> Any:
     return scheme
 
 
+# ---------------------------------------------------------------------- the live server
+def _live_ws_message(data: bytes, workdir: Path) -> Any:
+    from spectratac.apps.live.inbound import parse
+
+    return parse(data.decode("utf-8", "replace"))
+
+
+LIVE_STATUSES = {200, 304, 307, 400, 403, 404, 405, 413, 415}
+
+
+def _live_http(data: bytes, workdir: Path) -> Any:
+    """One raw request through the live server's ASGI app (Guard included) on a stand-in
+    session: every answer is one of LIVE_STATUSES, never an exception; a save is made only
+    with the page's token, from the served address."""
+    import asyncio
+
+    from spectratac.apps.live.server import Hub, create_app
+
+    from tests.apps.live.fake_session import FakeSession
+
+    head, _, body = data.partition(b"\r\n\r\n")
+    request, *lines = head.decode("latin-1").split("\r\n")
+    parts = request.split(" ")
+    method, target = [*parts, "", ""][:2]
+    path, _, query = target.partition("?")
+    headers = [
+        (k.strip().lower().encode("latin-1"), v.strip().encode("latin-1"))
+        for k, sep, v in (line.partition(":") for line in lines)
+        if sep and k.strip()
+    ]
+    session = FakeSession()
+    app = create_app(session, Hub(), port=8765, token="T")  # type: ignore[arg-type]
+    scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
+             "method": method.upper() or "GET", "scheme": "http", "path": "/" + path.lstrip("/"),
+             "raw_path": path.encode("latin-1"), "query_string": query.encode("latin-1"),
+             "root_path": "", "headers": headers, "client": ("127.0.0.1", 1),
+             "server": ("127.0.0.1", 8765)}  # fmt: skip
+    sent: list[dict[str, Any]] = []
+    chunks = [body[i : i + 1024] for i in range(0, len(body), 1024)] or [b""]
+
+    async def receive() -> dict[str, Any]:
+        if chunks:
+            chunk = chunks.pop(0)
+            return {"type": "http.request", "body": chunk, "more_body": bool(chunks)}
+        return {"type": "http.disconnect"}
+
+    async def send(message: dict[str, Any]) -> None:
+        sent.append(message)
+
+    asyncio.run(app(scope, receive, send))
+    status = next(m["status"] for m in sent if m["type"] == "http.response.start")
+    if status not in LIVE_STATUSES:
+        raise AssertionError(f"the live server answered {status}")
+    if session.saves:
+        allowed = {b"127.0.0.1:8765", b"localhost:8765"}
+        tokens = [v for k, v in headers if k == b"x-spectratac-token"]
+        hosts = [v for k, v in headers if k == b"host"]
+        if tokens != [b"T"] or len(hosts) != 1 or hosts[0] not in allowed:
+            raise AssertionError(f"a save was made with tokens {tokens} from hosts {hosts}")
+    return status
+
+
 TARGETS: dict[str, Target] = {
     t.name: t
     for t in [
@@ -335,6 +397,17 @@ TARGETS: dict[str, Target] = {
             per_second=80,
             weight=0.5,
             memory_base=256 << 20,  # a sim:// world builds its twin (~90 MB)
+        ),
+        Target(
+            "live_ws_message",
+            lambda d: seeds.live_ws_messages(),
+            _live_ws_message,
+            _text,
+            per_second=20000,
+            weight=0.3,
+        ),
+        Target(
+            "live_http", lambda d: seeds.live_http_requests(), _live_http, _text, per_second=300
         ),
     ]
 }

@@ -99,14 +99,30 @@ def check_page(driver, server) -> None:
     assert driver.execute_script("return " + newest) == frozen
     driver.find_element("id", "pause").click()
     wait_for(driver, f"{newest} > {frozen}")
-    # save the last 2 s as CSV
+    # save the last 2 s as CSV; the button waits for the answer (one save at a time)
     driver.find_element("id", "save-seconds").clear()
     driver.find_element("id", "save-seconds").send_keys("2")
     driver.find_element("css selector", "#save-format option[value=csv]").click()
-    driver.find_element("id", "save").click()
+    save = "document.getElementById('save')"
+    assert driver.execute_script(f"{save}.click(); return {save}.disabled") is True
     result = "document.getElementById('save-result').textContent"
     saved = wait_for(driver, f"{result}.startsWith('saved') && {result}")
     assert Path(saved.removeprefix("saved ")).is_file()
+    wait_for(driver, f"!{save}.disabled")
+    # the page's token reached the server: its latency reports were accepted
+    wait_for(driver, "stac.refused.length === 0 && stac.latency.length > 20")
+    deadline = time.monotonic() + 30
+    while server.session.latency.summary()["n"] == 0:
+        assert time.monotonic() < deadline, "the page's latency reports were not accepted"
+        time.sleep(0.1)
+    # references are matched by sequence number across gaps; a repeated estimate is ignored
+    found = "return [7, 5, 12, 3, 13].map(k => stac.indexOfSeq([3, 4, 7, 9, 12], k))"
+    assert driver.execute_script(found) == [2, -1, 4, 0, -1]
+    kept = driver.execute_script(
+        "const n = stac.xs.length, d = stac.duplicates; stac.onEstimate({...stac.last});"
+        "return [stac.xs.length - n, stac.duplicates - d]"
+    )
+    assert kept == [0, 1]
     # nothing loaded from outside the package (the page works offline)
     resources = driver.execute_script(
         "return performance.getEntriesByType('resource').map(e => e.name)"

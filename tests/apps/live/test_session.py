@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import csv
 import threading
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,3 +87,60 @@ def test_session_refuses_what_it_cannot_open(press_model) -> None:
     with pytest.raises(SpectraTacError):
         session.start(lambda msg: None)
     assert not session.running and session.sensor is None
+
+
+@pytest.mark.slow
+def test_concurrent_saves_through_the_server_give_distinct_complete_clips(
+    press_model, tmp_path
+) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from spectratac.apps.live.server import LiveServer, bind
+    from spectratac.record.reader import read_recording
+
+    from tests.apps.live.clients import http_request
+
+    session = LiveSession(Decoder.load(press_model), PRESSES_URL + "&speed=4&ft=bota",
+                          out_dir=tmp_path)  # fmt: skip
+    server = LiveServer(session, bind(0)).start()
+    port = server.sock.getsockname()[1]
+    headers = {"Content-Type": "application/json", "X-SpectraTac-Token": server.token}
+
+    def save(fmt: str) -> dict:
+        body = f'{{"seconds": 1, "format": "{fmt}"}}'.encode()
+        answer = http_request(port, "POST", "/api/save", headers=headers, body=body)
+        assert answer.status == 200, answer
+        return answer.json()
+
+    try:
+        deadline = time.monotonic() + 120
+        while session.estimates < 40:  # a second of history at speed 4
+            assert time.monotonic() < deadline, "no estimates within 120 s"
+            time.sleep(0.05)
+        with ThreadPoolExecutor(12) as pool:  # all within the same second: the same stem
+            clips = list(pool.map(save, ["mcap"] * 8 + ["csv"] * 4))
+    finally:
+        server.stop()
+    paths = [c["path"] for c in clips]
+    assert len(set(paths)) == 12
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(Path(p).name for p in paths)
+    for clip in clips[:8]:
+        rec = read_recording(clip["path"])
+        assert not rec.truncated and rec.end is not None, rec.problem
+        assert len(rec.frames) == clip["frames"] > 0
+    for clip in clips[8:]:
+        with open(clip["path"]) as f:
+            assert len(list(csv.DictReader(f))) == clip["rows"] > 0
+
+
+def test_a_clip_name_taken_meanwhile_is_never_overwritten(tmp_path) -> None:
+    from spectratac.apps.live.session import _link_unique
+
+    (tmp_path / "clip.csv").write_text("first")
+    (tmp_path / "clip-2.csv").write_text("second")
+    tmp = tmp_path / ".clip.partial"
+    tmp.write_text("third")
+    assert _link_unique(tmp, tmp_path, "clip", "csv") == tmp_path / "clip-3.csv"
+    assert [(tmp_path / n).read_text() for n in ("clip.csv", "clip-2.csv", "clip-3.csv")] == [
+        "first", "second", "third"
+    ]  # fmt: skip

@@ -15,6 +15,10 @@
 share (see `alignment`); ``arrival_ms`` is when the sample's bytes were read, in Unix ms,
 for the page to measure the latency to the browser.
 
+Besides estimates the page gets ``meta`` (once, first), ``stats``, ``ping``, ``snake``,
+``error`` (the session stopped) and ``refused`` (a message of the page's the server did not
+act on, with a ``code``: see `spectratac.apps.live.inbound`).
+
 >>> msg = estimate_message(7, _example_estimate(), _example_sample(), 1.25, 5.0)
 >>> msg["t"], msg["force"], msg["region"], msg["saturated"][3], msg["dark"]
 (1.25, [0.1, -0.2, -2.5], 2, True, [False, True, False])

@@ -1,15 +1,22 @@
 """The live page's server: Starlette on uvicorn, on 127.0.0.1 only.
 
 Routes: ``/`` the page (static files under ``/static``, libraries included: the page
-works offline); ``/ws`` a WebSocket that sends the session's ``meta`` then every message
-it publishes, and takes ``{"type": "latency", "values": [...]}`` (the page's receipt
-latencies), ``{"type": "pong", "id": n}`` (echo of the server's pings) and
-``{"type": "snake_restart"}``; ``POST /api/save`` ``{"seconds": 10, "format": "mcap"}``
-writes a clip; ``GET /api/stats`` link, latency and echo figures as JSON.
+works offline); ``/ws`` a WebSocket that sends the session's ``meta``, the latest estimate,
+then every message it publishes, and takes the messages of `spectratac.apps.live.inbound`
+(``latency``, ``pong``, ``snake_restart``); ``POST /api/save`` ``{"seconds": 10,
+"format": "mcap"}`` writes a clip; ``GET /api/stats`` link, latency and echo figures as JSON.
+
+Only the served page may use it (`spectratac.apps.live.guard`): Host and Origin are checked
+on every request, and writing or controlling needs the token written into the served page.
+Inputs are bounded: WebSocket messages (uvicorn closes the socket with 1009 beyond
+`MAX_MESSAGE_BYTES`, before buffering more) and POST bodies (413 beyond `MAX_BODY_BYTES`);
+a message over `INLINE_BYTES` is parsed on a worker thread, so no client stalls the others.
 
 Messages cross from the session's worker thread into the event loop with
 `call_soon_threadsafe`; each client has a bounded queue, and a client too slow to keep up
-loses its oldest messages, never the sensor's.
+loses its oldest messages, never the sensor's. A joining client's queue gets the meta and
+the latest estimate and joins the fan-out in one step on the event loop, so it sees every
+estimate once, in order.
 """
 
 from __future__ import annotations
@@ -25,11 +32,20 @@ from pathlib import Path
 from typing import Any
 
 import uvicorn
+from spectratac.apps.live import inbound
+from spectratac.apps.live.guard import (
+    TOKEN_HEADER,
+    TOKEN_PLACEHOLDER,
+    Guard,
+    new_token,
+    refusal,
+    token_matches,
+)
 from spectratac.apps.live.session import LiveSession
 from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
-from starlette.requests import Request
-from starlette.responses import FileResponse, JSONResponse
+from starlette.requests import ClientDisconnect, Request
+from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
@@ -38,15 +54,20 @@ STATIC = Path(__file__).with_name("static")
 HOST = "127.0.0.1"  # never another interface: the page controls a device
 QUEUE = 512  # messages per client (25 s at 20 Hz) before the oldest are dropped
 PING_EVERY_S = 0.25
+MAX_MESSAGE_BYTES = inbound.MAX_MESSAGE_BYTES
+MAX_BODY_BYTES = 4096  # a save request is ~40 bytes
+INLINE_BYTES = 4096  # longer messages are parsed off the event loop
 
 
 class Hub:
-    """The set of connected pages; `publish` is safe to call from any thread."""
+    """The set of connected pages; `publish` is safe to call from any thread, everything
+    else runs on the event loop."""
 
     def __init__(self) -> None:
         self.loop: asyncio.AbstractEventLoop | None = None
         self.clients: set[asyncio.Queue[str]] = set()
         self.pings: dict[int, float] = {}
+        self.last: str | None = None  # the latest estimate fanned out, for joining pages
 
     def publish(self, msg: dict[str, Any]) -> None:
         loop = self.loop
@@ -54,17 +75,35 @@ class Hub:
             return
         text = json.dumps(msg, separators=(",", ":"))
         with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
-            loop.call_soon_threadsafe(self._fan_out, text)
+            loop.call_soon_threadsafe(self._fan_out, text, msg.get("type") == "estimate")
 
-    def _fan_out(self, text: str) -> None:
+    def join(self, meta: dict[str, Any]) -> asyncio.Queue[str]:
+        """A new client's queue, holding `meta` and the latest estimate, added to the
+        fan-out in the same step: no estimate can fall between or arrive twice."""
+        queue: asyncio.Queue[str] = asyncio.Queue(QUEUE)
+        queue.put_nowait(json.dumps(meta, separators=(",", ":")))
+        if self.last is not None:
+            queue.put_nowait(self.last)
+        self.clients.add(queue)
+        return queue
+
+    def _fan_out(self, text: str, estimate: bool = False) -> None:
+        if estimate:
+            self.last = text
         for q in self.clients:
-            if q.full():
-                q.get_nowait()
-            q.put_nowait(text)
+            _put(q, text)
 
 
-def create_app(session: LiveSession, hub: Hub) -> Starlette:
-    """The ASGI app of `session` (started with `hub.publish`); stops it on shut-down."""
+def _put(queue: asyncio.Queue[str], text: str) -> None:
+    if queue.full():
+        queue.get_nowait()
+    queue.put_nowait(text)
+
+
+def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guard:
+    """The ASGI app of `session` (started with `hub.publish`) served on 127.0.0.1:`port`,
+    controllable with `token`; stops the session on shut-down."""
+    page = (STATIC / "index.html").read_text().replace(TOKEN_PLACEHOLDER, token)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
@@ -76,43 +115,54 @@ def create_app(session: LiveSession, hub: Hub) -> Starlette:
             pinger.cancel()
             await asyncio.to_thread(session.stop)
 
-    async def index(request: Request) -> FileResponse:
-        return FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
+    async def index(request: Request) -> HTMLResponse:
+        return HTMLResponse(page, headers={"Cache-Control": "no-store"})
 
     async def stats(request: Request) -> JSONResponse:
         return JSONResponse(session.stats())
 
-    async def save(request: Request) -> JSONResponse:
+    async def save(request: Request) -> Response:
+        given = request.headers.getlist(TOKEN_HEADER)  # exactly one: a repeat is ambiguous
+        if len(given) != 1 or not token_matches(given[0], token):
+            return refusal(403, "bad_token", "saving needs the token of the page this server "
+                           f"served (the {TOKEN_HEADER} header): reload the page")  # fmt: skip
+        if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
+            return refusal(415, "bad_content_type", "send the save request as application/json")
+        body = await _read_body(request, MAX_BODY_BYTES)
+        if body is None:
+            return refusal(413, "too_large", f"a save request is at most {MAX_BODY_BYTES} bytes")
         try:
-            body = await request.json()
-            seconds = float(body.get("seconds", 10))
-            fmt = str(body.get("format", "mcap"))
-        except (ValueError, TypeError, AttributeError):
-            return JSONResponse({"error": 'give JSON {"seconds": 10, "format": "mcap"}'}, 400)
+            req = inbound.parse_save(body)
+        except inbound.BadMessage as exc:
+            return refusal(400, exc.code, str(exc))
         try:
-            return JSONResponse(await asyncio.to_thread(session.save, seconds, fmt))
+            return JSONResponse(await asyncio.to_thread(session.save, req.seconds, req.format))
         except SpectraTacError as exc:
-            return JSONResponse({"error": str(exc)}, 400)
+            return refusal(400, "not_saved", str(exc))
 
     async def ws(websocket: WebSocket) -> None:
+        given = websocket.query_params.get("token")
+        if given is not None and not token_matches(given, token):
+            await websocket.send_denial_response(
+                refusal(403, "bad_token", "wrong token: reload the page this server served")
+            )
+            return
         await websocket.accept()
-        queue: asyncio.Queue[str] = asyncio.Queue(QUEUE)
-        hub.clients.add(queue)
+        queue = hub.join(session.meta())
         sender = asyncio.create_task(_send(websocket, queue))
         try:
-            await websocket.send_text(json.dumps(session.meta()))
-            if session.last is not None:
-                await websocket.send_text(json.dumps(session.last))
             while True:
-                msg = json.loads(await websocket.receive_text())
-                _handle(session, hub, msg)
-        except (WebSocketDisconnect, json.JSONDecodeError, RuntimeError):
+                text = await websocket.receive_text()
+                reply = await _receive(session, hub, text, control=given is not None)
+                if reply is not None:
+                    _put(queue, json.dumps(reply))
+        except (WebSocketDisconnect, RuntimeError):
             pass
         finally:
             hub.clients.discard(queue)
             sender.cancel()
 
-    return Starlette(
+    app = Starlette(
         routes=[
             Route("/", index),
             Route("/api/stats", stats),
@@ -122,20 +172,46 @@ def create_app(session: LiveSession, hub: Hub) -> Starlette:
         ],
         lifespan=lifespan,
     )
+    return Guard(app, port)
 
 
-def _handle(session: LiveSession, hub: Hub, msg: Any) -> None:
-    if not isinstance(msg, dict):
-        return
-    kind = msg.get("type")
-    if kind == "latency" and isinstance(msg.get("values"), list):
-        session.latency.add(msg["values"])
-    elif kind == "pong":
-        sent = hub.pings.pop(int(msg.get("id", -1)), None)
+async def _read_body(request: Request, limit: int) -> bytes | None:
+    """The body, or None past `limit` bytes (read no further: memory stays bounded)."""
+    declared = request.headers.get("content-length", "")
+    if declared.isdigit() and int(declared) > limit:
+        return None
+    body = bytearray()
+    with contextlib.suppress(ClientDisconnect):
+        async for chunk in request.stream():
+            body += chunk
+            if len(body) > limit:
+                return None
+    return bytes(body)
+
+
+async def _receive(
+    session: LiveSession, hub: Hub, text: str, *, control: bool
+) -> dict[str, Any] | None:
+    """Act on one client message; the typed refusal to send back, if any."""
+    try:
+        if len(text) > INLINE_BYTES:
+            msg = await asyncio.to_thread(inbound.parse, text)
+        else:
+            msg = inbound.parse(text)
+    except inbound.BadMessage as exc:
+        return {"type": "refused", "code": exc.code, "message": str(exc)}
+    if not control:
+        why = "this connection is read-only: control needs the page's token"
+        return {"type": "refused", "code": "bad_token", "message": why}
+    if isinstance(msg, inbound.Latency):
+        session.latency.add(list(msg.values))
+    elif isinstance(msg, inbound.Pong):
+        sent = hub.pings.pop(msg.id, None)
         if sent is not None:
             session.echo.add([(time.monotonic() - sent) * 1e3 / 2])
-    elif kind == "snake_restart":
+    else:
         hub.publish({"type": "snake", "snake": session.restart_snake()})
+    return None
 
 
 async def _send(websocket: WebSocket, queue: asyncio.Queue[str]) -> None:
@@ -180,9 +256,10 @@ class LiveServer:
         host, port = sock.getsockname()[:2]
         self.url = f"http://{host}:{port}/"
         self.hub = Hub()
-        config = uvicorn.Config(
-            create_app(session, self.hub), ws="wsproto", log_level="warning", lifespan="on"
-        )
+        self.token = new_token()
+        app = create_app(session, self.hub, port=port, token=self.token)
+        config = uvicorn.Config(app, ws="wsproto", ws_max_size=MAX_MESSAGE_BYTES,
+                                log_level="warning", lifespan="on")  # fmt: skip
         self.server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
 

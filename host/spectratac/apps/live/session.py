@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import os
+import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -73,6 +75,7 @@ class LiveSession:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()  # the snake is driven by the worker and by clients
+        self._save_lock = threading.Lock()
         self._unix_minus_mono = time.time() - time.monotonic()
         self.error: str | None = None
 
@@ -183,20 +186,28 @@ class LiveSession:
         if self.sensor is None:
             raise SpectraTacError("the session has not started: nothing to save yet")
         self.out_dir.mkdir(parents=True, exist_ok=True)
-        stamp = time.strftime("%Y%m%d-%H%M%S")
-        path = self.out_dir / f"live-{stamp}-{seconds:g}s.{fmt}"
-        for n in itertools.count(2):  # two clips within a second: never overwrite the first
-            if not path.exists():
-                break
-            path = self.out_dir / f"live-{stamp}-{seconds:g}s-{n}.{fmt}"
-        if fmt == "csv":
-            n = self.history.save_csv(path, seconds)
-            what = "rows"
-        else:
-            session = {"url": self.url, "ft_url": self.ft_url, "clip_s": seconds,
-                       "ft_info": None if self.ft is None else self.ft.info.as_dict()}  # fmt: skip
-            n = self.history.save_mcap(path, seconds, self.sensor, session)
-            what = "frames"
+        stem = f"live-{time.strftime('%Y%m%d-%H%M%S')}-{seconds:g}s"
+        # written under a unique temporary name, then linked to the first free clip name:
+        # the link fails if the name exists, so concurrent saves (this server or another
+        # one on the same folder) never share a name, and a clip is complete once named
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{stem}-", suffix=f".{fmt}.partial",
+                                        dir=self.out_dir)  # fmt: skip
+        os.close(fd)
+        tmp = Path(tmp_name)
+        try:
+            with self._save_lock:  # the MCAP clip queries the device (clock sync, config)
+                if fmt == "csv":
+                    n = self.history.save_csv(tmp, seconds)
+                    what = "rows"
+                else:
+                    ft_info = None if self.ft is None else self.ft.info.as_dict()
+                    session = {"url": self.url, "ft_url": self.ft_url, "clip_s": seconds,
+                               "ft_info": ft_info}  # fmt: skip
+                    n = self.history.save_mcap(tmp, seconds, self.sensor, session)
+                    what = "frames"
+            path = _link_unique(tmp, self.out_dir, stem, fmt)
+        finally:
+            tmp.unlink(missing_ok=True)
         return {"path": str(path.resolve()), "format": fmt, what: n, "seconds": seconds}
 
     # ------------------------------------------------------------------ the worker
@@ -289,3 +300,18 @@ class LiveSession:
             "invalid": int(msg["invalid"]),
             **dict(zip(vocab.DECODED_INPUTS, msg["counts"], strict=True)),
         }
+
+
+def _link_unique(tmp: Path, folder: Path, stem: str, fmt: str) -> Path:
+    """Give the finished `tmp` the first free name ``stem.fmt``, ``stem-2.fmt``, ...
+    (a hard link: created only if the name does not exist yet, atomically)."""
+    for n in itertools.count(1):
+        path = folder / (f"{stem}.{fmt}" if n == 1 else f"{stem}-{n}.{fmt}")
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise SpectraTacError(f"cannot write the clip {path}: {exc}") from None
+        return path
+    raise AssertionError("unreachable")

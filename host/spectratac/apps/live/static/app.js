@@ -7,6 +7,8 @@ const AXES = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
 const KEEP_S = 65;  // seconds of data kept for the longest plot window
 const ARROWS = { up: "\u2191", down: "\u2193", left: "\u2190", right: "\u2192" };
 const TORQUE_COLOURS = ["#1f5fbf", "#e08a00", "#2e7d32"];
+// written into the page by the server: control (saves, latency reports, Snake) needs it
+const TOKEN = document.querySelector('meta[name="spectratac-token"]').content;
 const css = getComputedStyle(document.documentElement);
 const PRED = css.getPropertyValue("--pred").trim();
 const REF = css.getPropertyValue("--ref").trim();
@@ -16,7 +18,7 @@ const stac = {  // the page's state; window.stac for tests and for a look from t
   xs: [], seqs: [], pred: AXES.map(() => []), ref: AXES.map(() => []),
   latency: [], latencyBatch: [], arrivals: [], raw: {}, last: null, snake: null,
   snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
-  stats: null, yRanges: {},
+  stats: null, yRanges: {}, duplicates: 0, refused: [],
 };
 window.stac = stac;
 
@@ -44,13 +46,19 @@ $("autoscale").addEventListener("change", (e) => { stac.autoscale = e.target.che
 $("window").addEventListener("change", (e) => { stac.windowS = Number(e.target.value); stac.dirty = true; });
 $("save").addEventListener("click", async () => {
   const body = { seconds: Number($("save-seconds").value), format: $("save-format").value };
+  $("save").disabled = true;  // one save at a time from this page
   $("save-result").textContent = "saving…";
   try {
-    const r = await fetch("/api/save", { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) });
+    const r = await fetch("/api/save", {
+      method: "POST", body: JSON.stringify(body),
+      headers: { "Content-Type": "application/json", "X-SpectraTac-Token": TOKEN },
+    });
     const j = await r.json();
     $("save-result").textContent = r.ok ? `saved ${j.path}` : `not saved: ${j.error}`;
   } catch (err) {
     $("save-result").textContent = `not saved: ${err}`;
+  } finally {
+    $("save").disabled = false;
   }
 });
 $("snake-restart").addEventListener("click", () => send({ type: "snake_restart" }));
@@ -309,7 +317,21 @@ function showSnake(state, commands) {
 }
 
 // ---------------------------------------------------------------- messages
+// Index of `key` in the increasing `seqs`, or -1: sequence numbers may have gaps (a page
+// that joined late, messages dropped for a slow page), so search rather than subtract.
+function indexOfSeq(seqs, key) {
+  let lo = 0, hi = seqs.length - 1;
+  while (lo <= hi) {
+    const mid = (lo + hi) >> 1;
+    if (seqs[mid] === key) return mid;
+    if (seqs[mid] < key) lo = mid + 1; else hi = mid - 1;
+  }
+  return -1;
+}
+stac.indexOfSeq = indexOfSeq;
 function onEstimate(msg) {
+  // an estimate seen already (or older than the newest) would break the increasing order
+  if (stac.seqs.length && msg.seq <= stac.seqs[stac.seqs.length - 1]) { stac.duplicates += 1; return; }
   const arrived = performance.timeOrigin + performance.now();
   const lat = arrived - msg.arrival_ms;
   stac.latency.push(lat); stac.latencyBatch.push(lat);
@@ -322,8 +344,8 @@ function onEstimate(msg) {
   const values = [...msg.force, ...msg.torque];
   AXES.forEach((_, i) => { stac.pred[i].push(values[i]); stac.ref[i].push(null); });
   for (const [key, , ...wrench] of msg.refs || []) {
-    const idx = key - stac.seqs[0];
-    if (idx >= 0 && idx < stac.seqs.length && stac.seqs[idx] === key) {
+    const idx = indexOfSeq(stac.seqs, key);
+    if (idx >= 0) {
       wrench.forEach((v, i) => { stac.ref[i][idx] = v; });
       stac.refsReceived += 1;
     }
@@ -343,6 +365,7 @@ function onEstimate(msg) {
   showSnakeInput(msg);
   if (msg.snake) showSnake(msg.snake);
 }
+stac.onEstimate = onEstimate;  // for tests: replay a message
 function onMeta(meta) {
   stac.meta = meta;
   const m = meta.model;
@@ -355,7 +378,7 @@ function onMeta(meta) {
 let socket = null;
 function send(obj) { if (socket && socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(obj)); }
 function connect() {
-  socket = new WebSocket(`ws://${location.host}/ws`);
+  socket = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(TOKEN)}`);
   socket.onopen = () => { $("conn").textContent = "live"; $("conn").className = "badge on"; };
   socket.onclose = () => { $("conn").textContent = "offline"; $("conn").className = "badge off"; setTimeout(connect, 1000); };
   socket.onmessage = (ev) => {
@@ -366,6 +389,7 @@ function connect() {
       case "stats": stac.stats = msg; break;
       case "meta": onMeta(msg); break;
       case "snake": showSnake(msg.snake); break;
+      case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
       case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
     }
   };
