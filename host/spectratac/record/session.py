@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import socket
 import sys
-import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,6 +27,7 @@ from spectratac.device.transport import DEFAULT_BAUD
 from spectratac.ft.errors import FTTimeoutError
 from spectratac.record.guided import GuidedProtocol
 from spectratac.record.recorder import Recorder, RecordingStatus, RecordingSummary, RecordOptions
+from spectratac.record.stop import StopFlag
 
 if TYPE_CHECKING:
     from spectratac.ft import FTSensor
@@ -45,7 +45,7 @@ def record_url(
     *,
     ft_url: str | None = None,
     guided: GuidedProtocol | None = None,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
     progress: Callable[[RecordingStatus], None] | None = None,
     sensor_options: dict[str, Any] | None = None,
     on_open: Callable[[LinkInfo, str | None], None] | None = None,
