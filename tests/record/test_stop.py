@@ -47,42 +47,50 @@ def test_event_set_in_a_handler_deadlocks_while_wait_holds_the_lock() -> None:
     # (the daemon thread stays blocked on a lock nobody else uses; it ends with the process)
 
 
+def _signal_at_line(
+    line: int, run: Callable[[], object], handler: Callable[[int, Any], None], names: set[str]
+) -> tuple[bool, list[object]]:
+    """Run `run` in a worker thread (bounded by GENEROUS_S), invoking `handler` at the
+    `line`-th line event inside the functions named `names`, as a signal landing exactly
+    there would; whether it fired, and what `run` returned."""
+    seen = 0
+    fired = False
+
+    def tracer(frame: FrameType, event: str, _arg: Any) -> Any:
+        nonlocal seen, fired
+        if frame.f_code.co_name not in names:
+            return tracer if event == "call" else None
+        if event == "line":
+            if seen == line and not fired:
+                fired = True
+                handler(signal.SIGINT, frame)
+            seen += 1
+        return tracer
+
+    box: list[object] = []
+
+    def body() -> None:
+        sys.settrace(tracer)
+        try:
+            box.append(run())
+        finally:
+            sys.settrace(None)
+
+    t = threading.Thread(target=body, daemon=True)
+    t.start()
+    t.join(GENEROUS_S)
+    assert not t.is_alive(), f"deadlocked with the signal at line event {line}"
+    return fired, box
+
+
 def _signal_at_every_line(
-    run: Callable[[], object], handler: Callable[[int, Any], None], code_names: set[str]
+    run: Callable[[], object], handler: Callable[[int, Any], None], names: set[str]
 ) -> list[object]:
-    """Run `run` once per line event inside the functions named `code_names`, invoking
-    `handler` at exactly that line (as a signal landing there would), in a worker thread
-    bounded by GENEROUS_S; the results of every run."""
+    """`_signal_at_line` for every line event of `names` in turn; every run's result."""
     results: list[object] = []
     line = 0
     while True:
-        seen = 0
-        fired = False
-
-        def tracer(frame: FrameType, event: str, _arg: Any) -> Any:
-            nonlocal seen, fired
-            if frame.f_code.co_name not in code_names:
-                return tracer if event == "call" else None
-            if event == "line":
-                if seen == line and not fired:
-                    fired = True
-                    handler(signal.SIGINT, frame)
-                seen += 1
-            return tracer
-
-        box: list[object] = []
-
-        def body() -> None:
-            sys.settrace(tracer)
-            try:
-                box.append(run())
-            finally:
-                sys.settrace(None)
-
-        t = threading.Thread(target=body, daemon=True)
-        t.start()
-        t.join(GENEROUS_S)
-        assert not t.is_alive(), f"deadlocked with the signal at line event {line}"
+        fired, box = _signal_at_line(line, run, handler, names)
         if not fired:
             return results
         results.extend(box)
