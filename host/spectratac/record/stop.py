@@ -22,6 +22,7 @@ import select
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import Any, Protocol
 
@@ -71,6 +72,48 @@ class StopRequest:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class AnyStop:
+    """Set when any of `flags` is: a caller's threading.Event (set from another thread)
+    beside the StopRequest a signal handler sets. `wait` sleeps on the last flag in slices
+    of at most POLL_S, so a set of the others is seen within that."""
+
+    POLL_S = 0.05
+
+    def __init__(self, *flags: StopFlag) -> None:
+        if not flags:
+            raise ValueError("AnyStop needs at least one flag")
+        self.flags = flags
+
+    def is_set(self) -> bool:
+        return any(f.is_set() for f in self.flags)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not self.is_set():
+            remaining = self.POLL_S if deadline is None else deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            self.flags[-1].wait(min(self.POLL_S, remaining))
+        return self.is_set()
+
+
+class SignalFlag:
+    """A re-armable flag a signal handler may set (a plain attribute, no lock); its readers
+    poll it. For events such as "unplug now" that a loop handles and then clears."""
+
+    def __init__(self) -> None:
+        self._set = False
+
+    def set(self) -> None:
+        self._set = True
+
+    def clear(self) -> None:
+        self._set = False
+
+    def is_set(self) -> bool:
+        return self._set
 
 
 def stop_handler(stop: StopRequest, message: str | None = None) -> Callable[[int, Any], None]:
