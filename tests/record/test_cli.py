@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -95,6 +96,35 @@ def test_bad_arguments_are_usage_or_clear_errors(tmp_path: Path) -> None:
         timeout=60,
     )
     assert run.returncode == 3 and "error" in run.stderr
+
+
+def test_timeout_reaches_the_ft_sensor(tmp_path: Path) -> None:
+    """--timeout bounds the F/T open too: a Net F/T that never answers fails the verb with a
+    typed error naming the F/T sensor, the given timeout (not the 2 s default) and what to do."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as silent:
+        silent.bind(("127.0.0.1", 0))  # receives the RDT requests, answers none
+        port = silent.getsockname()[1]
+        run = subprocess.run(
+            spectratac(
+                "record",
+                "sim://?scene=press&seed=1&speed=10",
+                "--ft",
+                f"netft://127.0.0.1:{port}?cpf=1000000&cpt=1000000&rate=1000",
+                "-o",
+                str(tmp_path / "silent.mcap"),
+                "--count",
+                "5",
+                "--timeout",
+                "0.7",
+                "--no-progress",
+            ),
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    assert run.returncode == 3, run.stderr
+    assert "reference F/T sensor did not answer within 0.7 s" in run.stderr
+    assert "--timeout" in run.stderr and "Traceback" not in run.stderr
 
 
 def test_sigint_stops_cleanly(tmp_path: Path) -> None:

@@ -10,7 +10,6 @@ import argparse
 import json
 import signal
 import sys
-import threading
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
@@ -24,6 +23,8 @@ from spectratac.cli.options import (
 )
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated.veml3328 import GAINS, INTEGRATION_MS
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -94,7 +95,13 @@ def parse_leds(spec: str) -> list[list[list[int]]]:
 
 
 def _record(args: argparse.Namespace) -> int:
-    from spectratac.record import GuidedProtocol, RecordOptions, record_url
+    from spectratac.record import (
+        GuidedProtocol,
+        RecordOptions,
+        StopRequest,
+        record_url,
+        stopping_on,
+    )
 
     options = RecordOptions(
         duration_s=args.duration,
@@ -124,23 +131,26 @@ def _record(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
 
-    stop = threading.Event()
     progress, bar = (None, None) if args.no_progress or guided else _progress_bar(options)
-    previous = _on_signals(stop)
+    # SIGINT/SIGTERM ask the recorder to stop: it finishes the file, then the CLI returns.
+    # StopRequest, not threading.Event: a handler must not take the lock the loop waits on.
     try:
-        summary = record_url(
-            args.url,
-            args.output,
-            options,
-            ft_url=args.ft,
-            guided=guided,
-            stop=stop,
-            progress=progress,
-            sensor_options={"timeout": args.timeout},
-            on_open=note,
-        )
+        with (
+            StopRequest() as stop,
+            stopping_on(stop, STOP_SIGNALS, "\nstopping: finishing the file…\n"),
+        ):
+            summary = record_url(
+                args.url,
+                args.output,
+                options,
+                ft_url=args.ft,
+                guided=guided,
+                stop=stop,
+                progress=progress,
+                sensor_options={"timeout": args.timeout},
+                on_open=note,
+            )
     finally:
-        _restore(previous)
         if bar is not None:
             bar.close()
     if args.json:
@@ -180,23 +190,3 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
         )
 
     return update, bar
-
-
-def _on_signals(stop: threading.Event) -> dict[int, Any]:
-    """SIGINT/SIGTERM ask the recorder to stop: it finishes the file, then the CLI returns."""
-
-    def handler(signum: int, _frame: Any) -> None:
-        if stop.is_set():  # a second Ctrl-C: the user insists
-            raise KeyboardInterrupt
-        stop.set()
-        print("\nstopping: finishing the file…", file=sys.stderr)
-
-    previous = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        previous[sig] = signal.signal(sig, handler)
-    return previous
-
-
-def _restore(previous: dict[int, Any]) -> None:
-    for sig, handler in previous.items():
-        signal.signal(sig, handler)

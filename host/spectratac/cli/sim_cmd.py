@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import signal
-import threading
 from pathlib import Path
 
 from spectratac.cli.exit_codes import ExitCode
@@ -83,6 +82,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _serve_ft(args: argparse.Namespace) -> int:
+    from spectratac.record import StopRequest, stopping_on
     from spectratac.sim.ft_serve import serving, simulated_ft_url
 
     kind = "netft" if args.netft else "bota"
@@ -96,11 +96,13 @@ def _serve_ft(args: argparse.Namespace) -> int:
         offset=args.offset,
         drift=args.drift,
     )
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    # SIGTERM sets a lock-free StopRequest: Event.set() in a handler could deadlock
     try:
-        with serving(url, port=args.port, link=args.link) as server:
+        with (
+            StopRequest() as stop,
+            stopping_on(stop, (signal.SIGTERM,)),
+            serving(url, port=args.port, link=args.link) as server,
+        ):
             if args.json:
                 print(json.dumps({"url": server.url, "kind": kind, "sim": url}), flush=True)
             else:

@@ -17,6 +17,7 @@ from spectratac.record.recorder import (
     RecordOptions,
 )
 from spectratac.record.session import record_url
+from spectratac.record.stop import StopFlag, StopRequest, stopping_on
 from spectratac.record.writer import RecordingWriter
 
 __all__ = [
@@ -29,7 +30,10 @@ __all__ = [
     "RecordingStatus",
     "RecordingSummary",
     "RecordingWriter",
+    "StopFlag",
+    "StopRequest",
     "TruncatedRecordingWarning",
     "read_recording",
     "record_url",
+    "stopping_on",
 ]

@@ -53,6 +53,7 @@ from spectratac.record.format import (
 )
 from spectratac.record.guided import GuidedProtocol
 from spectratac.record.labels import LabelQueue
+from spectratac.record.stop import StopFlag
 from spectratac.record.writer import RecordingWriter
 
 StopReason = Literal["duration", "samples", "scene_end", "guided", "interrupt", "error"]
@@ -171,7 +172,7 @@ class Recorder:
     # ------------------------------------------------------------------ the session
     def run(
         self,
-        stop: threading.Event | None = None,
+        stop: StopFlag | None = None,
         progress: Callable[[RecordingStatus], None] | None = None,
     ) -> RecordingSummary:
         """Record until done; the file is finished (indexed) whatever ends the session.
@@ -279,7 +280,7 @@ class Recorder:
     def _loop(
         self,
         writer: RecordingWriter,
-        stop: threading.Event,
+        stop: StopFlag,
         progress: Callable[[RecordingStatus], None] | None,
         t_begin: float,
     ) -> tuple[StopReason, str | None]:

@@ -18,17 +18,24 @@ from __future__ import annotations
 import contextlib
 import socket
 import sys
-import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from spectratac.device import LinkInfo, Sensor, ground_truth_of, link_info_of, open_transport
 from spectratac.device.transport import DEFAULT_BAUD
+from spectratac.ft.errors import FTTimeoutError
 from spectratac.record.guided import GuidedProtocol
 from spectratac.record.recorder import Recorder, RecordingStatus, RecordingSummary, RecordOptions
+from spectratac.record.stop import StopFlag
+
+if TYPE_CHECKING:
+    from spectratac.ft import FTSensor
 
 __all__ = ["RecordOptions", "record_url"]
+
+#: F/T open timeout when the caller gives none (FTSensor.open's own default).
+DEFAULT_FT_TIMEOUT_S = 2.0
 
 
 def record_url(
@@ -38,13 +45,15 @@ def record_url(
     *,
     ft_url: str | None = None,
     guided: GuidedProtocol | None = None,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
     progress: Callable[[RecordingStatus], None] | None = None,
     sensor_options: dict[str, Any] | None = None,
     on_open: Callable[[LinkInfo, str | None], None] | None = None,
 ) -> RecordingSummary:
     """Record `url` into `path`; returns the summary (see Recorder.run). `on_open` is told,
-    once the device is open, what its link knows and which F/T URL the session uses."""
+    once the device is open, what its link knows and which F/T URL the session uses. The
+    ``timeout`` of `sensor_options` bounds the opening of the F/T sensor too (FTTimeoutError
+    naming it when it does not answer in time)."""
     session: dict[str, Any] = {
         "host": {"hostname": socket.gethostname(), "python": sys.version.split()[0]},
     }
@@ -59,9 +68,7 @@ def record_url(
             on_open(link, ft_url)
         ft = None
         if ft_url is not None:
-            from spectratac.ft import FTSensor
-
-            ft = stack.enter_context(FTSensor.open(ft_url))
+            ft = stack.enter_context(_open_ft(ft_url, sensor_options.get("timeout")))
             session |= {"ft_url": ft_url, "ft_link": ft.url}  # as given; as the driver opened it
         recorder = Recorder(
             sensor,
@@ -73,3 +80,17 @@ def record_url(
             guided=guided,
         )
         return recorder.run(stop, progress)
+
+
+def _open_ft(ft_url: str, timeout: float | None) -> FTSensor:
+    """The session's reference F/T sensor, within the same timeout as the device."""
+    from spectratac.ft import FTSensor
+
+    timeout = DEFAULT_FT_TIMEOUT_S if timeout is None else timeout
+    try:
+        return FTSensor.open(ft_url, timeout=timeout)
+    except FTTimeoutError as exc:
+        raise FTTimeoutError(
+            f"the reference F/T sensor did not answer within {timeout:g} s: {exc}; "
+            f"or give it longer with --timeout S"
+        ) from None

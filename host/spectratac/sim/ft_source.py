@@ -5,7 +5,8 @@ sampled on the F/T's own crystal clock, with occasional losses.
 The F/T clock reads sensor = offset + (1 + drift) * scene seconds; sample k is taken when
 that clock reads k / rate, i.e. at scene time (k / rate - offset) / (1 + drift). Samples
 are computed ahead in blocks (one vectorised twin call per block) and released when their
-scene time has come, so a sender wakes often but pays for the twin rarely.
+scene time has come, so a sender wakes often but pays for the twin rarely. The first block
+is computed when the source is made, so a server is ready to answer before it is handed out.
 
 >>> from spectratac.sim.url import parse_sim_url
 >>> from spectratac.sim.world import SimWorld
@@ -89,10 +90,14 @@ class FTSource:
         self.params = params
         self._rng = np.random.default_rng([world.seed, 0xF7, stream])
         self._speed = float(world.speed)
-        self._block: FTBatch | None = None
         self._k_next = 0
         self.skip()
         self._block_n = max(16, int(params.rate * self._speed * 0.02))  # ~20 ms of samples
+        # Computed now, on the caller's thread, before any server thread serves: the first
+        # twin call builds the world's F/T rig (~0.1 s for a tour idle, seconds on a loaded
+        # machine). Left to the server thread, it ran after a host had begun to open the
+        # sensor, so it counted against the host's open timeout (issue 25).
+        self._block: FTBatch | None = self._compute(self._k_next, self._block_n)
 
     def skip(self) -> None:
         """Forget samples not yet taken: the next one is the next tick of the sensor clock

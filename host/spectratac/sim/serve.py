@@ -26,6 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from spectratac.errors import SpectraTacError
+from spectratac.record.stop import AnyStop, SignalFlag, StopFlag, StopRequest, stop_handler
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.model_store import store_path
@@ -147,22 +148,32 @@ def _open_pty(link: Path | None) -> tuple[int, str]:
     return master, path
 
 
+def _signal_stop(stop: StopFlag | None) -> StopFlag:
+    """`stop` (set by the caller from another thread), or SIGTERM in the main thread: the
+    handler sets a lock-free StopRequest, never an Event (it could deadlock there). The
+    request's pipe lives as long as the process serves, which is until it exits."""
+    if threading.current_thread() is not threading.main_thread():
+        return stop or threading.Event()
+    signalled = StopRequest()
+    signal.signal(signal.SIGTERM, stop_handler(signalled))
+    return signalled if stop is None else AnyStop(stop, signalled)
+
+
 def serve_pty(
     opts: SimOptions,
     link: Path | None = None,
     replug_after: float = 1.0,
     announce: Callable[[str], None] = print,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
 ) -> None:
     """Serve until SIGINT/SIGTERM (or `stop` is set); SIGUSR1 unplugs and replugs. `link`
     must not be an existing non-symlink (LinkPathTaken); it is removed when serving ends."""
     if link is not None:
         check_link_path(link)
-    stop = stop or threading.Event()
-    unplug = threading.Event()
+    stop = _signal_stop(stop)
+    unplug = SignalFlag()  # a handler sets it: no lock (Event.set could deadlock there)
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGUSR1, lambda *_: unplug.set())
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
     endpoint = _Endpoint(opts.speed == MAX)
     path: str | None = None
     try:
@@ -188,9 +199,7 @@ def serve_pty(
             _remove_link(link, path)
 
 
-def _pump_pty(
-    master: int, runner: DeviceRunner, stop: threading.Event, unplug: threading.Event
-) -> None:
+def _pump_pty(master: int, runner: DeviceRunner, stop: StopFlag, unplug: SignalFlag) -> None:
     while not stop.is_set() and not unplug.is_set():
         readable, _, _ = select.select([master], [], [], 0.1)
         if not readable:
@@ -212,12 +221,10 @@ def serve_tcp(
     port: int,
     host: str = "127.0.0.1",
     announce: Callable[[str], None] = print,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
 ) -> None:
     """Serve one client at a time on host:port; each connection talks to the same device."""
-    stop = stop or threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = _signal_stop(stop)
     endpoint = _Endpoint(opts.speed == MAX)
     runner = _boot(opts, endpoint)
     with socket.create_server((host, port), reuse_port=False) as server:
@@ -241,7 +248,7 @@ def serve_tcp(
             runner.stop()
 
 
-def _pump_socket(conn: socket.socket, runner: DeviceRunner, stop: threading.Event) -> None:
+def _pump_socket(conn: socket.socket, runner: DeviceRunner, stop: StopFlag) -> None:
     while not stop.is_set():
         readable, _, _ = select.select([conn], [], [], 0.1)
         if not readable:
