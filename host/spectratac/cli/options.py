@@ -160,15 +160,18 @@ def require(args: argparse.Namespace) -> None:
             raise UsageError(f"the following arguments are required: {spelling}")
 
 
-def add_device_url(parser: argparse.ArgumentParser, help: str = DEVICE_URL_HELP) -> None:
-    """The device URL positional and --timeout, which every verb that opens a device takes."""
+def add_device_url(
+    parser: argparse.ArgumentParser, help: str = DEVICE_URL_HELP, waits_for: str = "the device"
+) -> None:
+    """The device URL positional and --timeout, which every verb that opens a device takes
+    (`waits_for` names what the timeout bounds, e.g. also a reference F/T sensor)."""
     parser.add_argument("url", help=help)
     parser.add_argument(
         "--timeout",
         type=float,
         default=DEFAULT_TIMEOUT_S,
         metavar="S",
-        help=f"seconds to wait for the device (default {DEFAULT_TIMEOUT_S:g})",
+        help=f"seconds to wait for {waits_for} (default {DEFAULT_TIMEOUT_S:g})",
     )
 
 

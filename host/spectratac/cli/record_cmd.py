@@ -34,7 +34,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Record raw device frames, reference F/T samples, clock-sync exchanges, "
         "configuration and region labels into a crash-safe MCAP file. Ctrl-C stops cleanly.",
     )
-    add_device_url(p, "serial port, socket://host:port, or sim://?scene=…&ft=bota")
+    add_device_url(
+        p,
+        "serial port, socket://host:port, or sim://?scene=…&ft=bota",
+        waits_for="the device and for the reference F/T sensor, each",
+    )
     p.add_argument(
         "--ft",
         metavar="FT_URL",
