@@ -40,6 +40,7 @@ WRITING_VERBS = {
     ),
     "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
     "bench decoder": (["bench", "decoder", "--quick", "--out", "{out}"], "folder"),
+    "export rosbag": (["export", "rosbag", "missing.mcap", "-o", "{out}"], "folder"),
 }
 # Verb modules whose returns are checked for literal exit codes (bench_cmd is shared with
 # tools/bench and returns its codes there).

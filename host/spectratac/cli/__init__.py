@@ -31,6 +31,7 @@ VERB_MODULES: tuple[str, ...] = (
     "ft_cmd",
     "record_cmd",
     "dataset_cmd",
+    "export_cmd",
     "evaluate_cmd",
     "bench_cmd",
     "train_cmd",

@@ -26,16 +26,14 @@ without a single good row is refused (FTConfigError).
 from __future__ import annotations
 
 import io
-import time
 from pathlib import Path
 
 import numpy as np
 
-from spectratac.ft.base import FTSensor
 from spectratac.ft.errors import FTConfigError, FTNotFoundError, FTURLError
 from spectratac.ft.options import Options
 from spectratac.ft.records import FT_RECORD, FTInfo
-from spectratac.ft.sequence import SequenceTracker
+from spectratac.ft.replay import ReplayFTSensor
 
 _ALIASES = {
     "sensor_time": "t",
@@ -45,7 +43,6 @@ _ALIASES = {
     "mz": "tz",
 }
 _WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
-_CHUNK = 65536
 #: Largest sequence number taken as is; the FT_RECORD field is u8 but a float column holds
 #: integers exactly only up to 2**53.
 _MAX_SEQUENCE = 2**53
@@ -120,7 +117,7 @@ def load_csv(path: Path) -> tuple[np.ndarray, int, bool]:
     return rows, bad, "host_time" in col
 
 
-class CsvFTSensor(FTSensor):
+class CsvFTSensor(ReplayFTSensor):
     """Replays a CSV file (see the module documentation for columns and pacing)."""
 
     scheme = "csv"
@@ -151,48 +148,6 @@ class CsvFTSensor(FTSensor):
         info.extra.update(rows=len(rows), path=str(path), has_host_time=has_host)
         sensor = cls(url, info, timeout=timeout, buffer_size=buffer_size)
         sensor.stats.bad_frames = bad
-        sensor._rows = rows
-        sensor._keep_host = host_mode == "file" or (host_mode == "auto" and has_host)
-        sensor._rate = rate
-        sensor._realtime = realtime
-        sensor._speed = speed
-        sensor._tracker = SequenceTracker(sensor.stats)
+        keep_host = host_mode == "file" or (host_mode == "auto" and has_host)
+        sensor._setup(rows, keep_host=keep_host, rate=rate, realtime=realtime, speed=speed)
         return sensor
-
-    _rows: np.ndarray
-    _keep_host: bool
-    _rate: float | None
-    _realtime: bool
-    _speed: float
-    _tracker: SequenceTracker
-    _pos = 0
-    _t0: float | None = None
-
-    def _due(self, now: float) -> int:
-        """How many rows a paced replay has released by `now`."""
-        assert self._t0 is not None
-        elapsed = (now - self._t0) * self._speed
-        if self._rate is not None:
-            return int(elapsed * self._rate) + 1
-        times = self._rows["sensor_time"]
-        return int(np.searchsorted(times, times[0] + elapsed, side="right"))
-
-    def _poll(self, timeout: float) -> np.ndarray | None:
-        n = len(self._rows)
-        if self._pos >= n:
-            return None
-        if self._rate is None and not self._realtime:
-            end = min(self._pos + _CHUNK, n)
-        else:
-            if self._t0 is None:
-                self._t0 = time.monotonic()
-            end = min(self._due(time.monotonic()), n)
-            if end <= self._pos:
-                time.sleep(min(timeout, 0.002))
-                return self._rows[:0]
-        batch = self._rows[self._pos : end].copy()
-        self._pos = end
-        if not self._keep_host:
-            batch["host_time"] = time.monotonic()
-        keep = self._tracker.update(batch["sequence"].astype(np.int64))
-        return batch if keep.all() else batch[keep]

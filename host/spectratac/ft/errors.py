@@ -31,3 +31,8 @@ class FTProtocolError(FTError):
 
 class FTDisconnectedError(FTError):
     """The link was lost; records received before the loss remain readable."""
+
+
+class FTBagError(FTConfigError):
+    """A ROS 2 bag cannot serve as the reference: unreadable, damaged, empty, or without a
+    usable wrench topic (the message lists the topics it has and their types)."""

@@ -1,11 +1,11 @@
 """FTSensor.open(url): pick the driver by URL scheme.
 
-The drivers of this package open netft://, bota:// and csv:// URLs; other schemes come from
-plug-ins: the ``spectratac.ft_sensors`` entry points of installed packages (the simulator
-registers ``sim://``, which starts a simulated sensor and connects a real driver to it), or
-`register_scheme` at run time.
+The drivers of this package open netft://, bota://, csv:// and rosbag:// (ROS 2 bag) URLs;
+other schemes come from plug-ins: the ``spectratac.ft_sensors`` entry points of installed
+packages (the simulator registers ``sim://``, which starts a simulated sensor and connects a
+real driver to it), or `register_scheme` at run time.
 
->>> {"bota", "csv", "netft", "sim"} <= set(ft_schemes())
+>>> {"bota", "csv", "netft", "rosbag", "sim"} <= set(ft_schemes())
 True
 >>> open_url("nosuch://x", timeout=1.0, buffer_size=10)
 Traceback (most recent call last):
@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # the drivers import this module: FTSensor.open dispatches he
 ENTRY_POINTS = "spectratac.ft_sensors"
 EXAMPLES = (
     "netft://192.168.1.1?cpf=1000000&cpt=1000000, bota:///dev/ttyUSB0?baud=460800, "
-    "csv://session_ft.csv, sim://?scene=calibration&seed=3&speed=10&ft=netft"
+    "csv://session_ft.csv, rosbag://my_bag?topic=/ft_sensor/wrench, sim://?scene=calibration&seed=3&speed=10&ft=netft"
 )
 
 
@@ -46,6 +46,7 @@ _REGISTRY: SchemeRegistry[FTOpener] = SchemeRegistry(
         "netft": "spectratac.ft.netft:NetFTSensor.connect",
         "bota": "spectratac.ft.bota:BotaSensor.connect",
         "csv": "spectratac.ft.csvfile:CsvFTSensor.connect",
+        "rosbag": "spectratac.ft.rosbag:RosbagFTSensor.connect",
     },
 )
 

@@ -32,7 +32,7 @@ FT_RECORD = np.dtype(
 
 AXES = vocab.FT_AXES  # the order of FT_RECORD's wrench
 
-FTKind = Literal["netft", "bota", "csv"]
+FTKind = Literal["netft", "bota", "csv", "rosbag"]
 
 
 @dataclass

@@ -1,0 +1,237 @@
+"""A recording as a ROS 2 bag: the job behind `spectratac export rosbag`.
+
+Topics (every stamp is a Unix time in the recording host's clock, as a ROS node on that
+host would stamp it; frame "spectratac_board", the sensor board's axes, which the reference
+F/T is recorded in as well):
+
+| topic | type | one message per |
+|---|---|---|
+| /spectratac/reference/wrench | geometry_msgs/msg/WrenchStamped | recorded F/T sample |
+| /spectratac/estimate/wrench | geometry_msgs/msg/WrenchStamped | decoded sample (with a model) |
+| /spectratac/raw/step_K/counts | std_msgs/msg/UInt16MultiArray | optical sample of LED step K |
+
+Times come from the clock fits the dataset builder uses (`spectratac.dataset.align`): an F/T
+sample's stamp is its own clock fitted to its arrival times; an optical sample's is the end
+of its integration window, the device clock fitted per connection epoch. The bag's receive
+timestamp of each message equals its stamp, so `ros2 bag play` publishes in measurement
+order. Raw counts have no ROS message of their own (sensor_msgs/Illuminance is one lux value
+per message): a UInt16MultiArray holds one sample's counts exactly, its layout naming the
+dimensions "sensor" (3) and "channel" (R, G, B, C, IR in that order), one topic per LED step
+because samples of different steps are different measurements. Estimates the decoder does
+not make (a force-only model's torques) are NaN; invalid samples get no estimate message.
+
+Storage: sqlite3 by default, the storage ROS 2 Humble's `ros2 bag play` reads out of the box
+(MCAP needs the rosbag2_storage_mcap plug-in there; it is the default from Iron on), with
+bag format version 8; `storage="mcap"` writes MCAP. A bag is written into a hidden folder
+beside OUT_DIR and renamed into place when complete, so OUT_DIR never holds half a bag.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from spectratac.dataset.align import ft_host_times
+from spectratac.dataset.build import session_datasets
+from spectratac.dataset.schema import concat
+from spectratac.ft.ros_time import seconds_to_ns
+from spectratac.fusion import ClockFitError
+from spectratac.hardware.generated import vocabulary as vocab
+from spectratac.record.reader import read_recording
+from spectratac.ros2.errors import BagExportError
+from spectratac.ros2.messages import UINT16_ARRAY, WRENCH_STAMPED, uint16_arrays, wrench_stamped
+
+if TYPE_CHECKING:
+    from spectratac.decode import Decoder
+
+FRAME_ID = "spectratac_board"
+REFERENCE_TOPIC = "/spectratac/reference/wrench"
+ESTIMATE_TOPIC = "/spectratac/estimate/wrench"
+COUNTS_LABELS = ("sensor", "channel")
+Storage = Literal["sqlite3", "mcap"]
+#: Messages written between two progress calls.
+_PROGRESS_EVERY = 20_000
+
+
+def counts_topic(step: int) -> str:
+    return f"/spectratac/raw/step_{step}/counts"
+
+
+@dataclass
+class ExportSummary:
+    """What was written: the bag folder, its storage, and per topic its type and count."""
+
+    path: Path
+    storage: Storage
+    topics: dict[str, dict[str, Any]] = field(default_factory=dict)
+    start_unix: float = 0.0
+    end_unix: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def messages(self) -> int:
+        return sum(t["count"] for t in self.topics.values())
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self) | {"path": str(self.path), "messages": self.messages}
+
+
+@dataclass
+class _Topic:
+    name: str
+    msgtype: str
+    stamps: np.ndarray  # int64 ns
+    payloads: list[bytes]
+
+
+def export_rosbag(
+    recording: str | Path,
+    out_dir: str | Path,
+    *,
+    decoder: Decoder | None = None,
+    storage: Storage = "sqlite3",
+    replace: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> ExportSummary:
+    """Write `recording` as a ROS 2 bag folder `out_dir` (see the module documentation).
+
+    `replace` lets an existing `out_dir` be replaced once the new bag is complete. Raises
+    RecordingError for a file that is no recording, BagExportError when there is nothing to
+    export or writing fails, DecoderConfigError when `decoder` does not fit the recording.
+    `progress(done, total)` is called as messages are written."""
+    if storage not in ("sqlite3", "mcap"):
+        raise BagExportError(f"storage {storage!r}: use sqlite3 or mcap")
+    out = Path(out_dir)
+    if out.exists() and not replace:
+        raise BagExportError(f"{out} exists; choose another folder or replace it")
+    rec = read_recording(recording)
+    topics, notes = _topics(rec, decoder)
+    if not any(len(t.stamps) for t in topics):
+        raise BagExportError(
+            f"{recording}: no optical samples and no F/T samples; nothing to export"
+        )
+    summary = ExportSummary(out, storage, notes=notes)
+    _write(topics, out, storage, progress)
+    stamps = np.concatenate([t.stamps for t in topics])
+    summary.start_unix = float(stamps.min()) / 1e9
+    summary.end_unix = float(stamps.max()) / 1e9
+    for t in topics:
+        summary.topics[t.name] = {"type": t.msgtype, "count": len(t.stamps)}
+    return summary
+
+
+def _topics(rec: Any, decoder: Decoder | None) -> tuple[list[_Topic], list[str]]:
+    offset = rec.clock.unix_minus_monotonic_ns
+    scale = 1.0 if rec.link.clock_scale is None else rec.link.clock_scale
+    topics: list[_Topic] = []
+    notes: list[str] = []
+    if rec.ft is not None and len(rec.ft):
+        try:
+            t_ft, _ = ft_host_times(rec.ft, scale)
+        except ClockFitError as exc:  # too few samples to fit: their arrival times
+            t_ft = rec.ft["host_time"]
+            notes.append(f"F/T stamps are arrival times: its clock could not be fitted ({exc})")
+        ns = seconds_to_ns(t_ft, offset)
+        topics.append(
+            _Topic(
+                REFERENCE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, rec.ft["wrench"], FRAME_ID)
+            )
+        )
+    elif decoder is None:
+        notes.append("the recording has no reference F/T: no reference topic")
+    if rec.frames:
+        parts = session_datasets(rec)
+        ds = concat(parts) if len(parts) > 1 else parts[0]
+        ns = seconds_to_ns(ds.t_end, offset)
+        for step in np.unique(ds.step):
+            rows = ds.step == step
+            payloads = uint16_arrays(ds.arrays["counts"][rows], COUNTS_LABELS)
+            topics.append(_Topic(counts_topic(int(step)), UINT16_ARRAY, ns[rows], payloads))
+        if decoder is not None:
+            topics.append(_estimates(decoder, parts, offset))
+    elif decoder is not None:
+        raise BagExportError(f"{rec.path}: no optical samples to decode with the model")
+    return topics, notes
+
+
+def _estimates(decoder: Decoder, parts: list[Any], offset: int) -> _Topic:
+    stamps, wrenches = [], []
+    for ds in parts:  # one configuration each: the decoder checks it fits
+        est = decoder.predict(ds)
+        keep = ~est.invalid
+        stamps.append(seconds_to_ns(ds.t_end[keep], offset))
+        wrenches.append(np.stack([est.column(a) for a in vocab.FT_AXES], axis=1)[keep])
+    ns = np.concatenate(stamps)
+    order = np.argsort(ns, kind="stable")
+    wrench = np.concatenate(wrenches)[order]
+    ns = ns[order]
+    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, FRAME_ID))
+
+
+def _write(
+    topics: list[_Topic], out: Path, storage: Storage, progress: Callable[[int, int], None] | None
+) -> None:
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+    from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+
+    from spectratac.ros2.messages import TYPESTORE
+
+    # what a reliable publisher offers (times 0: unspecified, i.e. infinite); Humble's player
+    # adapts its publishers to the recorded offers and cannot parse an empty list
+    unspecified = QosTime(0, 0)
+    qos = Qos(
+        QosHistory.KEEP_LAST,
+        10,
+        QosReliability.RELIABLE,
+        QosDurability.VOLATILE,
+        unspecified,
+        unspecified,
+        QosLiveliness.AUTOMATIC,
+        unspecified,
+        False,
+    )
+
+    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    bag = staging / out.name  # the storage file inside is named after the bag folder
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+    # every message in time order across topics, as a recorder would have logged them
+    which = np.concatenate([np.full(len(t.stamps), k) for k, t in enumerate(topics)])
+    index = np.concatenate([np.arange(len(t.stamps)) for t in topics])
+    stamps = np.concatenate([t.stamps for t in topics])
+    order = np.lexsort((which, stamps))
+    total = len(order)
+    try:
+        with Writer(bag, version=8, storage_plugin=plugin) as writer:
+            conns = [
+                writer.add_connection(
+                    t.name, t.msgtype, typestore=TYPESTORE, offered_qos_profiles=[qos]
+                )
+                for t in topics
+            ]
+            for done, k in enumerate(order, 1):
+                t, i = which[k], index[k]
+                writer.write(conns[t], int(stamps[k]), topics[t].payloads[i])
+                if progress is not None and (done % _PROGRESS_EVERY == 0 or done == total):
+                    progress(done, total)
+        if out.exists():
+            shutil.rmtree(out) if out.is_dir() else out.unlink()
+        bag.rename(out)
+    except (WriterError, OSError) as exc:
+        raise BagExportError(f"cannot write the bag {out}: {exc}") from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
