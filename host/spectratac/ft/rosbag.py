@@ -4,7 +4,8 @@ rosbag://PATH?topic=/ft_sensor/wrench[&host_time=bag|now][&rate=HZ|realtime=1&sp
 PATH is a bag folder (with metadata.yaml) or one storage file (.db3 sqlite3 or .mcap); the
 `rosbags` package reads it. The topic carries geometry_msgs/msg/WrenchStamped (sensor_time is
 the header stamp: the F/T driver's clock) or geometry_msgs/msg/Wrench (no header: sensor_time
-is the bag's receive time). `topic` may be left out when the bag has exactly one such topic.
+is the bag's receive time), replayed in stamp order. `topic` may be left out when the bag
+has exactly one such topic.
 
 host_time is the bag's receive time of each message (what `ros2 bag record` logged: the
 recording machine's wall clock), put on this host's monotonic clock through the wall clock
@@ -51,6 +52,7 @@ _UNREADABLE: tuple[type[BaseException], ...] = (
     EOFError,
     OSError,
     AssertionError,
+    ArithmeticError,
 )
 
 
@@ -74,9 +76,10 @@ def describe_topics(topics: dict[str, str]) -> str:
     return ", ".join(f"{t} ({m})" for t, m in sorted(topics.items())) or "(none)"
 
 
-def load_wrenches(path: Path, topic: str | None) -> tuple[np.ndarray, str, str]:
+def load_wrenches(path: Path, topic: str | None) -> tuple[np.ndarray, str, str, float]:
     """FT_RECORD rows of the bag's wrench topic (host_time: receive time as Unix seconds,
-    replaced by the caller), the topic and its message type."""
+    replaced by the caller), the topic, its message type and its nominal rate (Hz, from the
+    median stamp step in whole nanoseconds; 0 when unknown)."""
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
 
@@ -115,14 +118,19 @@ def load_wrenches(path: Path, topic: str | None) -> tuple[np.ndarray, str, str]:
         ) from None
     if not stamps:
         raise FTBagError(f"{path}: topic {topic} ({msgtype}) has no messages; nothing to replay")
-    rows = np.zeros(len(stamps), dtype=FT_RECORD)
+    # a bag is in receive order; the F/T stream is in its own clock's order (a message that
+    # overtook another on the way to the recorder goes back to its place)
     stamp_ns = np.array(stamps, dtype=np.int64)
+    order = np.argsort(stamp_ns, kind="stable")
+    stamp_ns = stamp_ns[order]
+    rows = np.zeros(len(stamps), dtype=FT_RECORD)
     rows["sensor_time"] = _seconds(stamp_ns)
-    rows["host_time"] = _seconds(np.array(received, dtype=np.int64))
+    rows["host_time"] = _seconds(np.array(received, dtype=np.int64)[order])
     rows["sequence"] = np.arange(len(rows))
-    rows["wrench"] = np.array(wrenches, dtype=np.float64)
+    rows["wrench"] = np.array(wrenches, dtype=np.float64)[order]
     finite = np.all(np.isfinite(rows["wrench"]), axis=1)
-    return rows[finite], topic, msgtype
+    step = float(np.median(np.diff(stamp_ns))) if len(stamp_ns) > 1 else 0.0
+    return rows[finite], topic, msgtype, NS_PER_S / step if step > 0 else 0.0
 
 
 def _seconds(ns: np.ndarray) -> np.ndarray:
@@ -174,11 +182,9 @@ class RosbagFTSensor(ReplayFTSensor):
             raise FTURLError(f"{url}: host_time={host_mode!r}: use bag or now")
         if (rate is not None and rate <= 0) or speed <= 0:
             raise FTURLError(f"{url}: rate and speed must be > 0")
-        rows, topic, msgtype = load_wrenches(path, topic)
+        rows, topic, msgtype, nominal = load_wrenches(path, topic)
         # the bag's wall-clock receive times onto this host's monotonic clock
         rows["host_time"] -= (time.time_ns() - time.monotonic_ns()) / NS_PER_S
-        dt = np.diff(rows["sensor_time"])
-        nominal = float(1.0 / np.median(dt)) if len(dt) and np.median(dt) > 0 else 0.0
         info = FTInfo("rosbag", model=f"ROS 2 bag {msgtype}", serial=str(path))
         info.rate_hz = rate or nominal
         info.extra.update(rows=len(rows), path=str(path), topic=topic, msgtype=msgtype)
