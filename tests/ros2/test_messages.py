@@ -6,7 +6,6 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-
 from spectratac.ft.ros_time import NS_PER_S, SEC_MAX, SEC_MIN, to_stamp
 from spectratac.ros2.messages import (
     TYPESTORE,
@@ -60,7 +59,7 @@ def test_uint16_array_payloads_match_the_typestore(
 ) -> None:
     got = uint16_arrays(values, labels)
     dim = T["std_msgs/msg/MultiArrayDimension"]
-    n, a, b = values.shape
+    _, a, b = values.shape
     for row, payload in zip(values, got, strict=True):
         layout = T["std_msgs/msg/MultiArrayLayout"](
             dim=[

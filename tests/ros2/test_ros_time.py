@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
 from spectratac.ft.ros_time import (
     NS_PER_S,
     SEC_MAX,

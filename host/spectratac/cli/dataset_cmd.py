@@ -1,6 +1,6 @@
 """`spectratac dataset build|info`: recorded sessions to a dataset file, and what one holds.
 
-spectratac dataset build s1.mcap s2.mcap -o data.npz [--split] [--max-gap-ms 5]
+spectratac dataset build s1.mcap s2.mcap -o data.npz [--split] [--max-gap-ms 5] [--ft FT_URL]
 spectratac dataset info data.npz [--json]
 
 A truncated recording (the recorder was killed) contributes its readable prefix: a warning,
@@ -48,6 +48,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="longest F/T gap a window may straddle (default: 3 F/T sample periods)",
     )
+    b.add_argument(
+        "--ft",
+        metavar="FT_URL",
+        help="the reference F/T recorded apart, replacing the recordings' own: "
+        "rosbag://BAG?topic=/ft_sensor/wrench (ros2 bag record beside spectratac record) "
+        "or csv://FILE with a host_time column",
+    )
     b.add_argument("--json", action="store_true", help="print one JSON object")
     b.add_argument("--no-progress", action="store_true")
     b.set_defaults(func=_build)
@@ -67,6 +74,11 @@ def _build(args: argparse.Namespace) -> int:
         raise SpectraTacError("--max-gap-ms must be > 0")
     if not args.split:  # refuse before the work; --split's names are known only after it
         refuse_overwrite(npz_name(args.output), args.force)
+    external = None
+    if args.ft:
+        from spectratac.dataset.external_ft import load_external_ft
+
+        external = load_external_ft(args.ft)
     bar = None
     if not (args.no_progress or args.json) and len(args.recordings) > 1:
         from tqdm import tqdm
@@ -84,7 +96,7 @@ def _build(args: argparse.Namespace) -> int:
             datasets = build_datasets(
                 args.recordings,
                 split=args.split,
-                options=BuildOptions(max_gap_ms=args.max_gap_ms),
+                options=BuildOptions(max_gap_ms=args.max_gap_ms, ft=external),
                 progress=progress,
             )
         finally:

@@ -20,7 +20,10 @@ from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError, printable
 from spectratac.hardware.generated import vocabulary as vocab
 
-URL_HELP = "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, or sim://?…&ft=netft|bota"
+URL_HELP = (
+    "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, rosbag://BAG?topic=/ft/wrench, "
+    "or sim://?…&ft=netft|bota"
+)
 COLUMNS = ("sensor_time", "host_time", "sequence", *vocab.FT_AXES, "status")
 
 

@@ -37,7 +37,11 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_device_options(p)
-    p.add_argument("--ft", metavar="FT_URL", help="reference F/T URL (netft://, bota://, sim://)")
+    p.add_argument(
+        "--ft",
+        metavar="FT_URL",
+        help="reference F/T URL (netft://, bota://, csv://, rosbag://, sim://)",
+    )
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
     p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),

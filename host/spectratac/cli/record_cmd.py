@@ -42,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--ft",
         metavar="FT_URL",
-        help="reference F/T: netft://HOST, bota:///dev/ttyUSB1, csv://path, sim://… "
+        help="reference F/T: netft://HOST, bota:///dev/ttyUSB1, csv://path, "
+        "rosbag://BAG?topic=/ft_sensor/wrench (a ROS 2 bag), sim://… "
         "(default for sim:// URLs with ft=…: the same URL)",
     )
     add_output(p, required=True, help="the .mcap file to write")

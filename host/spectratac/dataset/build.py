@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.align import Windows, device_windows, ft_targets
+from spectratac.dataset.external_ft import ExternalFT
 from spectratac.dataset.frames import recorded_samples
 from spectratac.dataset.labels import CONTACT_N, ft_contact, guided_labels, truth_labels
 from spectratac.dataset.schema import (
@@ -52,10 +53,13 @@ class MixedUnitsWarning(UserWarning):
 @dataclass
 class BuildOptions:
     """max_gap_ms: the longest F/T gap (host clock) a window may straddle; default 3 F/T
-    periods. contact_n: |F| for in_contact in real sessions."""
+    periods. contact_n: |F| for in_contact in real sessions. ft: a reference F/T recorded
+    apart (`spectratac.dataset.external_ft`)."""
 
     max_gap_ms: float | None = None
     contact_n: float = CONTACT_N
+    #: the reference F/T from outside the recordings (dataset build --ft), replacing theirs
+    ft: ExternalFT | None = None
 
 
 def build_datasets(
@@ -71,7 +75,11 @@ def build_datasets(
         raise DatasetError("no recordings given: name at least one .mcap file")
     parts: list[Dataset] = []
     for path in paths:
-        parts += session_datasets(read_recording(path), options)
+        rec = read_recording(path)
+        if options is not None and options.ft is not None:
+            rec.ft = options.ft.on_clock(rec.clock.unix_minus_monotonic_ns)
+            rec.session = {**rec.session, "ft_url": options.ft.url}
+        parts += session_datasets(rec, options)
         if progress is not None:
             progress(str(path))  # this file is done
     units = sorted({str(p.meta.get("unit_id")) for p in parts})

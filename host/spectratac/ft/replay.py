@@ -47,6 +47,11 @@ class ReplayFTSensor(FTSensor):
         self._speed = speed
         self._tracker = SequenceTracker(self.stats)
 
+    @property
+    def keeps_file_times(self) -> bool:
+        """Whether rows keep the host times the file gave them (else: their read time)."""
+        return self._keep_host
+
     def _due(self, now: float) -> int:
         """How many rows a paced replay has released by `now`."""
         assert self._t0 is not None

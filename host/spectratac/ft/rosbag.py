@@ -184,10 +184,13 @@ class RosbagFTSensor(ReplayFTSensor):
             raise FTURLError(f"{url}: rate and speed must be > 0")
         rows, topic, msgtype, nominal = load_wrenches(path, topic)
         # the bag's wall-clock receive times onto this host's monotonic clock
-        rows["host_time"] -= (time.time_ns() - time.monotonic_ns()) / NS_PER_S
+        unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
+        rows["host_time"] -= unix_minus_monotonic_ns / NS_PER_S
         info = FTInfo("rosbag", model=f"ROS 2 bag {msgtype}", serial=str(path))
         info.rate_hz = rate or nominal
         info.extra.update(rows=len(rows), path=str(path), topic=topic, msgtype=msgtype)
+        if host_mode == "bag":  # how to put the rows on another process's clock
+            info.extra["unix_minus_monotonic_ns"] = unix_minus_monotonic_ns
         sensor = cls(url, info, timeout=timeout, buffer_size=buffer_size)
         sensor._setup(rows, keep_host=host_mode == "bag", rate=rate, realtime=realtime, speed=speed)
         return sensor
