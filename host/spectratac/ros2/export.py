@@ -39,11 +39,11 @@ import numpy as np
 
 from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import session_datasets
-from spectratac.dataset.schema import concat
+from spectratac.dataset.schema import Dataset, concat
 from spectratac.ft.ros_time import seconds_to_ns
 from spectratac.fusion import ClockFitError
 from spectratac.hardware.generated import vocabulary as vocab
-from spectratac.record.reader import read_recording
+from spectratac.record.reader import Recording, read_recording
 from spectratac.ros2.errors import BagExportError
 from spectratac.ros2.messages import UINT16_ARRAY, WRENCH_STAMPED, uint16_arrays, wrench_stamped
 
@@ -126,7 +126,7 @@ def export_rosbag(
     return summary
 
 
-def _topics(rec: Any, decoder: Decoder | None) -> tuple[list[_Topic], list[str]]:
+def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list[str]]:
     offset = rec.clock.unix_minus_monotonic_ns
     scale = 1.0 if rec.link.clock_scale is None else rec.link.clock_scale
     topics: list[_Topic] = []
@@ -160,7 +160,7 @@ def _topics(rec: Any, decoder: Decoder | None) -> tuple[list[_Topic], list[str]]
     return topics, notes
 
 
-def _estimates(decoder: Decoder, parts: list[Any], offset: int) -> _Topic:
+def _estimates(decoder: Decoder, parts: list[Dataset], offset: int) -> _Topic:
     stamps, wrenches = [], []
     for ds in parts:  # one configuration each: the decoder checks it fits
         est = decoder.predict(ds)
