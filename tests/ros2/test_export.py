@@ -128,6 +128,21 @@ def test_the_human_output_names_topics_and_how_to_play(
     assert [p.name for p in tmp_path.iterdir()] == ["bag"]  # no staging folder left
 
 
+def test_a_long_export_shows_progress_unless_told_not_to(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    from spectratac.cli import export_cmd
+
+    monkeypatch.setattr(export_cmd, "PROGRESS_FROM", 1)
+    monkeypatch.setattr("spectratac.ros2.export._PROGRESS_EVERY", 500)
+    assert main(["export", "rosbag", str(recording), "-o", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "messages: 100%" in err and "msg/s]" in err
+    argv = ["export", "rosbag", str(recording), "-o", str(tmp_path / "b"), "--no-progress"]
+    assert main(argv) == 0
+    assert "messages:" not in capsys.readouterr().err
+
+
 def test_an_existing_bag_is_replaced_only_with_force(
     recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -17,6 +17,9 @@ from datetime import UTC, datetime
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, refuse_overwrite
 
+#: Bags of fewer messages are written too fast for a progress bar to help.
+PROGRESS_FROM = 100_000
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("export", help="convert a recording for other tools (ROS 2 bag)")
@@ -59,7 +62,7 @@ def _rosbag(args: argparse.Namespace) -> int:
 
     def progress(done: int, total: int) -> None:
         nonlocal bar
-        if args.no_progress or args.json or total < 100_000:
+        if args.no_progress or args.json or total < PROGRESS_FROM:
             return
         if bar is None:
             from tqdm import tqdm

@@ -146,6 +146,11 @@ def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list
     elif decoder is None:
         notes.append("the recording has no reference F/T: no reference topic")
     if rec.frames:
+        if rec.link.clock_scale is None:
+            notes.append(
+                "the device clock is not tied to the host's (an unpaced simulation): optical "
+                "stamps are device time after the recording's start, not when it happened"
+            )
         parts = session_datasets(rec)
         ds = concat(parts) if len(parts) > 1 else parts[0]
         ns = seconds_to_ns(ds.t_end, offset)
