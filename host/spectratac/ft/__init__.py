@@ -1,7 +1,7 @@
 """Reference six-axis F/T sensors behind one interface: ATI Net F/T (UDP RDT), Bota Systems
-serial sensors, CSV replay, and plug-ins registered by URL scheme (`register_ft_scheme`, or
-the ``spectratac.ft_sensors`` entry points): the simulator's sim:// sensors speak the real
-sensors' wire protocols.
+serial sensors, CSV and ROS 2 bag replay (csv://, rosbag://), and plug-ins registered by URL
+scheme (`register_ft_scheme`, or the ``spectratac.ft_sensors`` entry points): the simulator's
+sim:// sensors speak the real sensors' wire protocols.
 
     with open_ft("netft://192.168.1.1") as ft:      # or bota:///dev/ttyUSB0, csv://f.csv
         ft.start()
