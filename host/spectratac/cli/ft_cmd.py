@@ -21,8 +21,8 @@ from spectratac.errors import SpectraTacError, printable
 from spectratac.hardware.generated import vocabulary as vocab
 
 URL_HELP = (
-    "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, rosbag://BAG?topic=/ft/wrench, "
-    "or sim://?…&ft=netft|bota"
+    "netft://HOST?cpf=&cpt=, bota:///dev/ttyUSB0, csv://FILE, "
+    "rosbag://BAG?topic=/ft_sensor/wrench, or sim://?…&ft=netft|bota"
 )
 COLUMNS = ("sensor_time", "host_time", "sequence", *vocab.FT_AXES, "status")
 
