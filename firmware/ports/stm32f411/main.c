@@ -52,7 +52,7 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     uid_read(uid);
 }
 
-#define IWDG_SR_BUSY 3u /* PVU | RVU: a prescaler or reload update is still in progress */
+#define IWDG_SR_BUSY (IWDG_SR_PVU | IWDG_SR_RVU) /* a prescaler or reload update in progress */
 #define IWDG_UPDATE_WAIT 100000u
 
 /* Set the watchdog period: prescaler code (32 kHz / 4 << pr) and reload (RM0383 17.3). */

@@ -304,7 +304,7 @@ void OTG_FS_IRQHandler(void) {
     }
     if ((st & OTG_GINT_ENUMDNE) != 0u) {
         OTG_GINTSTS = OTG_GINT_ENUMDNE;
-        OTG_DIEPCTL(0u) &= ~3u; /* EP0 MPSIZ 0 = 64 bytes */
+        OTG_DIEPCTL(0u) &= ~OTG_DIEPCTL0_MPSIZ_MASK; /* EP0 MPSIZ 0 = 64 bytes */
         OTG_DCTL |= OTG_DCTL_CGINAK;
     }
     for (uint32_t i = 0; i < FIFO_RX_WORDS / 2u && (OTG_GINTSTS & OTG_GINT_RXFLVL) != 0u; i++) {
