@@ -288,7 +288,10 @@ def evaluate(
         params = macro.params
 
         def run(*values: int) -> int | Address:
-            return evaluate(macro.body, macros, dict(zip(params, values, strict=True)))
+            value = evaluate(macro.body, macros, dict(zip(params, values, strict=True)))
+            if isinstance(value, Instance):
+                raise ValueError(f"{name}(...) is an instance, not a number")
+            return value
 
         return run
 

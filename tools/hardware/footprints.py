@@ -49,16 +49,22 @@ class Land:
 
 def _quad(px: float, py: float, w: float, h: float) -> tuple[PadSpec, ...]:
     """Four corner pads numbered counter-clockwise on screen from the top-left one."""
-    return (PadSpec("1", -px, -py, w, h), PadSpec("2", -px, py, w, h),
-            PadSpec("3", px, py, w, h), PadSpec("4", px, -py, w, h))
+    return (
+        PadSpec("1", -px, -py, w, h),
+        PadSpec("2", -px, py, w, h),
+        PadSpec("3", px, py, w, h),
+        PadSpec("4", px, -py, w, h),
+    )
 
 
 def sensor_pads() -> tuple[PadSpec, ...]:
     """The VEML3328's lands: its package terminals, one to one, from the datasheet facts."""
     with FACTS.open("rb") as f:
         terminals = tomllib.load(f)["veml3328"]["terminals"]
-    return tuple(PadSpec(t["number"], t["center"][0], t["center"][1], t["size"][0], t["size"][1])
-                 for t in terminals)
+    return tuple(
+        PadSpec(t["number"], t["center"][0], t["center"][1], t["size"][0], t["size"][1])
+        for t in terminals
+    )
 
 
 def lands(geo: Geometry) -> dict[str, Land]:
@@ -67,10 +73,15 @@ def lands(geo: Geometry) -> dict[str, Land]:
     sensor = sensor_pads()
     pin1 = next(p for p in sensor if p.number == "1")
     return {
-        "VEML3328": Land(sensor, (sb[0], sb[1]), (sb[0] + 0.3, sb[1] + 0.3),
-                         (-sb[0] / 2 - 0.25, pin1.y)),
-        "LED_RGB_1615": Land(_quad(0.55, 0.45, 0.5, 0.5), (lb[0], lb[1]),
-                             (lb[0] + 0.3, lb[1] + 0.3), (-lb[0] / 2 - 0.25, -0.45)),
+        "VEML3328": Land(
+            sensor, (sb[0], sb[1]), (sb[0] + 0.3, sb[1] + 0.3), (-sb[0] / 2 - 0.25, pin1.y)
+        ),
+        "LED_RGB_1615": Land(
+            _quad(0.55, 0.45, 0.5, 0.5),
+            (lb[0], lb[1]),
+            (lb[0] + 0.3, lb[1] + 0.3),
+            (-lb[0] / 2 - 0.25, -0.45),
+        ),
         "R_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "C_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "SensorLink_18pad": Land(_connector_pads(geo), (0.0, 0.0), (0.0, 0.0), None),
@@ -88,8 +99,9 @@ def _connector_pads(geo: Geometry) -> tuple[PadSpec, ...]:
     for pad, row in sorted(load_pinmap().items()):
         a = math.radians(angles[row["signal"]])
         r = geo.connector_radius
-        out.append(PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9,
-                           -angles[row["signal"]]))
+        out.append(
+            PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9, -angles[row["signal"]])
+        )
     return tuple(out)
 
 
@@ -108,8 +120,9 @@ def _rect(fp: pcbnew.FOOTPRINT, w: float, h: float, layer: int, width: float) ->
     fp.Add(s)
 
 
-def make(board: pcbnew.BOARD, part: Part, geo: Geometry,
-         nets: dict[str, pcbnew.NETINFO_ITEM]) -> pcbnew.FOOTPRINT:
+def make(
+    board: pcbnew.BOARD, part: Part, geo: Geometry, nets: dict[str, pcbnew.NETINFO_ITEM]
+) -> pcbnew.FOOTPRINT:
     land = lands(geo)[part.footprint]
     fp = pcbnew.FOOTPRINT(board)
     fp.SetFPID(pcbnew.LIB_ID(LIB, part.footprint))
