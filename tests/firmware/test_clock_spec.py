@@ -106,6 +106,25 @@ def test_bus_clocks_are_within_their_limits(divider: str, key: str, cfgr: str) -
         assert f"{cfgr}{div}" in CLOCK_C, f"clock.c divides by {div} in RCC_CFGR"
 
 
+def field_code(macro: str, shift: int) -> int:
+    return const(macro) >> shift
+
+
+def test_register_codes_mean_what_clock_c_intends() -> None:
+    # Field positions are checked against the SVD (test_regs_svd.py); what each code means is
+    # not in the SVD, so it is checked here against the manual's tables.
+    assert (
+        field_code(f"RCC_CFGR_PPRE1_DIV{const('APB1_DIV')}", 10)
+        == (limit("ppre_code_by_divider")[str(const("APB1_DIV"))])
+    )
+    assert const("RCC_CFGR_SW_PLL") == limit("sw_code_pll")
+    assert field_code("RCC_CFGR_SWS_PLL", 2) == limit("sw_code_pll")
+    assert const("FLASH_ACR_LATENCY_3WS") == 3, "LATENCY is the number of wait states"
+    p = const("PLL_P")
+    assert "((PLL_P / 2u - 1u) << RCC_PLLCFGR_PLLP_SHIFT)" in CLOCK_C
+    assert limit("pll_p").index(p) == p // 2 - 1, "PLLP is encoded as P / 2 - 1"
+
+
 def clock_init_body() -> str:
     m = re.search(r"void clock_init\(clocks_t \*out\) \{(.*)\n\}", CLOCK_C, re.S)
     assert m, "clock.c defines clock_init"
