@@ -387,11 +387,13 @@ REGISTER_ALIASES = {
     "DOEPINT": ("DOEPINT0",),
     "GRXSTSP": ("GRXSTSRDEVICE", "GRXSTSR"),
     "DIEPTXF0": ("GNPTXFSIZ",),  # RM0383: OTG_FS_DIEPTXF0 in device mode, HNPTXFSIZ in host mode
+    "DIEPTXF": ("DIEPTXF1", "DIEPTXF2", "DIEPTXF3"),
 }
 # Field names the macros take from RM0383 where the SVD spells them otherwise.
 FIELD_ALIASES = {
     ("GAHBCFG", "GINTMSK"): "GINT",
     ("EPCTL", "SD0PID"): "SD0PIDSEVNFRM",
+    ("DAINTMSK", "OEPM"): "OEPINT",  # ST's SVD reuses DAINT's name for the mask's half
 }
 # Macros that are codes of a field rather than masks: macro prefix -> (register, field).
 FIELD_CODES = {"OTG_PKTSTS": ("GRXSTSP", "PKTSTS")}

@@ -65,6 +65,19 @@ typedef struct {
 } gpio_t;
 #define GPIOA ((gpio_t *)0x40020000u)
 #define GPIOB ((gpio_t *)0x40020400u)
+/* Pin 0's fields and codes; pin n's sit n times the field's width up (AFRL/AFRH: n % 8). */
+#define GPIO_MODER_MODER0_MASK 3u
+#define GPIO_MODER_MODER0_OUTPUT 1u
+#define GPIO_MODER_MODER0_AF 2u
+#define GPIO_OTYPER_OT0 (1u << 0)
+#define GPIO_OSPEEDR_OSPEEDR0_MASK 3u
+#define GPIO_OSPEEDR_OSPEEDR0_FAST 2u
+#define GPIO_OSPEEDR_OSPEEDR0_VERYHIGH 3u
+#define GPIO_PUPDR_PUPDR0_MASK 3u
+#define GPIO_PUPDR_PUPDR0_PULLUP 1u
+#define GPIO_AFRL_AFRL0_MASK 0xFu
+#define GPIO_BSRR_BS0 (1u << 0)
+#define GPIO_BSRR_BR0 (1u << 16)
 
 typedef struct {
     volatile uint32_t CR1, CR2, OAR1, OAR2, DR, SR1, SR2, CCR, TRISE, FLTR;
@@ -221,6 +234,11 @@ typedef struct {
 #define OTG_DCFG_DSPD_FS 3u
 #define OTG_DCFG_DAD_SHIFT 4u
 #define OTG_DCFG_DAD_MASK (0x7Fu << 4)
+#define OTG_DIEPTXF0_TX0FD_SHIFT 16u
+#define OTG_DIEPTXF_INEPTXFD_SHIFT 16u
+#define OTG_DAINT_IEPINT_MASK 0xFFFFu
+#define OTG_DAINT_OEPINT_SHIFT 16u
+#define OTG_DAINTMSK_OEPM_SHIFT 16u
 #define OTG_DCTL_SDIS (1u << 1)
 #define OTG_DCTL_CGINAK (1u << 8)
 #define OTG_DIEPCTL0_MPSIZ_MASK 3u
