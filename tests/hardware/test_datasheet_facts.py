@@ -8,6 +8,7 @@ with kiutils, so these tests run without KiCad.
 
 from __future__ import annotations
 
+import csv
 import math
 import re
 import tomllib
@@ -266,6 +267,16 @@ def test_pullups_meet_rise_time_and_sink_current(board: Board) -> None:
 
 
 # --- RGB LEDs ---------------------------------------------------------------------------------
+
+
+def test_the_bom_orders_the_parts_the_facts_describe() -> None:
+    # The pin tables and land patterns above are only true for the exact parts ordered.
+    bom_path = REPO / "hardware" / "kicad" / "spectratac-bom.csv"
+    with bom_path.open(newline="", encoding="utf-8") as f:
+        mpn = {row["Footprint"]: row["MPN"] for row in csv.DictReader(f)}
+    assert mpn["LED_RGB_1615"] == FACTS["led"]["part"]
+    assert mpn["VEML3328"] == "VEML3328"
+    assert FACTS["sources"]["vishay-84968"]["document"] == "84968"
 
 
 @pytest.mark.parametrize("led", [1, 2, 3])
