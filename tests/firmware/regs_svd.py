@@ -354,8 +354,8 @@ MANUAL_WINS_STRUCT_MEMBERS: dict[tuple[str, str], ManualField] = {
 MANUAL_WINS_INTERRUPTS: dict[str, tuple[int, str]] = {
     "USART1_IRQN": (
         37,
-        "RM0383 §10.2 Table 37 (vector table): USART1 global interrupt at position 37; "
-        "the SVD lists no USART1 interrupt",
+        "RM0383 interrupts and events chapter, vector table: USART1 global interrupt at "
+        "position 37; the SVD lists no USART1 interrupt",
     ),
 }
 # Reset values the firmware relies on, where the SVD's is wrong (SVD reset values are known to
