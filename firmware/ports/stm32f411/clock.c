@@ -4,8 +4,11 @@
 #include "regs.h"
 
 /* Each ready flag is polled at most this many times (~ms at 16 MHz): a missing crystal or a
- * model without RCC (QEMU) falls back to HSI instead of hanging. */
+ * model without RCC (QEMU) falls back to HSI instead of hanging. The register-level model test
+ * (tests/firmware/test_clock_model.py) single-steps clock_init and sets a shorter bound. */
+#ifndef READY_SPINS
 #define READY_SPINS 200000u
+#endif
 
 /* PLL factors and the limits RM0383 §6.3.2 sets on them, checked at compile time: USB full
  * speed needs exactly 48 MHz on PLL48CLK (the crystal's own tolerance aside).
