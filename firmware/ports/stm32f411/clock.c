@@ -46,8 +46,8 @@ static int wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t value) {
     return 0;
 }
 
-/* Back to the reset clocking: HSI, PLL and HSE off. The regulator then follows (with the PLL
- * off it runs in scale 3 whatever VOS says, RM0383 §5.4.1). */
+/* Back to the reset clocking: the core stays on HSI, PLL and HSE are switched off. With the
+ * PLL off the regulator runs in scale 3 whatever VOS says (RM0383 §5.4.1). */
 static void fall_back(void) {
     RCC->CR &= ~(RCC_CR_PLLON | RCC_CR_HSEON);
 }
