@@ -8,6 +8,7 @@ with kiutils, so these tests run without KiCad.
 
 from __future__ import annotations
 
+import csv
 import math
 import re
 import tomllib
@@ -178,6 +179,32 @@ def test_sensor_pads_fit_the_package_body(board: Board) -> None:
             assert abs(pad.position.X) < length / 2 and abs(pad.position.Y) < width / 2
 
 
+def sensor_terminals() -> dict[str, dict[str, Any]]:
+    return {t["number"]: t for t in FACTS["veml3328"]["terminals"]}
+
+
+def test_sensor_terminals_sit_at_their_pins_corners_inside_the_body() -> None:
+    length, width, _ = value("veml3328", "body_mm")
+    terminals = sensor_terminals()
+    assert set(terminals) == {p["number"] for p in FACTS["veml3328"]["pins"]}
+    for pin in FACTS["veml3328"]["pins"]:
+        (x, y), (w, h) = terminals[pin["number"]]["center"], terminals[pin["number"]]["size"]
+        assert [math.copysign(1, x), math.copysign(1, y)] == pin["corner"], pin["number"]
+        assert abs(x) + w / 2 <= length / 2 + 1e-9 and abs(y) + h / 2 <= width / 2 + 1e-9
+
+
+@pytest.mark.parametrize("bus", [1, 2, 3])
+def test_sensor_lands_are_the_package_terminals(board: Board, bus: int) -> None:
+    # One source of truth: footprints.py builds the lands from [[veml3328.terminals]], one to
+    # one; the board must carry exactly that (in the footprint's own frame, KiCad y down).
+    terminals = sensor_terminals()
+    for pad in footprints(board)[f"U{bus}"].pads:
+        want = terminals[pad.number]
+        got_at, got_size = (pad.position.X, pad.position.Y), (pad.size.X, pad.size.Y)
+        assert got_at == pytest.approx(tuple(want["center"]), abs=1e-3), f"U{bus} pad {pad.number}"
+        assert got_size == pytest.approx(tuple(want["size"]), abs=1e-3), f"U{bus} pad {pad.number}"
+
+
 def test_schematic_connects_each_sensor_pin_as_the_datasheet(sch: Schematic) -> None:
     net = schematic_netlist(sch)
     for bus in (1, 2, 3):
@@ -240,6 +267,16 @@ def test_pullups_meet_rise_time_and_sink_current(board: Board) -> None:
 
 
 # --- RGB LEDs ---------------------------------------------------------------------------------
+
+
+def test_the_bom_orders_the_parts_the_facts_describe() -> None:
+    # The pin tables and land patterns above are only true for the exact parts ordered.
+    bom_path = REPO / "hardware" / "kicad" / "spectratac-bom.csv"
+    with bom_path.open(newline="", encoding="utf-8") as f:
+        mpn = {row["Footprint"]: row["MPN"] for row in csv.DictReader(f)}
+    assert mpn["LED_RGB_1615"] == FACTS["led"]["part"]
+    assert mpn["VEML3328"] == "VEML3328"
+    assert FACTS["sources"]["vishay-84968"]["document"] == "84968"
 
 
 @pytest.mark.parametrize("led", [1, 2, 3])

@@ -2,26 +2,31 @@
 
 Debian's KiCad package ships no footprint libraries, and the sensor needs only five land
 patterns, so they are described here as data. Pad numbering follows the package drawings as
-transcribed in hardware/datasheet_facts.toml (VEML3328 OPLGA4 2.0 x 1.25 x 1.0 mm, Vishay 84968:
-pads 1-4 counter-clockwise from the top left seen from above; tests/hardware/
-test_datasheet_facts.py checks each pad's corner and net). Pad sizes and pitches are not
-checked against a manufacturer's recommended land pattern (neither the VEML3328's nor the 1615
-LED's was reachable): an independent VEML3328 land pattern puts the pads at x = +-0.84 mm,
-y = +-0.35 mm (0.43 x 0.30 mm); this one uses +-0.65 / +-0.375 mm (0.5 x 0.45 mm), which
-overlaps the package's terminals but should be compared with the datasheet drawing before
-ordering.
+transcribed in hardware/datasheet_facts.toml (pads 1-4 counter-clockwise from the top left seen
+from above; tests/hardware/test_datasheet_facts.py checks each pad's corner and net).
+
+The VEML3328 pads come from that table's [[veml3328.terminals]], the OPLGA4 package's bottom
+terminals as Vishay's own 3D model of the package (document 80216, linked from datasheet 84968)
+places them: lands equal to terminals, because an LGA's terminals have no side faces for a toe
+fillet to wet (pins 1, 2, 4: 0.45 x 0.35 mm at x = +-0.775, y = +-0.35 mm; pin 3: 0.55 mm wide).
+The datasheet's own recommended land pattern was not reachable: compare before ordering. The
+1615 LED's pads (+-0.55 / +-0.45 mm, 0.5 x 0.5 mm) are not checked against its datasheet, which
+was not reachable either.
 """
 
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 
 import pcbnew  # type: ignore[import-not-found]
 from circuit import Part, connector_layout
 from params import Geometry, load_pinmap
 
 LIB = "SpectraTac"
+FACTS = Path(__file__).resolve().parents[2] / "hardware" / "datasheet_facts.toml"
 
 
 @dataclass(frozen=True)
@@ -44,18 +49,39 @@ class Land:
 
 def _quad(px: float, py: float, w: float, h: float) -> tuple[PadSpec, ...]:
     """Four corner pads numbered counter-clockwise on screen from the top-left one."""
-    return (PadSpec("1", -px, -py, w, h), PadSpec("2", -px, py, w, h),
-            PadSpec("3", px, py, w, h), PadSpec("4", px, -py, w, h))
+    return (
+        PadSpec("1", -px, -py, w, h),
+        PadSpec("2", -px, py, w, h),
+        PadSpec("3", px, py, w, h),
+        PadSpec("4", px, -py, w, h),
+    )
+
+
+def sensor_pads() -> tuple[PadSpec, ...]:
+    """The VEML3328's lands: its package terminals, one to one, from the datasheet facts."""
+    with FACTS.open("rb") as f:
+        terminals = tomllib.load(f)["veml3328"]["terminals"]
+    return tuple(
+        PadSpec(t["number"], t["center"][0], t["center"][1], t["size"][0], t["size"][1])
+        for t in terminals
+    )
 
 
 def lands(geo: Geometry) -> dict[str, Land]:
     sb, lb = geo.sensor_body, geo.led_body
     two = (PadSpec("1", -0.5, 0.0, 0.55, 0.6), PadSpec("2", 0.5, 0.0, 0.55, 0.6))
+    sensor = sensor_pads()
+    pin1 = next(p for p in sensor if p.number == "1")
     return {
-        "VEML3328": Land(_quad(0.65, 0.375, 0.5, 0.45), (sb[0], sb[1]),
-                         (sb[0] + 0.3, sb[1] + 0.3), (-sb[0] / 2 - 0.25, -0.375)),
-        "LED_RGB_1615": Land(_quad(0.55, 0.45, 0.5, 0.5), (lb[0], lb[1]),
-                             (lb[0] + 0.3, lb[1] + 0.3), (-lb[0] / 2 - 0.25, -0.45)),
+        "VEML3328": Land(
+            sensor, (sb[0], sb[1]), (sb[0] + 0.3, sb[1] + 0.3), (-sb[0] / 2 - 0.25, pin1.y)
+        ),
+        "LED_RGB_1615": Land(
+            _quad(0.55, 0.45, 0.5, 0.5),
+            (lb[0], lb[1]),
+            (lb[0] + 0.3, lb[1] + 0.3),
+            (-lb[0] / 2 - 0.25, -0.45),
+        ),
         "R_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "C_0402": Land(two, (1.0, 0.5), (1.9, 1.0), None),
         "SensorLink_18pad": Land(_connector_pads(geo), (0.0, 0.0), (0.0, 0.0), None),
@@ -73,8 +99,9 @@ def _connector_pads(geo: Geometry) -> tuple[PadSpec, ...]:
     for pad, row in sorted(load_pinmap().items()):
         a = math.radians(angles[row["signal"]])
         r = geo.connector_radius
-        out.append(PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9,
-                           -angles[row["signal"]]))
+        out.append(
+            PadSpec(str(pad), r * math.cos(a), r * math.sin(a), 1.2, 0.9, -angles[row["signal"]])
+        )
     return tuple(out)
 
 
@@ -93,8 +120,9 @@ def _rect(fp: pcbnew.FOOTPRINT, w: float, h: float, layer: int, width: float) ->
     fp.Add(s)
 
 
-def make(board: pcbnew.BOARD, part: Part, geo: Geometry,
-         nets: dict[str, pcbnew.NETINFO_ITEM]) -> pcbnew.FOOTPRINT:
+def make(
+    board: pcbnew.BOARD, part: Part, geo: Geometry, nets: dict[str, pcbnew.NETINFO_ITEM]
+) -> pcbnew.FOOTPRINT:
     land = lands(geo)[part.footprint]
     fp = pcbnew.FOOTPRINT(board)
     fp.SetFPID(pcbnew.LIB_ID(LIB, part.footprint))

@@ -6,28 +6,35 @@ gpio_t *gpio_port(char name) {
     return name == 'A' ? GPIOA : GPIOB;
 }
 
-static void set_field(volatile uint32_t *reg, uint8_t pin, uint32_t bits, uint32_t value) {
-    const uint32_t shift = (uint32_t)pin * bits;
-    const uint32_t mask = ((1u << bits) - 1u) << shift;
+/* Set pin `pin`'s field of a per-pin register; mask0 is pin 0's field (regs.h), whose width
+ * is every pin's. */
+static void set_field(volatile uint32_t *reg, uint8_t pin, uint32_t mask0, uint32_t value) {
+    uint32_t width = 0u;
+    while ((mask0 >> width) != 0u) {
+        width++;
+    }
+    const uint32_t shift = (uint32_t)pin * width;
+    const uint32_t mask = mask0 << shift;
     *reg = (*reg & ~mask) | ((value << shift) & mask);
 }
 
 void gpio_af(gpio_t *port, uint8_t pin, uint8_t af, int open_drain, int pull_up) {
-    set_field(&port->AFR[pin / 8u], (uint8_t)(pin % 8u), 4u, af);
-    set_field(&port->OTYPER, pin, 1u, open_drain ? 1u : 0u);
-    set_field(&port->OSPEEDR, pin, 2u, 2u); /* fast: clean 400 kHz edges */
-    set_field(&port->PUPDR, pin, 2u, pull_up ? 1u : 0u);
-    set_field(&port->MODER, pin, 2u, 2u);
+    set_field(&port->AFR[pin / 8u], (uint8_t)(pin % 8u), GPIO_AFRL_AFRL0_MASK, af);
+    set_field(&port->OTYPER, pin, GPIO_OTYPER_OT0, open_drain ? 1u : 0u);
+    /* fast: clean 400 kHz edges */
+    set_field(&port->OSPEEDR, pin, GPIO_OSPEEDR_OSPEEDR0_MASK, GPIO_OSPEEDR_OSPEEDR0_FAST);
+    set_field(&port->PUPDR, pin, GPIO_PUPDR_PUPDR0_MASK, pull_up ? GPIO_PUPDR_PUPDR0_PULLUP : 0u);
+    set_field(&port->MODER, pin, GPIO_MODER_MODER0_MASK, GPIO_MODER_MODER0_AF);
 }
 
 void gpio_od_out(gpio_t *port, uint8_t pin, int level) {
     gpio_write(port, pin, level);
-    set_field(&port->OTYPER, pin, 1u, 1u);
-    set_field(&port->MODER, pin, 2u, 1u);
+    set_field(&port->OTYPER, pin, GPIO_OTYPER_OT0, 1u);
+    set_field(&port->MODER, pin, GPIO_MODER_MODER0_MASK, GPIO_MODER_MODER0_OUTPUT);
 }
 
 void gpio_write(gpio_t *port, uint8_t pin, int level) {
-    port->BSRR = level ? (1u << pin) : (1u << (pin + 16u));
+    port->BSRR = level ? (GPIO_BSRR_BS0 << pin) : (GPIO_BSRR_BR0 << pin);
 }
 
 int gpio_read(const gpio_t *port, uint8_t pin) {

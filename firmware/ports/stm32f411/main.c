@@ -52,25 +52,25 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     uid_read(uid);
 }
 
-#define IWDG_SR_BUSY 3u /* PVU | RVU: a prescaler or reload update is still in progress */
+#define IWDG_SR_BUSY (IWDG_SR_PVU | IWDG_SR_RVU) /* a prescaler or reload update in progress */
 #define IWDG_UPDATE_WAIT 100000u
 
 /* Set the watchdog period: prescaler code (32 kHz / 4 << pr) and reload (RM0383 17.3). */
 static void watchdog_period(uint32_t pr, uint32_t rlr) {
-    IWDG->KR = 0xAAAAu; /* refresh with the old period before changing it */
+    IWDG->KR = IWDG_KR_RELOAD; /* refresh with the old period before changing it */
     for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
     }
-    IWDG->KR = 0x5555u; /* unlock PR/RLR */
+    IWDG->KR = IWDG_KR_UNLOCK; /* unlock PR/RLR */
     IWDG->PR = pr;
     IWDG->RLR = rlr;
     for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
     }
-    IWDG->KR = 0xAAAAu;
+    IWDG->KR = IWDG_KR_RELOAD;
 }
 
 static void watchdog_start(void) {
     watchdog_period(2u, 1000u); /* 32 kHz / 16 = 2 kHz, ~0.5 s */
-    IWDG->KR = 0xCCCCu;
+    IWDG->KR = IWDG_KR_START;
 }
 
 static uint32_t store_now(void) {
@@ -78,7 +78,7 @@ static uint32_t store_now(void) {
 }
 
 static void store_kick_watchdog(void) {
-    IWDG->KR = 0xAAAAu;
+    IWDG->KR = IWDG_KR_RELOAD;
 }
 
 static const flash_store_t k_store = {
@@ -151,7 +151,7 @@ int main(void) {
     };
     stac_app_init(&g_app, &hal, &id, systick_now_us());
     for (;;) {
-        IWDG->KR = 0xAAAAu;
+        IWDG->KR = IWDG_KR_RELOAD;
         host_link_service();
         stac_app_step(&g_app, systick_now_us());
     }

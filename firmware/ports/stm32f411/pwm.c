@@ -25,8 +25,9 @@ static void channel_setup(tim_t *t, uint8_t channel) {
     const uint32_t idx = channel - 1u;
     volatile uint32_t *ccmr = idx < 2u ? &t->CCMR1 : &t->CCMR2;
     const uint32_t shift = (idx % 2u) * 8u;
-    *ccmr = (*ccmr & ~(0xFFu << shift)) | (((6u << 4) | (1u << 3)) << shift);
-    t->CCER |= (1u | 2u) << (idx * 4u); /* CCxE | CCxP */
+    *ccmr = (*ccmr & ~(TIM_CCMR1_CH1_MASK << shift)) |
+            ((TIM_CCMR1_OC1M_PWM1 | TIM_CCMR1_OC1PE) << shift);
+    t->CCER |= (TIM_CCER_CC1E | TIM_CCER_CC1P) << (idx * 4u);
 }
 
 void pwm_init(uint32_t tim_hz) {

@@ -1,5 +1,11 @@
 /* The STM32F411 registers this port touches (RM0383). No vendor headers exist on our build
- * machines, so each peripheral is declared here as a struct at its bus address. */
+ * machines, so each peripheral is declared here as a struct at its bus address.
+ *
+ * Every address, offset and bit below is checked against ST's own description of the chip
+ * (the STM32F411xx SVD) by tests/firmware/test_regs_svd.py, which finds the macros by parsing
+ * this file: name them PERIPHERAL_REGISTER_FIELD[_VALUE|_SHIFT|_MASK] so the check can place
+ * them. Core registers (SysTick, SCB) are not in ST's SVD and are checked against the ARMv7-M
+ * facts in hardware/datasheet_facts.toml instead. */
 #ifndef STM32F411_REGS_H
 #define STM32F411_REGS_H
 
@@ -16,6 +22,11 @@ typedef struct {
 #define RCC_CR_HSERDY (1u << 17)
 #define RCC_CR_PLLON (1u << 24)
 #define RCC_CR_PLLRDY (1u << 25)
+#define RCC_PLLCFGR_PLLM_SHIFT 0u
+#define RCC_PLLCFGR_PLLN_SHIFT 6u
+#define RCC_PLLCFGR_PLLP_SHIFT 16u
+#define RCC_PLLCFGR_PLLSRC_HSE (1u << 22)
+#define RCC_PLLCFGR_PLLQ_SHIFT 24u
 #define RCC_CFGR_SW_PLL 2u
 #define RCC_CFGR_SWS_MASK (3u << 2)
 #define RCC_CFGR_SWS_PLL (2u << 2)
@@ -33,7 +44,17 @@ typedef struct {
 #define RCC_AHB2ENR_OTGFS (1u << 7)
 #define RCC_AHB2RSTR_OTGFS (1u << 7)
 
+/* Power controller (RM0383 §5.4): regulator voltage scale. */
+typedef struct {
+    volatile uint32_t CR, CSR;
+} pwr_t;
+#define PWR ((pwr_t *)0x40007000u)
+#define PWR_CR_VOS_MASK (3u << 14)
+#define PWR_CR_VOS_SCALE1 (3u << 14)
+#define PWR_CSR_VOSRDY (1u << 14)
+
 #define FLASH_ACR REG32(0x40023C00u)
+#define FLASH_ACR_LATENCY_MASK 7u
 #define FLASH_ACR_LATENCY_3WS 3u
 #define FLASH_ACR_PRFTEN (1u << 8)
 #define FLASH_ACR_ICEN (1u << 9)
@@ -44,6 +65,19 @@ typedef struct {
 } gpio_t;
 #define GPIOA ((gpio_t *)0x40020000u)
 #define GPIOB ((gpio_t *)0x40020400u)
+/* Pin 0's fields and codes; pin n's sit n times the field's width up (AFRL/AFRH: n % 8). */
+#define GPIO_MODER_MODER0_MASK 3u
+#define GPIO_MODER_MODER0_OUTPUT 1u
+#define GPIO_MODER_MODER0_AF 2u
+#define GPIO_OTYPER_OT0 (1u << 0)
+#define GPIO_OSPEEDR_OSPEEDR0_MASK 3u
+#define GPIO_OSPEEDR_OSPEEDR0_FAST 2u
+#define GPIO_OSPEEDR_OSPEEDR0_VERYHIGH 3u
+#define GPIO_PUPDR_PUPDR0_MASK 3u
+#define GPIO_PUPDR_PUPDR0_PULLUP 1u
+#define GPIO_AFRL_AFRL0_MASK 0xFu
+#define GPIO_BSRR_BS0 (1u << 0)
+#define GPIO_BSRR_BR0 (1u << 16)
 
 typedef struct {
     volatile uint32_t CR1, CR2, OAR1, OAR2, DR, SR1, SR2, CCR, TRISE, FLTR;
@@ -68,9 +102,11 @@ typedef struct {
 #define I2C_SR2_BUSY (1u << 1)
 #define I2C_CCR_FS (1u << 15)
 
+/* General-purpose timers TIM2..TIM4 (RM0383 §13.4): no RCR (0x30) or BDTR (0x44) there, and
+ * only TIM2 has OR (0x50), which the port leaves alone. */
 typedef struct {
-    volatile uint32_t CR1, CR2, SMCR, DIER, SR, EGR, CCMR1, CCMR2, CCER, CNT, PSC, ARR, RCR,
-        CCR[4], BDTR, DCR, DMAR, OR;
+    volatile uint32_t CR1, CR2, SMCR, DIER, SR, EGR, CCMR1, CCMR2, CCER, CNT, PSC, ARR, RES0,
+        CCR[4], RES1, DCR, DMAR;
 } tim_t;
 #define TIM2 ((tim_t *)0x40000000u)
 #define TIM3 ((tim_t *)0x40000400u)
@@ -78,6 +114,18 @@ typedef struct {
 #define TIM_CR1_CEN (1u << 0)
 #define TIM_CR1_ARPE (1u << 7)
 #define TIM_EGR_UG (1u << 0)
+/* Channel 1's fields; channel n's sit (n-1) % 2 * 8 bits up in CCMR1/CCMR2 and (n-1) * 4 bits
+ * up in CCER. */
+#define TIM_CCMR1_CC1S_MASK (3u << 0)
+#define TIM_CCMR1_OC1FE (1u << 2)
+#define TIM_CCMR1_OC1PE (1u << 3)
+#define TIM_CCMR1_OC1M_MASK (7u << 4)
+#define TIM_CCMR1_OC1M_PWM1 (6u << 4)
+#define TIM_CCMR1_OC1CE (1u << 7)
+#define TIM_CCMR1_CH1_MASK \
+    (TIM_CCMR1_CC1S_MASK | TIM_CCMR1_OC1FE | TIM_CCMR1_OC1PE | TIM_CCMR1_OC1M_MASK | TIM_CCMR1_OC1CE)
+#define TIM_CCER_CC1E (1u << 0)
+#define TIM_CCER_CC1P (1u << 1)
 
 typedef struct {
     volatile uint32_t SR, DR, BRR, CR1, CR2, CR3, GTPR;
@@ -103,9 +151,11 @@ typedef struct {
 #define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
 #define NVIC_ISPR(n) REG32(0xE000E200u + 4u * (n))
 #define SCB_CPACR REG32(0xE000ED88u)
+#define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)
 #define SCB_CCR REG32(0xE000ED14u)
 #define SCB_CCR_BFHFNMIGN (1u << 8)
 #define SCB_CFSR REG32(0xE000ED28u)
+#define SCB_HFSR REG32(0xE000ED2Cu)
 #define SCB_AIRCR REG32(0xE000ED0Cu)
 #define SCB_AIRCR_RESET 0x05FA0004u
 
@@ -113,6 +163,11 @@ typedef struct {
     volatile uint32_t KR, PR, RLR, SR;
 } iwdg_t;
 #define IWDG ((iwdg_t *)0x40003000u)
+#define IWDG_KR_RELOAD 0xAAAAu
+#define IWDG_KR_UNLOCK 0x5555u
+#define IWDG_KR_START 0xCCCCu
+#define IWDG_SR_PVU (1u << 0)
+#define IWDG_SR_RVU (1u << 1)
 
 #define UID_BASE 0x1FFF7A10u
 
@@ -179,8 +234,14 @@ typedef struct {
 #define OTG_DCFG_DSPD_FS 3u
 #define OTG_DCFG_DAD_SHIFT 4u
 #define OTG_DCFG_DAD_MASK (0x7Fu << 4)
+#define OTG_DIEPTXF0_TX0FD_SHIFT 16u
+#define OTG_DIEPTXF_INEPTXFD_SHIFT 16u
+#define OTG_DAINT_IEPINT_MASK 0xFFFFu
+#define OTG_DAINT_OEPINT_SHIFT 16u
+#define OTG_DAINTMSK_OEPM_SHIFT 16u
 #define OTG_DCTL_SDIS (1u << 1)
 #define OTG_DCTL_CGINAK (1u << 8)
+#define OTG_DIEPCTL0_MPSIZ_MASK 3u
 #define OTG_EPCTL_USBAEP (1u << 15)
 #define OTG_EPCTL_EPTYP_SHIFT 18u
 #define OTG_EPCTL_STALL (1u << 21)

@@ -41,7 +41,7 @@ static void (*const k_vectors[16u + IRQ_COUNT])(void) = {
 
 void Reset_Handler(void) {
     /* The FPU must be on before any code the compiler may give float instructions. */
-    SCB_CPACR |= 0xFu << 20;
+    SCB_CPACR |= SCB_CPACR_CP10_CP11_FULL;
     __asm volatile("dsb\n isb" ::: "memory");
     uint32_t *src = &_sidata;
     for (uint32_t *dst = &_sdata; dst < &_edata;) {
@@ -82,7 +82,7 @@ void fault_from_frame(uint32_t *frame) {
         const uint16_t insn = *(const uint16_t *)(uintptr_t)frame[6];
         frame[6] += (insn >> 11) >= 0x1Du ? 4u : 2u; /* 32-bit Thumb-2 encodings */
         SCB_CFSR = SCB_CFSR;                      /* write-one-to-clear */
-        REG32(0xE000ED2Cu) = REG32(0xE000ED2Cu);  /* HFSR */
+        SCB_HFSR = SCB_HFSR;
         return;
     }
     SCB_AIRCR = SCB_AIRCR_RESET;

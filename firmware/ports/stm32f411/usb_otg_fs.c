@@ -151,7 +151,7 @@ static void drv_configure(void *ctx, uint8_t on) {
         in_endpoint_off(EP_DATA);
         in_endpoint_off(EP_NOTIFY);
         OTG_DOEPCTL(EP_DATA) = (OTG_DOEPCTL(EP_DATA) & ~OTG_EPCTL_USBAEP) | OTG_EPCTL_SNAK;
-        OTG_DAINTMSK = 1u | (1u << 16); /* EP0 IN and OUT only */
+        OTG_DAINTMSK = 1u | (1u << OTG_DAINTMSK_OEPM_SHIFT); /* EP0 IN and OUT only */
         g_tx_busy = 0u;
         usb_cdc_io_drop_tx(&g_io); /* frames queued for a host that went away */
         g_rx_armed = 0u;
@@ -165,7 +165,8 @@ static void drv_configure(void *ctx, uint8_t on) {
                              OTG_EPCTL_SNAK | USB_NOTIFY_SIZE;
     OTG_DOEPCTL(EP_DATA) = OTG_EPCTL_USBAEP | (EPTYP_BULK << OTG_EPCTL_EPTYP_SHIFT) |
                            OTG_EPCTL_SD0PID | USB_DATA_SIZE;
-    OTG_DAINTMSK = 1u | (1u << EP_DATA) | (1u << EP_NOTIFY) | (1u << 16) | (1u << (16u + EP_DATA));
+    OTG_DAINTMSK = 1u | (1u << EP_DATA) | (1u << EP_NOTIFY) | (1u << OTG_DAINTMSK_OEPM_SHIFT) |
+                   (1u << (OTG_DAINTMSK_OEPM_SHIFT + EP_DATA));
     arm_data_out();
 }
 
@@ -213,7 +214,7 @@ static void on_bus_reset(void) {
         OTG_DOEPCTL(ep) |= OTG_EPCTL_SNAK;
     }
     flush_tx_fifo(0x10u);
-    OTG_DAINTMSK = 1u | (1u << 16);
+    OTG_DAINTMSK = 1u | (1u << OTG_DAINTMSK_OEPM_SHIFT);
     OTG_DOEPMSK = OTG_DOEPINT_STUP | OTG_EPINT_XFRC;
     OTG_DIEPMSK = OTG_EPINT_XFRC;
     usb_dev_bus_reset(&g_dev); /* address 0, endpoints off */
@@ -241,7 +242,7 @@ static void on_rx_fifo(void) {
 }
 
 static void on_out_endpoints(void) {
-    const uint32_t daint = OTG_DAINT >> 16;
+    const uint32_t daint = OTG_DAINT >> OTG_DAINT_OEPINT_SHIFT;
     if ((daint & 1u) != 0u) {
         const uint32_t irq = OTG_DOEPINT(0u);
         OTG_DOEPINT(0u) = irq;
@@ -273,7 +274,7 @@ static void on_out_endpoints(void) {
 }
 
 static void on_in_endpoints(void) {
-    const uint32_t daint = OTG_DAINT & 0xFFFFu;
+    const uint32_t daint = OTG_DAINT & OTG_DAINT_IEPINT_MASK;
     if ((daint & 1u) != 0u) {
         const uint32_t irq = OTG_DIEPINT(0u);
         OTG_DIEPINT(0u) = irq;
@@ -304,7 +305,7 @@ void OTG_FS_IRQHandler(void) {
     }
     if ((st & OTG_GINT_ENUMDNE) != 0u) {
         OTG_GINTSTS = OTG_GINT_ENUMDNE;
-        OTG_DIEPCTL(0u) &= ~3u; /* EP0 MPSIZ 0 = 64 bytes */
+        OTG_DIEPCTL(0u) &= ~OTG_DIEPCTL0_MPSIZ_MASK; /* EP0 MPSIZ 0 = 64 bytes */
         OTG_DCTL |= OTG_DCTL_CGINAK;
     }
     for (uint32_t i = 0; i < FIFO_RX_WORDS / 2u && (OTG_GINTSTS & OTG_GINT_RXFLVL) != 0u; i++) {
@@ -342,7 +343,8 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     }
     gpio_af(GPIOA, PA_DM, AF_OTG_FS, 0, 0);
     gpio_af(GPIOA, PA_DP, AF_OTG_FS, 0, 0);
-    GPIOA->OSPEEDR |= (3u << (2u * PA_DM)) | (3u << (2u * PA_DP)); /* very high speed */
+    GPIOA->OSPEEDR |= (GPIO_OSPEEDR_OSPEEDR0_VERYHIGH << (2u * PA_DM)) |
+                      (GPIO_OSPEEDR_OSPEEDR0_VERYHIGH << (2u * PA_DP));
     RCC->AHB2ENR |= RCC_AHB2ENR_OTGFS;
     (void)RCC->AHB2ENR;
 
@@ -371,9 +373,10 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     /* Device initialisation (RM0383 OTG_FS programming model). */
     OTG_DCFG = OTG_DCFG_DSPD_FS;
     OTG_GRXFSIZ = FIFO_RX_WORDS;
-    OTG_DIEPTXF0 = (FIFO_EP0_WORDS << 16) | FIFO_RX_WORDS;
-    OTG_DIEPTXF(1u) = (FIFO_EP1_WORDS << 16) | (FIFO_RX_WORDS + FIFO_EP0_WORDS);
-    OTG_DIEPTXF(2u) = (FIFO_EP2_WORDS << 16) | (FIFO_RX_WORDS + FIFO_EP0_WORDS + FIFO_EP1_WORDS);
+    OTG_DIEPTXF0 = (FIFO_EP0_WORDS << OTG_DIEPTXF0_TX0FD_SHIFT) | FIFO_RX_WORDS;
+    OTG_DIEPTXF(1u) = (FIFO_EP1_WORDS << OTG_DIEPTXF_INEPTXFD_SHIFT) | (FIFO_RX_WORDS + FIFO_EP0_WORDS);
+    OTG_DIEPTXF(2u) = (FIFO_EP2_WORDS << OTG_DIEPTXF_INEPTXFD_SHIFT) |
+                      (FIFO_RX_WORDS + FIFO_EP0_WORDS + FIFO_EP1_WORDS);
     flush_tx_fifo(0x10u);
     OTG_GRSTCTL = OTG_GRSTCTL_RXFFLSH;
     (void)wait_reg(&OTG_GRSTCTL, OTG_GRSTCTL_RXFFLSH, 0u);

@@ -1,0 +1,257 @@
+/* Runs the port's real clock_init() natively against a register-level model of the STM32F411's
+ * RCC, PWR and FLASH_ACR, one instruction at a time (tests/firmware/test_clock_model.py).
+ *
+ * The child maps anonymous memory at the peripherals' bus addresses, so clock.c and regs.h
+ * compile unchanged, and stops itself under ptrace. The parent single-steps it; after every
+ * instruction it reads the registers, sees each write as a change, and answers as the chip
+ * would: ready flags follow their enables, SWS follows SW, a PWR write without the PWR clock or
+ * a VOS change with the PLL running is ignored (RM0383 §5.4.1), VOSRDY comes once the PLL runs.
+ * Every rule the code breaks is printed as "violation: ...", and on each switch to the PLL the
+ * clock tree is held to the limits passed on the command line (from datasheet_facts.toml).
+ *
+ *   clock_model FAULT HCLK_MAX_SCALE1,2,3 WS_MAX0,1,2,3 APB1_MAX APB2_MAX   (MHz)
+ *   FAULT: none | no-hse | no-pll | no-vosrdy
+ * Prints "result sys_hz apb1_hz apb2_hz tim_hz on_pll", the final "state ..." and violations. */
+#define _GNU_SOURCE
+#include <fcntl.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/ptrace.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "clock.h"
+#include "generated/board.h"
+#include "regs.h"
+
+#define WINDOW_BASE 0x40000000ul
+#define WINDOW_SIZE 0x30000ul /* APB1 (PWR at 0x4000_7000) to AHB1 (RCC, FLASH at 0x4002_3x00) */
+#define DELAY_STEPS 40        /* instructions before a started oscillator or regulator is ready */
+#define MAX_STEPS 20000000L
+
+#define A_RCC_CR 0x40023800ul
+#define A_RCC_PLLCFGR 0x40023804ul
+#define A_RCC_CFGR 0x40023808ul
+#define A_RCC_APB1ENR 0x40023840ul
+#define A_PWR_CR 0x40007000ul
+#define A_PWR_CSR 0x40007004ul
+#define A_FLASH_ACR 0x40023C00ul
+
+/* Reset values (RM0383): HSI on and ready; PWR_CR VOS = 10, scale 2. */
+#define RESET_RCC_CR 0x00000083u
+#define RESET_PWR_CR 0x00008000u
+
+typedef struct {
+    uint32_t cr, pllcfgr, cfgr, apb1enr, pwr_cr, pwr_csr, acr;
+} snapshot_t;
+
+static int g_mem = -1;
+static unsigned g_violations;
+
+static uint32_t peek(unsigned long addr) {
+    uint32_t v = 0;
+    if (pread(g_mem, &v, sizeof v, (off_t)addr) != (ssize_t)sizeof v) {
+        perror("pread");
+        exit(2);
+    }
+    return v;
+}
+
+static void poke(unsigned long addr, uint32_t v) {
+    if (pwrite(g_mem, &v, sizeof v, (off_t)addr) != (ssize_t)sizeof v) {
+        perror("pwrite");
+        exit(2);
+    }
+}
+
+static snapshot_t read_all(void) {
+    snapshot_t s = {peek(A_RCC_CR), peek(A_RCC_PLLCFGR), peek(A_RCC_CFGR), peek(A_RCC_APB1ENR),
+                    peek(A_PWR_CR), peek(A_PWR_CSR), peek(A_FLASH_ACR)};
+    return s;
+}
+
+static void violation(const char *text, long step) {
+    printf("violation: %s (instruction %ld)\n", text, step);
+    g_violations++;
+}
+
+typedef struct {
+    double hclk_max[4]; /* by scale 1..3, MHz */
+    double ws_max[4];   /* HCLK limit for 0..3 wait states, MHz */
+    double apb1_max, apb2_max;
+} limits_t;
+
+static unsigned ppre_div(uint32_t code) {
+    return (code & 4u) != 0u ? 2u << (code & 3u) : 1u;
+}
+
+/* The clock tree as RCC is set: checked the moment SWS reports the PLL. */
+static void check_switch(const snapshot_t *s, const limits_t *lim, long step) {
+    const uint32_t m = s->pllcfgr & 0x3Fu, n = (s->pllcfgr >> 6) & 0x1FFu;
+    const uint32_t p = (((s->pllcfgr >> 16) & 3u) + 1u) * 2u;
+    const double sys_mhz = (double)BOARD_HSE_HZ / 1e6 / m * n / p;
+    const uint32_t vos = (s->pwr_cr >> 14) & 3u;
+    const int scale = vos == 3u ? 1 : vos == 2u ? 2 : 3;
+    char text[200];
+    if ((s->pwr_csr & PWR_CSR_VOSRDY) == 0u) {
+        violation("switched to the PLL before VOSRDY", step);
+    }
+    if (sys_mhz > lim->hclk_max[scale]) {
+        snprintf(text, sizeof text, "SYSCLK %.1f MHz above voltage scale %d's %.0f MHz", sys_mhz,
+                 scale, lim->hclk_max[scale]);
+        violation(text, step);
+    }
+    const uint32_t latency = s->acr & 7u;
+    if (latency > 3u || sys_mhz > lim->ws_max[latency]) {
+        snprintf(text, sizeof text, "%u flash wait states at %.1f MHz", latency, sys_mhz);
+        violation(text, step);
+    }
+    const double apb1 = sys_mhz / ppre_div((s->cfgr >> 10) & 7u);
+    const double apb2 = sys_mhz / ppre_div((s->cfgr >> 13) & 7u);
+    if (apb1 > lim->apb1_max || apb2 > lim->apb2_max) {
+        snprintf(text, sizeof text, "APB1 %.1f / APB2 %.1f MHz above their limits", apb1, apb2);
+        violation(text, step);
+    }
+}
+
+static void child(void) {
+    void *m = mmap((void *)WINDOW_BASE, WINDOW_SIZE, PROT_READ | PROT_WRITE,
+                   MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED_NOREPLACE, -1, 0);
+    if (m == MAP_FAILED) {
+        _exit(3);
+    }
+    *(volatile uint32_t *)A_RCC_CR = RESET_RCC_CR;
+    *(volatile uint32_t *)A_PWR_CR = RESET_PWR_CR;
+    if (ptrace(PTRACE_TRACEME, 0, 0, 0) != 0) {
+        _exit(4);
+    }
+    raise(SIGSTOP);
+    clocks_t out;
+    clock_init(&out);
+    printf("result %u %u %u %u %u\n", (unsigned)out.sys_hz, (unsigned)out.apb1_hz,
+           (unsigned)out.apb2_hz, (unsigned)out.tim_hz, (unsigned)out.on_pll);
+    fflush(stdout);
+    _exit(0);
+}
+
+static void parse4(const char *arg, double out[4], int first) {
+    char *end = NULL;
+    for (int i = first; i < 4; i++) {
+        out[i] = strtod(arg, &end);
+        arg = *end == ',' ? end + 1 : end;
+    }
+}
+
+int main(int argc, char **argv) {
+    if (argc != 6) {
+        fprintf(stderr, "usage: %s FAULT HCLK1,2,3 WS0,1,2,3 APB1 APB2\n", argv[0]);
+        return 2;
+    }
+    const char *fault = argv[1];
+    limits_t lim = {{0}, {0}, atof(argv[4]), atof(argv[5])};
+    parse4(argv[2], lim.hclk_max, 1);
+    parse4(argv[3], lim.ws_max, 0);
+    fflush(stdout);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        child();
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (!WIFSTOPPED(status)) {
+        fprintf(stderr, "the child did not stop under ptrace (status %d)\n", status);
+        return 2;
+    }
+    char path[64];
+    snprintf(path, sizeof path, "/proc/%d/mem", (int)pid);
+    g_mem = open(path, O_RDWR);
+    if (g_mem < 0) {
+        perror(path);
+        return 2;
+    }
+    snapshot_t prev = read_all();
+    long step = 0, hse_at = -1, pll_at = -1, vos_at = -1;
+    for (; step < MAX_STEPS; step++) {
+        if (ptrace(PTRACE_SINGLESTEP, pid, 0, 0) != 0) {
+            perror("PTRACE_SINGLESTEP");
+            return 2;
+        }
+        waitpid(pid, &status, 0);
+        if (WIFEXITED(status)) {
+            break;
+        }
+        snapshot_t s = read_all();
+        /* PWR ignores writes without its clock, and VOS changes while the PLL runs. */
+        if (s.pwr_cr != prev.pwr_cr) {
+            if ((prev.apb1enr & RCC_APB1ENR_PWR) == 0u) {
+                violation("PWR_CR written while the PWR clock is off (ignored)", step);
+                s.pwr_cr = prev.pwr_cr;
+            } else if (((s.pwr_cr ^ prev.pwr_cr) & PWR_CR_VOS_MASK) != 0u &&
+                       (prev.cr & RCC_CR_PLLON) != 0u) {
+                violation("VOS changed while the PLL runs (ignored)", step);
+                s.pwr_cr = prev.pwr_cr;
+            }
+        }
+        if (s.pllcfgr != prev.pllcfgr && (prev.cr & RCC_CR_PLLON) != 0u) {
+            violation("PLLCFGR written while the PLL runs", step);
+        }
+        /* Oscillators, PLL and regulator answer DELAY_STEPS instructions after they start. */
+        if ((s.cr & RCC_CR_HSEON) == 0u) {
+            hse_at = -1;
+            s.cr &= ~RCC_CR_HSERDY;
+        } else if (hse_at < 0) {
+            hse_at = step;
+        } else if (step - hse_at >= DELAY_STEPS && strcmp(fault, "no-hse") != 0) {
+            s.cr |= RCC_CR_HSERDY;
+        }
+        if ((s.cr & RCC_CR_PLLON) == 0u) {
+            pll_at = vos_at = -1;
+            s.cr &= ~RCC_CR_PLLRDY;
+            s.pwr_csr &= ~PWR_CSR_VOSRDY;
+        } else if (pll_at < 0) {
+            pll_at = step;
+        } else if (step - pll_at >= DELAY_STEPS && (s.cr & RCC_CR_HSERDY) != 0u &&
+                   strcmp(fault, "no-pll") != 0) {
+            s.cr |= RCC_CR_PLLRDY;
+        }
+        if ((s.cr & RCC_CR_PLLRDY) != 0u && vos_at < 0) {
+            vos_at = step;
+        }
+        if (vos_at >= 0 && step - vos_at >= DELAY_STEPS && strcmp(fault, "no-vosrdy") != 0) {
+            s.pwr_csr |= PWR_CSR_VOSRDY;
+        }
+        /* SWS follows SW; the PLL can be selected only while it is ready. */
+        uint32_t sw = s.cfgr & 3u;
+        if (sw == RCC_CFGR_SW_PLL && (s.cr & RCC_CR_PLLRDY) == 0u) {
+            sw = (s.cfgr & RCC_CFGR_SWS_MASK) >> 2;
+        }
+        s.cfgr = (s.cfgr & ~RCC_CFGR_SWS_MASK) | (sw << 2);
+        if (((s.cfgr & RCC_CFGR_SWS_MASK) == RCC_CFGR_SWS_PLL) &&
+            ((prev.cfgr & RCC_CFGR_SWS_MASK) != RCC_CFGR_SWS_PLL)) {
+            check_switch(&s, &lim, step);
+        }
+        if ((s.cfgr & RCC_CFGR_SWS_MASK) == RCC_CFGR_SWS_PLL && (s.cr & RCC_CR_PLLON) == 0u) {
+            violation("PLL turned off while it clocks the core", step);
+        }
+        poke(A_RCC_CR, s.cr);
+        poke(A_RCC_CFGR, s.cfgr);
+        poke(A_PWR_CR, s.pwr_cr);
+        poke(A_PWR_CSR, s.pwr_csr);
+        prev = s;
+    }
+    if (step >= MAX_STEPS) {
+        kill(pid, SIGKILL);
+        printf("violation: clock_init still running after %ld instructions\n", step);
+        return 1;
+    }
+    printf("state sws=%u pllon=%u hseon=%u vos=%u latency=%u steps=%ld\n",
+           (unsigned)((prev.cfgr & RCC_CFGR_SWS_MASK) >> 2), (unsigned)((prev.cr >> 24) & 1u),
+           (unsigned)((prev.cr >> 16) & 1u), (unsigned)((prev.pwr_cr >> 14) & 3u),
+           (unsigned)(prev.acr & 7u), step);
+    return g_violations == 0u ? 0 : 1;
+}
