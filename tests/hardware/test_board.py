@@ -179,3 +179,10 @@ def test_fab_outputs_present() -> None:
     cpl = (KICAD_DIR / "spectratac-cpl.csv").read_text().splitlines()
     assert bom[0].startswith("Comment,Designator")
     assert len(cpl) - 1 == 24, "every placed part (not the bare connector pads) has a row"
+
+
+def test_committed_drc_report_does_not_name_a_checkout() -> None:
+    # KiCad writes the board's absolute path; the build strips it so the committed report is the
+    # same whichever checkout regenerated it.
+    first_line = (KICAD_DIR / "drc.rpt").read_text().splitlines()[0]
+    assert first_line == "** Drc report for spectratac.kicad_pcb **", first_line

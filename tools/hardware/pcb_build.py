@@ -143,7 +143,11 @@ def build_board(out: Path) -> Path:
 def drc(path: Path, report: Path) -> dict[str, int]:
     board = pcbnew.LoadBoard(str(path))
     pcbnew.WriteDRCReport(board, str(report), pcbnew.EDA_UNITS_MILLIMETRES, True)
-    text = report.read_text()
+    # KiCad names the board by its absolute path: keep the committed report free of the
+    # checkout's location (it changed with every worktree that regenerated it).
+    text = report.read_text().replace(str(path.resolve().parent) + "/", "")
+    text = text.replace(str(path.parent) + "/", "")
+    report.write_text(text)
     counts = {}
     for key, pattern in (("violations", r"Found (\d+) DRC violations"),
                          ("unconnected", r"Found (\d+) unconnected pads"),
