@@ -1,4 +1,4 @@
-"""`spectratac live MODEL URL [--ft FT_URL]`: the real-time force tracking page.
+"""`spectratac live [MODEL] URL [--ft FT_URL]`: the real-time force tracking page.
 
 Serves a local web page (127.0.0.1 only; the URL is printed and opened in the browser
 unless --no-browser) with rolling plots of the decoded Fx, Fy, Fz and torques at the
@@ -9,8 +9,10 @@ region lit by its probability, contact / out-of-distribution / invalid flags, th
 counts of every LED step with saturation and dark warnings, link statistics and the
 latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
 (into --output). The Snake tab plays the paper's game on the same estimates.
+Without a MODEL the page shows the raw counts and the reference F/T only (before training).
 
     spectratac live model.stac /dev/ttyACM0 --ft netft://192.168.1.1
+    spectratac live /dev/ttyACM0 --ft netft://192.168.1.1      # no model yet
     spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota"
 """
 
@@ -36,7 +38,7 @@ def register(subparsers: Any) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_device_options(p)
+    add_device_options(p, model_optional=True)
     p.add_argument("--ft", metavar="FT_URL", help="reference F/T URL (netft://, bota://, sim://)")
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
