@@ -41,6 +41,8 @@ function showTab(name) {
 }
 $("pause").addEventListener("click", () => {
   stac.paused = !stac.paused;
+  // plots out of view are not drawn: keep what they would show now for when they come in
+  for (const [key, p] of Object.entries(stac.plots)) p.frozen = stac.paused && !p.visible ? plotColumns(key, p) : null;
   $("pause").textContent = stac.paused ? "Resume" : "Pause";
   $("pause").classList.toggle("on", stac.paused);
   stac.dirty = true;
@@ -81,7 +83,8 @@ function plotOpts(yLabel, series, height, extra = {}) {
   return {
     width: 600, height, legend: legendOpts(),
     cursor: {
-      sync: { key: "stac" },
+      // the cursor moves on every plot at once; a drag selects in its own plot only
+      sync: { key: "stac", filters: { pub: (type) => type !== "mousedown" && type !== "mouseup" } },
       drag: { x: true, y: false, setScale: false },  // a drag selects a time span: zoom to it
       bind: {
         dblclick: () => () => { followLive(); return null; },
@@ -119,7 +122,8 @@ function addPlot(key, parent, opts, columns, minSpan, counts = false) {
   const old = $("plot-" + key);
   if (old) old.replaceWith(el); else parent.appendChild(el);
   const u = new uPlot(opts, columns(), el);
-  stac.plots[key] = { u, columns, minSpan, counts };
+  stac.plots[key] = { u, columns, minSpan, counts, visible: false, stale: true, frozen: null };
+  inView.observe(el);
 }
 function makePlots(meta) {
   const withModel = meta.model !== null, withRef = meta.ft_url !== null;
@@ -233,26 +237,46 @@ function rangeOf(ys, minSpan) {
   const pad = Math.max((hi - lo) * 0.1, minSpan / 2);
   return [lo - pad, hi + pad];
 }
-function fitY(force) {
-  for (const [key, p] of Object.entries(stac.plots)) {
-    if (p.counts && !stac.countsFit) {  // the whole range of counts, both bands in view
-      stac.yRanges[key] = [0, 1.5 * stac.meta.raw.full_scale];
-    } else if (force || stac.autoscale || !stac.yRanges[key]) {
-      const [lo, hi] = rangeOf(shown(p.u, xRange(p.u)), p.minSpan);
-      stac.yRanges[key] = p.counts ? [Math.max(lo, 0), hi] : [lo, hi];
-    }
+function fitOne(key, p, force) {
+  if (p.counts && !stac.countsFit) {  // the whole range of counts, both bands in view
+    stac.yRanges[key] = [0, 1.5 * stac.meta.raw.full_scale];
+  } else if (force || stac.autoscale || !stac.yRanges[key]) {
+    const [lo, hi] = rangeOf(shown(p.u, xRange(p.u)), p.minSpan);
+    stac.yRanges[key] = p.counts ? [Math.max(lo, 0), hi] : [lo, hi];
   }
+}
+function fitY(force) {
+  for (const [key, p] of Object.entries(stac.plots)) fitOne(key, p, force);
   stac.dirty = true;
 }
-function applyScales() {
-  fitY(false);
+function plotColumns(key, p) {
+  const cols = p.columns().map((a) => a.slice());  // copies: a paused view keeps what it showed
+  return p.counts ? rawColumns(cols) : cols;
+}
+function refresh(key, p, data) {  // one plot: its data (unless paused), y fit, x and y scales
+  p.u.batch(() => {
+    if (data && !stac.paused) p.u.setData(plotColumns(key, p), false);
+    else if (p.frozen) { p.u.setData(p.frozen, false); p.frozen = null; }
+    fitOne(key, p, false);
+    p.u.setScale("x", xRange(p.u));
+    p.u.setScale("y", { min: stac.yRanges[key][0], max: stac.yRanges[key][1] });
+  });
+}
+// Only plots in view are drawn (a browser's main thread is shared with the messages whose
+// latency the page measures); one scrolled into view is brought up to date at once.
+function applyScales(data = false) {
   for (const [key, p] of Object.entries(stac.plots)) {
-    p.u.batch(() => {
-      p.u.setScale("x", xRange(p.u));
-      p.u.setScale("y", { min: stac.yRanges[key][0], max: stac.yRanges[key][1] });
-    });
+    if (!p.visible) { p.stale = true; continue; }
+    refresh(key, p, data || p.stale);
+    p.stale = false;
   }
 }
+const inView = new IntersectionObserver((entries) => {
+  for (const e of entries) {
+    const p = Object.values(stac.plots).find((q) => q.u.root.parentElement === e.target);
+    if (p) { p.visible = e.isIntersecting; if (p.visible) stac.dirty = true; }
+  }
+});
 function rawColumns(cols) {  // with several LED steps, one step's samples (the others null)
   if (stac.rawSteps.length < 2) return cols;
   const keep = stac.steps.map((s) => s === stac.rawStep);
@@ -261,15 +285,7 @@ function rawColumns(cols) {  // with several LED steps, one step's samples (the 
 function redraw() {
   if (stac.dirty && stac.xs.length) {
     stac.dirty = false;
-    if (!stac.paused) {
-      // copies: a paused view (zoomed, panned or resized) keeps showing what it showed
-      for (const [key, p] of Object.entries(stac.plots)) {
-        let cols = p.columns().map((a) => a.slice());
-        if (key.startsWith("S")) cols = rawColumns(cols);
-        p.u.setData(cols, false);
-      }
-    }
-    applyScales();
+    applyScales(true);
   }
   requestAnimationFrame(redraw);
 }
