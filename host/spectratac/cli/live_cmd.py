@@ -4,10 +4,11 @@ Serves a local web page (127.0.0.1 only; the URL is printed and opened in the br
 unless --no-browser) with rolling plots of the decoded Fx, Fy, Fz and torques at the
 sensor's rate; with a reference F/T sensor (--ft, or a sim:// URL with ft=...), the
 reference drawn dashed on the same axes, time-aligned with the clock fit the dataset
-builder uses, and a running MAE per axis. Beside them: the sensor face with the decoded
+builder uses, and a running MAE per axis, overall and during contact. Every plot zooms,
+pans and reads values out at the cursor. Beside them: the sensor face with the decoded
 region lit by its probability, contact / out-of-distribution / invalid flags, the raw
-counts of every LED step with saturation and dark warnings, link statistics and the
-latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
+counts plotted per sensor and channel with saturation and dark bands, link statistics and
+the latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
 (into --output). The Snake tab plays the paper's game on the same estimates.
 Without a MODEL the page shows the raw counts and the reference F/T only (before training).
 
