@@ -185,6 +185,16 @@ def check_raw_counts(driver) -> None:
     reddish = [c for c in colours["sat"] if c[0] > c[1] + 8 and c[0] > c[2] + 8]
     bluish = [c for c in colours["dark"] if c[2] > c[0] + 6]
     assert len(reddish) >= 2 and len(bluish) >= 2, colours
+    # "fit to data" trades the bands for the counts' own range, and back
+    full = [0, 1.5 * veml3328.FULL_SCALE]
+    assert js(driver, "[stac.plots.S0.u.scales.y.min, stac.plots.S0.u.scales.y.max]") == full
+    driver.find_element("id", "counts-fit").click()
+    wait_for(driver, f"stac.plots.S0.u.scales.y.max < {veml3328.FULL_SCALE}")
+    lo, hi = js(driver, "[stac.plots.S0.u.scales.y.min, stac.plots.S0.u.scales.y.max]")
+    shown = js(driver, "stac.plots.S0.u.data.slice(1).flat().filter(v => v !== null)")
+    assert 0 <= lo <= min(shown) and max(shown) <= hi, (lo, hi)
+    driver.find_element("id", "counts-fit").click()
+    wait_for(driver, f"stac.plots.S0.u.scales.y.max === {full[1]}")
     driver.execute_script("window.scrollTo(0, 0)")
 
 

@@ -518,6 +518,7 @@ function onMeta(meta) {
   if (!withModel) { $("no-model-note").textContent = meta.no_model.note; $("no-model-hint").textContent = meta.no_model.hint; }
   $("panel-region").hidden = !withModel;
   $("tab-snake").hidden = !withModel;
+  if (!withModel && location.hash === "#snake") showTab("live");  // no estimates to steer with
   $("panel-force").hidden = $("panel-torque").hidden = !withModel && meta.ft_url === null;
   $("force-title").textContent = withModel ? "Force" : "Reference force";
   $("torque-title").textContent = withModel ? "Torque" : "Reference torque";
