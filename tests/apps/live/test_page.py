@@ -190,8 +190,12 @@ def check_raw_counts(driver) -> None:
     assert js(driver, "[stac.plots.S0.u.scales.y.min, stac.plots.S0.u.scales.y.max]") == full
     driver.find_element("id", "counts-fit").click()
     wait_for(driver, f"stac.plots.S0.u.scales.y.max < {veml3328.FULL_SCALE}")
-    lo, hi = js(driver, "[stac.plots.S0.u.scales.y.min, stac.plots.S0.u.scales.y.max]")
-    shown = js(driver, "stac.plots.S0.u.data.slice(1).flat().filter(v => v !== null)")
+    lo, hi, shown = js(  # in one go: the y range, and the counts in the time span on screen
+        driver,
+        """(() => { const u = stac.plots.S0.u, x = u.scales.x, t = u.data[0];
+           return [u.scales.y.min, u.scales.y.max, u.data.slice(1).flatMap(a => a.filter(
+               (v, i) => v !== null && t[i] >= x.min && t[i] <= x.max))]; })()""",
+    )
     assert 0 <= lo <= min(shown) and max(shown) <= hi, (lo, hi)
     driver.find_element("id", "counts-fit").click()
     wait_for(driver, f"stac.plots.S0.u.scales.y.max === {full[1]}")
