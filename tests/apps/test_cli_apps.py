@@ -24,6 +24,21 @@ def test_live_serves_its_page_for_the_given_time(press_model, capsys, tmp_path) 
 
 
 @pytest.mark.slow
+def test_live_without_a_model_serves_raw_counts_and_says_how_to_train(capsys, tmp_path) -> None:
+    code = main(["live", PRESSES_URL + "&speed=1", "--no-browser", "--duration", "1.5",
+                 "-o", str(tmp_path)])  # fmt: skip
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "no model: raw counts and reference only" in out and "spectratac train" in out
+
+
+def test_live_with_only_a_model_says_the_device_url_is_missing(tmp_path, capsys) -> None:
+    model = tmp_path / "model.stac"
+    assert main(["live", str(model), "--no-browser"]) == 3
+    assert "give the device URL after it" in capsys.readouterr().err
+
+
+@pytest.mark.slow
 def test_snake_json_prints_commands_then_the_outcome(press_model, capsys) -> None:
     code = main(["snake", str(press_model), PRESSES_URL + "&speed=max", "--json",
                  "--duration", "6.5"])  # fmt: skip

@@ -1,16 +1,19 @@
-"""`spectratac live MODEL URL [--ft FT_URL]`: the real-time force tracking page.
+"""`spectratac live [MODEL] URL [--ft FT_URL]`: the real-time force tracking page.
 
 Serves a local web page (127.0.0.1 only; the URL is printed and opened in the browser
 unless --no-browser) with rolling plots of the decoded Fx, Fy, Fz and torques at the
 sensor's rate; with a reference F/T sensor (--ft, or a sim:// URL with ft=...), the
 reference drawn dashed on the same axes, time-aligned with the clock fit the dataset
-builder uses, and a running MAE per axis. Beside them: the sensor face with the decoded
+builder uses, and a running MAE per axis, overall and during contact. Every plot zooms,
+pans and reads values out at the cursor. Beside them: the sensor face with the decoded
 region lit by its probability, contact / out-of-distribution / invalid flags, the raw
-counts of every LED step with saturation and dark warnings, link statistics and the
-latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
+counts plotted per sensor and channel with saturation and dark bands, link statistics and
+the latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
 (into --output). The Snake tab plays the paper's game on the same estimates.
+Without a MODEL the page shows the raw counts and the reference F/T only (before training).
 
     spectratac live model.stac /dev/ttyACM0 --ft netft://192.168.1.1
+    spectratac live /dev/ttyACM0 --ft netft://192.168.1.1      # no model yet
     spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota"
 """
 
@@ -36,7 +39,7 @@ def register(subparsers: Any) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_device_options(p)
+    add_device_options(p, model_optional=True)
     p.add_argument(
         "--ft",
         metavar="FT_URL",

@@ -15,9 +15,14 @@ from spectratac.cli.options import add_decoding_checks, add_device_url
 from spectratac.errors import SpectraTacError
 
 
-def add_device_options(p: argparse.ArgumentParser) -> None:
-    """Model and device options shared by the live verbs (as `spectratac decode` has them)."""
-    p.add_argument("model", help="decoder file (.stac)")
+def add_device_options(p: argparse.ArgumentParser, *, model_optional: bool = False) -> None:
+    """Model and device options shared by the live verbs (as `spectratac decode` has them);
+    `model_optional`: the verb also runs without a model (the live page: raw counts)."""
+    if model_optional:
+        p.add_argument("model", nargs="?", help="decoder file (.stac); without it: raw counts "
+                       "and the reference only")  # fmt: skip
+    else:
+        p.add_argument("model", help="decoder file (.stac)")
     add_device_url(p)
     add_decoding_checks(p)
 
@@ -86,12 +91,14 @@ def controller_from_args(args: argparse.Namespace) -> Any:
 def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     """Serve the page of a live session on `args` until Ctrl-C or --duration."""
     from spectratac.apps.live.server import LiveServer, bind
-    from spectratac.apps.live.session import LiveSession
+    from spectratac.apps.live.session import NO_MODEL, TRAIN_HINT, LiveSession
     from spectratac.decode import Decoder
 
     if args.duration < 0:
         raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
-    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    if args.model is None and args.url.endswith(".stac"):
+        raise SpectraTacError(f"{args.url} is a model: give the device URL after it")
+    decoder = None if args.model is None else Decoder.load(args.model, expect_unit=args.unit)
     session = LiveSession(
         decoder,
         args.url,
@@ -101,16 +108,18 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
         history_s=getattr(args, "history", 120.0),
         snake=controller,
         out_dir=getattr(args, "output", Path("live-clips")),
-        model_path=str(args.model),
+        model_path=None if args.model is None else str(args.model),
     )
     server = LiveServer(session, bind(args.port))
     url = server.url + ("#snake" if tab == "snake" else "")
     if args.duration:
         threading.Timer(args.duration, lambda: setattr(server.server, "should_exit", True)).start()
     if getattr(args, "json", False):
-        print(json.dumps({"url": url}), flush=True)
+        print(json.dumps({"url": url, "model": session.model_path}), flush=True)
     else:
         print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
+        if decoder is None:
+            print(f"{NO_MODEL}; {TRAIN_HINT}", flush=True)
     if not args.no_browser:
         threading.Timer(0.5, webbrowser.open, args=(url,)).start()
     server.run()

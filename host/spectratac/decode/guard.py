@@ -18,10 +18,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.hardware.generated import veml3328
+
 F64 = NDArray[np.float64]
 MARGIN = 0.10
-SATURATION = 65535.0  # VEML3328 16-bit full scale
+SATURATION = float(veml3328.FULL_SCALE)  # the VEML3328's largest count: clipped
 DARK_COUNTS = 20.0
+DARK_CHANNEL = "C"  # the channel checked for darkness: Clear, the sum of the colours
 # SENSOR_SATURATED | SENSOR_BUS_FAULT | SENSOR_STALE | SENSOR_ABSENT
 STATUS_BAD = 0x0F
 

@@ -1,10 +1,16 @@
 """The live page's clock alignment: a background refit lands the same model a synchronous one
-does, and the decoding thread keeps mapping times (offset first, the fit once it lands)."""
+does, and the decoding thread keeps mapping times (offset first, the fit once it lands); the
+running MAE is kept overall and over the windows in contact."""
 
 from __future__ import annotations
 
 import numpy as np
-from spectratac.apps.live.alignment import LiveClock
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from spectratac.apps.live.alignment import LiveClock, ReferenceTracker
+from spectratac.dataset.labels import CONTACT_N
+from spectratac.ft.records import FT_RECORD
 
 
 def _pairs(seconds: float, rate: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
@@ -34,3 +40,37 @@ def test_times_map_while_a_background_fit_is_running() -> None:
     assert np.all(np.isfinite(clock.to_host(device[:5])))
     clock.wait()
     assert abs(float(clock.to_host(1.5)) - (50.0 + 1.5 * (1 + 2e-4))) < 5e-4
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    forces=st.lists(st.floats(0.0, 4.0), min_size=2, max_size=30),
+    errors=st.lists(st.floats(-1.0, 1.0), min_size=30, max_size=30),
+)
+def test_running_mae_in_contact_counts_only_windows_the_reference_calls_contact(
+    forces: list[float], errors: list[float]
+) -> None:
+    """Each 50 ms window's reference is one constant normal force; the estimate misses it by
+    a known error. The overall MAE covers every window, the contact MAE only those whose
+    reference |F| reaches the dataset builder's contact threshold."""
+    tracker = ReferenceTracker(LiveClock(None))  # scene time: no clock fit to muddy the windows
+    rows = []
+    for w, fz in enumerate(forces):
+        t = w * 0.05 + np.arange(0.0, 0.05, 0.001)  # 1 kHz F/T rows inside window w
+        for ti in t:
+            rows.append((ti, ti, (0.0, 0.0, -fz, 0.0, 0.0, 0.0)))
+        tracker.add_estimate(w, w * 0.05, w * 0.05 + 0.045, [0, 0, -fz + errors[w], 0, 0, 0])
+    ft = np.zeros(len(rows) + 1, dtype=FT_RECORD)
+    ft["sensor_time"][:-1] = [r[0] for r in rows]
+    ft["host_time"][:-1] = [r[1] for r in rows]
+    ft["wrench"][:-1] = [r[2] for r in rows]
+    ft["sensor_time"][-1] = ft["host_time"][-1] = len(forces) * 0.05  # the last window covered
+    tracker.add_ft(ft)
+    assert [key for key, _, _ in tracker.ready()] == list(range(len(forces)))
+    err = np.abs(np.array(errors[: len(forces)]))
+    contact = np.array(forces) >= CONTACT_N
+    assert tracker.mae()["Fz"] == pytest.approx(err.mean(), abs=1e-9)
+    want = err[contact].mean() if contact.any() else None
+    assert tracker.mae_contact()["Fz"] == (pytest.approx(want, abs=1e-9) if contact.any() else None)
+    assert tracker.mae_contact()["Tx"] == (0.0 if contact.any() else None)
+    assert (tracker.overall.windows, tracker.contact.windows) == (len(forces), contact.sum())

@@ -1,17 +1,28 @@
 """The live page in a real browser (headless Chromium from Debian, driven by selenium):
 plots receive data, the region map lights the pressed region, the Snake moves, pause and
-save work, and the page loads nothing from outside the package. Screenshots of both tabs
-are saved under build/screenshots/."""
+save work, and the page loads nothing from outside the package. It works as a tool: every
+plot zooms (drag, wheel), pans (shift+drag), reads values out at the cursor and follows the
+live data again on a double-click or "Follow live"; references are dashed in the plot and in
+the legend; raw counts are plotted per sensor and channel with saturation and dark bands;
+the MAE is shown overall and in contact; the link panel shows without scrolling; without a
+model the page shows raw counts and the reference. Screenshots of the pages are saved under
+build/screenshots/."""
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 
 import pytest
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+from selenium.webdriver.common.keys import Keys
 from spectratac.apps.live.server import LiveServer, bind
-from spectratac.apps.live.session import LiveSession
+from spectratac.apps.live.session import NO_MODEL, LiveSession
 from spectratac.decode import Decoder
+from spectratac.decode.guard import DARK_COUNTS
+from spectratac.hardware.generated import veml3328
 from spectratac.twin.scripted_presses import parse_order
 
 from tests.apps.conftest import ORDER, PRESSES_URL
@@ -80,19 +91,23 @@ def check_page(driver, server) -> None:
     assert len(set(pressed)) >= 2 and len(pressed) >= 0.6 * len(lit), (lit, sorted(played))
     wait_for(driver, "document.getElementById('region-label').textContent.startsWith('region')")
     # plots receive data: predictions and the time-aligned reference
-    assert driver.execute_script("return stac.plots.Fz.data[0].length") > 10
+    assert driver.execute_script("return stac.plots.Fz.u.data[0].length") > 10
     wait_for(driver, "stac.refsReceived > 10")
-    assert driver.execute_script("return stac.plots.Fz.data[2].filter(v => v !== null).length") > 10
-    wait_for(driver, "document.getElementById('mae').textContent.includes('Fz 0.')")
-    # raw counts: 12 per LED step
-    assert len(driver.find_elements("css selector", "#raw tbody tr")) == 12
+    assert (
+        driver.execute_script("return stac.plots.Fz.u.data[2].filter(v => v !== null).length") > 10
+    )
+    check_raw_counts(driver)
+    check_mae(driver)
+    check_link_panel_in_view(driver)
+    check_legend_marks(driver)
+    check_zoom_pan_cursor_follow(driver)
     # the snake moves after the first command
     wait_for(driver, "stac.snake && stac.snake.steps >= 3")
     head = driver.execute_script("return stac.snake.body[0]")
     assert head != [8, 6]
     # pause freezes the plots, resume follows the data again
     # (by the newest time shown: a full window keeps its length while it rolls)
-    newest = "stac.plots.Fz.data[0][stac.plots.Fz.data[0].length - 1]"
+    newest = "stac.plots.Fz.u.data[0][stac.plots.Fz.u.data[0].length - 1]"
     driver.find_element("id", "pause").click()
     frozen = driver.execute_script("return " + newest)
     time.sleep(0.6)
@@ -129,8 +144,193 @@ def check_page(driver, server) -> None:
     )
     assert resources and all(r.startswith(server.url) for r in resources)
     wait_for(driver, "stac.latency.length > 20")
+    driver.execute_script("window.scrollTo(0, 0)")
     driver.save_screenshot(str(SHOTS / "live.png"))
     driver.find_element("id", "tab-snake").click()
     wait_for(driver, "document.getElementById('snake-commands').children.length >= 2")
     driver.save_screenshot(str(SHOTS / "snake.png"))
     assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def js(driver, script: str):
+    return driver.execute_script("return " + script)
+
+
+def check_raw_counts(driver) -> None:
+    """Three plots, one per sensor, of R, G, B, C and IR, fed with the counts the page got,
+    over the saturation and dark bands at the definitions' thresholds."""
+    # below the force plots at this window size: a person scrolls down to them
+    driver.execute_script("document.getElementById('panel-raw').scrollIntoView()")
+    raw = js(driver, "stac.meta.raw")
+    assert raw["full_scale"] == veml3328.FULL_SCALE and raw["dark_counts"] == DARK_COUNTS
+    labels = js(driver, "['S0', 'S1', 'S2'].map(k => stac.plots[k].u.series.map(s => s.label))")
+    assert labels == [["time (s)", "R", "G", "B", "C", "IR"]] * 3
+    wait_for(driver, "stac.plots.S2.u.data[0].length > 10")
+    last = js(driver, "[stac.plots.S1.u.data.slice(1).map(a => a[a.length - 1]), stac.last.counts]")
+    # what sensor 1's plot ends on is sensor 1's counts of a sample the page received
+    assert all(isinstance(v, int) and v > 0 for v in last[0])
+    colours = js(
+        driver,
+        """(() => {
+        const u = stac.plots.S0.u, b = u.bbox, raw = stac.meta.raw;
+        const px = (x, y) => Array.from(u.ctx.getImageData(x, y, 1, 1).data);
+        const xs = [0.3, 0.5, 0.7].map(f => Math.round(b.left + f * b.width));
+        const sat = u.valToPos(raw.full_scale, 'y', true);
+        const dark = u.valToPos(raw.dark_counts, 'y', true);
+        return {sat: xs.map(x => px(x, Math.round((b.top + sat) / 2))),
+                dark: xs.map(x => px(x, Math.round((dark + u.valToPos(0, 'y', true)) / 2))),
+                clear: xs.map(x => px(x, Math.round(u.valToPos(3, 'y', true) - 2)))};
+        })()""",
+    )
+    reddish = [c for c in colours["sat"] if c[0] > c[1] + 8 and c[0] > c[2] + 8]
+    bluish = [c for c in colours["dark"] if c[2] > c[0] + 6]
+    assert len(reddish) >= 2 and len(bluish) >= 2, colours
+    # "fit to data" trades the bands for the counts' own range, and back
+    full = [0, 1.5 * veml3328.FULL_SCALE]
+    assert js(driver, "[stac.plots.S0.u.scales.y.min, stac.plots.S0.u.scales.y.max]") == full
+    driver.find_element("id", "counts-fit").click()
+    wait_for(driver, f"stac.plots.S0.u.scales.y.max < {veml3328.FULL_SCALE}")
+    lo, hi, shown = js(  # in one go: the y range, and the counts in the time span on screen
+        driver,
+        """(() => { const u = stac.plots.S0.u, x = u.scales.x, t = u.data[0];
+           return [u.scales.y.min, u.scales.y.max, u.data.slice(1).flatMap(a => a.filter(
+               (v, i) => v !== null && t[i] >= x.min && t[i] <= x.max))]; })()""",
+    )
+    assert 0 <= lo <= min(shown) and max(shown) <= hi, (lo, hi)
+    driver.find_element("id", "counts-fit").click()
+    wait_for(driver, f"stac.plots.S0.u.scales.y.max === {full[1]}")
+    driver.execute_script("window.scrollTo(0, 0)")
+
+
+def check_mae(driver) -> None:
+    """Overall and in-contact MAE side by side, the contact threshold named."""
+    wait_for(driver, "document.querySelectorAll('#mae tbody tr').length === 2")
+    rows = js(driver, "[...document.querySelectorAll('#mae tbody tr')].map(r => r.innerText)")
+    assert rows[0].startswith("overall") and rows[1].startswith("in contact (reference |F|")
+    assert all(re.search(r"\t\d+\.\d{3}\t", r) for r in rows), rows
+
+
+def check_link_panel_in_view(driver) -> None:
+    """At 1400 x 1000 the link panel shows whole without scrolling."""
+    assert js(driver, "[window.outerWidth, window.outerHeight]") == [1400, 1000]
+    box = js(driver, "(() => { window.scrollTo(0, 0); const r = document.getElementById("
+             "'panel-link').getBoundingClientRect(); return [r.top, r.bottom, r.left, r.right, "
+             "innerHeight, innerWidth, scrollY]; })()")  # fmt: skip
+    top, bottom, left, right, height, width, scrolled = box
+    assert scrolled == 0 and 0 <= top < bottom <= height and 0 <= left < right <= width, box
+
+
+def check_legend_marks(driver) -> None:
+    """Every plot's legend: time, then its series; a reference's mark is dashed like its
+    line, an estimate's solid, and each mark is a line sample."""
+    marks = js(
+        driver,
+        """[...document.querySelectorAll('.u-legend tr.u-series')]
+           .filter(tr => tr.querySelector('.u-marker'))
+           .map(tr => { const el = tr.querySelector('.u-marker'), r = el.getBoundingClientRect();
+                        return [tr.querySelector('.u-label').textContent,
+                                getComputedStyle(el).borderTopStyle, r.width / r.height]; })""",
+    )
+    by_label = {label: style for label, style, _ in marks if label != "time (s)"}
+    assert by_label["Fz estimate"] == "solid" and by_label["Fz reference"] == "dashed"
+    assert by_label["Tx"] == "solid" and by_label["Tx ref"] == "dashed"
+    assert all(aspect >= 5 for label, _, aspect in marks if label != "time (s)"), marks
+    x_labels = js(driver, "Object.values(stac.plots).map(p => p.u.axes[0].label)")
+    assert len(x_labels) == 7 and set(x_labels) == {"time (s)"}
+
+
+def scale_x(driver, key: str = "Fz") -> tuple[float, float]:
+    lo, hi = js(driver, f"[stac.plots.{key}.u.scales.x.min, stac.plots.{key}.u.scales.x.max]")
+    return lo, hi
+
+
+def check_zoom_pan_cursor_follow(driver) -> None:
+    over = driver.find_element("css selector", "#plot-Fz .u-over")
+    w = over.size["width"]
+    # cursor read-out: the legend shows the values under the mouse
+    ActionChains(driver).move_to_element_with_offset(over, w // 4, 0).perform()
+    values = js(
+        driver,
+        "[...document.querySelectorAll('#plot-Fz .u-legend .u-value')].map(e => e.textContent)",
+    )
+    assert re.fullmatch(r"-?\d+\.\d{2}", values[0]) and re.fullmatch(r"-?\d+\.\d{3}", values[1]), (
+        values
+    )
+    # drag across a quarter of the plot: every plot zooms to that span and stays there
+    lo0, hi0 = scale_x(driver)
+    drag = ActionChains(driver).move_to_element_with_offset(over, -w // 4, 0).click_and_hold()
+    drag.move_by_offset(w // 4, 0).release().perform()
+    assert js(driver, "stac.follow") is False
+    assert not driver.find_element("id", "follow").get_attribute("disabled")
+    lo, hi = scale_x(driver)
+    assert hi - lo == pytest.approx((hi0 - lo0) / 4, rel=0.15), (lo0, hi0, lo, hi)
+    assert scale_x(driver, "T") == (lo, hi)
+    # a plot out of view is not drawn; scrolled into view it shows the same span
+    driver.execute_script("document.getElementById('plot-S2').scrollIntoView()")
+    wait_for(
+        driver, f"stac.plots.S2.u.scales.x.min === {lo} && stac.plots.S2.u.scales.x.max === {hi}"
+    )
+    driver.execute_script("window.scrollTo(0, 0)")
+    n = js(driver, "stac.xs.length")
+    wait_for(driver, f"stac.xs.length > {n + 5}")  # data keep arriving ...
+    assert scale_x(driver) == (lo, hi)  # ... and the zoomed view stays put
+    # the wheel zooms in around the mouse
+    ActionChains(driver).scroll_from_origin(ScrollOrigin.from_element(over), 0, -100).perform()
+    wait_for(
+        driver, f"stac.plots.Fz.u.scales.x.max - stac.plots.Fz.u.scales.x.min < {0.9 * (hi - lo)}"
+    )
+    lo, hi = scale_x(driver)
+    # shift+drag pans: dragging to the left shows later times, the span kept
+    ActionChains(driver).key_down(Keys.SHIFT).move_to_element(over).click_and_hold().move_by_offset(
+        -w // 5, 0).release().key_up(Keys.SHIFT).perform()  # fmt: skip
+    plo, phi = scale_x(driver)
+    assert plo > lo and phi - plo == pytest.approx(hi - lo, rel=1e-6)
+    assert plo - lo == pytest.approx((hi - lo) / 5, rel=0.15)
+    # a double-click follows the live data again: the newest sample at the right edge
+    ActionChains(driver).double_click(over).perform()
+    assert js(driver, "stac.follow") is True
+    wait_for(
+        driver, "Math.abs(stac.plots.Fz.u.scales.x.max - stac.plots.Fz.u.data[0].at(-1)) < 1e-9"
+    )
+    # and so does the button, after another zoom
+    ActionChains(driver).move_to_element_with_offset(over, 0, 0).click_and_hold().move_by_offset(
+        w // 5, 0).release().perform()  # fmt: skip
+    assert js(driver, "stac.follow") is False
+    driver.find_element("id", "follow").click()
+    assert js(driver, "stac.follow") is True
+    assert driver.find_element("id", "follow").get_attribute("disabled")
+
+
+@pytest.mark.slow
+def test_page_without_a_model_shows_raw_counts_and_the_reference(tmp_path) -> None:
+    if (why := missing()) is not None:
+        pytest.fail(why)
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    url = PRESSES_URL + "&speed=1&ft=bota"
+    session = LiveSession(None, url, ft_url=url, out_dir=tmp_path)
+    with chromium() as driver:
+        server = LiveServer(session, bind(0)).start()
+        try:
+            driver.get(server.url)
+            wait_for(
+                driver,
+                "stac.refsReceived > 20 && stac.plots.S0 && stac.plots.S0.u.data[0].length > 20",
+            )
+            note = driver.find_element("id", "no-model")
+            assert note.is_displayed() and note.text.startswith(NO_MODEL)
+            assert "spectratac train" in note.text
+            for hidden in ("panel-region", "tab-snake", "mae"):
+                assert not driver.find_element("id", hidden).is_displayed(), hidden
+            labels = js(
+                driver, "['Fz', 'T'].map(k => stac.plots[k].u.series.slice(1).map(s => s.label))"
+            )
+            assert labels == [["Fz reference"], ["Tx ref", "Ty ref", "Tz ref"]]
+            wait_for(driver, "stac.plots.Fz.u.data[1].filter(v => v !== null).length > 10")
+            assert js(driver, "stac.plots.S1.u.data[5].filter(v => v !== null).length") > 10  # IR
+            assert "no model" in driver.find_element("id", "source").text
+            check_link_panel_in_view(driver)
+            driver.execute_script("window.scrollTo(0, 0)")
+            driver.save_screenshot(str(SHOTS / "live-no-model.png"))
+            assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        finally:
+            server.stop()

@@ -11,10 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from spectratac.apps.live.session import LiveSession
+from spectratac.apps.live.session import NO_MODEL, LiveSession
 from spectratac.dataset.build import build_datasets
+from spectratac.dataset.labels import CONTACT_N
 from spectratac.decode import Decoder
 from spectratac.errors import SpectraTacError
+from spectratac.hardware.generated import vocabulary as vocab
 
 from tests.apps.conftest import PRESSES_URL
 
@@ -54,7 +56,8 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert t[0] == 0 and (np.diff(t) > 0).all()
     # speed 4: the page's time axis is host time, a quarter of the scene's 50 ms per sample
     assert np.median(np.diff(t)) == pytest.approx(0.05 / 4, rel=0.1)
-    assert all(len(m["counts"]) == 12 and len(m["saturated"]) == 12 for m in est)
+    n_counts = vocab.N_SENSORS * len(vocab.CHANNELS)  # every channel, IR too
+    assert all(len(m["counts"]) == n_counts == len(m["saturated"]) for m in est)
     refs = [r for m in est for r in m.get("refs", [])]
     assert len(refs) > 0.8 * len(est)
     pressed = [r for r in refs if r[4] < -1.5]  # reference Fz of a firm press
@@ -63,6 +66,13 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert all(abs(by_seq[r[0]]["force"][2] - r[4]) < 1.0 for r in pressed)
     mae = est[-1]["mae"]
     assert 0 < mae["Fz"] < 0.5 and mae["Tx"] is None  # torques are not decoded
+    # the MAE in contact: over the windows whose reference |F| reaches the dataset
+    # builder's contact threshold, recomputed here from what the page received
+    in_contact = [r for r in refs if np.linalg.norm(r[2:5]) >= CONTACT_N]
+    assert 0 < len(in_contact) < len(refs)
+    want = np.mean([abs(by_seq[r[0]]["force"][2] - r[4]) for r in in_contact])
+    assert est[-1]["mae_contact"]["Fz"] == pytest.approx(want, abs=2e-4)
+    assert est[-1]["mae_contact"]["Fz"] != pytest.approx(mae["Fz"], abs=1e-6)
     lit = [m["region"] for m in est if m["contact"]]
     assert {2, 6, 8} <= set(lit)
     snake = [m for m in est if "snake" in m]
@@ -72,6 +82,9 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert snake[-1]["snake"]["steps"] > 0
     stats = [m for m in got if m["type"] == "stats"]
     assert stats and stats[-1]["link"]["lost"] == 0 and stats[-1]["ft"]["received"] > 1000
+    final = session.stats()  # what the session reports: both figures, and over how much
+    assert final["mae_contact"]["Fz"] > 0 and final["mae"]["Fz"] > 0
+    assert 0 < final["windows"]["in_contact"] < final["windows"]["scored"]
     # clips
     with open(csv_clip["path"]) as f:
         rows = list(csv.DictReader(f))
@@ -79,6 +92,41 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert rows[0]["s0.C"].isdigit() and any(r["ref_Fz"] for r in rows)
     (ds,) = build_datasets([mcap_clip["path"]])
     assert ds.n >= 20 and ds.target_valid.mean() > 0.5
+
+
+@pytest.mark.slow
+def test_session_without_a_model_publishes_raw_counts_and_the_reference(tmp_path) -> None:
+    url = PRESSES_URL + "&speed=4&ft=bota"
+    session = LiveSession(None, url, out_dir=tmp_path)
+    got: list[dict] = []
+    done = threading.Event()
+
+    def publish(msg: dict) -> None:
+        got.append(msg)
+        if msg.get("type") == "estimate" and msg["t"] > 2.2:
+            done.set()
+
+    session.start(publish)
+    try:
+        assert done.wait(120)
+        meta = session.meta()
+        clip = session.save(1.5, "csv")
+    finally:
+        session.stop()
+    assert meta["model"] is None and meta["no_model"]["note"] == NO_MODEL
+    assert "spectratac train" in meta["no_model"]["hint"]
+    est = [m for m in got if m["type"] == "estimate"]
+    assert [m["seq"] for m in est] == list(range(len(est)))
+    assert all(m["force"] is None and m["region"] is None for m in est)
+    assert all(len(m["counts"]) == vocab.N_SENSORS * len(vocab.CHANNELS) for m in est)
+    assert all("mae" not in m and "snake" not in m for m in est)
+    refs = [r for m in est for r in m.get("refs", [])]
+    assert len(refs) > 0.8 * len(est) and any(r[4] < -1.5 for r in refs)  # the presses
+    assert "mae" not in session.stats()
+    with open(clip["path"]) as f:
+        rows = list(csv.DictReader(f))
+    assert rows and rows[0]["Fz"] == "" and rows[0]["s0.C"].isdigit()
+    assert any(r["ref_Fz"] for r in rows)
 
 
 @pytest.mark.slow

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from spectratac.dataset.labels import CONTACT_N
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
 from spectratac.hardware.generated import vocabulary as vocab
 
@@ -117,18 +118,49 @@ class Pending:
     predicted: F64  # (6,) Fx Fy Fz Tx Ty Tz, NaN where not decoded
 
 
-class ReferenceTracker:
-    """Pairs estimates with the reference F/T over their windows; keeps the running MAE."""
+class RunningMAE:
+    """Mean absolute error per axis over the windows added so far."""
 
-    def __init__(self, clock: LiveClock, *, keep_s: float = FT_WINDOW_S, max_pending: int = 100):
+    def __init__(self) -> None:
+        self.abs_sum = np.zeros(len(vocab.FT_AXES))
+        self.count = np.zeros(len(vocab.FT_AXES), dtype=np.int64)
+        self.windows = 0
+
+    def add(self, err: F64) -> None:
+        ok = np.isfinite(err)
+        self.abs_sum[ok] += err[ok]
+        self.count[ok] += 1
+        self.windows += 1
+
+    def per_axis(self) -> dict[str, float | None]:
+        """Per axis (None for axes not decoded yet)."""
+        return {
+            a: (float(self.abs_sum[i] / self.count[i]) if self.count[i] else None)
+            for i, a in enumerate(vocab.FT_AXES)
+        }
+
+
+class ReferenceTracker:
+    """Pairs estimates with the reference F/T over their windows; keeps the running MAE,
+    overall and in contact (reference |F| >= `contact_n`)."""
+
+    def __init__(
+        self,
+        clock: LiveClock,
+        *,
+        keep_s: float = FT_WINDOW_S,
+        max_pending: int = 100,
+        contact_n: float = CONTACT_N,
+    ):
         self.clock = clock
         self.keep_s = keep_s
         self.max_pending = max_pending
+        self.contact_n = contact_n
         self._t = np.empty(0)
         self._w = np.empty((0, 6))
         self._pending: collections.deque[Pending] = collections.deque()
-        self.abs_sum = np.zeros(6)
-        self.count = np.zeros(6, dtype=np.int64)
+        self.overall = RunningMAE()
+        self.contact = RunningMAE()
 
     def add_ft(self, rows: np.ndarray) -> None:
         """FT_RECORD rows as they arrive."""
@@ -163,15 +195,16 @@ class ReferenceTracker:
                 continue
             ref = mean[0]
             err = np.abs(p.predicted - ref)
-            ok = np.isfinite(err)
-            self.abs_sum[ok] += err[ok]
-            self.count[ok] += 1
+            self.overall.add(err)
+            if np.linalg.norm(ref[:3]) >= self.contact_n:
+                self.contact.add(err)
             out.append((p.key, p.t_end, ref))
         return out
 
     def mae(self) -> dict[str, float | None]:
-        """Running mean absolute error per axis (None for axes not decoded yet)."""
-        return {
-            a: (float(self.abs_sum[i] / self.count[i]) if self.count[i] else None)
-            for i, a in enumerate(vocab.FT_AXES)
-        }
+        """Running mean absolute error per axis over every window (None: not decoded yet)."""
+        return self.overall.per_axis()
+
+    def mae_contact(self) -> dict[str, float | None]:
+        """The same over the windows in contact only."""
+        return self.contact.per_axis()

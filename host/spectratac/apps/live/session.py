@@ -10,6 +10,10 @@ and Snake game, publishing one JSON message per sample. No UI: the web server
 Without `ft_url` the session uses the F/T sensor the link pairs with the device, if any
 (`Sensor.link_info`: a sim:// URL with ``ft=bota``), and the link's clock scale.
 Torch is never imported: decoding runs on the model file's NumPy runtime.
+
+Without a decoder (``LiveSession(None, url)``: no model trained yet) the session streams the
+device as it is configured and publishes raw counts and the reference F/T only, the
+estimate's fields null (`NO_MODEL`); there is nothing to score and no Snake to steer.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import os
 import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -29,21 +33,30 @@ from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTrac
 from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
 from spectratac.apps.live.latency import LatencyLog
-from spectratac.apps.live.messages import estimate_message
+from spectratac.apps.live.messages import estimate_message, raw_config
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
+from spectratac.dataset.labels import CONTACT_N
 from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
 
 Publish = Callable[[dict[str, Any]], None]
 STATS_EVERY_S = 0.5
+#: What a session without a model shows, and how to get one (the page and the CLI say it).
+NO_MODEL = "no model: raw counts and reference only"
+TRAIN_HINT = (
+    "to decode force, record a session with a reference F/T sensor "
+    "(spectratac record URL --ft FT_URL -o s.mcap), build its dataset "
+    "(spectratac dataset build s.mcap -o d.npz), train (spectratac train d.npz -o model.stac) "
+    "and start spectratac live model.stac URL"
+)
 
 
 class LiveSession:
     def __init__(
         self,
-        decoder: Any,
+        decoder: Any | None,
         url: str,
         *,
         ft_url: str | None = None,
@@ -69,6 +82,7 @@ class LiveSession:
         self.scale: float | None = 1.0  # device s per host s: the link's, once open
         self.sensor: DeviceStream | None = None
         self.ft: Any = None
+        self.tracker: ReferenceTracker | None = None
         self.estimates = 0
         self.last: dict[str, Any] | None = None
         self._stack = contextlib.ExitStack()
@@ -84,10 +98,10 @@ class LiveSession:
         """Open the sensor (configured as the model was trained) and the F/T sensor, then
         decode on a worker thread, calling `publish(message)` from it."""
         try:
+            # no model: nothing to configure the sensor for, so it streams as it is
+            keep = self.keep_config or self.decoder is None
             self.sensor = self._stack.enter_context(
-                open_for_decoder(
-                    self.decoder, self.url, keep_config=self.keep_config, timeout=self.timeout
-                )
+                open_for_decoder(self.decoder, self.url, keep_config=keep, timeout=self.timeout)
             )
             self.sensor.add_listener(lambda frame, t: self.history.add_frame(frame.raw, t))
             link = self.sensor.link_info
@@ -125,22 +139,24 @@ class LiveSession:
         """Everything the page needs once: model, devices, geometry, game settings."""
         det = self.snake.detector
         dec = self.decoder
+        model = None
+        if dec is not None:
+            model = {"path": self.model_path, "targets": list(dec.target_names),
+                     "unit": dec.unit_id, "params": dec.n_params,
+                     "regions": int(dec.heads.n_classes)}  # fmt: skip
         return {
             "type": "meta",
-            "model": {
-                "path": self.model_path,
-                "targets": list(dec.target_names),
-                "unit": dec.unit_id,
-                "params": dec.n_params,
-                "regions": int(dec.heads.n_classes),
-            },
+            "model": model,
+            "no_model": None if dec is not None else {"note": NO_MODEL, "hint": TRAIN_HINT},
             "url": self.url,
             "ft_url": self.ft_url,
             "device": None if self.sensor is None else self.sensor.info.board,
-            "config": dec.config,
+            "config": None if dec is None else dec.config,
             "history_s": self.history.keep_s,
             "formats": list(FORMATS),
             "geometry": page_geometry(),
+            "raw": raw_config(),
+            "contact_n": CONTACT_N,  # the reference |F| that counts as contact for the MAE
             "snake": self.snake_state(),
             "threshold_n": det.threshold_n,
             "release_n": det.release_n,
@@ -177,6 +193,11 @@ class LiveSession:
             }
         if self.ft is not None:
             out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost}
+        if self.tracker is not None and self.decoder is not None:
+            out["mae"] = self.tracker.mae()
+            out["mae_contact"] = self.tracker.mae_contact()
+            out["windows"] = {"scored": self.tracker.overall.windows,
+                              "in_contact": self.tracker.contact.windows}  # fmt: skip
         return out
 
     def save(self, seconds: float, fmt: str = "mcap") -> dict[str, Any]:
@@ -222,19 +243,28 @@ class LiveSession:
             if not self._stop.is_set():
                 publish(self.stats())
 
-    def _decode(self, publish: Publish) -> None:
+    def _samples(self) -> Iterator[tuple[Any, Any | None]]:
+        """(sample, its estimate or None without a model), as they arrive."""
+        if self.decoder is None:
+            for sample in self.sensor:
+                yield sample, None
+            return
         tap = SampleTap(self.sensor)
+        for est in self.decoder.stream(tap):
+            yield tap.last, est
+
+    def _decode(self, publish: Publish) -> None:
         sensor_clock = LiveClock(self.scale, background=True)
         tracker = None
         if self.ft is not None:
             tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S, background=True))
+            self.tracker = tracker
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
-        for seq, est in enumerate(self.decoder.stream(tap)):
+        for seq, (sample, est) in enumerate(self._samples()):
             if self._stop.is_set():
                 return
-            sample = tap.last
             t_end = sample.device_time_us / 1e6
             sensor_clock.add([t_end], [sample.host_time])
             t0 = float(sensor_clock.to_host(t_end)) if t0 is None else t0
@@ -245,12 +275,13 @@ class LiveSession:
                                    (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
             if tracker is not None:
                 self._reference(tracker, sensor_clock, seq, est, sample, t0, msg)
-            with self._lock:
-                update = self.snake.feed(est, t_end)
-                if update.commands or update.steps:
-                    msg["snake"] = self.snake.state()
-                    msg["commands"] = [c.as_dict() for c in update.commands]
-            self.history.add_row(seq, self._row(msg, est, sample))
+            if est is not None:
+                with self._lock:
+                    update = self.snake.feed(est, t_end)
+                    if update.commands or update.steps:
+                        msg["snake"] = self.snake.state()
+                        msg["commands"] = [c.as_dict() for c in update.commands]
+            self.history.add_row(seq, self._row(msg, sample))
             self.estimates += 1
             self.last = msg
             publish(msg)
@@ -276,29 +307,36 @@ class LiveSession:
         t_start, t_end = sensor_clock.to_host(
             [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
         )
-        if not est.invalid:
+        if est is None:  # no model: the reference of every window, nothing to score
+            tracker.add_estimate(seq, float(t_start), float(t_end), np.full(6, np.nan))
+        elif not est.invalid:
             tracker.add_estimate(seq, float(t_start), float(t_end), np.r_[est.force, est.torque])
         refs = []
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)
             refs.append([key, round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
         msg["refs"] = refs
-        msg["mae"] = tracker.mae()
+        if est is not None:
+            msg["mae"] = tracker.mae()
+            msg["mae_contact"] = tracker.mae_contact()
 
     @staticmethod
-    def _row(msg: dict[str, Any], est: Any, sample: Any) -> dict[str, Any]:
+    def _row(msg: dict[str, Any], sample: Any) -> dict[str, Any]:
+        force = msg["force"] or [None] * len(vocab.FORCE_AXES)
+        torque = msg["torque"] or [None] * len(vocab.TORQUE_AXES)
+        decoded = np.asarray(sample.counts)[:, : len(vocab.DECODED_CHANNELS)].reshape(-1)
         return {
             "t_s": msg["t"],
             "host_time": sample.host_time,
             "device_time_s": sample.device_time_us / 1e6,
             "step": msg["step"],
-            **dict(zip(vocab.FT_AXES, [*msg["force"], *msg["torque"]], strict=True)),
+            **dict(zip(vocab.FT_AXES, [*force, *torque], strict=True)),
             "region": msg["region"],
             "region_prob": msg["p"],
-            "contact": int(msg["contact"]),
-            "ood": int(msg["ood"]),
-            "invalid": int(msg["invalid"]),
-            **dict(zip(vocab.DECODED_INPUTS, msg["counts"], strict=True)),
+            "contact": None if msg["contact"] is None else int(msg["contact"]),
+            "ood": None if msg["ood"] is None else int(msg["ood"]),
+            "invalid": None if msg["invalid"] is None else int(msg["invalid"]),
+            **dict(zip(vocab.DECODED_INPUTS, decoded.tolist(), strict=True)),
         }
 
 

@@ -1,12 +1,16 @@
-// SpectraTac live page: rolling force/torque plots against the reference F/T, the sensor
-// face with the decoded region, raw counts and link health, and the Snake game.
-// Data arrive over /ws (see spectratac/apps/live/messages.py for the message format).
+// SpectraTac live page: rolling force/torque plots against the reference F/T, raw counts per
+// sensor and channel, the sensor face with the decoded region, link health, and the Snake game.
+// Every plot zooms (drag, wheel), pans (shift+drag) and reads out values at the cursor in its
+// legend; "Follow live" (or a double-click) returns to the newest data. Without a model the
+// page shows raw counts and the reference only. Data arrive over /ws (see
+// spectratac/apps/live/messages.py for the message format; thresholds come in the meta).
 "use strict";
 
 const AXES = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
 const KEEP_S = 65;  // seconds of data kept for the longest plot window
 const ARROWS = { up: "\u2191", down: "\u2193", left: "\u2190", right: "\u2192" };
 const TORQUE_COLOURS = ["#1f5fbf", "#e08a00", "#2e7d32"];
+const CHANNEL_COLOURS = { R: "#d0342c", G: "#2e7d32", B: "#1f5fbf", C: "#6b7483", IR: "#8e44ad" };
 // written into the page by the server: control (saves, latency reports, Snake) needs it
 const TOKEN = document.querySelector('meta[name="spectratac-token"]').content;
 const css = getComputedStyle(document.documentElement);
@@ -14,10 +18,10 @@ const PRED = css.getPropertyValue("--pred").trim();
 const REF = css.getPropertyValue("--ref").trim();
 
 const stac = {  // the page's state; window.stac for tests and for a look from the console
-  meta: null, received: 0, paused: false, windowS: 20, autoscale: true,
-  xs: [], seqs: [], pred: AXES.map(() => []), ref: AXES.map(() => []),
-  latency: [], latencyBatch: [], arrivals: [], raw: {}, last: null, snake: null,
-  snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
+  meta: null, received: 0, paused: false, windowS: 20, autoscale: true, follow: true, view: null, countsFit: false,
+  xs: [], seqs: [], steps: [], pred: AXES.map(() => []), ref: AXES.map(() => []), counts: [],
+  rawStep: null, rawSteps: [], latency: [], latencyBatch: [], arrivals: [], raw: {}, last: null,
+  snake: null, snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
   stats: null, yRanges: {}, duplicates: 0, refused: [],
 };
 window.stac = stac;
@@ -37,13 +41,18 @@ function showTab(name) {
 }
 $("pause").addEventListener("click", () => {
   stac.paused = !stac.paused;
+  // plots out of view are not drawn: keep what they would show now for when they come in
+  for (const [key, p] of Object.entries(stac.plots)) p.frozen = stac.paused && !p.visible ? plotColumns(key, p) : null;
   $("pause").textContent = stac.paused ? "Resume" : "Pause";
   $("pause").classList.toggle("on", stac.paused);
   stac.dirty = true;
 });
+$("follow").addEventListener("click", followLive);
 $("rescale").addEventListener("click", () => { stac.yRanges = {}; fitY(true); });
 $("autoscale").addEventListener("change", (e) => { stac.autoscale = e.target.checked; stac.dirty = true; });
-$("window").addEventListener("change", (e) => { stac.windowS = Number(e.target.value); stac.dirty = true; });
+$("window").addEventListener("change", (e) => { stac.windowS = Number(e.target.value); followLive(); });
+$("counts-fit").addEventListener("change", (e) => { stac.countsFit = e.target.checked; stac.dirty = true; });
+$("raw-step").addEventListener("change", (e) => { stac.rawStep = Number(e.target.value); stac.dirty = true; });
 $("save").addEventListener("click", async () => {
   const body = { seconds: Number($("save-seconds").value), format: $("save-format").value };
   $("save").disabled = true;  // one save at a time from this page
@@ -64,91 +73,219 @@ $("save").addEventListener("click", async () => {
 $("snake-restart").addEventListener("click", () => send({ type: "snake_restart" }));
 
 // ---------------------------------------------------------------- plots (uPlot)
-function plotOpts(key, series, height, legend) {
+// stac.plots[key] = {u: the uPlot, columns(): its data arrays, minSpan, counts: a raw plot}
+function legendOpts() {
+  // the legend is the cursor read-out; its marks are line samples, dashed for a reference
+  return { show: true, live: true, markers: {
+    dash: (u, i) => (u.series[i].dash ? "dashed" : "solid"), fill: () => "transparent" } };
+}
+function plotOpts(yLabel, series, height, extra = {}) {
   return {
-    width: 600, height, legend: { show: legend, live: false },
-    cursor: { sync: { key: "forces" }, drag: { x: false, y: false } },
-    scales: { x: { time: false }, y: { auto: false, range: () => stac.yRanges[key] || [-1, 1] } },
-    axes: [{ size: 30 }, { size: 64, label: key === "T" ? "torque (N·m)" : `${key} (N)`, labelSize: 18 }],
-    series: [{ label: "t (s)" }, ...series],
+    width: 600, height, legend: legendOpts(),
+    cursor: {
+      // the cursor moves on every plot at once; a drag selects in its own plot only
+      sync: { key: "stac", filters: { pub: (type) => type !== "mousedown" && type !== "mouseup" } },
+      drag: { x: true, y: false, setScale: false },  // a drag selects a time span: zoom to it
+      bind: {
+        dblclick: () => () => { followLive(); return null; },
+        mousedown: (u, targ, handler) => (e) => {
+          if (e.shiftKey || e.button === 1) { startPan(u, e); return null; }
+          if (e.button === 0) handler(e);
+          return null;
+        },
+      },
+    },
+    scales: { x: { time: false, auto: false }, y: extra.y || { auto: false } },
+    axes: [
+      { label: "time (s)", labelSize: 16, size: 36 },
+      { size: 64, label: yLabel, labelSize: 18, ...(extra.yAxis || {}) },
+    ],
+    series: [{ label: "time (s)", value: (u, v) => (v == null ? "—" : v.toFixed(2)) }, ...series],
+    hooks: { setSelect: [zoomToSelection], ready: [(u) => u.over.addEventListener("wheel", (e) => wheelZoom(u, e), { passive: false })],
+             ...(extra.hooks || {}) },
   };
 }
-function forceSeries(axis) {
-  return [
-    { label: axis, stroke: PRED, width: 1.6, spanGaps: false },
-    { label: "reference", stroke: REF, width: 1.6, dash: [6, 4], spanGaps: false },
-  ];
+const num = (d) => (u, v) => (v == null ? "—" : v.toFixed(d));
+function forceSeries(axis, withModel) {
+  const ref = { label: `${axis} reference`, stroke: REF, width: 1.6, dash: [6, 4], spanGaps: false, value: num(3) };
+  if (!withModel) return [ref];
+  return [{ label: `${axis} estimate`, stroke: PRED, width: 1.6, spanGaps: false, value: num(3) }, ref];
 }
-function torqueSeries() {
-  const pred = AXES.slice(3).map((a, i) => ({ label: a, stroke: TORQUE_COLOURS[i], width: 1.6 }));
-  const ref = AXES.slice(3).map((a, i) => ({ label: a + " ref", stroke: TORQUE_COLOURS[i], width: 1.4, dash: [6, 4] }));
-  return [...pred, ...ref];
+function torqueSeries(withModel) {
+  const ref = AXES.slice(3).map((a, i) => ({ label: a + " ref", stroke: TORQUE_COLOURS[i], width: 1.4, dash: [6, 4], value: num(4) }));
+  if (!withModel) return ref;
+  return [...AXES.slice(3).map((a, i) => ({ label: a, stroke: TORQUE_COLOURS[i], width: 1.6, value: num(4) })), ...ref];
 }
-function makePlots() {
-  for (const a of ["Fx", "Fy", "Fz"]) {
-    stac.plots[a] = new uPlot(plotOpts(a, forceSeries(a), 140, false), [[], [], []], $("plot-" + a));
+function addPlot(key, parent, opts, columns, minSpan, counts = false) {
+  const el = document.createElement("div");
+  el.id = "plot-" + key; el.className = "plot";
+  const old = $("plot-" + key);
+  if (old) old.replaceWith(el); else parent.appendChild(el);
+  const u = new uPlot(opts, columns(), el);
+  stac.plots[key] = { u, columns, minSpan, counts, visible: false, stale: true, frozen: null };
+  inView.observe(el);
+}
+function makePlots(meta) {
+  const withModel = meta.model !== null, withRef = meta.ft_url !== null;
+  if (withRef || withModel) {
+    for (const a of ["Fx", "Fy", "Fz"]) {
+      const i = AXES.indexOf(a);
+      const cols = withModel ? () => [stac.xs, stac.pred[i], stac.ref[i]] : () => [stac.xs, stac.ref[i]];
+      addPlot(a, $("panel-force"), plotOpts(`${a} (N)`, forceSeries(a, withModel), 120), cols, 0.5);
+    }
+    const tcols = withModel ? () => [stac.xs, ...stac.pred.slice(3), ...stac.ref.slice(3)] : () => [stac.xs, ...stac.ref.slice(3)];
+    addPlot("T", $("panel-torque"), plotOpts("torque (N·m)", torqueSeries(withModel), 160), tcols, 0.004);
   }
-  stac.plots.T = new uPlot(plotOpts("T", torqueSeries(), 180, true), [[], [], [], [], [], [], []], $("plot-T"));
+  const raw = meta.raw, n = raw.channels.length;
+  for (let s = 0; s < raw.sensors; s++) {
+    const series = raw.channels.map((c, k) => ({ label: c, stroke: CHANNEL_COLOURS[c] || "#333", width: 1.3,
+      spanGaps: true, value: num(0), _k: s * n + k }));
+    const opts = plotOpts(`sensor ${s} counts`, series, 190, {
+      // asinh: linear near 0, logarithmic above, so the dark level and full scale both show
+      y: { distr: 4, asinh: 1, auto: false, range: (u, lo, hi) => [lo, hi] },
+      yAxis: { splits: countSplits, values: (u, vs) => vs.map((v) => (v == null ? "" : v.toLocaleString("en"))) },
+      hooks: { drawClear: [(u) => drawBands(u, raw)] },
+    });
+    addPlot("S" + s, $("raw-plots"), opts, () => [stac.xs, ...raw.channels.map((_, k) => stac.counts[s * n + k])], 100, true);
+  }
   resizePlots();
 }
+function countSplits(u, axis, min, max) {  // decades over the whole range, else round steps
+  const decades = [0, 10, 100, 1000, 10000, 100000].filter((v) => v >= min && v <= max);
+  if (decades.length >= 4) return decades;
+  const raw = (max - min) / 4, mag = 10 ** Math.floor(Math.log10(raw));
+  const step = [1, 2, 5, 10].map((f) => f * mag).find((v) => v >= raw);
+  const out = [];
+  for (let v = Math.ceil(min / step) * step; v <= max; v += step) out.push(v);
+  return out;
+}
+function drawBands(u, raw) {  // the saturation and dark bands, from the meta's thresholds
+  const { ctx } = u, { left, top, width } = u.bbox;
+  const y0 = u.valToPos(0, "y", true), yDark = u.valToPos(raw.dark_counts, "y", true);
+  const ySat = u.valToPos(raw.full_scale, "y", true);
+  ctx.save();
+  ctx.fillStyle = "rgba(198, 40, 40, 0.13)"; ctx.fillRect(left, top, width, ySat - top);
+  ctx.fillStyle = "rgba(39, 75, 143, 0.13)"; ctx.fillRect(left, yDark, width, y0 - yDark);
+  ctx.font = `${11 * devicePixelRatio}px system-ui`; ctx.textAlign = "right";
+  const x = left + width - 4 * devicePixelRatio;
+  if (ySat > top) { ctx.fillStyle = "#a02020"; ctx.textBaseline = "bottom"; ctx.fillText(`saturated ≥ ${raw.full_scale}`, x, ySat - 1); }
+  if (yDark < y0) { ctx.fillStyle = "#274b8f"; ctx.textBaseline = "top"; ctx.fillText(`dark: ${raw.dark_channel} < ${raw.dark_counts}`, x, yDark + 1); }
+  ctx.restore();
+}
 function resizePlots() {
-  for (const [k, p] of Object.entries(stac.plots)) {
-    const el = $("plot-" + k);
-    if (el.clientWidth > 0) p.setSize({ width: el.clientWidth, height: p.height });
+  for (const { u } of Object.values(stac.plots)) {
+    const el = u.root.parentElement;
+    if (el && el.clientWidth > 0) u.setSize({ width: el.clientWidth, height: u.height });
   }
 }
 window.addEventListener("resize", resizePlots);
 
-function visible(values) {  // finite values on screen
-  const t1 = stac.xs.length ? stac.xs[stac.xs.length - 1] : 0;
-  const out = [];
-  for (let i = stac.xs.length - 1; i >= 0 && stac.xs[i] >= t1 - stac.windowS; i--) {
-    for (const v of values) { const y = v[i]; if (y !== null && Number.isFinite(y)) out.push(y); }
+// ---------------------------------------------------------------- zoom, pan, follow live
+function setView(min, max) {
+  if (!(max > min)) return;
+  stac.follow = false; stac.view = { min, max };
+  $("follow").disabled = false;
+  stac.dirty = true;
+  applyScales();
+}
+function followLive() {
+  stac.follow = true; stac.view = null;
+  $("follow").disabled = true;
+  stac.dirty = true;
+  applyScales();
+}
+function zoomToSelection(u) {
+  const sel = u.select;
+  if (sel.width < 3) return;
+  const min = u.posToVal(sel.left, "x"), max = u.posToVal(sel.left + sel.width, "x");
+  u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
+  setView(min, max);
+}
+function wheelZoom(u, e) {
+  e.preventDefault();
+  const { min, max } = u.scales.x;
+  const at = u.posToVal(e.offsetX, "x"), f = e.deltaY < 0 ? 0.8 : 1.25;
+  setView(at - (at - min) * f, at + (max - at) * f);
+}
+function startPan(u, e) {
+  const x0 = e.clientX, { min, max } = u.scales.x, perPx = (max - min) / u.over.clientWidth;
+  const move = (ev) => { const d = (ev.clientX - x0) * perPx; setView(min - d, max - d); };
+  const up = () => { window.removeEventListener("mousemove", move); window.removeEventListener("mouseup", up); };
+  window.addEventListener("mousemove", move);
+  window.addEventListener("mouseup", up);
+}
+
+function xRange(u) {  // the time span a plot shows: the view, or the newest window
+  if (!stac.follow && stac.view) return stac.view;
+  const xs = u.data[0];
+  if (!xs.length) return { min: 0, max: 1 };
+  const t1 = xs[xs.length - 1];
+  return { min: Math.max(t1 - stac.windowS, xs[0]), max: Math.max(t1, xs[0] + 1) };
+}
+function shown(u, range) {  // finite values a plot shows in `range`
+  const xs = u.data[0], out = [];
+  for (let i = xs.length - 1; i >= 0 && xs[i] >= range.min; i--) {
+    if (xs[i] > range.max) continue;
+    for (let k = 1; k < u.data.length; k++) { const y = u.data[k][i]; if (y !== null && Number.isFinite(y)) out.push(y); }
   }
   return out;
 }
 function rangeOf(ys, minSpan) {
   if (!ys.length) return [-minSpan, minSpan];
-  let lo = Math.min(...ys), hi = Math.max(...ys);
+  let lo = Infinity, hi = -Infinity;
+  for (const y of ys) { if (y < lo) lo = y; if (y > hi) hi = y; }
   const pad = Math.max((hi - lo) * 0.1, minSpan / 2);
   return [lo - pad, hi + pad];
 }
-function plotValues(key) {
-  if (key === "T") return [3, 4, 5].flatMap((i) => [stac.pred[i], stac.ref[i]]);
-  const i = AXES.indexOf(key);
-  return [stac.pred[i], stac.ref[i]];
+function fitOne(key, p, force) {
+  if (p.counts && !stac.countsFit) {  // the whole range of counts, both bands in view
+    stac.yRanges[key] = [0, 1.5 * stac.meta.raw.full_scale];
+  } else if (force || stac.autoscale || !stac.yRanges[key]) {
+    const [lo, hi] = rangeOf(shown(p.u, xRange(p.u)), p.minSpan);
+    stac.yRanges[key] = p.counts ? [Math.max(lo, 0), hi] : [lo, hi];
+  }
 }
 function fitY(force) {
-  for (const key of Object.keys(stac.plots)) {
-    if (force || stac.autoscale || !stac.yRanges[key]) {
-      stac.yRanges[key] = rangeOf(visible(plotValues(key)), key === "T" ? 0.004 : 0.5);
-    }
-  }
+  for (const [key, p] of Object.entries(stac.plots)) fitOne(key, p, force);
   stac.dirty = true;
 }
+function plotColumns(key, p) {
+  const cols = p.columns().map((a) => a.slice());  // copies: a paused view keeps what it showed
+  return p.counts ? rawColumns(cols) : cols;
+}
+function refresh(key, p, data) {  // one plot: its data (unless paused), y fit, x and y scales
+  p.u.batch(() => {
+    if (data && !stac.paused) p.u.setData(plotColumns(key, p), false);
+    else if (p.frozen) { p.u.setData(p.frozen, false); p.frozen = null; }
+    fitOne(key, p, false);
+    p.u.setScale("x", xRange(p.u));
+    p.u.setScale("y", { min: stac.yRanges[key][0], max: stac.yRanges[key][1] });
+  });
+}
+// Only plots in view are drawn (a browser's main thread is shared with the messages whose
+// latency the page measures); one scrolled into view is brought up to date at once.
+function applyScales(data = false) {
+  for (const [key, p] of Object.entries(stac.plots)) {
+    if (!p.visible) { p.stale = true; continue; }
+    refresh(key, p, data || p.stale);
+    p.stale = false;
+  }
+}
+const inView = new IntersectionObserver((entries) => {
+  for (const e of entries) {
+    const p = Object.values(stac.plots).find((q) => q.u.root.parentElement === e.target);
+    if (p) { p.visible = e.isIntersecting; if (p.visible) stac.dirty = true; }
+  }
+});
+function rawColumns(cols) {  // with several LED steps, one step's samples (the others null)
+  if (stac.rawSteps.length < 2) return cols;
+  const keep = stac.steps.map((s) => s === stac.rawStep);
+  return [cols[0], ...cols.slice(1).map((a) => a.map((v, i) => (keep[i] ? v : null)))];
+}
 function redraw() {
-  if (stac.dirty && !stac.paused && stac.xs.length) {
+  if (stac.dirty && stac.xs.length) {
     stac.dirty = false;
-    fitY(false);
-    const t1 = stac.xs[stac.xs.length - 1];
-    // copies: a paused view (and a resize while paused) keeps showing what it showed
-    const xs = stac.xs.slice(), pred = stac.pred.map((a) => a.slice()), ref = stac.ref.map((a) => a.slice());
-    const scale = { min: Math.max(t1 - stac.windowS, stac.xs[0]), max: Math.max(t1, stac.xs[0] + 1) };
-    for (const a of ["Fx", "Fy", "Fz"]) {
-      const i = AXES.indexOf(a);
-      const p = stac.plots[a];
-      p.batch(() => {
-        p.setData([xs, pred[i], ref[i]], false);
-        p.setScale("x", scale);
-        p.setScale("y", { min: stac.yRanges[a][0], max: stac.yRanges[a][1] });
-      });
-    }
-    const T = stac.plots.T;
-    T.batch(() => {
-      T.setData([xs, pred[3], pred[4], pred[5], ref[3], ref[4], ref[5]], false);
-      T.setScale("x", scale);
-      T.setScale("y", { min: stac.yRanges.T[0], max: stac.yRanges.T[1] });
-    });
+    applyScales(true);
   }
   requestAnimationFrame(redraw);
 }
@@ -209,36 +346,29 @@ function showRegion(msg) {
 }
 
 // ---------------------------------------------------------------- raw counts and link
-const CHANNELS = ["R", "G", "B", "C"];
-const STATUS_BITS = [[1, "saturated"], [2, "bus fault"], [4, "stale"], [8, "absent"]];
-function showRaw(msg) {
+function showRawWarnings(msg) {  // from the newest sample of every LED step
+  const raw = stac.meta.raw, n = raw.channels.length;
   stac.raw[msg.step] = msg;
-  const steps = Object.keys(stac.raw).map(Number).sort((a, b) => a - b);
-  const head = $("raw").tHead, body = $("raw").tBodies[0];
-  if (head.rows.length === 0 || head.rows[0].cells.length !== steps.length + 1) {
-    head.innerHTML = "<tr><th></th>" + steps.map((s) => `<th>step ${s}</th>`).join("") + "</tr>";
-    body.innerHTML = "";
-    for (let k = 0; k < 12; k++) {
-      const tr = body.insertRow();
-      tr.innerHTML = `<th>S${Math.floor(k / 4)} ${CHANNELS[k % 4]}</th>` + steps.map(() => "<td></td>").join("");
-    }
-  }
   const warnings = [];
-  for (const [j, s] of steps.entries()) {
-    const m = stac.raw[s];
-    for (let k = 0; k < 12; k++) {
-      const td = body.rows[k].cells[j + 1];
-      td.textContent = m.counts[k];
-      td.className = m.saturated[k] ? "sat" : (k % 4 === 3 && m.dark[Math.floor(k / 4)] ? "dark" : "");
-    }
-    m.saturated.forEach((sat, k) => { if (sat) warnings.push(`sensor ${Math.floor(k / 4)} ${CHANNELS[k % 4]} saturated (65535) at step ${s}`); });
-    m.dark.forEach((dark, i) => { if (dark) warnings.push(`sensor ${i} dark (Clear < 20 counts) at step ${s}`); });
+  for (const [s, m] of Object.entries(stac.raw)) {
+    m.saturated.forEach((sat, k) => {
+      if (sat) warnings.push(`sensor ${Math.floor(k / n)} ${raw.channels[k % n]} saturated (${raw.full_scale}) at step ${s}`);
+    });
+    m.dark.forEach((dark, i) => { if (dark) warnings.push(`sensor ${i} dark (${raw.dark_channel} < ${raw.dark_counts} counts) at step ${s}`); });
     m.status.forEach((bits, i) => {
-      for (const [bit, name] of STATUS_BITS) if (bits & bit && bit !== 1) warnings.push(`sensor ${i}: ${name}`);
+      for (const [bit, name] of raw.status_bits) if (bits & bit && name !== "saturated") warnings.push(`sensor ${i}: ${name}`);
     });
   }
   const text = [...new Set(warnings)].map((w) => `<li>${w}</li>`).join("");
   if ($("warnings").innerHTML !== text) $("warnings").innerHTML = text;
+}
+function noteStep(step) {  // several LED steps: the raw plots show one at a time
+  if (stac.rawSteps.includes(step)) return;
+  stac.rawSteps.push(step);
+  stac.rawSteps.sort((a, b) => a - b);
+  if (stac.rawStep === null) stac.rawStep = step;
+  $("raw-step").innerHTML = stac.rawSteps.map((s) => `<option value="${s}"${s === stac.rawStep ? " selected" : ""}>${s}</option>`).join("");
+  $("raw-step-label").hidden = stac.rawSteps.length < 2;
 }
 function percentile(values, q) {
   if (!values.length) return null;
@@ -329,6 +459,14 @@ function indexOfSeq(seqs, key) {
   return -1;
 }
 stac.indexOfSeq = indexOfSeq;
+function maeRow(name, mae, digitsF, digitsT) {
+  return `<tr><th>${name}</th>` + AXES.map((a, i) => `<td>${fmt(mae[a], i < 3 ? digitsF : digitsT)}</td>`).join("") + "</tr>";
+}
+function showMAE(msg) {  // running MAE overall and during contact (reference |F| >= contact_n)
+  const contact = `in contact (reference |F| ≥ ${stac.meta.contact_n} N)`;
+  $("mae").innerHTML = `<thead><tr><th>running MAE (N, N·m)</th>${AXES.map((a) => `<th>${a}</th>`).join("")}</tr></thead><tbody>` +
+    maeRow("overall", msg.mae, 3, 4) + maeRow(contact, msg.mae_contact || {}, 3, 4) + "</tbody>";
+}
 function onEstimate(msg) {
   // an estimate seen already (or older than the newest) would break the increasing order
   if (stac.seqs.length && msg.seq <= stac.seqs[stac.seqs.length - 1]) { stac.duplicates += 1; return; }
@@ -341,8 +479,10 @@ function onEstimate(msg) {
   stac.last = msg;
   stac.xs.push(msg.t);
   stac.seqs.push(msg.seq);
-  const values = [...msg.force, ...msg.torque];
+  stac.steps.push(msg.step);
+  const values = msg.force ? [...msg.force, ...msg.torque] : AXES.map(() => null);
   AXES.forEach((_, i) => { stac.pred[i].push(values[i]); stac.ref[i].push(null); });
+  msg.counts.forEach((c, k) => { (stac.counts[k] || (stac.counts[k] = stac.xs.map(() => null))).push(c); });
   for (const [key, , ...wrench] of msg.refs || []) {
     const idx = indexOfSeq(stac.seqs, key);
     if (idx >= 0) {
@@ -351,25 +491,39 @@ function onEstimate(msg) {
     }
   }
   while (stac.xs.length > 2 && stac.xs[0] < msg.t - KEEP_S) {
-    stac.xs.shift(); stac.seqs.shift();
+    stac.xs.shift(); stac.seqs.shift(); stac.steps.shift();
     for (const a of stac.pred) a.shift();
     for (const a of stac.ref) a.shift();
+    for (const a of stac.counts) a.shift();
   }
-  if (msg.mae) {
-    $("mae").textContent = "running MAE  " + AXES.map((a, i) =>
-      `${a} ${fmt(msg.mae[a], i < 3 ? 3 : 4)}`).join("  ") + "  (N, N·m)";
-  }
+  if (msg.mae) showMAE(msg);
   stac.dirty = true;
-  showRegion(msg);
-  showRaw(msg);
-  showSnakeInput(msg);
+  noteStep(msg.step);
+  if (stac.meta) showRawWarnings(msg);
+  if (msg.force) {
+    showRegion(msg);
+    showSnakeInput(msg);
+  }
   if (msg.snake) showSnake(msg.snake);
 }
 stac.onEstimate = onEstimate;  // for tests: replay a message
 function onMeta(meta) {
+  const first = stac.meta === null;
   stac.meta = meta;
-  const m = meta.model;
-  $("source").textContent = `${meta.url}${meta.ft_url ? "  +  F/T " + meta.ft_url : ""}  ·  model ${m.path || ""} (${m.targets.join(", ")})`;
+  const m = meta.model, withModel = m !== null;
+  $("source").textContent = `${meta.url}${meta.ft_url ? "  +  F/T " + meta.ft_url : ""}  ·  ` +
+    (withModel ? `model ${m.path || ""} (${m.targets.join(", ")})` : "no model");
+  document.body.classList.toggle("no-model", !withModel);
+  $("no-model").hidden = withModel;
+  if (!withModel) { $("no-model-note").textContent = meta.no_model.note; $("no-model-hint").textContent = meta.no_model.hint; }
+  $("panel-region").hidden = !withModel;
+  $("tab-snake").hidden = !withModel;
+  if (!withModel && location.hash === "#snake") showTab("live");  // no estimates to steer with
+  $("panel-force").hidden = $("panel-torque").hidden = !withModel && meta.ft_url === null;
+  $("force-title").textContent = withModel ? "Force" : "Reference force";
+  $("torque-title").textContent = withModel ? "Torque" : "Reference torque";
+  if (!withModel) $("mae").hidden = true;
+  if (first) makePlots(meta);
   buildFace(meta.geometry);
   buildKeypad(meta);
   showSnake(meta.snake);
@@ -398,7 +552,6 @@ setInterval(() => {
   if (stac.latencyBatch.length) { send({ type: "latency", values: stac.latencyBatch }); stac.latencyBatch = []; }
 }, 1000);
 
-makePlots();
 connect();
 requestAnimationFrame(redraw);
 if (location.hash === "#snake") showTab("snake");
