@@ -23,6 +23,7 @@ from spectratac.record import (
 )
 from spectratac.sim.transport import SimTransport
 from spectratac.twin.geometry import region_of
+from spectratac.record.format import VERSION
 
 
 def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Recording]) -> None:
@@ -32,7 +33,7 @@ def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Reco
     # session: URLs, what the link knows, the simulated world, both clocks, versions
     s = rec.session
     assert s["url"] == s["ft_url"] and "ft=bota" in s["url"]
-    assert s["version"] == 3 and "sim" not in s
+    assert s["version"] == VERSION and "sim" not in s
     assert s["link"] == {"clock_scale": 10.0, "paired_ft_url": s["url"], "ground_truth": True}
     assert rec.link.clock_scale == 10.0 and rec.link.ground_truth
     assert s["truth"]["scene"] == "tour" and s["truth"]["seed"] == 1 and s["truth"]["speed"] == 10.0
