@@ -8,10 +8,12 @@ builder uses, and a running MAE per axis. Beside them: the sensor face with the 
 region lit by its probability, contact / out-of-distribution / invalid flags, the raw
 counts of every LED step with saturation and dark warnings, link statistics and the
 latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
-(into --output). The Snake tab plays the paper's game on the same estimates.
+(into --output). The Snake tab plays the paper's game on the same estimates. With
+--foxglove the same streams (raw counts, estimates, reference F/T) go to Foxglove too.
 
     spectratac live model.stac /dev/ttyACM0 --ft netft://192.168.1.1
     spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota"
+    spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota" --foxglove
 """
 
 from __future__ import annotations
@@ -40,6 +42,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--ft", metavar="FT_URL", help="reference F/T URL (netft://, bota://, sim://)")
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
+    p.add_argument("--foxglove", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="also serve the streams to Foxglove (WebSocket on 127.0.0.1:PORT; "
+                   "default port %(const)s)")  # fmt: skip
     p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),
                    help="folder for saved clips (default: %(default)s)")  # fmt: skip
     p.add_argument(
