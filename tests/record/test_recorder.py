@@ -21,9 +21,9 @@ from spectratac.record import (
     read_recording,
     record_url,
 )
+from spectratac.record.format import VERSION
 from spectratac.sim.transport import SimTransport
 from spectratac.twin.geometry import region_of
-from spectratac.record.format import VERSION
 
 
 def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Recording]) -> None:

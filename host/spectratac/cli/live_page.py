@@ -108,8 +108,7 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     bridge = _foxglove_bridge(getattr(args, "foxglove", None), session)
     try:
         if args.duration:
-            threading.Timer(args.duration,
-                            lambda: setattr(server.server, "should_exit", True)).start()  # fmt: skip
+            threading.Timer(args.duration, setattr, (server.server, "should_exit", True)).start()
         if getattr(args, "json", False):
             print(json.dumps({"url": url} | ({"foxglove": bridge.url} if bridge else {})),
                   flush=True)  # fmt: skip

@@ -237,7 +237,7 @@ def counts_messages(rows: np.ndarray) -> list[bytes]:
 
 def device_estimate_messages(rows: np.ndarray) -> list[bytes]:
     """One ESTIMATES message per ESTIMATE payload row (source "device")."""
-    flags = m.EstimateFlags
+    bits = m.EstimateFlags
     out = []
     for seq, t1, flag, force, torque, region, prob in zip(
         rows["sample_seq"].tolist(),
@@ -249,13 +249,12 @@ def device_estimate_messages(rows: np.ndarray) -> list[bytes]:
         rows["region_prob"].tolist(),
         strict=True,
     ):
-        out.append(
-            estimate_message(
-                "device", seq, t1, force, torque, region, prob,
-                contact=bool(flag & flags.EST_CONTACT), ood=bool(flag & flags.EST_OOD),
-                invalid=bool(flag & flags.EST_INVALID),
-            )  # fmt: skip
-        )
+        flags = {
+            "contact": bool(flag & bits.EST_CONTACT),
+            "ood": bool(flag & bits.EST_OOD),
+            "invalid": bool(flag & bits.EST_INVALID),
+        }
+        out.append(estimate_message("device", seq, t1, force, torque, region, prob, **flags))
     return out
 
 
