@@ -64,6 +64,9 @@ from spectratac.record.format import (
 from spectratac.record.salvage import READ_ERRORS, salvage
 from spectratac.record.schemas import DECODED_TOPICS, ESTIMATES
 
+#: Decoded copies of the compact channels this reader reads: passed over unparsed
+_MIRRORS = frozenset(DECODED_TOPICS) - {ESTIMATES}
+
 
 @dataclass
 class Recording:
@@ -121,7 +124,7 @@ def read_recording(path: str | Path) -> Recording:
     path = Path(path)
     rec = Recording(path)
     try:
-        found = salvage(path.read_bytes())
+        found = salvage(path.read_bytes(), skip_topics=_MIRRORS)
     except OSError as exc:
         raise RecordingError(f"cannot open recording {path}: {exc}") from None
     rec.truncated, rec.problem = found.truncated, found.problem

@@ -201,8 +201,30 @@ def split_frames(
 
 
 # ---------------------------------------------------------------------- rows -> messages
+_ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, ensure_ascii=False)
+
+
 def _dump(obj: dict[str, Any]) -> bytes:
-    return json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
+    return _ENCODER.encode(obj).encode()
+
+
+# The per-sample messages are written at the sensor's and the F/T sensor's full rates:
+# filled in by %-formatting (several times faster than building and encoding dicts). repr()
+# of a finite float is valid JSON; rows with a non-finite value take the dict path.
+_SENSOR_FMT = ",".join(f'"{c}":%d' for c in (*vocab.CHANNELS, "status"))  # counts order
+_COUNTS_FMT = (
+    '{"sequence":%d,"t_start_us":%d,"t_end_us":%d,"step":%d,"config_id":%d'
+    + "".join(f',"s{i}":{{{_SENSOR_FMT}}}' for i in range(vocab.N_SENSORS))
+    + "}"
+)
+_WRENCH_FMT = (
+    '{"sensor_time":%r,"sequence":%d,"force":{"x":%r,"y":%r,"z":%r},'
+    '"torque":{"x":%r,"y":%r,"z":%r},"status":%d}'
+)
+_TRUTH_FMT = (
+    '{"sequence":%d,"t_start_us":%d,"t_end_us":%d,"region":%d,"in_contact":%s,"press":%d,'
+    '"position_mm":{"x":%r,"y":%r},"force_n":{"x":%r,"y":%r,"z":%r}}'
+)
 
 
 def _finite(v: float) -> float | None:
@@ -215,24 +237,18 @@ def _xyz(values: Sequence[float], axes: str = "xyz") -> dict[str, float | None]:
 
 def counts_messages(rows: np.ndarray) -> list[bytes]:
     """One COUNTS message per SAMPLE payload row."""
-    channels = vocab.CHANNELS
-    out = []
-    for seq, t0, t1, step, cfg, status, counts in zip(
-        rows["sample_seq"].tolist(),
-        rows["t_start_us"].tolist(),
-        rows["t_end_us"].tolist(),
-        rows["led_step"].tolist(),
-        rows["config_id"].tolist(),
-        rows["sensor_status"].tolist(),
-        rows["counts"].tolist(),
-        strict=True,
-    ):
-        msg: dict[str, Any] = {"sequence": seq, "t_start_us": t0, "t_end_us": t1,
-                               "step": step, "config_id": cfg}  # fmt: skip
-        for i, (c, s) in enumerate(zip(counts, status, strict=True)):
-            msg[f"s{i}"] = dict(zip(channels, c, strict=True)) | {"status": s}
-        out.append(_dump(msg))
-    return out
+    n_channels = len(vocab.CHANNELS)
+    cols = np.empty((len(rows), 5 + vocab.N_SENSORS * (n_channels + 1)), np.int64)
+    cols[:, 0] = rows["sample_seq"]
+    cols[:, 1] = rows["t_start_us"]
+    cols[:, 2] = rows["t_end_us"]
+    cols[:, 3] = rows["led_step"]
+    cols[:, 4] = rows["config_id"]
+    per_sensor = cols[:, 5:].reshape(len(rows), vocab.N_SENSORS, n_channels + 1)
+    per_sensor[:, :, :n_channels] = rows["counts"]  # SAMPLE.counts: vocab.CHANNELS order
+    per_sensor[:, :, n_channels] = rows["sensor_status"]
+    fmt = _COUNTS_FMT
+    return [(fmt % tuple(values)).encode() for values in cols.tolist()]
 
 
 def device_estimate_messages(rows: np.ndarray) -> list[bytes]:
@@ -312,50 +328,45 @@ def host_estimate_message(row: dict[str, Any]) -> bytes:
 
 def wrench_messages(rows: np.ndarray) -> list[bytes]:
     """One WRENCH message per FT_RECORD row."""
-    return [
-        _dump(
-            {
-                "sensor_time": t,
-                "sequence": seq,
-                "force": _xyz(w[:3]),
-                "torque": _xyz(w[3:]),
-                "status": status,
-            }
-        )
-        for t, seq, w, status in zip(
-            rows["sensor_time"].tolist(),
-            rows["sequence"].tolist(),
-            rows["wrench"].tolist(),
-            rows["status"].tolist(),
-            strict=True,
-        )
-    ]
+    finite = np.isfinite(rows["wrench"]).all(axis=1) & np.isfinite(rows["sensor_time"])
+    out = []
+    for ok, t, seq, w, status in zip(
+        finite.tolist(),
+        rows["sensor_time"].tolist(),
+        rows["sequence"].tolist(),
+        rows["wrench"].tolist(),
+        rows["status"].tolist(),
+        strict=True,
+    ):
+        if ok:
+            out.append((_WRENCH_FMT % (t, seq, *w, status)).encode())
+        else:
+            out.append(_dump({"sensor_time": _finite(t), "sequence": seq, "force": _xyz(w[:3]),
+                              "torque": _xyz(w[3:]), "status": status}))  # fmt: skip
+    return out
 
 
 def truth_messages(rows: np.ndarray) -> list[bytes]:
     """One TRUTH message per GROUND_TRUTH_RECORD row."""
-    return [
-        _dump(
-            {
-                "sequence": seq,
-                "t_start_us": t0,
-                "t_end_us": t1,
-                "region": region,
-                "in_contact": contact,
-                "press": press,
-                "position_mm": _xyz(pos, "xy"),
-                "force_n": _xyz(force),
-            }
-        )
-        for seq, t0, t1, region, contact, press, pos, force in zip(
-            rows["sequence"].tolist(),
-            rows["t_start_us"].tolist(),
-            rows["t_end_us"].tolist(),
-            rows["region"].tolist(),
-            rows["in_contact"].tolist(),
-            rows["press"].tolist(),
-            rows["position_mm"].tolist(),
-            rows["force_n"].tolist(),
-            strict=True,
-        )
-    ]
+    finite = np.isfinite(rows["position_mm"]).all(axis=1) & np.isfinite(rows["force_n"]).all(1)
+    out = []
+    for ok, seq, t0, t1, region, contact, press, pos, force in zip(
+        finite.tolist(),
+        rows["sequence"].tolist(),
+        rows["t_start_us"].tolist(),
+        rows["t_end_us"].tolist(),
+        rows["region"].tolist(),
+        rows["in_contact"].tolist(),
+        rows["press"].tolist(),
+        rows["position_mm"].tolist(),
+        rows["force_n"].tolist(),
+        strict=True,
+    ):
+        if ok:
+            flag = "true" if contact else "false"
+            out.append((_TRUTH_FMT % (seq, t0, t1, region, flag, press, *pos, *force)).encode())
+        else:
+            out.append(_dump({"sequence": seq, "t_start_us": t0, "t_end_us": t1,
+                              "region": region, "in_contact": contact, "press": press,
+                              "position_mm": _xyz(pos, "xy"), "force_n": _xyz(force)}))  # fmt: skip
+    return out
