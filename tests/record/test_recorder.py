@@ -200,7 +200,9 @@ def test_a_lost_device_keeps_the_ft_rows_too(tmp_path: Path) -> None:
     rec = read_recording(path)
     assert rec.ft is not None and len(rec.ft) == summary.ft_samples > 1000
     last_frame = rec.frame_host_times[-1]
-    assert rec.ft["host_time"][-1] > last_frame - 0.1  # F/T written up to the loss
+    # F/T written up to the loss (the in-process simulated F/T thread may lag a loaded
+    # machine's recorder by a few of its 20 ms passes: a generous bound)
+    assert rec.ft["host_time"][-1] > last_frame - 0.5
 
 
 def test_every_sample_carries_the_scenes_truth(
