@@ -20,6 +20,8 @@ from spectratac.protocol.generated import messages as m
 from spectratac.record import Recording, RecordingSummary, RecordingWriter, read_recording
 from spectratac.record.format import VERSION
 from spectratac.record.schemas import (
+    RATE_CAP_HZ,
+    RateCap,
     counts_messages,
     device_estimate_messages,
     estimate_message,
@@ -58,13 +60,19 @@ def test_fz_and_counts_read_with_the_schema_alone(
     summary, rec = tour_session
     assert rec.session["version"] == VERSION == 4
     found = third_party_read(rec.path)
-    # the reference: /ft/wrench.force.z, every F/T sample, exactly the compact rows
+    # the reference: /ft/wrench.force.z, exactly the compact rows; at speed=10 the simulated
+    # Bota sends 10 kHz of host time: an even subset at RATE_CAP_HZ
     wrench = [obj for _, obj in found["/ft/wrench"]]
-    assert len(wrench) == len(rec.ft) == summary.ft_samples > 1000
+    assert len(rec.ft) == summary.ft_samples > 10_000
+    span = rec.ft["host_time"][-1] - rec.ft["host_time"][0]
+    assert 0.5 * RATE_CAP_HZ * span < len(wrench) <= RATE_CAP_HZ * (span + 1)
+    by_seq = {int(r["sequence"]): r for r in rec.ft}
+    for w in wrench:
+        row = by_seq[w["sequence"]]
+        assert [w["force"][a] for a in "xyz"] == row["wrench"][:3].tolist()
+        assert w["sensor_time"] == row["sensor_time"]
     fz = np.array([w["force"]["z"] for w in wrench])
-    np.testing.assert_array_equal(fz, rec.ft["wrench"][:, 2])
     assert fz.min() < -1.0, "the tour's presses load the reference"
-    assert [w["sequence"] for w in wrench] == rec.ft["sequence"].tolist()
     # raw counts of every sample, IR too, with the device's time
     samples = recorded_samples(rec.frames, rec.frame_host_times)
     counts = [obj for _, obj in found["/spectratac/counts"]]
@@ -186,3 +194,31 @@ def test_an_estimate_message_never_holds_nan() -> None:
     obj = json.loads(data)
     assert obj["force"] == {"x": None, "y": None, "z": 1.0} and obj["region_prob"] is None
     assert b"NaN" not in data and b"Infinity" not in data  # JSON has neither
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    batches=st.lists(st.tuples(st.integers(0, 3000), st.floats(0.0, 0.5)), min_size=1,
+                     max_size=40),
+    rate=st.sampled_from([10.0, 100.0, 1000.0]),
+)  # fmt: skip
+def test_the_rate_cap_copies_slow_streams_whole_and_thins_fast_ones_evenly(
+    batches: list[tuple[int, float]], rate: float
+) -> None:
+    cap = RateCap(rate)
+    t, kept = 0.0, 0
+    for n, dt in batches:
+        t += dt
+        rows = np.arange(n)
+        part = rows[cap.take(n, t)]
+        kept += len(part)
+        if len(part) > 1:  # an even subset: one stride
+            assert len(set(np.diff(part).tolist())) == 1
+        assert n == 0 or part[0] == 0
+    assert kept <= rate * (t + 1) + len(batches)  # one second's burst, at most
+
+
+def test_the_rate_cap_leaves_a_real_sensors_rate_alone() -> None:
+    cap = RateCap()
+    taken = [len(range(10)[cap.take(10, i * 0.01)]) for i in range(1000)]  # 1 kHz, 10 s
+    assert sum(taken) == 10_000

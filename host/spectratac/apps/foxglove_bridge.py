@@ -8,7 +8,8 @@ a recording's decoded channels, with the same JSON schemas and messages
 (`spectratac.record.schemas`): ``/spectratac/counts`` (raw counts of every sample, IR
 too), ``/spectratac/estimates`` (the host decoder's, or the device's ESTIMATE frames),
 ``/ft/wrench`` (every reference F/T sample). Each message's log time is its host receive
-time (Unix ns).
+time (Unix ns). As in a recording, a stream faster than `record.schemas.RATE_CAP_HZ` (an accelerated
+simulation) is sent as an even subset at that rate.
 
 The bridge is a tap of the live page's history (`History.add_tap`): whatever the session
 keeps for clips, the bridge serves, with or without a model. The taps only queue (the
@@ -36,6 +37,7 @@ from spectratac.record.schemas import (
     ESTIMATES,
     SCHEMAS,
     WRENCH,
+    RateCap,
     counts_messages,
     device_estimate_messages,
     host_estimate_message,
@@ -68,6 +70,9 @@ class FoxgloveBridge:
         self._channels: dict[str, Any] = {}
         self._offset_ns = time.time_ns() - time.monotonic_ns()  # host monotonic -> Unix
         self.sent = dict.fromkeys(TOPICS, 0)
+        # the recording's caps: a stream faster than a real sensor (an accelerated
+        # simulation) is thinned rather than starve the session's threads
+        self._caps = {topic: RateCap() for topic in TOPICS}
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> FoxgloveBridge:
@@ -147,14 +152,19 @@ class FoxgloveBridge:
         live = {t for t, c in self._channels.items() if c.has_sinks()}
         if frames and live & {COUNTS, ESTIMATES}:
             samples, sample_t, estimates, estimate_t = split_frames(frames)
+            now = frames[-1][1]
             if COUNTS in live:
-                self._log(COUNTS, counts_messages(samples), sample_t)
+                keep = self._caps[COUNTS].take(len(samples), now)
+                self._log(COUNTS, counts_messages(samples[keep]), sample_t[keep])
             if ESTIMATES in live:
-                self._log(ESTIMATES, device_estimate_messages(estimates), estimate_t)
+                keep = self._caps[ESTIMATES].take(len(estimates), now)
+                self._log(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
         if ft and WRENCH in live:
             for batch in ft:
-                self._log(WRENCH, wrench_messages(batch), batch["host_time"].tolist())
+                kept = batch[self._caps[WRENCH].take(len(batch), float(batch["host_time"][-1]))]
+                self._log(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
         if rows and ESTIMATES in live:
+            rows = rows[self._caps[ESTIMATES].take(len(rows), float(rows[-1]["host_time"]))]
             self._log(ESTIMATES, [host_estimate_message(r) for r in rows],
                       [float(r["host_time"]) for r in rows])  # fmt: skip
 

@@ -160,6 +160,44 @@ def schema_bytes(schema: dict[str, Any]) -> bytes:
     return json.dumps(schema, ensure_ascii=False).encode()
 
 
+# ---------------------------------------------------------------------- how many
+#: Rows per second of host time a decoded channel copies whole: every real sensor's rate
+#: (the optical sensor's samples, a Bota's or a Net F/T's usual 1 kHz). Faster streams (an
+#: accelerated simulation, a Net F/T at 7 kHz) get an even subset at this rate: one JSON
+#: message costs tens of µs of the recorder's thread, and at 10 kHz that starved the F/T
+#: reader of the very process recording it (the compact channels keep every row).
+RATE_CAP_HZ = 1000.0
+
+
+class RateCap:
+    """A token bucket in rows: `take(n, host_time)` says which of a batch of `n` rows to
+    copy, every one while the stream stays under `rate_hz` (bursts up to one second's
+    worth), else an even subset (a stride) that keeps it there.
+
+    >>> cap = RateCap(100.0)
+    >>> len(range(50)[cap.take(50, 0.0)]), len(range(500)[cap.take(500, 1.0)])
+    (50, 100)
+    """
+
+    def __init__(self, rate_hz: float = RATE_CAP_HZ) -> None:
+        self.rate_hz = rate_hz
+        self._tokens = rate_hz  # one second's worth to start with
+        self._last: float | None = None
+
+    def take(self, n: int, host_time: float) -> slice:
+        if self._last is not None:
+            elapsed = max(0.0, host_time - self._last)
+            self._tokens = min(self.rate_hz, self._tokens + elapsed * self.rate_hz)
+        self._last = host_time if self._last is None else max(self._last, host_time)
+        if n <= self._tokens:
+            self._tokens -= n
+            return slice(None)
+        allowed = max(1, int(self._tokens))
+        stride = -(-n // allowed)  # ceil: at most `allowed` rows
+        self._tokens = max(0.0, self._tokens - len(range(0, n, stride)))
+        return slice(None, None, stride)
+
+
 # ---------------------------------------------------------------------- frames -> rows
 SAMPLE_TYPE, ESTIMATE_TYPE = m.Sample.TYPE_ID, m.Estimate.TYPE_ID
 _SAMPLE_PAYLOAD, _ESTIMATE_PAYLOAD = payload_dtype(m.Sample), payload_dtype(m.Estimate)

@@ -8,7 +8,9 @@ thread-safe: one thread (the recorder's loop) writes.
 Beside each compact channel (frames, F/T batches, ground-truth batches) the writer puts
 every row once more, decoded, on a channel with a JSON schema (`spectratac.record.schemas`:
 `/spectratac/counts`, `/spectratac/estimates`, `/ft/wrench`, `/spectratac/truth`), so any
-MCAP tool plots the file; `decoded=False` writes the compact channels alone (benchmarks).
+MCAP tool plots the file: every row up to `schemas.RATE_CAP_HZ` rows per second of host
+time, an even subset of faster streams. `decoded=False` writes the compact channels alone
+(benchmarks).
 
 >>> import tempfile, numpy as np
 >>> path = tempfile.mkdtemp() + "/s.mcap"
@@ -58,6 +60,7 @@ from spectratac.record.schemas import (
     SCHEMAS,
     TRUTH,
     WRENCH,
+    RateCap,
     counts_messages,
     device_estimate_messages,
     host_estimate_message,
@@ -105,6 +108,7 @@ class RecordingWriter:
         self._channels = {topic: self._json_channel(topic, metadata_schema(topic))
                           for topic in JSON_TOPICS}  # fmt: skip
         self.decoded = decoded
+        self._caps = {topic: RateCap() for topic in (COUNTS, ESTIMATES, WRENCH, TRUTH)}
         if decoded:
             self._channels[COUNTS] = self._json_channel(COUNTS, SCHEMAS[COUNTS])
             self._channels[ESTIMATES] = self._json_channel(ESTIMATES, SCHEMAS[ESTIMATES])
@@ -160,10 +164,12 @@ class RecordingWriter:
             # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
             add(channel, ns, raw, ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
         self.frames_written += len(frames)
-        if self.decoded:
+        if self.decoded and frames:
             samples, sample_t, estimates, estimate_t = split_frames(frames)
-            self._decoded(COUNTS, counts_messages(samples), sample_t)
-            self._decoded(ESTIMATES, device_estimate_messages(estimates), estimate_t)
+            keep = self._caps[COUNTS].take(len(samples), frames[-1][1])
+            self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep])
+            keep = self._caps[ESTIMATES].take(len(estimates), frames[-1][1])
+            self._decoded(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
 
     def _decoded(self, topic: str, messages: list[bytes], host_times: Sequence[float]) -> None:
         add = self._mcap.add_message
@@ -193,7 +199,8 @@ class RecordingWriter:
         self._mcap.add_message(self._channels[FT_SAMPLES], ns, rows.tobytes(), ns)
         self.ft_rows_written += len(rows)
         if self.decoded:
-            self._decoded(WRENCH, wrench_messages(rows), rows["host_time"].tolist())
+            kept = rows[self._caps[WRENCH].take(len(rows), float(rows["host_time"][-1]))]
+            self._decoded(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
 
     def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
         """A batch of GROUND_TRUTH_RECORD rows as one message stamped `host_time`. Written
@@ -210,7 +217,8 @@ class RecordingWriter:
         ns = self.clock.log_time(host_time)
         self._mcap.add_message(channel, ns, rows.tobytes(), ns)
         if self.decoded:
-            self._decoded(TRUTH, truth_messages(rows), [host_time] * len(rows))
+            kept = rows[self._caps[TRUTH].take(len(rows), host_time)]
+            self._decoded(TRUTH, truth_messages(kept), [host_time] * len(kept))
 
     def json(self, topic: str, obj: Any, host_time: float) -> None:
         """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""
