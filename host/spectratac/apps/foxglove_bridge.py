@@ -8,8 +8,8 @@ a recording's decoded channels, with the same JSON schemas and messages
 (`spectratac.record.schemas`): ``/spectratac/counts`` (raw counts of every sample, IR
 too), ``/spectratac/estimates`` (the host decoder's, or the device's ESTIMATE frames),
 ``/ft/wrench`` (every reference F/T sample). Each message's log time is its host receive
-time (Unix ns). As in a recording, a stream faster than `record.schemas.RATE_CAP_HZ` (an accelerated
-simulation) is sent as an even subset at that rate.
+time (Unix ns). As in a recording, a stream faster than `record.schemas.RATE_CAP_HZ`
+(an accelerated simulation) is sent as an even subset at that rate.
 
 The bridge is a tap of the live page's history (`History.add_tap`): whatever the session
 keeps for clips, the bridge serves, with or without a model. The taps only queue (the
