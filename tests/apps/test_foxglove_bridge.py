@@ -28,7 +28,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def port_is_free(port: int) -> bool:
+    """Whether a server could listen on `port` again (as servers bind: SO_REUSEADDR)."""
     with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind(("127.0.0.1", port))
         except OSError:
@@ -76,6 +78,7 @@ def test_without_a_model_the_bridge_serves_raw_counts_and_the_reference() -> Non
     client.close()
     assert not [t for t in threading.enumerate() if t.name == "spectratac-foxglove"]
     assert port_is_free(port), "the bridge's port is still bound after close()"
+    FoxgloveBridge(port).start().close()  # a restart on the same port, as a user would
 
 
 def test_a_taken_port_is_a_typed_error_saying_what_to_do() -> None:
@@ -145,3 +148,20 @@ def test_live_foxglove_serves_estimates_beside_the_reference(press_model, tmp_pa
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+@pytest.mark.slow
+def test_live_prints_where_foxglove_connects_and_frees_it_after(
+    press_model, capsys, tmp_path
+) -> None:
+    from spectratac.cli import main
+
+    code = main(["live", str(press_model), PRESSES_URL + "&speed=1", "--no-browser",
+                 "--foxglove", "0", "--duration", "2", "-o", str(tmp_path)])  # fmt: skip
+    assert code == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("SpectraTac live: http://127.0.0.1:")
+    assert lines[1].startswith("Foxglove bridge: ws://127.0.0.1:") and "Open connection" in lines[1]
+    port = int(lines[1].split()[2].rsplit(":", 1)[1])
+    assert port_is_free(port)
+    assert not [t for t in threading.enumerate() if t.name == "spectratac-foxglove"]

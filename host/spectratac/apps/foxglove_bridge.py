@@ -25,6 +25,7 @@ True
 from __future__ import annotations
 
 import collections
+import socket
 import threading
 import time
 from typing import Any
@@ -100,7 +101,8 @@ class FoxgloveBridge:
         return self
 
     def close(self) -> None:
-        """Stop sending, close the server (its port is free again). Idempotent."""
+        """Stop sending, close the server; returns once its port is free again (the SDK's
+        stop() lets its runtime close the listener a moment later). Idempotent."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=10.0)
@@ -109,8 +111,10 @@ class FoxgloveBridge:
             channel.close()
         self._channels = {}
         if self._server is not None:
+            port = int(self._server.port)
             self._server.stop()
             self._server = None
+            _wait_unbound(port)
         self._context = None
 
     def __enter__(self) -> FoxgloveBridge:
@@ -174,6 +178,22 @@ class FoxgloveBridge:
         for data, t in zip(messages, host_times, strict=True):
             channel.log(data, log_time=round(t * 1e9) + offset)
         self.sent[topic] += len(messages)
+
+
+def _wait_unbound(port: int, limit_s: float = 5.0) -> None:
+    """Wait (up to `limit_s`) until nothing listens on `port` of HOST any more."""
+    end = time.monotonic() + limit_s
+    while time.monotonic() < end:
+        with socket.socket() as probe:
+            # as a server binds (SO_REUSEADDR): only a listener, not a closed connection's
+            # TIME_WAIT, keeps the port
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                probe.bind((HOST, port))
+            except OSError:
+                time.sleep(0.02)
+                continue
+            return
 
 
 def _drain(queue: collections.deque[Any]) -> list[Any]:
