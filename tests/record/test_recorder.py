@@ -21,6 +21,7 @@ from spectratac.record import (
     read_recording,
     record_url,
 )
+from spectratac.record.format import VERSION
 from spectratac.sim.transport import SimTransport
 from spectratac.twin.geometry import region_of
 
@@ -32,7 +33,7 @@ def test_the_file_holds_every_channel(tour_session: tuple[RecordingSummary, Reco
     # session: URLs, what the link knows, the simulated world, both clocks, versions
     s = rec.session
     assert s["url"] == s["ft_url"] and "ft=bota" in s["url"]
-    assert s["version"] == 3 and "sim" not in s
+    assert s["version"] == VERSION and "sim" not in s
     assert s["link"] == {"clock_scale": 10.0, "paired_ft_url": s["url"], "ground_truth": True}
     assert rec.link.clock_scale == 10.0 and rec.link.ground_truth
     assert s["truth"]["scene"] == "tour" and s["truth"]["seed"] == 1 and s["truth"]["speed"] == 10.0
@@ -199,7 +200,9 @@ def test_a_lost_device_keeps_the_ft_rows_too(tmp_path: Path) -> None:
     rec = read_recording(path)
     assert rec.ft is not None and len(rec.ft) == summary.ft_samples > 1000
     last_frame = rec.frame_host_times[-1]
-    assert rec.ft["host_time"][-1] > last_frame - 0.1  # F/T written up to the loss
+    # F/T written up to the loss (the in-process simulated F/T thread may lag a loaded
+    # machine's recorder by a few of its 20 ms passes: a generous bound)
+    assert rec.ft["host_time"][-1] > last_frame - 0.5
 
 
 def test_every_sample_carries_the_scenes_truth(

@@ -11,9 +11,14 @@ alternated in one run:
 
 1. recorder write: the recorder's file path (frames one MCAP message each, F/T batches,
    clock-sync and label messages, a chunk flush per second of data), in samples/s.
-2. dataset build: `spectratac dataset build` on that file (bulk decode, two clock fits, F/T
-   window averages, scene labels), in samples/s; the extra field gives seconds per build.
-3. live recording: Recorder on a simulated device at speed=max (no F/T), samples/s, beside
+2. format 4 against the compact encoding: the same write with the decoded channels any MCAP
+   tool reads (JSON counts per sample, wrench per F/T sample, truth per sample; FORMAT.md)
+   beside the compact channels alone (format 3's layout, `decoded=False`), in samples/s;
+   the extra fields give both file sizes and their ratio.
+3. dataset build: `spectratac dataset build` on the format-4 file (bulk decode, two clock
+   fits, F/T window averages, scene labels), in samples/s; beside the raw read, and beside
+   the build of the compact file (what reading past the decoded channels costs).
+4. live recording: Recorder on a simulated device at speed=max (no F/T), samples/s, beside
    the same device read through Sensor without recording (the device is the bottleneck).
 """
 
@@ -76,31 +81,43 @@ def main() -> int:
     frames = sample_frames(session)
     tmp = Path(tempfile.mkdtemp())
     path = tmp / "session.mcap"
+    compact_path = tmp / "compact.mcap"
     params = {"duration": f"{duration:g}"}
 
-    def write() -> int:
+    def write(decoded: bool = True) -> int:
         write_twin_recording(
-            path, session, scene, "calibration", scene_params=params, frames=frames
-        )
+            path if decoded else compact_path, session, scene, "calibration",
+            scene_params=params, frames=frames, decoded=decoded,
+        )  # fmt: skip
         return len(session)
 
+    def write_compact() -> int:
+        return write(decoded=False)
+
     write()
+    write_compact()
     records = raw_read(path)
     per_sample = records / len(session)  # to express the raw read in samples/s
 
     def read() -> int:
         return round(raw_read(path) / per_sample)
 
-    def build() -> int:
+    def build(file: Path = path) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # a finished synthetic file must read cleanly
-            [ds] = build_datasets([path])
+            [ds] = build_datasets([file])
         return ds.n
 
+    def build_compact() -> int:
+        return build(compact_path)
+
     w_rate, r_rate = side_by_side(write, read, args.rounds)
+    w4_rate, w3_rate = side_by_side(write, write_compact, args.rounds)
     b_rate, r2_rate = side_by_side(build, read, args.rounds)
+    b4_rate, b3_rate = side_by_side(build, build_compact, args.rounds)
     rec_rate, plain_rate, lost = live(args.live_samples)
     size = path.stat().st_size
+    compact_size = compact_path.stat().st_size
     extra = {
         "samples": len(session),
         "ft_samples": len(session.ft_t),
@@ -110,6 +127,23 @@ def main() -> int:
     figures = [
         Figure("recorder write", w_rate, "samples/s", "raw read", r_rate, w_rate / r_rate, extra),
         Figure(
+            "format 4 write",
+            w4_rate,
+            "samples/s",
+            "compact only",
+            w3_rate,
+            w4_rate / w3_rate,
+            {
+                "samples": len(session),
+                "ft_samples": len(session.ft_t),
+                "file_bytes": size,
+                "compact_file_bytes": compact_size,
+                "size_ratio": size / compact_size,
+                "data_s": duration,
+                "realtime_factor": w4_rate * INTEGRATION_S,
+            },
+        ),
+        Figure(
             "dataset build",
             b_rate,
             "samples/s",
@@ -117,6 +151,15 @@ def main() -> int:
             r2_rate,
             b_rate / r2_rate,
             extra | {"build_s": len(session) / b_rate, "raw_read_s": len(session) / r2_rate},
+        ),
+        Figure(
+            "format 4 build",
+            b4_rate,
+            "samples/s",
+            "compact build",
+            b3_rate,
+            b4_rate / b3_rate,
+            {"build_s": len(session) / b4_rate, "compact_build_s": len(session) / b3_rate},
         ),
         Figure(
             "live record, speed=max",

@@ -11,10 +11,12 @@ counts plotted per sensor and channel with saturation and dark bands, link stati
 the latency to the browser; pause, rescale, and "save the last N seconds" as MCAP or CSV
 (into --output). The Snake tab plays the paper's game on the same estimates.
 Without a MODEL the page shows the raw counts and the reference F/T only (before training).
+With --foxglove the same streams (raw counts, estimates, reference F/T) go to Foxglove too.
 
     spectratac live model.stac /dev/ttyACM0 --ft netft://192.168.1.1
     spectratac live /dev/ttyACM0 --ft netft://192.168.1.1      # no model yet
     spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota"
+    spectratac live model.stac "sim://?scene=presses&speed=1&ft=bota" --foxglove
 """
 
 from __future__ import annotations
@@ -47,6 +49,9 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (0: any free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the page's URL")
+    p.add_argument("--foxglove", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="also serve the streams to Foxglove (WebSocket on 127.0.0.1:PORT; "
+                   "default port %(const)s)")  # fmt: skip
     p.add_argument("-o", "--output", type=Path, default=Path("live-clips"),
                    help="folder for saved clips (default: %(default)s)")  # fmt: skip
     p.add_argument(

@@ -112,15 +112,34 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     )
     server = LiveServer(session, bind(args.port))
     url = server.url + ("#snake" if tab == "snake" else "")
-    if args.duration:
-        threading.Timer(args.duration, lambda: setattr(server.server, "should_exit", True)).start()
-    if getattr(args, "json", False):
-        print(json.dumps({"url": url, "model": session.model_path}), flush=True)
-    else:
-        print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
-        if decoder is None:
-            print(f"{NO_MODEL}; {TRAIN_HINT}", flush=True)
-    if not args.no_browser:
-        threading.Timer(0.5, webbrowser.open, args=(url,)).start()
-    server.run()
+    bridge = _foxglove_bridge(getattr(args, "foxglove", None), session)
+    try:
+        if args.duration:
+            threading.Timer(args.duration, setattr, (server.server, "should_exit", True)).start()
+        if getattr(args, "json", False):
+            line = {"url": url, "model": session.model_path}
+            print(json.dumps(line | ({"foxglove": bridge.url} if bridge else {})), flush=True)
+        else:
+            print(f"SpectraTac live: {url}  (Ctrl-C to stop)", flush=True)
+            if decoder is None:
+                print(f"{NO_MODEL}; {TRAIN_HINT}", flush=True)
+            if bridge is not None:
+                print(f"Foxglove bridge: {bridge.url}  (Foxglove: Open connection)", flush=True)
+        if not args.no_browser:
+            threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+        server.run()
+    finally:
+        if bridge is not None:
+            bridge.close()
     return ExitCode.OK
+
+
+def _foxglove_bridge(port: int | None, session: Any) -> Any:
+    """The Foxglove bridge on `port` fed by the session's history (None: no bridge)."""
+    if port is None:
+        return None
+    from spectratac.apps.foxglove_bridge import FoxgloveBridge
+
+    bridge = FoxgloveBridge(port).start()
+    session.history.add_tap(bridge)
+    return bridge

@@ -23,7 +23,9 @@ FORMAT = "spectratac.recording"
 #: 2 added GROUND_TRUTH: version-1 readers cannot skip a binary channel they do not know.
 #: 3 put the link's facts in the session's "link" (LinkInfo) and its truth's description in
 #: "truth", where older files have "sim": a version-2 reader would take the file for hardware.
-VERSION = 3
+#: 4 gave every JSON channel its own schema and wrote each compact row once more, decoded,
+#: with a JSON schema (spectratac.record.schemas): counts, estimates, wrench, truth.
+VERSION = 4
 
 # topic -> message encoding; JSON topics carry one JSON object per message.
 SESSION = "/spectratac/session"  # once, first: URLs, link facts, truth, clocks, versions
@@ -43,7 +45,18 @@ FRAME_ENCODING = "spectratac.frame"
 FT_ENCODING = "spectratac.ft_record"
 GROUND_TRUTH_ENCODING = "spectratac.ground_truth"
 JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS, EPOCH)
-JSON_SCHEMA = b'{"type": "object"}'
+# What each JSON topic's message is (its JSON schema's title and description).
+JSON_TOPIC_DOCS = {
+    SESSION: ("spectratac.Session", "the session: URLs, link facts, truth, clocks, versions"),
+    INFO: ("spectratac.Info", "the device's INFO, on connect"),
+    CONFIG: ("spectratac.Config", "a configuration the device acknowledged"),
+    TIME_SYNC: ("spectratac.TimeSync", "a batch of TIME_SYNC round trips"),
+    STATS: ("spectratac.Stats", "link health of both sensors"),
+    END: ("spectratac.End", "the summary of a cleanly finished recording"),
+    FT_INFO: ("spectratac.FTInfo", "the reference F/T sensor's description and URL"),
+    LABELS: ("spectratac.Label", "one region-label event (LABELS.md)"),
+    EPOCH: ("spectratac.Epoch", "a connection to the device began"),
+}
 
 #: One row per SAMPLE frame of a link with ground truth: the sample's identity (its
 #: sample_seq and its window on the device clock, unwrapped µs, as

@@ -62,6 +62,10 @@ from spectratac.record.format import (
     dtype_from_json,
 )
 from spectratac.record.salvage import READ_ERRORS, salvage
+from spectratac.record.schemas import DECODED_TOPICS, ESTIMATES
+
+#: Decoded copies of the compact channels this reader reads: passed over unparsed
+_MIRRORS = frozenset(DECODED_TOPICS) - {ESTIMATES}
 
 
 @dataclass
@@ -81,6 +85,9 @@ class Recording:
     epochs: list[dict[str, Any]] = field(default_factory=list)  # EPOCH messages, in order
     # GROUND_TRUTH_RECORD rows (dtype from the file); None: the link carried no ground truth
     ground_truth: np.ndarray | None = None
+    # estimates in the file (/spectratac/estimates: the device's, or the live page's in a
+    # clip), as their JSON objects (record.schemas.SCHEMAS[ESTIMATES]), in file order
+    estimates: list[dict[str, Any]] = field(default_factory=list)
     stats: dict[str, Any] | None = None  # the last stats message
     end: dict[str, Any] | None = None  # present when the recorder finished cleanly
     truncated: bool = False
@@ -117,7 +124,7 @@ def read_recording(path: str | Path) -> Recording:
     path = Path(path)
     rec = Recording(path)
     try:
-        found = salvage(path.read_bytes())
+        found = salvage(path.read_bytes(), skip_topics=_MIRRORS)
     except OSError as exc:
         raise RecordingError(f"cannot open recording {path}: {exc}") from None
     rec.truncated, rec.problem = found.truncated, found.problem
@@ -140,12 +147,13 @@ def read_recording(path: str | Path) -> Recording:
             ft_parts.append(record.data)
         elif topic == GROUND_TRUTH:
             truth_parts.append(record.data)
-        elif topic in JSON_TOPICS:
+        elif topic in JSON_TOPICS or topic == ESTIMATES:
             try:
                 _take_json(rec, topic, json.loads(record.data))
             except (*READ_ERRORS, TypeError, AttributeError):
                 unreadable[topic] = unreadable.get(topic, 0) + 1
-        # other topics come from a newer minor revision: ignored
+        # the other decoded channels copy compact ones; other topics come from a newer
+        # minor revision: both ignored
     ft_dtype = _dtype_of(topics, FT_SAMPLES, path)
     truth_dtype = _dtype_of(topics, GROUND_TRUTH, path)
     for topic, parts, dtype in ((FT_SAMPLES, ft_parts, ft_dtype),
@@ -159,6 +167,8 @@ def read_recording(path: str | Path) -> Recording:
         rec.lost_messages = {
             topics[c].topic if c in topics else f"channel {c}": k
             for c, k in sorted(found.lost_by_channel.items())
+            # the decoded channels copy the compact ones, whose loss is counted
+            if c not in topics or topics[c].topic not in DECODED_TOPICS
         }
         for topic, k in unreadable.items():
             rec.lost_messages[topic] = rec.lost_messages.get(topic, 0) + k
@@ -239,3 +249,5 @@ def _take_json(rec: Recording, topic: str, obj: Any) -> None:
         rec.stats = obj
     elif topic == END:
         rec.end = obj
+    elif topic == ESTIMATES:
+        rec.estimates.append(obj)

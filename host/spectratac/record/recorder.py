@@ -325,7 +325,7 @@ class Recorder:
                     action()
             # each on its own: a lost link on one side must not cost the other its data
             with contextlib.suppress(SpectraTacError):
-                self._move_ft(writer)
+                self._drain_ft(writer)
             with contextlib.suppress(SpectraTacError):
                 self._count_samples()
             self.sensor.remove_listener(self._on_frame)
@@ -411,6 +411,23 @@ class Recorder:
                 writer.ft(rows)
                 self._ft_rows += len(rows)
                 self._ft_window.append((time.monotonic(), self._ft_rows))
+
+    def _drain_ft(
+        self, writer: RecordingWriter, quiet_s: float = 0.2, limit_s: float = 2.0
+    ) -> None:
+        """After the F/T sensor was told to stop: write what is still in flight until the
+        link is quiet for `quiet_s` (at most `limit_s`). Its driver counts a gap when the
+        rows after it arrive, so rows left unread would be losses the file does not show."""
+        if self.ft is None:
+            return
+        end = time.monotonic() + limit_s
+        quiet_since = time.monotonic()
+        while (now := time.monotonic()) < end and now - quiet_since < quiet_s:
+            before = self._ft_rows
+            self._move_ft(writer)
+            if self._ft_rows != before:
+                quiet_since = now
+            time.sleep(0.02)
 
     def _count_samples(self) -> None:
         batch = self.sensor.read(1 << 30, timeout=0)  # keeps the sensor's buffer empty

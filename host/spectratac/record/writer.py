@@ -5,6 +5,13 @@ every `flush_s` seconds (`maybe_flush`), so a process killed with SIGKILL leaves
 every complete chunk is readable (`spectratac.record.reader` returns that prefix). Not
 thread-safe: one thread (the recorder's loop) writes.
 
+Beside each compact channel (frames, F/T batches, ground-truth batches) the writer puts
+every row once more, decoded, on a channel with a JSON schema (`spectratac.record.schemas`:
+`/spectratac/counts`, `/spectratac/estimates`, `/ft/wrench`, `/spectratac/truth`), so any
+MCAP tool plots the file: every row up to `schemas.RATE_CAP_HZ` rows per second of host
+time, an even subset of faster streams. `decoded=False` writes the compact channels alone
+(benchmarks).
+
 >>> import tempfile, numpy as np
 >>> path = tempfile.mkdtemp() + "/s.mcap"
 >>> with RecordingWriter(path, {"url": "sim://"}, unix_minus_monotonic_ns=0) as w:
@@ -40,13 +47,28 @@ from spectratac.record.format import (
     GROUND_TRUTH,
     GROUND_TRUTH_ENCODING,
     GROUND_TRUTH_RECORD,
-    JSON_SCHEMA,
     JSON_TOPICS,
     LABELS,
     SESSION,
     VERSION,
     HostClock,
     dtype_to_json,
+)
+from spectratac.record.schemas import (
+    COUNTS,
+    ESTIMATES,
+    SCHEMAS,
+    TRUTH,
+    WRENCH,
+    RateCap,
+    counts_messages,
+    device_estimate_messages,
+    host_estimate_message,
+    metadata_schema,
+    schema_bytes,
+    split_frames,
+    truth_messages,
+    wrench_messages,
 )
 
 __all__ = ["LABELS", "RecordingWriter"]
@@ -65,10 +87,12 @@ class RecordingWriter:
         unix_minus_monotonic_ns: int | None = None,
         flush_s: float = 1.0,
         chunk_bytes: int = CHUNK_BYTES,
+        decoded: bool = True,
     ) -> None:
         """Create `path` and write the session message. `session` is free-form JSON (URLs,
         sim scene, request); format, version, library version and clocks are added.
-        `ground_truth`: the link carries ground truth (GROUND_TRUTH channel)."""
+        `ground_truth`: the link carries ground truth (GROUND_TRUTH channel). `decoded`:
+        write the decoded channels beside the compact ones (FORMAT.md)."""
         self.path = Path(path)
         if unix_minus_monotonic_ns is None:
             unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
@@ -81,10 +105,17 @@ class RecordingWriter:
             ) from None
         self._mcap = Writer(self._file, chunk_size=chunk_bytes, compression=CompressionType.ZSTD)
         self._mcap.start(profile="", library=f"spectratac/{__version__}")
-        json_schema = self._mcap.register_schema("spectratac.json", "jsonschema", JSON_SCHEMA)
-        self._channels = {
-            topic: self._mcap.register_channel(topic, "json", json_schema) for topic in JSON_TOPICS
-        }
+        self._channels = {topic: self._json_channel(topic, metadata_schema(topic))
+                          for topic in JSON_TOPICS}  # fmt: skip
+        self.decoded = decoded
+        self._caps = {topic: RateCap() for topic in (COUNTS, ESTIMATES, WRENCH, TRUTH)}
+        if decoded:
+            self._channels[COUNTS] = self._json_channel(COUNTS, SCHEMAS[COUNTS])
+            self._channels[ESTIMATES] = self._json_channel(ESTIMATES, SCHEMAS[ESTIMATES])
+            if ft_dtype is not None:
+                self._channels[WRENCH] = self._json_channel(WRENCH, SCHEMAS[WRENCH])
+            if ground_truth:
+                self._channels[TRUTH] = self._json_channel(TRUTH, SCHEMAS[TRUTH])
         self._channels[FRAMES] = self._mcap.register_channel(
             FRAMES, FRAME_ENCODING, 0, {"content": "COBS-decoded frame: header, payload, CRC-32C"}
         )
@@ -117,9 +148,14 @@ class RecordingWriter:
         self.json(SESSION, {**header, **session}, now)
         self.flush()
 
+    def _json_channel(self, topic: str, schema: dict[str, Any]) -> int:
+        schema_id = self._mcap.register_schema(schema["title"], "jsonschema", schema_bytes(schema))
+        return self._mcap.register_channel(topic, "json", schema_id)
+
     # ------------------------------------------------------------------ messages
     def frames(self, frames: Sequence[tuple[bytes, float]]) -> None:
-        """(decoded frame bytes, host receive time) pairs, one MCAP message each."""
+        """(decoded frame bytes, host receive time) pairs, one MCAP message each; SAMPLE
+        and ESTIMATE frames also decoded onto COUNTS and ESTIMATES."""
         add = self._mcap.add_message
         channel = self._channels[FRAMES]
         offset = self.clock.unix_minus_monotonic_ns
@@ -128,6 +164,27 @@ class RecordingWriter:
             # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
             add(channel, ns, raw, ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
         self.frames_written += len(frames)
+        if self.decoded and frames:
+            samples, sample_t, estimates, estimate_t = split_frames(frames)
+            keep = self._caps[COUNTS].take(len(samples), frames[-1][1])
+            self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep])
+            keep = self._caps[ESTIMATES].take(len(estimates), frames[-1][1])
+            self._decoded(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
+
+    def _decoded(self, topic: str, messages: list[bytes], host_times: Sequence[float]) -> None:
+        add = self._mcap.add_message
+        channel = self._channels[topic]
+        offset = self.clock.unix_minus_monotonic_ns
+        for data, t in zip(messages, host_times, strict=True):
+            ns = round(t * 1e9) + offset
+            add(channel, ns, data, ns)
+
+    def estimates(self, rows: Sequence[dict[str, Any]]) -> None:
+        """Estimates the host decoded (rows of the live page's history: host_time,
+        device_time_s, Fx..Tz, region, region_prob, contact, ood, invalid) on ESTIMATES."""
+        if self.decoded:
+            self._decoded(ESTIMATES, [host_estimate_message(r) for r in rows],
+                          [float(r["host_time"]) for r in rows])  # fmt: skip
 
     def ft(self, rows: np.ndarray) -> None:
         """A batch of F/T rows as one message; log_time is the last row's host time."""
@@ -141,6 +198,9 @@ class RecordingWriter:
         ns = self.clock.log_time(float(rows["host_time"][-1]))
         self._mcap.add_message(self._channels[FT_SAMPLES], ns, rows.tobytes(), ns)
         self.ft_rows_written += len(rows)
+        if self.decoded:
+            kept = rows[self._caps[WRENCH].take(len(rows), float(rows["host_time"][-1]))]
+            self._decoded(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
 
     def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
         """A batch of GROUND_TRUTH_RECORD rows as one message stamped `host_time`. Written
@@ -156,6 +216,9 @@ class RecordingWriter:
             )
         ns = self.clock.log_time(host_time)
         self._mcap.add_message(channel, ns, rows.tobytes(), ns)
+        if self.decoded:
+            kept = rows[self._caps[TRUTH].take(len(rows), host_time)]
+            self._decoded(TRUTH, truth_messages(kept), [host_time] * len(kept))
 
     def json(self, topic: str, obj: Any, host_time: float) -> None:
         """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""

@@ -84,11 +84,13 @@ def write_twin_recording(
     ft_drift: float = 1e-4,
     sync_every_s: float = 5.0,
     frames: list[bytes] | None = None,
+    decoded: bool = True,
 ) -> Path:
     """Write `session` (generated from `scene`, called `scene_name` in sim:// URLs) as a
     recording of a paced simulation at `speed` whose scene clock started at host `epoch`.
     Arrivals lag by `latency_s` plus exponential jitter; the F/T clock reads
-    ft_offset + (1 + ft_drift) x scene time. Returns the path."""
+    ft_offset + (1 + ft_drift) x scene time. `decoded=False`: the compact channels alone
+    (RecordingWriter). Returns the path."""
     from spectratac.ft import FT_RECORD
 
     rng = np.random.default_rng(session.seed)
@@ -126,7 +128,7 @@ def write_twin_recording(
     }
     t0 = epoch - 0.5 / speed
     writer = RecordingWriter(
-        path, meta | {"synthetic": True}, ft_dtype=FT_RECORD, ground_truth=True
+        path, meta | {"synthetic": True}, ft_dtype=FT_RECORD, ground_truth=True, decoded=decoded
     )
     writer.json(INFO, _info(session.seed), t0)
     writer.json(FT_INFO, {"url": url, "kind": "bota", "model": "synthetic", "rate_hz": 0.0}, t0)

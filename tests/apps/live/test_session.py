@@ -17,6 +17,7 @@ from spectratac.dataset.labels import CONTACT_N
 from spectratac.decode import Decoder
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
+from spectratac.record.reader import read_recording
 
 from tests.apps.conftest import PRESSES_URL
 
@@ -92,6 +93,13 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert rows[0]["s0.C"].isdigit() and any(r["ref_Fz"] for r in rows)
     (ds,) = build_datasets([mcap_clip["path"]])
     assert ds.n >= 20 and ds.target_valid.mean() > 0.5
+    # the MCAP clip holds the page's estimates too (/spectratac/estimates), as the CSV has them
+    clip = read_recording(mcap_clip["path"])
+    assert len(clip.estimates) >= 20 and {e["source"] for e in clip.estimates} == {"host"}
+    csv_fz = {round(float(r["device_time_s"]) * 1e6): float(r["Fz"]) for r in rows}
+    shared = [e for e in clip.estimates if e["t_end_us"] in csv_fz]
+    assert len(shared) >= 10
+    assert all(e["force"]["z"] == pytest.approx(csv_fz[e["t_end_us"]]) for e in shared)
 
 
 @pytest.mark.slow

@@ -2,9 +2,13 @@
 
 Raw device frames (as the recorder stores them), reference F/T rows and the decoded rows
 are kept for `keep_s` seconds of host time. A clip is written either as an MCAP recording
-in the toolkit's format (`spectratac.record`, readable by `spectratac dataset build`) or
-as a CSV of the estimates, their reference (when an F/T sensor is connected) and the raw
-counts. Thread-safe: the session's worker adds, the server's save request reads.
+in the toolkit's format (`spectratac.record`, readable by `spectratac dataset build`; the
+page's estimates on `/spectratac/estimates`) or as a CSV of the estimates, their reference
+(when an F/T sensor is connected) and the raw counts. Thread-safe: the session's worker
+adds, the server's save request reads.
+
+Everything added also goes to the taps (`add_tap`: the Foxglove bridge), so a consumer of
+the live streams needs no hook in the session.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import threading
 import time
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from spectratac.device.streams import DeviceStream
@@ -40,6 +44,14 @@ CSV_COLUMNS = (
 FORMATS = ("mcap", "csv")
 
 
+class HistoryTap(Protocol):
+    """Sees what the history is given, as it is given (on the adder's thread: keep it short)."""
+
+    def frame(self, raw: bytes, host_time: float) -> None: ...
+    def ft(self, rows: np.ndarray) -> None: ...
+    def row(self, key: int, row: dict[str, Any]) -> None: ...
+
+
 class History:
     def __init__(self, keep_s: float = KEEP_S) -> None:
         if not keep_s > 0:
@@ -50,22 +62,32 @@ class History:
         self._ft: collections.deque[np.ndarray] = collections.deque()
         self._rows: collections.deque[dict[str, Any]] = collections.deque()
         self._refs: dict[int, list[float]] = {}
+        self._taps: tuple[HistoryTap, ...] = ()
+
+    def add_tap(self, tap: HistoryTap) -> None:
+        self._taps = (*self._taps, tap)  # a new tuple: adders iterate without the lock
 
     # ------------------------------------------------------------------ adding
     def add_frame(self, raw: bytes, host_time: float) -> None:
         """A frame listener (runs on the sensor's reader thread: kept this small)."""
         self._frames.append((raw, host_time))
+        for tap in self._taps:
+            tap.frame(raw, host_time)
 
     def add_ft(self, rows: np.ndarray) -> None:
         if len(rows):
             with self._lock:
                 self._ft.append(rows.copy())
+            for tap in self._taps:
+                tap.ft(rows)
 
     def add_row(self, key: int, row: dict[str, Any]) -> None:
         """One decoded row (CSV_COLUMNS without the ref_ ones), under the estimate's key."""
         with self._lock:
             self._rows.append({"key": key, **row})
             self._trim(float(row["host_time"]))
+        for tap in self._taps:
+            tap.row(key, row)
 
     def add_reference(self, key: int, wrench: Any) -> None:
         with self._lock:
@@ -117,8 +139,8 @@ class History:
     def save_mcap(
         self, path: Path, seconds: float, sensor: DeviceStream, session: dict[str, Any]
     ) -> int:
-        """The raw frames (and F/T rows) of the last `seconds` as a recording; returns the
-        frame count. `sensor` gives the device's INFO, configuration and clock sync."""
+        """The raw frames, F/T rows and decoded rows of the last `seconds` as a recording;
+        returns the frame count. `sensor` gives the device's INFO, configuration and clock sync."""
         from spectratac.record.describe import config_summary, info_dict
         from spectratac.record.format import CONFIG, END, FT_INFO, INFO, TIME_SYNC
         from spectratac.record.writer import RecordingWriter
@@ -146,6 +168,7 @@ class History:
             w.frames(frames)
             if ft is not None and len(ft):
                 w.ft(ft)
+            w.estimates(rows)
             w.json(
                 END,
                 {
