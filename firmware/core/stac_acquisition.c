@@ -107,6 +107,7 @@ static void estimate(stac_app_t *app) {
     const int ready = stac_model_push(&app->store.model, &app->est, s->led_step, s->counts,
                                       s->sensor_status, &out);
     const uint32_t cycles = stac_app_cycles(app) - c0;
+    acq->decodes++;
     const uint32_t took = stac_app_clock(app) - t0;
     app->stats.decode_cycles_last = cycles;
     max_into(&app->stats.decode_cycles_max, cycles);

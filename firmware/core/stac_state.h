@@ -78,6 +78,7 @@ typedef struct stac_acq {
      * triggered, so decoding runs while the sensors integrate instead of delaying them. */
     bool decode_pending;
     stac_sample_t decode_sample;
+    uint32_t decodes; /* model steps run since boot (never reset: a port may model their time) */
 } stac_acq_t;
 
 typedef struct stac_app {
