@@ -13,8 +13,9 @@
  * Model store: the host loads a 448 KiB region (image, commit record) at STORE_ADDR with
  * QEMU's loader, so the core boots with the model installed. Input (timeline.in): u32 CPI x
  * 1000, u32 estimates (0/1), u32 samples, u32 integration_ms. Output (timeline.out): every
- * frame the device sends as u64 device time (µs), u32 length, the frame's bytes. Built by the
- * PlatformIO env `timeline`. */
+ * frame the device sends as u64 device time (µs), u32 length, the frame's bytes; and
+ * (timeline.boot) the u64 instructions of the boot, which validates the installed model.
+ * Built by the PlatformIO env `timeline`. */
 #include <stdint.h>
 #include <string.h>
 
@@ -104,12 +105,16 @@ static uint32_t g_last_cvr;
 static uint64_t g_ticks_per_kinsn; /* calibrated: ticks per 1000 instructions */
 static uint64_t g_waited_us;    /* modelled waits: WFI until the next wake-up, bus transfers */
 
-static uint64_t now_us(void) {
+/* Instructions executed since start. */
+static uint64_t instructions(void) {
     const uint32_t cvr = SYST_CVR;
     g_ticks += (g_last_cvr - cvr) & 0xFFFFFFu;
     g_last_cvr = cvr;
-    const uint64_t insns = g_ticks * 1000u / g_ticks_per_kinsn;
-    return insns * g_cpi_x1000 / 1000u / CPU_HZ + g_waited_us;
+    return g_ticks * 1000u / g_ticks_per_kinsn;
+}
+
+static uint64_t now_us(void) {
+    return instructions() * g_cpi_x1000 / 1000u / CPU_HZ + g_waited_us;
 }
 
 static void calibrate(void) {
@@ -250,7 +255,18 @@ int main(void) {
     memset(&id, 0, sizeof id);
     memcpy(id.board, "qemu-timeline", 13);
     id.capabilities = STAC_CAPS_CORE | STAC_CAPS_MODEL;
+    /* Boot, with the model store's validation of the installed model: its instructions go to
+     * timeline.boot (tests/firmware/test_store_watchdog.py bounds the watchdog with them). */
+    const uint64_t boot0 = instructions();
     stac_app_init(&g_app, &hal, &id, hal_clock(0));
+    const uint64_t boot_insns = instructions() - boot0;
+    static const char boot_name[] = "timeline.boot";
+    const uint32_t boot = open_file(boot_name, sizeof boot_name - 1u, OPEN_WB);
+    const uint32_t boot_args[3] = {boot, (uint32_t)(uintptr_t)&boot_insns, sizeof boot_insns};
+    if (boot == 0xFFFFFFFFu || semihost(SYS_WRITE, boot_args) != 0u) return 6;
+    const uint32_t boot_close[1] = {boot};
+    (void)semihost(SYS_CLOSE, boot_close);
+    if (g_app.store.present != STAC_STORE_UPLOADED) return 7; /* the region did not validate */
 
     /* The host's one command: stream at the given integration time, with estimates or not. */
     stac_configure_t c;
