@@ -29,6 +29,15 @@ def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
     info = json.loads(capsys.readouterr().out)
     assert info["board"] == "native-sim" and info["sensors_present"] == [0, 1, 2]
     assert "CAP_SIMULATED" in info["capabilities"]
+    # The simulator has no cycle counter: it says so instead of a number.
+    assert info["cycles"] == {"measured": False, "why": "no cycle counter"}
+
+
+def test_info_says_cycle_counts_are_not_measured(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["info", SIM]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "cycle counts     not measured (the device has no cycle counter)" in out
+    assert "protocol 1.2" in out
 
 
 def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:
