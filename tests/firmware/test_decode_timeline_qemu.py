@@ -30,7 +30,7 @@ from .conftest import REPO
 from .test_decode_timeline import paper  # noqa: F401  (the module's fixture)
 
 sys.path.insert(0, str(REPO / "tools" / "platformio"))
-import pio  # noqa: E402
+import pio
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.qemu, pytest.mark.slow]
 

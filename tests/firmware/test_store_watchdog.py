@@ -33,7 +33,7 @@ from .test_decode_timeline import paper  # noqa: F401  (the module's fixture)
 from .test_decode_timeline_qemu import elf, run, store_region  # noqa: F401
 
 sys.path.insert(0, str(REPO / "tools" / "bench"))
-import ondevice  # noqa: E402  (tools/bench/ondevice.py: the decode bench's cycle model)
+import ondevice  # tools/bench/ondevice.py: the decode bench's cycle model
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.qemu, pytest.mark.slow]
 
@@ -58,10 +58,10 @@ def watchdog_period_s() -> float:
     return (4 << pr) * (rlr + 1) / lsi_max
 
 
-def crc_loop(elf: Path) -> tuple[float, int]:
+def crc_loop(image: Path) -> tuple[float, int]:
     """(TRM cycles, instructions) per byte of stac_crc32c_update's loop: a rotated loop, the
     test at its head (cmp, a taken bne into the body) and a `b` back to it."""
-    rows = ondevice.disassembly(elf, "stac_crc32c_update")
+    rows = ondevice.disassembly(image, "stac_crc32c_update")
     back = [
         (i, ondevice._target(ops))
         for i, (addr, mn, ops) in enumerate(rows)

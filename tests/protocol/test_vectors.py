@@ -17,7 +17,6 @@ from spectratac.protocol import (
     StreamDecoder,
     crc32c,
     decode_frame,
-    encode_frame,
     encode_raw,
 )
 from spectratac.protocol.generated import messages
@@ -141,4 +140,7 @@ def test_vector(path: Path) -> None:
     assert frame.message.pack() == expected.pack()  # bit for bit, NaN included
     if not vector.get("future_minor"):
         # A frozen vector is its minor version's layout: the payload ends where that ends.
-        assert encode_raw(cls.TYPE_ID, expected.pack()[: cls.required_size(version[1])], seq, version) == wire
+        assert (
+            encode_raw(cls.TYPE_ID, expected.pack()[: cls.required_size(version[1])], seq, version)
+            == wire
+        )
