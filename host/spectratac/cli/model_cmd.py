@@ -28,6 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info = sub.add_parser("info", help="which model the device decodes with, and its limits")
     add_device_url(info)
     info.add_argument(
+        "-f",
         "--file",
         help="decoder file (.stac): say whether the device runs this model (in which weight "
         "format), by the image CRC the device reports; exit code 1 if it does not",
