@@ -71,6 +71,8 @@ def test_paper_model_keeps_the_sample_rate_within_1_percent(
     # The simulated MCU really spends the modelled time decoding (else this proves nothing).
     assert len(estimates) >= SAMPLES - 2
     decode_ms = float(np.median(estimates["decode_us"])) / 1e3
+    print(f"\n{weights}: {decoding:.3f} samples/s decoding, {bare:.3f} without, "
+          f"decode {decode_ms:.2f} ms")  # fmt: skip
     assert decode_ms == pytest.approx(MODELLED_MS[weights], rel=0.05)
     assert bare == pytest.approx(19.9, rel=0.01)
     assert abs(decoding / bare - 1.0) < 0.01, (

@@ -102,6 +102,8 @@ def test_paper_model_keeps_the_sample_rate_within_1_percent_on_the_mcu(
             decode_us = [x.decode_us for _, x in frames if isinstance(x, m.Estimate)]
             assert len(decode_us) >= SAMPLES - 2
             decode_ms = float(np.median(decode_us)) / 1e3
+    print(f"\n{weights}: {rates[True]:.3f} samples/s decoding, {rates[False]:.3f} without, "
+          f"decode {decode_ms:.2f} ms")  # fmt: skip
     # The modelled MCU spends the bench's time decoding (else the comparison proves nothing).
     assert decode_ms == pytest.approx(MODELLED_MS[weights], rel=0.15)
     # One integration plus its polled I2C reads (~2.4 ms of bus time at 400 kHz) per sample.
