@@ -1,9 +1,11 @@
 /* Cortex-M4 core debug registers: the DWT cycle counter (CYCCNT), which the port uses to
  * measure acquisition and decoding on the board itself. Addresses and bits from the ARMv7-M
- * Architecture Reference Manual (ARM DDI 0403E): DEMCR at 0xE000EDFC, TRCENA bit 24 (C1.6.5,
- * Debug Exception and Monitor Control Register: enables the DWT and ITM); DWT_CTRL at
- * 0xE0001000 with CYCCNTENA bit 0 and NOCYCCNT bit 25 (C1.8.7); DWT_CYCCNT at 0xE0001004
- * (C1.8.8). They belong to the core, not to ST's peripherals, so they live apart from regs.h. */
+ * Architecture Reference Manual (ARM DDI 0403E, C1.6 debug registers, C1.8 DWT): DEMCR at
+ * 0xE000EDFC, TRCENA bit 24 (enables the DWT and ITM); DWT_CTRL at 0xE0001000 with CYCCNTENA
+ * bit 0 and the read-only NOCYCCNT bit 25 (no cycle counter); DWT_CYCCNT at 0xE0001004. The
+ * same values as CMSIS's CoreDebug/DWT definitions and independent drivers. They belong to the
+ * core, not to ST's peripherals (ST's SVD does not describe them), so they live apart from
+ * regs.h. */
 #ifndef CORE_DEBUG_H
 #define CORE_DEBUG_H
 
