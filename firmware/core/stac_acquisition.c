@@ -18,6 +18,12 @@ static veml3328_settings_t sensor_settings(const stac_configure_t *cfg) {
     return s;
 }
 
+static void max_into(uint32_t *max, uint32_t v) {
+    if (v > *max) {
+        *max = v;
+    }
+}
+
 static const char *i2c_reason(int32_t rc) {
     switch (rc) {
     case STAC_I2C_NACK: return "no acknowledge";
@@ -86,11 +92,50 @@ void stac_acquisition_probe(stac_app_t *app) {
     }
 }
 
+/* Decode the finished sample waiting for the model and send its ESTIMATE. */
+static void estimate(stac_app_t *app) {
+    stac_acq_t *acq = &app->acq;
+    if (!acq->decode_pending || stac_store_model(&app->store) == NULL) {
+        acq->decode_pending = false;
+        return;
+    }
+    acq->decode_pending = false;
+    const stac_sample_t *s = &acq->decode_sample;
+    const uint32_t t0 = stac_app_clock(app);
+    const uint32_t c0 = stac_app_cycles(app);
+    stac_model_output_t out;
+    const int ready = stac_model_push(&app->store.model, &app->est, s->led_step, s->counts,
+                                      s->sensor_status, &out);
+    const uint32_t cycles = stac_app_cycles(app) - c0;
+    acq->decodes++;
+    const uint32_t took = stac_app_clock(app) - t0;
+    app->stats.decode_cycles_last = cycles;
+    max_into(&app->stats.decode_cycles_max, cycles);
+    if (ready != 1) {
+        return;
+    }
+    stac_estimate_t e;
+    memset(&e, 0, sizeof e);
+    e.sample_seq = s->sample_seq;
+    e.t_end_us = s->t_end_us;
+    e.config_id = s->config_id;
+    e.model_id = app->store.model_id;
+    e.flags = out.flags;
+    memcpy(e.force, out.force, sizeof e.force);
+    memcpy(e.torque, out.torque, sizeof e.torque);
+    e.region = out.region;
+    e.region_prob = out.region_prob;
+    e.decode_us = (uint16_t)(took > 0xFFFFu ? 0xFFFFu : took);
+    uint8_t payload[STAC_ESTIMATE_SIZE];
+    (void)stac_app_send(app, STAC_MSG_ESTIMATE, payload, stac_estimate_pack(&e, payload));
+}
+
 /* Apply an accepted configuration: only ever between cycles. */
 static void apply_pending(stac_app_t *app) {
     if (!app->has_pending) {
         return;
     }
+    estimate(app); /* the last sample of the old configuration, in the session it belongs to */
     app->cfg = app->pending;
     app->cfg_id = app->latest_id;
     app->has_pending = false;
@@ -114,6 +159,7 @@ void stac_acquisition_start(stac_app_t *app) {
 }
 
 void stac_acquisition_stop(stac_app_t *app) {
+    estimate(app); /* every SAMPLE sent keeps its ESTIMATE, before STOP is answered */
     if (app->acq.state == STAC_ACQ_INTEGRATE && app->acq.pending != 0u) {
         /* The sensors are still integrating: do not retrigger them before they finish. */
         app->acq.busy = true;
@@ -143,6 +189,7 @@ static void begin_cycle(stac_app_t *app) {
 }
 
 static void trigger(stac_app_t *app) {
+    const uint32_t c0 = stac_app_cycles(app);
     const veml3328_settings_t s = sensor_settings(&app->cfg);
     stac_acq_t *acq = &app->acq;
     acq->t_start = stac_app_clock(app);
@@ -163,9 +210,11 @@ static void trigger(stac_app_t *app) {
     acq->poll_at = acq->t_start + it;
     acq->deadline = acq->t_start + it + STAC_STALE_MARGIN_US(it);
     acq->state = STAC_ACQ_INTEGRATE;
+    acq->cycles = stac_app_cycles(app) - c0; /* a new window's account */
 }
 
 static void poll(stac_app_t *app) {
+    const uint32_t c0 = stac_app_cycles(app);
     stac_acq_t *acq = &app->acq;
     for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
         const uint8_t bit = (uint8_t)(1u << k);
@@ -181,36 +230,13 @@ static void poll(stac_app_t *app) {
             acq->done |= bit;
         }
     }
+    acq->cycles += stac_app_cycles(app) - c0;
 }
 
-/* Decode a sample with the model in use; send the ESTIMATE when it completes one. */
-static void estimate(stac_app_t *app, const stac_sample_t *s) {
-    const uint32_t t0 = stac_app_clock(app);
-    stac_model_output_t out;
-    const int ready = stac_model_push(&app->store.model, &app->est, s->led_step, s->counts,
-                                      s->sensor_status, &out);
-    const uint32_t took = stac_app_clock(app) - t0;
-    if (ready != 1) {
-        return;
-    }
-    stac_estimate_t e;
-    memset(&e, 0, sizeof e);
-    e.sample_seq = s->sample_seq;
-    e.t_end_us = s->t_end_us;
-    e.config_id = s->config_id;
-    e.model_id = app->store.model_id;
-    e.flags = out.flags;
-    memcpy(e.force, out.force, sizeof e.force);
-    memcpy(e.torque, out.torque, sizeof e.torque);
-    e.region = out.region;
-    e.region_prob = out.region_prob;
-    e.decode_us = (uint16_t)(took > 0xFFFFu ? 0xFFFFu : took);
-    uint8_t payload[STAC_ESTIMATE_SIZE];
-    (void)stac_app_send(app, STAC_MSG_ESTIMATE, payload, stac_estimate_pack(&e, payload));
-}
-
-/* Read the finished sensors and hand the SAMPLE to the UART, all in this pass. */
+/* Read the finished sensors and hand the SAMPLE to the host link, all in this pass; a model
+ * decodes it later in the pass, once the next integration is running. */
 static void finish(stac_app_t *app) {
+    const uint32_t c0 = stac_app_cycles(app);
     stac_acq_t *acq = &app->acq;
     stac_sample_t s;
     memset(&s, 0, sizeof s);
@@ -257,15 +283,20 @@ static void finish(stac_app_t *app) {
         (void)stac_app_send(app, STAC_MSG_SAMPLE, payload, n);
     }
     if (estimating) {
-        estimate(app, &s);
+        estimate(app); /* never two waiting: a decode missed by a slow pass is done first */
+        acq->decode_sample = s;
+        acq->decode_pending = true;
     }
+    acq->cycles += stac_app_cycles(app) - c0;
+    app->stats.acq_cycles_last = acq->cycles;
+    max_into(&app->stats.acq_cycles_max, acq->cycles);
 
     acq->pending = 0u;
     acq->step = (uint8_t)((acq->step + 1u) % app->cfg.led_step_count);
     acq->state = STAC_ACQ_IDLE;
 }
 
-void stac_acquisition_run(stac_app_t *app) {
+static void advance(stac_app_t *app) {
     stac_acq_t *acq = &app->acq;
     /* At most one full cycle per pass: finish -> next cycle -> trigger. */
     for (uint32_t transitions = 0u; transitions < 4u; transitions++) {
@@ -300,6 +331,17 @@ void stac_acquisition_run(stac_app_t *app) {
             acq->state = STAC_ACQ_IDLE;
             return;
         }
+    }
+}
+
+void stac_acquisition_run(stac_app_t *app) {
+    advance(app);
+    /* Decode only once the next integration has been triggered (or none is coming): the
+     * sensors integrate while the model runs, so a model costs the sample rate nothing as
+     * long as a decode is shorter than an integration. Not during an LED settle, which
+     * would delay the trigger. */
+    if (app->acq.state != STAC_ACQ_SETTLE) {
+        estimate(app);
     }
 }
 

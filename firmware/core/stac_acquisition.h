@@ -2,8 +2,11 @@
  *
  * One cycle per LED step: light the step (waiting led_settle_us only if the light changed),
  * trigger all sensors together in active-force mode, poll until each has cleared TRIG (or a
- * deadline passes), read them and send the SAMPLE in the same pass. The LEDs change only
- * between a read and the next trigger, so no integration straddles an LED change.
+ * deadline passes), read them and send the SAMPLE in the same pass. With a model in use the
+ * sample is decoded after the next integration has been triggered, in the same pass (after the
+ * LED settle when the light changes), so decoding overlaps the sensors' integration instead of
+ * delaying it. The LEDs change only between a read and the next trigger, so no integration
+ * straddles an LED change.
  * With one step nothing changes between cycles, so a 50 ms integration gives ~20 samples/s;
  * with N steps each step is sampled ~20/N times per second (plus settle time per cycle). */
 #ifndef STAC_ACQUISITION_H

@@ -69,6 +69,11 @@ static void send_status(stac_app_t *app) {
     m.rx_frames = app->stats.rx_frames;
     m.rx_errors = app->stats.rx_errors;
     m.command_errors = app->stats.command_errors;
+    m.cycle_hz = app->hal.cycles != NULL ? app->hal.cycle_hz : 0u;
+    m.acq_cycles_last = app->stats.acq_cycles_last;
+    m.acq_cycles_max = app->stats.acq_cycles_max;
+    m.decode_cycles_last = app->stats.decode_cycles_last;
+    m.decode_cycles_max = app->stats.decode_cycles_max;
     uint8_t p[STAC_STATUS_SIZE];
     (void)stac_app_send(app, STAC_MSG_STATUS, p, stac_status_pack(&m, p));
 }
@@ -165,6 +170,7 @@ static void send_model_info(stac_app_t *app) {
         m.weight_format = model->weight_format;
         m.led_steps = model->steps;
         m.n_inputs = model->n_in;
+        m.image_crc = model->crc; /* the image's own trailing CRC: it tells models apart */
     }
     uint8_t p[STAC_MODEL_INFO_SIZE];
     (void)stac_app_send(app, STAC_MSG_MODEL_INFO, p, stac_model_info_pack(&m, p));
@@ -176,6 +182,10 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
                          size_t len) {
     uint16_t err = STAC_OK;
     uint8_t field = NO_FIELD;
+    const struct {
+        uint8_t present;
+        uint32_t model_id, crc, size;
+    } was = {app->store.present, app->store.model_id, app->store.crc, app->store.size};
     switch (h->type) {
     case STAC_MSG_MODEL_BEGIN: {
         stac_model_begin_t m;
@@ -189,6 +199,8 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
         err = stac_model_chunk_validate(&m, &field);
         if (err == STAC_OK) {
             err = stac_store_chunk(&app->store, &app->hal, m.offset, m.data, m.length);
+        } else {
+            stac_store_end_upload(&app->store); /* any refused chunk ends the upload */
         }
         break;
     }
@@ -200,7 +212,12 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
     }
     default: err = stac_store_clear(&app->store, &app->hal); break;
     }
-    if (h->type != STAC_MSG_MODEL_CHUNK) {
+    /* The session starts over whenever the model in use may have changed (a refused command
+     * that changed nothing leaves it running). */
+    const stac_model_store_t *st = &app->store;
+    if (h->type != STAC_MSG_MODEL_CHUNK &&
+        (err == STAC_OK || st->present != was.present || st->model_id != was.model_id ||
+         st->crc != was.crc || st->size != was.size)) {
         stac_state_estimator_reset(app);
     }
     if (err != STAC_OK) {

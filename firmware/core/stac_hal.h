@@ -76,6 +76,16 @@ typedef struct stac_hal {
     const uint8_t *(*store_data)(void *ctx);
     int32_t (*store_erase)(void *ctx, uint32_t offset, uint32_t len);
     int32_t (*store_program)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len);
+
+    /* Optional (NULL when the port has none). watchdog_refresh: restart the port's watchdog
+     * period; the core calls it inside its long loops (the model store's CRC pass over up to
+     * 448 KiB), which would otherwise outlast a short watchdog period.
+     * cycles: a free-running CPU cycle counter (DWT->CYCCNT on the STM32, wrapping at 2^32),
+     * with cycle_hz its rate; the core measures acquisition and decoding with it and reports
+     * 0 Hz ("not measured") without one. */
+    void (*watchdog_refresh)(void *ctx);
+    uint32_t (*cycles)(void *ctx);
+    uint32_t cycle_hz;
 } stac_hal_t;
 
 #ifdef __cplusplus

@@ -96,6 +96,14 @@ static int all_finite(const float *a, uint32_t n) {
 }
 
 uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
+    const uint32_t table_end =
+        STAC_MODEL_HEADER_SIZE + STAC_MODEL_ENTRY_SIZE * (uint32_t)STAC_MODEL_N_SECTIONS;
+    if (image == NULL || size < table_end + STAC_MODEL_CRC_SIZE) return fail(m);
+    return stac_model_open_crc(m, image, size, stac_crc32c(image, size - STAC_MODEL_CRC_SIZE));
+}
+
+uint16_t stac_model_open_crc(stac_model_t *m, const uint8_t *image, uint32_t size,
+                             uint32_t body_crc) {
     memset(m, 0, sizeof *m);
     const uint32_t table_end =
         STAC_MODEL_HEADER_SIZE + STAC_MODEL_ENTRY_SIZE * (uint32_t)STAC_MODEL_N_SECTIONS;
@@ -108,7 +116,7 @@ uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size) {
         rd16(image + STAC_MODEL_OFF_N_SECTIONS) != STAC_MODEL_N_SECTIONS)
         return fail(m);
     const uint32_t crc = rd32(image + size - STAC_MODEL_CRC_SIZE);
-    if (stac_crc32c(image, size - STAC_MODEL_CRC_SIZE) != crc) return fail(m);
+    if (body_crc != crc) return fail(m);
 
     const uint8_t flags = image[STAC_MODEL_OFF_FLAGS];
     m->image = image;

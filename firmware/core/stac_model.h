@@ -103,6 +103,13 @@ typedef struct {
  * or misaligned, or a dimension beyond the limits above. On error `m` is zeroed. */
 uint16_t stac_model_open(stac_model_t *m, const uint8_t *image, uint32_t size);
 
+/* The same, for a caller that has already run the CRC-32C over the image's body (every byte
+ * before its trailing CRC) as part of its own pass (the model store checks the transfer CRC
+ * and the image's own CRC in one pass over flash): `body_crc` is that CRC, compared here with
+ * the image's trailer instead of reading the image once more. */
+uint16_t stac_model_open_crc(stac_model_t *m, const uint8_t *image, uint32_t size,
+                             uint32_t body_crc);
+
 /* Start a new session: context, moving averages and baseline forgotten. */
 void stac_model_reset(const stac_model_t *m, stac_model_state_t *st);
 

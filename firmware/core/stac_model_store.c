@@ -44,28 +44,75 @@ static uint32_t record_at(const stac_hal_t *hal) {
     return stac_store_capacity(hal);
 }
 
-/* The committed upload, if the record and the image it describes check out. */
-static bool open_uploaded(stac_model_store_t *s, const stac_hal_t *hal) {
-    const uint32_t cap = stac_store_capacity(hal);
-    if (cap == 0u) {
-        return false;
+static void refresh_watchdog(const stac_hal_t *hal) {
+    if (hal->watchdog_refresh != NULL) {
+        hal->watchdog_refresh(hal->ctx);
     }
-    const uint8_t *base = hal->store_data(hal->ctx);
-    const uint8_t *rec = base + record_at(hal);
+}
+
+/* CRC-32C of [0, len) continued from `crc`, in blocks with the watchdog refreshed after each:
+ * the store's only pass over an image (14-16 cycles a byte on the M4: a 448 KiB image takes
+ * ~0.08 s, a block ~1.5 ms, against the 0.34 s watchdog period at the LSI's fastest). */
+static uint32_t crc_pass(const stac_hal_t *hal, const uint8_t *p, uint32_t len, uint32_t crc) {
+    for (uint32_t done = 0u; done < len;) {
+        const uint32_t n = len - done < STAC_STORE_CRC_BLOCK ? len - done : STAC_STORE_CRC_BLOCK;
+        crc = stac_crc32c_update(crc, p + done, n);
+        done += n;
+        refresh_watchdog(hal);
+    }
+    return crc;
+}
+
+/* One pass over the `size` bytes at `image`: their CRC-32C must be `crc` (the transfer's,
+ * MODEL_BEGIN's) and the interpreter must accept them, the image's own trailing CRC checked
+ * with the CRC of its body from the same pass. STAC_OK, STAC_MODEL_BAD_CRC or
+ * STAC_MODEL_INVALID; `m` holds the opened image on STAC_OK. */
+static uint16_t check_image(stac_model_t *m, const stac_hal_t *hal, const uint8_t *image,
+                            uint32_t size, uint32_t crc) {
+    const uint32_t body_len = size > STAC_MODEL_CRC_SIZE ? size - STAC_MODEL_CRC_SIZE : 0u;
+    const uint32_t body = crc_pass(hal, image, body_len, 0u);
+    if (stac_crc32c_update(body, image + body_len, size - body_len) != crc) {
+        return STAC_MODEL_BAD_CRC;
+    }
+    const uint16_t rc = body_len > 0u ? stac_model_open_crc(m, image, size, body)
+                                      : stac_model_open(m, image, size);
+    refresh_watchdog(hal);
+    return rc;
+}
+
+typedef struct record {
+    uint32_t model_id, size, crc;
+} record_t;
+
+/* The commit record, if its magic word and its own CRC check. */
+static bool read_record(const stac_hal_t *hal, record_t *r) {
+    const uint8_t *rec = hal->store_data(hal->ctx) + record_at(hal);
     if (get_u32(rec + RECORD_MAGIC_AT) != STAC_STORE_MAGIC ||
         stac_crc32c(rec, 12u) != get_u32(rec + 12u)) {
         return false;
     }
-    const uint32_t size = get_u32(rec + 4u);
-    const uint32_t crc = get_u32(rec + 8u);
-    if (size == 0u || size > cap || stac_crc32c(base, size) != crc ||
-        stac_model_open(&s->model, base, size) != STAC_OK) {
+    r->model_id = get_u32(rec);
+    r->size = get_u32(rec + 4u);
+    r->crc = get_u32(rec + 8u);
+    return true;
+}
+
+static void use_uploaded(stac_model_store_t *s, const record_t *r) {
+    s->present = STAC_STORE_UPLOADED;
+    s->model_id = r->model_id;
+    s->size = r->size;
+    s->crc = r->crc;
+}
+
+/* The committed upload, if the record and the image it describes check out. */
+static bool open_uploaded(stac_model_store_t *s, const stac_hal_t *hal) {
+    const uint32_t cap = stac_store_capacity(hal);
+    record_t r;
+    if (cap == 0u || !read_record(hal, &r) || r.size == 0u || r.size > cap ||
+        check_image(&s->model, hal, hal->store_data(hal->ctx), r.size, r.crc) != STAC_OK) {
         return false;
     }
-    s->present = STAC_STORE_UPLOADED;
-    s->model_id = get_u32(rec);
-    s->size = size;
-    s->crc = crc;
+    use_uploaded(s, &r);
     return true;
 }
 
@@ -110,6 +157,10 @@ static void abort_upload(stac_model_store_t *s) {
     s->staged_len = 0u;
 }
 
+void stac_store_end_upload(stac_model_store_t *s) {
+    abort_upload(s);
+}
+
 /* Clear the record's magic word: whatever the region holds, its model no longer validates. */
 static int32_t kill_record(const stac_hal_t *hal) {
     const uint8_t zero[STAC_FLASH_WORD] = {0u, 0u, 0u, 0u};
@@ -142,19 +193,19 @@ static int32_t erase_for(const stac_hal_t *hal, uint32_t size) {
 
 uint16_t stac_store_begin(stac_model_store_t *s, const stac_hal_t *hal, uint32_t model_id,
                           uint32_t size, uint32_t crc) {
-    abort_upload(s);
+    /* Checked before anything changes: a refused MODEL_BEGIN leaves the model in use, and
+     * any upload in progress, as they were (SPEC section 13). */
     const uint32_t cap = stac_store_capacity(hal);
-    if (cap > 0u) {
-        /* Invalidate at once: the flash record first, then the model in RAM. */
-        const int32_t killed = kill_record(hal);
-        choose_model(s, hal, killed == STAC_FLASH_OK);
-    }
     if (size > cap) {
         return STAC_MODEL_TOO_LARGE;
     }
     if (size == 0u) {
         return STAC_MODEL_INVALID;
     }
+    abort_upload(s);
+    /* Invalidate at once: the flash record first, then the model in RAM. */
+    const int32_t killed = kill_record(hal);
+    choose_model(s, hal, killed == STAC_FLASH_OK);
     if (erase_for(hal, size) != STAC_FLASH_OK) {
         return STAC_FLASH_ERROR;
     }
@@ -169,6 +220,7 @@ uint16_t stac_store_chunk(stac_model_store_t *s, const stac_hal_t *hal, uint32_t
                           const uint8_t *data, uint32_t len) {
     if (!s->receiving || offset != s->received || len == 0u || len > STAC_STORE_MAX_CHUNK ||
         len > s->up_size - s->received) {
+        abort_upload(s); /* SPEC: a refused chunk ends the upload; the host restarts it */
         return STAC_MODEL_BAD_CHUNK;
     }
     uint8_t words[STAC_STORE_MAX_CHUNK + STAC_FLASH_WORD];
@@ -205,10 +257,10 @@ static int32_t write_record(const stac_model_store_t *s, const stac_hal_t *hal) 
 }
 
 uint16_t stac_store_commit(stac_model_store_t *s, const stac_hal_t *hal, uint32_t model_id) {
-    if (!s->receiving || model_id != s->up_id) {
-        return STAC_MODEL_BAD_CHUNK;
+    if (!s->receiving) {
+        return STAC_MODEL_BAD_CHUNK; /* no upload open: nothing received to check */
     }
-    if (s->received != s->up_size) {
+    if (model_id != s->up_id || s->received != s->up_size) {
         abort_upload(s);
         return STAC_MODEL_BAD_CRC;
     }
@@ -222,21 +274,23 @@ uint16_t stac_store_commit(stac_model_store_t *s, const stac_hal_t *hal, uint32_
         }
     }
     abort_upload(s);
-    /* Checked on what the flash holds, not on what was received. */
-    const uint8_t *image = hal->store_data(hal->ctx);
-    if (stac_crc32c(image, s->up_size) != s->up_crc) {
-        return STAC_MODEL_BAD_CRC;
-    }
+    /* Checked on what the flash holds, not on what was received: one pass for both CRCs. */
     stac_model_t probe;
-    if (stac_model_open(&probe, image, s->up_size) != STAC_OK) {
-        return STAC_MODEL_INVALID;
+    const uint16_t rc = check_image(&probe, hal, hal->store_data(hal->ctx), s->up_size, s->up_crc);
+    if (rc != STAC_OK) {
+        return rc;
     }
-    if (write_record(s, hal) != STAC_FLASH_OK) {
+    const record_t want = {s->up_id, s->up_size, s->up_crc};
+    record_t got;
+    if (write_record(s, hal) != STAC_FLASH_OK || !read_record(hal, &got) ||
+        memcmp(&got, &want, sizeof got) != 0) {
         choose_model(s, hal, true);
         return STAC_FLASH_ERROR;
     }
-    choose_model(s, hal, true);
-    return s->present == STAC_STORE_UPLOADED ? STAC_OK : STAC_FLASH_ERROR;
+    /* The image was checked in place a moment ago and the record reads back: in use now. */
+    s->model = probe;
+    use_uploaded(s, &got);
+    return STAC_OK;
 }
 
 uint16_t stac_store_clear(stac_model_store_t *s, const stac_hal_t *hal) {

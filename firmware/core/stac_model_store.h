@@ -29,6 +29,8 @@
 #define STAC_STORE_MAGIC 0x52544D53u /* "SMTR" little-endian: a committed model follows */
 #define STAC_STORE_RECORD_AREA 64u   /* reserved for the record at the region end (MAX_IMAGE_BYTES) */
 #define STAC_STORE_MAX_CHUNK 224u
+/* Bytes the CRC pass covers between two watchdog refreshes (~1.4 ms at 96 MHz). */
+#define STAC_STORE_CRC_BLOCK 8192u
 
 /* MODEL_INFO.present */
 enum {
@@ -66,6 +68,9 @@ uint16_t stac_store_chunk(stac_model_store_t *s, const stac_hal_t *hal, uint32_t
                           const uint8_t *data, uint32_t len);
 uint16_t stac_store_commit(stac_model_store_t *s, const stac_hal_t *hal, uint32_t model_id);
 uint16_t stac_store_clear(stac_model_store_t *s, const stac_hal_t *hal);
+
+/* End the upload in progress, if any (a MODEL_CHUNK refused before it reached the store). */
+void stac_store_end_upload(stac_model_store_t *s);
 
 /* The model in use, or NULL. */
 const stac_model_t *stac_store_model(const stac_model_store_t *s);

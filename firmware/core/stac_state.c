@@ -43,11 +43,16 @@ void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity
     stac_state_estimator_reset(app);
 }
 
+uint32_t stac_app_cycles(const stac_app_t *app) {
+    return app->hal.cycles != NULL ? app->hal.cycles(app->hal.ctx) : 0u;
+}
+
 bool stac_state_estimating(const stac_app_t *app) {
     return (app->cfg.flags & STAC_CONFIG_ESTIMATE) != 0u && stac_store_model(&app->store) != NULL;
 }
 
 void stac_state_estimator_reset(stac_app_t *app) {
+    app->acq.decode_pending = false; /* a waiting sample belongs to the session that ends */
     const stac_model_t *m = stac_store_model(&app->store);
     if (m != NULL) {
         stac_model_reset(m, &app->est);

@@ -48,6 +48,10 @@ typedef struct stac_stats {
     uint32_t rx_frames;
     uint32_t rx_errors;
     uint32_t command_errors;
+    /* CPU cycles (HAL cycle counter; all 0 without one): one sample's acquisition work and
+     * one decode, the last and the largest. */
+    uint32_t acq_cycles_last, acq_cycles_max;
+    uint32_t decode_cycles_last, decode_cycles_max;
 } stac_stats_t;
 
 /* Acquisition state: one cycle = light a step, let it settle, integrate, read, send. */
@@ -69,6 +73,12 @@ typedef struct stac_acq {
     uint32_t poll_at;        /* INTEGRATE: next completion poll */
     uint32_t deadline;       /* INTEGRATE: give up waiting (sensor reported stale) */
     uint16_t last_counts[STAC_SENSORS][STAC_CHANNELS]; /* last good reading per sensor */
+    uint32_t cycles;         /* CPU cycles spent on the window in flight so far */
+    /* The finished sample waiting for the model: decoded after the next integration has been
+     * triggered, so decoding runs while the sensors integrate instead of delaying them. */
+    bool decode_pending;
+    stac_sample_t decode_sample;
+    uint32_t decodes; /* model steps run since boot (never reset: a port may model their time) */
 } stac_acq_t;
 
 typedef struct stac_app {
@@ -122,6 +132,9 @@ void stac_app_log(stac_app_t *app, uint8_t level, const char *text);
 
 /* Fresh clock reading (the HAL's) for timestamps taken within a pass. */
 uint32_t stac_app_clock(const stac_app_t *app);
+
+/* The HAL's cycle counter, or 0 when the port has none. */
+uint32_t stac_app_cycles(const stac_app_t *app);
 
 /* True when the configuration in force asks for estimates and a model is there to make them. */
 bool stac_state_estimating(const stac_app_t *app);

@@ -36,6 +36,7 @@ BREAKS = {
     "ignore_estimate_only": mc.estimates_instead,
     "volatile_model": mc.survives_reset,
     "sticky_model": mc.clear,
+    "begin_erases": mc.refused_begin_keeps_model,
 }
 NAME_OF = {check: name for name, check in CHECKS} | {check: name for name, check, _ in MODEL_CHECKS}
 #: the simulated device decodes on board and takes uploads (protocol 1.1): every check runs

@@ -29,6 +29,15 @@ def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
     info = json.loads(capsys.readouterr().out)
     assert info["board"] == "native-sim" and info["sensors_present"] == [0, 1, 2]
     assert "CAP_SIMULATED" in info["capabilities"]
+    # The simulator has no cycle counter: it says so instead of a number.
+    assert info["cycles"] == {"measured": False, "why": "no cycle counter"}
+
+
+def test_info_says_cycle_counts_are_not_measured(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["info", SIM]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "cycle counts     not measured (the device has no cycle counter)" in out
+    assert "protocol 1.2" in out
 
 
 def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:
@@ -58,3 +67,32 @@ def test_conformance_over_pty(pty_device: Served) -> None:
 def test_conformance_on_a_missing_device_is_an_error_not_a_failed_check() -> None:
     done = spectratac("conformance", "/dev/ttyNOPE")
     assert done.returncode == ExitCode.ERROR and "no device at" in done.stderr
+
+
+def test_info_prints_a_board_s_own_cycle_counts(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A board with a cycle counter (DWT at 96 MHz): its figures in cycles and ms, as a person
+    reads them and in --json. The simulator has no counter, so its STATUS is replaced here by
+    one a board sends."""
+    from spectratac.device import Sensor
+    from spectratac.protocol.generated import messages as m
+
+    board = m.Status(
+        cycle_hz=96_000_000,
+        acq_cycles_last=230_400,
+        acq_cycles_max=288_000,
+        decode_cycles_last=940_800,
+        decode_cycles_max=960_000,
+    )
+    monkeypatch.setattr(Sensor, "status", lambda self: board)
+    assert main(["info", SIM]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert (
+        "acquisition      230,400 cycles a sample (2.400 ms at 96 MHz), max 288,000 (3.000 ms)"
+        in out
+    )
+    assert "decoding         940,800 cycles a decode (9.800 ms), max 960,000 (10.000 ms)" in out
+    assert main(["info", SIM, "--json"]) == ExitCode.OK
+    cycles = json.loads(capsys.readouterr().out)["cycles"]
+    assert cycles["measured"] and cycles["decode"]["last_ms"] == pytest.approx(9.8)

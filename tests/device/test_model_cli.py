@@ -103,3 +103,43 @@ def test_upload_reports_what_int8_weights_cost_on_data(
     assert "i8 weights against f32 on 200 rows" in out and "Fz" in out
     assert main(["model", "upload", url, str(model), "--weights", "f16"]) == ExitCode.OK
     assert "add --data FILE" in capsys.readouterr().err
+
+
+def test_model_info_tells_whether_the_device_runs_a_file(
+    url: str, model_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two models give two image CRCs on the device, each the one of its file's image, so
+    `model info --file` names the file the device runs (and its weight format)."""
+    other = Decoder.untrained(
+        Dataset.generic(
+            np.arange(2.0, 38.0).reshape(3, 12) * 90.0,
+            np.zeros((3, 1)),
+            list(SPECTRATAC_INPUTS),
+            ["Fz"],
+        ),
+        features="paper33",
+    ).save(tmp_path / "other.stac")
+    crcs = {}
+    for path, weights in ((model_file, "f16"), (other, "f32")):
+        assert main(["model", "upload", url, str(path), "--weights", weights]) == ExitCode.OK
+        capsys.readouterr()
+        assert main(["model", "info", url, "--json"]) == ExitCode.OK
+        info = _json(capsys)
+        image = model_image.encode(Decoder.load(path), weights)
+        assert info["image_crc"] == model_image.image_crc(image)
+        crcs[path] = info["image_crc"]
+    assert crcs[model_file] != crcs[other]
+    # The device now runs `other` in f32: the file is named, `model_file` is not.
+    assert main(["model", "info", url, "--file", str(other)]) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert f"image CRC 0x{crcs[other]:08X}" in out
+    assert "this is the device's model (f32 weights)" in out
+    assert main(["model", "info", url, "--file", str(model_file), "--json"]) == ExitCode.FAILURE
+    info = _json(capsys)
+    assert (info["runs_file"], info["file_weights"], info["image_crc"]) == (
+        False,
+        None,
+        crcs[other],
+    )
+    assert main(["model", "info", url, "--file", str(model_file)]) == ExitCode.FAILURE
+    assert "not the device's model" in capsys.readouterr().out

@@ -52,6 +52,7 @@ def test_upload_reports_progress_and_the_device_confirms_the_model(sensor: Senso
         len(MODEL.image),
     )
     assert info.crc == crc32c(MODEL.image) and info.weight_format == "f32" and info.led_steps == 1
+    assert info.image_crc == int.from_bytes(MODEL.image[-4:], "little")  # the image's own CRC
     chunks = -(-len(MODEL.image) // 224)
     assert [n for n, _ in done] == [
         0,
@@ -60,7 +61,15 @@ def test_upload_reports_progress_and_the_device_confirms_the_model(sensor: Senso
     assert sensor.stats.model_upload_retries == 0
     sensor.clear_model()
     assert sensor.model_info() == dataclasses.replace(
-        info, present="none", model_id=0, size=0, crc=0, weight_format="", led_steps=0, n_inputs=0
+        info,
+        present="none",
+        model_id=0,
+        size=0,
+        crc=0,
+        weight_format="",
+        led_steps=0,
+        n_inputs=0,
+        image_crc=None,
     )
 
 

@@ -186,18 +186,23 @@ def test_generated_c_compiles_warning_free(repo: Path, tmp_path: Path) -> None:
 def test_fields_of_a_later_minor_give_each_sender_its_layout(
     repo: Path, tmp_path: Path, codegen: dict[str, ModuleType]
 ) -> None:
-    """A field appended in 1.1 is zero-filled for 1.0 senders only; out-of-order or future
-    `since` values are refused."""
+    """A field appended in the current minor is zero-filled for older senders only;
+    out-of-order or future `since` values are refused."""
     definition = codegen["definition"]
     text = (repo / DEFINITIONS / "messages.toml").read_text(encoding="utf-8")
+    minor = tomllib.loads(text)["protocol"]["minor"]
     log_text = '{ name = "text", type = "char", shape = [64], doc = "ASCII text, NUL-padded." },'
-    appended = log_text + '\n  { name = "source", type = "u16", since = 1, doc = "Origin." },'
-    newer = text.replace("minor = 0", "minor = 1", 1).replace(log_text, appended)
+    source = f'{{ name = "source", type = "u16", since = {minor}, doc = "Origin." }},'
+    newer = text.replace(log_text, log_text + "\n  " + source)
     d = definition.load(_definition_copy(repo, tmp_path / "ok", newer))
     log = next(m for m in d.messages if m.name == "LOG")
     size = messages.Log.PAYLOAD_SIZE
-    assert [log.size_at(0), log.size_at(1), log.payload_size] == [size, size + 2, size + 2]
-    bad = newer.replace("since = 1", "since = 2")
+    assert [log.size_at(minor - 1), log.size_at(minor), log.payload_size] == [
+        size,
+        size + 2,
+        size + 2,
+    ]
+    bad = newer.replace(source, source.replace(f"since = {minor}", f"since = {minor + 1}"))
     with pytest.raises(definition.DefinitionError, match="'since' values must be minor"):
         definition.load(_definition_copy(repo, tmp_path / "bad", bad))
 
@@ -219,7 +224,8 @@ def test_messages_name_the_minor_version_that_added_them(
     assert definition.load(_definition_copy(repo, tmp_path / "a", unversioned)).hash != (
         messages.DEFINITION_HASH
     )
-    future = text.replace(estimate, estimate.replace("since = 1", "since = 2"))
+    minor = tomllib.loads(text)["protocol"]["minor"]
+    future = text.replace(estimate, estimate.replace("since = 1", f"since = {minor + 1}"))
     with pytest.raises(definition.DefinitionError, match="ESTIMATE: 'since' values must be minor"):
         definition.load(_definition_copy(repo, tmp_path / "b", future))
 
@@ -244,6 +250,31 @@ def test_the_1_0_subset_keeps_the_released_1_0_hash(codegen: dict[str, ModuleTyp
             for name, (doc, values) in d.flags.items()
             if name != "estimate_flags"
         },
-        messages=tuple(msg for msg in d.messages if msg.since == 0),
+        messages=tuple(
+            dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since == 0))
+            for msg in d.messages
+            if msg.since == 0
+        ),
     )
     assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[0]
+
+
+def test_the_1_1_subset_keeps_the_released_1_1_hash(codegen: dict[str, ModuleType]) -> None:
+    """The 1.2 fields (STATUS cycle counts, MODEL_INFO.image_crc) removed, the definition
+    hashes as the released 1.1 did: 1.2 only appended fields."""
+    import dataclasses
+
+    from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
+
+    definition = codegen["definition"]
+    d = definition.load(Path(__file__).resolve().parents[2] / DEFINITIONS / "messages.toml")
+    old = dataclasses.replace(
+        d,
+        protocol=d.protocol | {"minor": 1},
+        messages=tuple(
+            dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since <= 1))
+            for msg in d.messages
+            if msg.since <= 1
+        ),
+    )
+    assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[1]

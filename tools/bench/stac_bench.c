@@ -138,8 +138,13 @@ int main(void) {
     /* The pass that ends an integration, vs an idle pass. */
     static bench_board_t board;
     static stac_app_t app;
-    const stac_hal_t hal = {&board, b_i2c, b_pwm, b_write, b_read, b_clock, b_uid,
-                            NULL, NULL, NULL, NULL}; /* no model store */
+    const stac_hal_t hal = {.ctx = &board,
+                            .i2c_transfer = b_i2c,
+                            .pwm_set = b_pwm,
+                            .link_write = b_write,
+                            .link_read = b_read,
+                            .clock_us = b_clock,
+                            .unique_id = b_uid}; /* no model store, watchdog or cycle counter */
     stac_identity_t id;
     memset(&id, 0, sizeof id);
     board.now = 1000u;

@@ -8,6 +8,7 @@ independent reference implementation, and review the diff of protocol/vectors/ l
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -35,11 +36,22 @@ def mono(colour: int, duty: int) -> tuple[tuple[int, int, int], ...]:
 
 V1_0 = (1, 0)  # the vectors written for protocol 1.0 stay 1.0 frames: a 1.1 receiver reads them
 V1_1 = (1, 1)
+V1_2 = (1, 2)
 
 
 def meaning(msg: Message, seq: int, version: tuple[int, int]) -> dict[str, Any]:
-    # the decoded form: float32 fields hold what the wire holds, not the float64 written here
-    return type(msg).unpack(msg.pack()).to_dict() | {"seq": seq, "version": list(version)}
+    # the decoded form: float32 fields hold what the wire holds, not the float64 written here;
+    # only the fields of the vector's own minor version (vectors are frozen once written)
+    width = {"u8": 1, "i8": 1, "char": 1, "bytes": 1, "u16": 2, "i16": 2, "u32": 4, "i32": 4,
+             "f32": 4, "u64": 8}  # fmt: skip
+    room, known = type(msg).required_size(version[1]), set()
+    for f in type(msg).FIELDS:  # fields are appended in version order
+        room -= width[f.type] * f.count
+        if room >= 0:
+            known.add(f.name)
+    decoded = type(msg).unpack(msg.pack()).to_dict()
+    fields = {k: v for k, v in decoded.items() if k == "type" or k in known}
+    return fields | {"seq": seq, "version": list(version)}
 
 
 def valid(
@@ -323,7 +335,7 @@ def build() -> list[dict[str, Any]]:
             "A 1.0 SAMPLE with an empty payload and a good CRC: malformed, not a zero sample.",
         ),
     ]
-    return vectors + build_1_1(info, sample)
+    return vectors + build_1_1(info, sample) + build_1_2(status)
 
 
 def nack(rejected: type[Message], seq: int, error: m.Error, field_index: int = 255) -> m.Nack:
@@ -354,7 +366,7 @@ def build_1_1(info: m.Info, sample: m.Sample) -> list[dict[str, Any]]:
         **{f.name: getattr(info, f.name) for f in m.Info.FIELDS}
         | {
             "protocol_minor": 1,
-            "definition_hash": m.DEFINITION_HASH,
+            "definition_hash": RELEASED_DEFINITION_HASHES[1],
             "capabilities": info.capabilities
             | m.Capabilities.CAP_ESTIMATE
             | m.Capabilities.CAP_MODEL_UPLOAD,
@@ -523,6 +535,45 @@ def build_1_1(info: m.Info, sample: m.Sample) -> list[dict[str, Any]]:
             39,
             "Stream estimates instead of samples.",
             V1_1,
+        ),
+    ]
+
+
+def build_1_2(status: m.Status) -> list[dict[str, Any]]:
+    """1.2 appended fields: STATUS's cycle counts, MODEL_INFO's image_crc."""
+    return [
+        valid(
+            "status_1_2",
+            dataclasses.replace(
+                status,
+                cycle_hz=96_000_000,
+                acq_cycles_last=231_000,
+                acq_cycles_max=245_500,
+                decode_cycles_last=937_000,
+                decode_cycles_max=951_000,
+            ),
+            40,
+            "STATUS of a 1.2 device that measures itself (DWT cycle counter at 96 MHz).",
+            V1_2,
+        ),
+        valid(
+            "model_info_1_2",
+            m.ModelInfo(
+                present=1,
+                model_id=0x5EC7_A7AC,
+                size=426_740,
+                crc=0x4867_4BC7,
+                weight_format=0,
+                led_steps=1,
+                n_inputs=12,
+                capacity=458_688,
+                max_inputs=256,
+                max_hidden=128,
+                image_crc=0x1B2C_3D4E,
+            ),
+            41,
+            "An uploaded float32 model: crc is the transfer's residue, image_crc the image's own.",
+            V1_2,
         ),
     ]
 

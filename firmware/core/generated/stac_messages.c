@@ -545,6 +545,16 @@ size_t stac_status_pack(const stac_status_t *m, uint8_t *out) {
     o += 4u;
     put_u32(out + o, m->command_errors);
     o += 4u;
+    put_u32(out + o, m->cycle_hz);
+    o += 4u;
+    put_u32(out + o, m->acq_cycles_last);
+    o += 4u;
+    put_u32(out + o, m->acq_cycles_max);
+    o += 4u;
+    put_u32(out + o, m->decode_cycles_last);
+    o += 4u;
+    put_u32(out + o, m->decode_cycles_max);
+    o += 4u;
     return o;
 }
 
@@ -591,6 +601,16 @@ void stac_status_unpack(stac_status_t *m, const uint8_t *in, size_t len) {
     m->rx_errors = get_u32(b + o);
     o += 4u;
     m->command_errors = get_u32(b + o);
+    o += 4u;
+    m->cycle_hz = get_u32(b + o);
+    o += 4u;
+    m->acq_cycles_last = get_u32(b + o);
+    o += 4u;
+    m->acq_cycles_max = get_u32(b + o);
+    o += 4u;
+    m->decode_cycles_last = get_u32(b + o);
+    o += 4u;
+    m->decode_cycles_max = get_u32(b + o);
     o += 4u;
     (void)o;
 }
@@ -824,6 +844,8 @@ size_t stac_model_info_pack(const stac_model_info_t *m, uint8_t *out) {
     o += 2u;
     put_u16(out + o, m->max_hidden);
     o += 2u;
+    put_u32(out + o, m->image_crc);
+    o += 4u;
     return o;
 }
 
@@ -855,6 +877,8 @@ void stac_model_info_unpack(stac_model_info_t *m, const uint8_t *in, size_t len)
     o += 2u;
     m->max_hidden = get_u16(b + o);
     o += 2u;
+    m->image_crc = get_u32(b + o);
+    o += 4u;
     (void)o;
 }
 
@@ -964,7 +988,7 @@ int stac_payload_size(uint8_t type) {
 }
 
 int stac_payload_min_size(uint8_t type, uint8_t minor) {
-    (void)minor; /* no message grew: one layout for every sender */
+    const uint8_t v = minor < 2u ? minor : (uint8_t)2u;
     switch (type) {
     case STAC_MSG_GET_INFO: return 0;
     case STAC_MSG_CONFIGURE: return 153;
@@ -983,11 +1007,17 @@ int stac_payload_min_size(uint8_t type, uint8_t minor) {
     case STAC_MSG_ACK: return 5;
     case STAC_MSG_NACK: return 6;
     case STAC_MSG_SAMPLE: return 48;
-    case STAC_MSG_STATUS: return 60;
+    case STAC_MSG_STATUS: {
+        static const int k[] = {60, 60, 80};
+        return k[v];
+    }
     case STAC_MSG_TIME_SYNC_REPLY: return 20;
     case STAC_MSG_LOG: return 69;
     case STAC_MSG_CONFIG: return 155;
-    case STAC_MSG_MODEL_INFO: return 25;
+    case STAC_MSG_MODEL_INFO: {
+        static const int k[] = {25, 25, 29};
+        return k[v];
+    }
     case STAC_MSG_ESTIMATE: return 46;
     default: return -1;
     }

@@ -12,8 +12,8 @@ extern "C" {
 #endif
 
 #define STAC_PROTOCOL_MAJOR 1u
-#define STAC_PROTOCOL_MINOR 1u
-#define STAC_DEFINITION_HASH 0xF8BFB43Eu
+#define STAC_PROTOCOL_MINOR 2u
+#define STAC_DEFINITION_HASH 0xA89272E6u
 #define STAC_MAX_PAYLOAD 240u
 #define STAC_HEADER_SIZE 5u
 #define STAC_CRC_SIZE 4u
@@ -288,7 +288,7 @@ size_t stac_sample_pack(const stac_sample_t *m, uint8_t *out);
 void stac_sample_unpack(stac_sample_t *m, const uint8_t *in, size_t len);
 
 /* STATUS (device to host): Statistics since boot or RESET_STATS. */
-#define STAC_STATUS_SIZE 60u
+#define STAC_STATUS_SIZE 80u
 typedef struct stac_status {
     uint32_t uptime_ms; /* Time since boot (wraps after 49.7 days). [ms] */
     uint32_t device_time_us; /* Device clock when the message was built. [µs] */
@@ -303,6 +303,11 @@ typedef struct stac_status {
     uint32_t rx_frames; /* Good frames received. */
     uint32_t rx_errors; /* Received frames dropped (bad COBS, bad CRC, oversize). */
     uint32_t command_errors; /* Commands answered with NACK. */
+    uint32_t cycle_hz; /* Rate of the CPU cycle counter the fields below count (DWT CYCCNT: the core clock); 0 when the device has none and they are not measured. [Hz] */
+    uint32_t acq_cycles_last; /* CPU cycles the last sample's acquisition took: trigger, completion polls, sensor reads and the SAMPLE frame (0: not measured). [cycles] */
+    uint32_t acq_cycles_max; /* Largest acq_cycles_last since boot or RESET_STATS. [cycles] */
+    uint32_t decode_cycles_last; /* CPU cycles the last on-device decode took (one model step; 0: none yet or not measured). [cycles] */
+    uint32_t decode_cycles_max; /* Largest decode_cycles_last since boot or RESET_STATS. [cycles] */
 } stac_status_t;
 /* Writes exactly STAC_STATUS_SIZE bytes; returns that size. */
 size_t stac_status_pack(const stac_status_t *m, uint8_t *out);
@@ -355,18 +360,19 @@ void stac_config_unpack(stac_config_t *m, const uint8_t *in, size_t len);
 uint16_t stac_config_validate(const stac_config_t *m, uint8_t *field_index);
 
 /* MODEL_INFO (device to host): The decoder the device runs, in answer to GET_MODEL (protocol 1.1). */
-#define STAC_MODEL_INFO_SIZE 25u
+#define STAC_MODEL_INFO_SIZE 29u
 typedef struct stac_model_info {
     uint8_t present; /* 0: no model; 1: uploaded model in flash; 2: built-in model compiled into the firmware. */
     uint32_t model_id; /* Id of the model in use (0 when none). */
     uint32_t size; /* Length of its image. [B] */
-    uint32_t crc; /* CRC-32C of its image. */
+    uint32_t crc; /* CRC-32C of its image as MODEL_BEGIN announced it (a check of the transfer: for every image of the host's format it is the residue 0x48674BC7; image_crc identifies the model). */
     uint8_t weight_format; /* 0 float32, 1 float16, 2 int8 (per-row scales). */
     uint8_t led_steps; /* LED step count the model was trained with. */
     uint16_t n_inputs; /* Assembled inputs per estimate (channels x steps, plus context). */
     uint32_t capacity; /* Size of the model store: the largest image MODEL_BEGIN accepts. [B] */
     uint16_t max_inputs; /* Largest n_inputs this firmware decodes. */
     uint16_t max_hidden; /* Largest hidden width this firmware decodes. */
+    uint32_t image_crc; /* The image's own CRC-32C (its last four bytes: the CRC-32C of every byte before them), which identifies the model and weight format; compare it with a model file's image (0 when none). */
 } stac_model_info_t;
 /* Writes exactly STAC_MODEL_INFO_SIZE bytes; returns that size. */
 size_t stac_model_info_pack(const stac_model_info_t *m, uint8_t *out);

@@ -45,11 +45,51 @@ struct stac_sim {
     uint32_t flash_fail_in; /* operations until the injected fault (0: none) */
     char store_path[STORE_PATH_MAX];
     _Alignas(8) uint8_t store[STAC_SIM_STORE_CAPACITY];
+    /* The modelled decoding time (hal_clock): the clock reads no earlier than busy_until. */
+    uint32_t decodes_seen;
+    uint32_t busy_until;
+    bool busy;
 };
 
+/* The simulated MCU's decoding time. A host runs a decode in microseconds, a Cortex-M4F at
+ * 96 MHz in ~10-15 ms for a paper-size model, and that time is what competes with the
+ * sensors' integration, so the simulated device charges it to its clock: cycles per
+ * multiply-add of the network's linear layers, every other part of a decode included, from
+ * the cycle model of tools/bench/ondevice.py for the paper's ResMLP 128x3 (104,448 MACs:
+ * 937k / 1421k / 1121k cycles a sample for float32 / float16 / int8, firmware/README.md).
+ * A model, not a measurement: the simulated device reports no cycle counter (STATUS
+ * cycle_hz 0), only ESTIMATE.decode_us and the timeline show this time. */
+#define SIM_CPU_HZ 96000000u
+static const uint32_t k_cycles_per_mac_x100[3] = {897u, 1360u, 1073u}; /* f32, f16, i8 */
+
+static uint32_t modelled_decode_us(const stac_model_t *m) {
+    uint64_t macs = 0u;
+    for (uint16_t i = 0u; i < m->n_layers; i++) {
+        macs += (uint64_t)m->layers[i].n_in * m->layers[i].n_out;
+    }
+    const uint32_t per_mac = k_cycles_per_mac_x100[m->weight_format < 3u ? m->weight_format : 0u];
+    return (uint32_t)(macs * per_mac / (SIM_CPU_HZ / 10000u));
+}
+
 static uint32_t hal_clock(void *ctx) {
-    const stac_sim_t *sim = (const stac_sim_t *)ctx;
-    return sim->cb.clock_us != NULL ? sim->cb.clock_us(sim->cb.user) : sim->now;
+    stac_sim_t *sim = (stac_sim_t *)ctx;
+    const uint32_t base = sim->cb.clock_us != NULL ? sim->cb.clock_us(sim->cb.user) : sim->now;
+    /* Each decode since the last reading keeps the modelled CPU busy for its time, from when
+     * it started (the clock cannot see inside it: the reading after it is the first). */
+    const uint32_t decodes = sim->app.acq.decodes;
+    const stac_model_t *m = stac_store_model(&sim->app.store);
+    if (decodes != sim->decodes_seen && m != NULL) {
+        const uint32_t start = sim->busy && stac_before(base, sim->busy_until) ? sim->busy_until
+                                                                              : base;
+        sim->busy_until = start + (decodes - sim->decodes_seen) * modelled_decode_us(m);
+        sim->busy = true;
+    }
+    sim->decodes_seen = decodes;
+    if (sim->busy && stac_before(base, sim->busy_until)) {
+        return sim->busy_until;
+    }
+    sim->busy = false;
+    return base;
 }
 
 /* A 32-bit time within the current step as 64-bit (never before the step's time). */

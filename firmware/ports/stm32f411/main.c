@@ -5,6 +5,7 @@
 
 #include "generated/board.h"
 #include "clock.h"
+#include "core_debug.h"
 #include "flash_store.h"
 #include "gpio.h"
 #include "host_link.h"
@@ -53,6 +54,14 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
 }
 
 #define IWDG_SR_BUSY (IWDG_SR_PVU | IWDG_SR_RVU) /* a prescaler or reload update in progress */
+/* Watchdog periods, prescaler code (LSI / (4 << PR)) and reload (RLR + 1 counts): running,
+ * 32 kHz / 16 x 1001 = ~0.5 s (0.34 s at the LSI's 47 kHz maximum); around a flash erase,
+ * 32 kHz / 64 x 4096 = ~8.2 s (5.6 s at 47 kHz). tests/firmware/test_store_watchdog.py reads
+ * these to bound the model store's longest stretch without a refresh. */
+#define IWDG_RUN_PR 2u
+#define IWDG_RUN_RLR 1000u
+#define IWDG_ERASE_PR 4u
+#define IWDG_ERASE_RLR 4095u
 #define IWDG_UPDATE_WAIT 100000u
 
 /* Set the watchdog period: prescaler code (32 kHz / 4 << pr) and reload (RM0383 17.3). */
@@ -69,7 +78,7 @@ static void watchdog_period(uint32_t pr, uint32_t rlr) {
 }
 
 static void watchdog_start(void) {
-    watchdog_period(2u, 1000u); /* 32 kHz / 16 = 2 kHz, ~0.5 s */
+    watchdog_period(IWDG_RUN_PR, IWDG_RUN_RLR);
     IWDG->KR = IWDG_KR_START;
 }
 
@@ -107,15 +116,26 @@ static const uint8_t *hal_store_data(void *ctx) {
  * (4 s), and is refreshed before each sector; its usual ~0.5 s comes back after. */
 static int32_t hal_store_erase(void *ctx, uint32_t offset, uint32_t len) {
     (void)ctx;
-    watchdog_period(4u, 4095u); /* 32 kHz / 64 = 500 Hz, 4096 counts */
+    watchdog_period(IWDG_ERASE_PR, IWDG_ERASE_RLR);
     const int32_t rc = flash_store_erase(&k_store, offset, len);
-    watchdog_period(2u, 1000u);
+    watchdog_period(IWDG_RUN_PR, IWDG_RUN_RLR);
     return rc;
 }
 
 static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len) {
     (void)ctx;
     return flash_store_program(&k_store, offset, data, len);
+}
+
+/* The model store's CRC pass refreshes the watchdog between blocks (stac_model_store.c). */
+static void hal_watchdog_refresh(void *ctx) {
+    (void)ctx;
+    IWDG->KR = IWDG_KR_RELOAD;
+}
+
+static uint32_t hal_cycles(void *ctx) {
+    (void)ctx;
+    return cycle_counter_read();
 }
 
 int main(void) {
@@ -148,6 +168,10 @@ int main(void) {
         .store_data = hal_store_data,
         .store_erase = hal_store_erase,
         .store_program = hal_store_program,
+        .watchdog_refresh = hal_watchdog_refresh,
+        /* DWT CYCCNT counts core clocks; without one (QEMU) the device reports 0 Hz. */
+        .cycles = cycle_counter_start() ? hal_cycles : 0,
+        .cycle_hz = clk.sys_hz,
     };
     stac_app_init(&g_app, &hal, &id, systick_now_us());
     for (;;) {

@@ -1,19 +1,39 @@
 #include "uart.h"
 
+#include <stdbool.h>
+
 #include "regs.h"
 
 #define TX_SIZE 2048u /* power of two; several full frames */
 #define RX_SIZE 512u  /* power of two; ~5 ms of input at 921600 baud */
 
 static uint8_t g_tx[TX_SIZE];
-static volatile uint32_t g_tx_head, g_tx_tail; /* both written by the main context only */
+static volatile uint32_t g_tx_head; /* written by the main context */
+static volatile uint32_t g_tx_tail; /* written by the interrupt, or by uart_service with it masked */
 static uint8_t g_rx[RX_SIZE];
 static volatile uint32_t g_rx_head; /* written by the interrupt */
 static volatile uint32_t g_rx_tail; /* written by the main context */
 static volatile uint32_t g_rx_lost;
 
+/* Hand the next queued byte to the transmitter; false when the ring is empty. Interrupt
+ * context, or the main context with interrupts masked. */
+static bool tx_next(void) {
+    const uint32_t tail = g_tx_tail;
+    if (tail == g_tx_head) {
+        return false;
+    }
+    USART1->DR = g_tx[tail % TX_SIZE];
+    g_tx_tail = tail + 1u;
+    return true;
+}
+
+/* Transmission runs from the TXE interrupt, so a frame leaves while the superloop is busy
+ * (decoding takes ~10-15 ms, longer than a SAMPLE frame's ~0.6 ms on the wire). */
 void USART1_IRQHandler(void) {
     const uint32_t sr = USART1->SR;
+    if ((sr & USART_SR_TXE) != 0u && (USART1->CR1 & USART_CR1_TXEIE) != 0u && !tx_next()) {
+        USART1->CR1 &= ~USART_CR1_TXEIE; /* empty: uart_write enables it again */
+    }
     if ((sr & (USART_SR_RXNE | USART_SR_ORE)) != 0u) {
         const uint8_t byte = (uint8_t)USART1->DR; /* also clears ORE after the SR read */
         if ((sr & USART_SR_ORE) != 0u) {
@@ -49,7 +69,8 @@ uint32_t uart_write(const uint8_t *data, uint32_t len) {
     for (uint32_t i = 0; i < len; i++) {
         g_tx[(head + i) % TX_SIZE] = data[i];
     }
-    g_tx_head = head + len;
+    g_tx_head = head + len; /* before TXEIE: the interrupt then never sees an empty ring */
+    USART1->CR1 |= USART_CR1_TXEIE;
     uart_service();
     return len;
 }
@@ -66,14 +87,15 @@ uint32_t uart_read(uint8_t *buf, uint32_t cap) {
     return n;
 }
 
+/* Also moves bytes from the main context while the transmitter has room: where no TXE
+ * interrupt comes (QEMU's USART raises none; its transmitter is always empty) this is what
+ * sends. Interrupts are masked meanwhile, so the tail has one writer at a time. */
 void uart_service(void) {
-    uint32_t tail = g_tx_tail;
-    const uint32_t head = g_tx_head;
-    while (tail != head && (USART1->SR & USART_SR_TXE) != 0u) {
-        USART1->DR = g_tx[tail % TX_SIZE];
-        tail++;
+    uint32_t primask;
+    __asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+    while ((USART1->SR & USART_SR_TXE) != 0u && tx_next()) {
     }
-    g_tx_tail = tail;
+    __asm volatile("msr primask, %0" ::"r"(primask) : "memory");
 }
 
 uint32_t uart_rx_lost(void) {

@@ -1,6 +1,7 @@
 /* USART1 host link at 921600 baud (8N1). Received bytes go into a ring from the RX interrupt
  * (an I2C transfer may keep the superloop away for a few ms); frames to send go into a ring
- * drained whenever uart_service() runs (superloop and inside bounded waits). */
+ * that the TXE interrupt drains, so a frame leaves while the superloop decodes; uart_service()
+ * also drains it from the main context (where no TXE interrupt arrives, as under QEMU). */
 #ifndef UART_H
 #define UART_H
 

@@ -43,17 +43,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _info(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
+    from spectratac.device.cycles import CycleFigures
     from spectratac.protocol.generated import messages as m
 
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
         info = sensor.info
         status = sensor.status()
     caps = [c.name for c in m.Capabilities if info.capabilities & c]
+    cycles = CycleFigures.from_status(status, info.protocol_minor)
     row = info.to_dict() | {
         "definition_hash": f"0x{info.definition_hash:08X}",
         "capabilities": caps,
         "sensors_present": [k for k in range(3) if info.sensor_present >> k & 1],
         "uptime_ms": status.uptime_ms,
+        "cycles": cycles.as_dict(),
     }
     if args.json:
         print(json.dumps(row))
@@ -74,6 +77,8 @@ def _info(args: argparse.Namespace) -> int:
         f"baud {info.baud or 'n/a'}"
     )
     print(f"  uptime           {status.uptime_ms / 1000:.1f} s")
+    for line in cycles.describe():
+        print(f"  {line}")
     return ExitCode.OK
 
 

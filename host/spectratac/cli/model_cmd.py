@@ -1,6 +1,7 @@
 """`spectratac model info|upload|clear URL`: the decoder a device runs on board (protocol 1.1).
 
 spectratac model info sim://
+spectratac model info /dev/ttyACM0 --file press.stac   # exit 1 unless the device runs it
 spectratac model upload /dev/ttyACM0 press.stac --weights f16
 spectratac model clear /dev/ttyACM0 --json
 """
@@ -26,6 +27,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
     info = sub.add_parser("info", help="which model the device decodes with, and its limits")
     add_device_url(info)
+    info.add_argument(
+        "-f",
+        "--file",
+        help="decoder file (.stac): say whether the device runs this model (in which weight "
+        "format), by the image CRC the device reports; exit code 1 if it does not",
+    )
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     up = sub.add_parser("upload", help="export a .stac decoder and upload it into flash")
@@ -57,7 +64,11 @@ def _describe(info: Any) -> str:
     return (
         f"{info.present} model 0x{info.model_id:08X}: {info.size} B, {info.weight_format} "
         f"weights, {info.led_steps} LED step(s), {info.n_inputs} inputs, "
-        f"CRC 0x{info.crc:08X}"
+        + (
+            f"image CRC 0x{info.image_crc:08X}"
+            if info.image_crc is not None
+            else "image CRC not reported (firmware older than protocol 1.2)"
+        )
     )
 
 
@@ -72,13 +83,56 @@ def _print_info(url: str, info: Any) -> None:
 def _info(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
 
+    match = _file_images(args.file) if args.file else None
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
         info = sensor.model_info()
+    runs = _runs(info, match) if match is not None else None
     if args.json:
-        print(json.dumps({"url": args.url} | info.as_dict()))
+        extra = {} if match is None else {"file": args.file, "runs_file": runs is not None,
+                                          "file_weights": runs}  # fmt: skip
+        print(json.dumps({"url": args.url} | info.as_dict() | extra))
     else:
         _print_info(args.url, info)
-    return ExitCode.OK
+        if match is not None:
+            print(
+                f"  {args.file}: "
+                + (f"this is the device's model ({runs} weights)" if runs else _differs(info))
+            )
+    return ExitCode.FAILURE if match is not None and runs is None else ExitCode.OK
+
+
+def _file_images(path: str) -> dict[str, tuple[int, int]]:
+    """Weight format -> (image CRC, model_id) of the file's decoder in each format the
+    firmware runs (a format the decoder cannot take is left out)."""
+    from spectratac.decode import Decoder
+    from spectratac.decode.export import model_image
+
+    dec = Decoder.load(path)
+    out = {}
+    for weights in WEIGHTS:
+        try:
+            image = model_image.encode(dec, weights=weights)
+        except model_image.ModelImageError:
+            continue
+        out[weights] = (model_image.image_crc(image), model_image.model_id(image))
+    return out
+
+
+def _runs(info: Any, images: dict[str, tuple[int, int]]) -> str | None:
+    """The weight format in which the device runs the file's model, else None. By image CRC;
+    a device older than protocol 1.2 reports none, so its model_id decides."""
+    if not info.has_model:
+        return None
+    for weights, (crc, model_id) in images.items():
+        if (info.image_crc == crc) if info.image_crc is not None else info.model_id == model_id:
+            return weights
+    return None
+
+
+def _differs(info: Any) -> str:
+    if not info.has_model:
+        return "not on the device (it has no model); upload it with `spectratac model upload`"
+    return "not the device's model; upload it with `spectratac model upload`"
 
 
 def _upload(args: argparse.Namespace) -> int:

@@ -196,18 +196,59 @@ def damaged_model(session: ModelSession) -> Outcome:
     )
 
 
+def _own_crc(image: bytes) -> int:
+    """An image's own CRC-32C: its trailing u32 (SPEC section 13, MODEL_INFO.image_crc)."""
+    return int.from_bytes(image[-4:], "little")
+
+
+def _image_crc_expected(s: Sensor, image: bytes) -> int | None:
+    """What a device must report as image_crc: the image's own CRC from 1.2 on, else None."""
+    return _own_crc(image) if s.info.protocol_minor >= 2 else None
+
+
 def upload_round_trip(session: ModelSession) -> Outcome:
     s, model = session.sensor, session.model
     done: list[int] = []
     info = s.upload_model(model.image, model.model_id, progress=lambda n, _: done.append(n))
-    expected = (model.model_id, len(model.image), crc32c(model.image), "uploaded")
-    got = (info.model_id, info.size, info.crc, info.present)
+    expected = (
+        model.model_id,
+        len(model.image),
+        crc32c(model.image),
+        _image_crc_expected(s, model.image),
+        "uploaded",
+    )
+    got = (info.model_id, info.size, info.crc, info.image_crc, info.present)
     session.uploaded = got == expected
+    image_crc = "none" if info.image_crc is None else f"0x{info.image_crc:08X}"
     return Outcome(
         session.uploaded and done[-1] == len(model.image),
         f"{len(model.image)} B in {len(done) - 1} chunks; MODEL_INFO {info.present} model "
-        f"0x{info.model_id:08X}, {info.size} B, CRC 0x{info.crc:08X} "
+        f"0x{info.model_id:08X}, {info.size} B, CRC 0x{info.crc:08X}, image CRC {image_crc} "
         f"({'as uploaded' if session.uploaded else f'expected {expected}'})",
+    )
+
+
+def refused_begin_keeps_model(session: ModelSession) -> Outcome:
+    """SPEC section 7: a NACKed command changes nothing. With a model installed, a MODEL_BEGIN
+    too large for the store is refused and the installed model stays in use."""
+    s, model = session.sensor, session.model
+    before = s.model_info()
+    if (before.present, before.model_id) != ("uploaded", model.model_id):
+        before = s.upload_model(model.image, model.model_id)
+    oversize = m.ModelBegin(model_id=model.model_id ^ 0x5A5A, size=before.capacity + 1, crc=0)
+    reply = _raw(s, oversize, FLASH_TIMEOUT)
+    after = s.model_info()
+    problems = []  # the refusal itself is "model larger than the store refused"'s to check
+    if after != before:
+        problems.append(
+            f"MODEL_INFO changed: {before.present} model 0x{before.model_id:08X} before, "
+            f"{after.present} model 0x{after.model_id:08X} after"
+        )
+    return Outcome(
+        not problems,
+        "; ".join(problems)
+        or f"MODEL_BEGIN of {oversize.size} B ({_name(reply)}); model 0x{after.model_id:08X} "
+        "still installed",
     )
 
 
@@ -362,6 +403,11 @@ MODEL_CHECKS: list[tuple[str, ModelCheck, m.Capabilities]] = [
     ("model with a bad CRC refused", bad_crc, m.Capabilities.CAP_MODEL_UPLOAD),
     ("damaged model refused", damaged_model, m.Capabilities.CAP_MODEL_UPLOAD),
     ("model upload round trip", upload_round_trip, m.Capabilities.CAP_MODEL_UPLOAD),
+    (
+        "refused MODEL_BEGIN changes nothing",
+        refused_begin_keeps_model,
+        m.Capabilities.CAP_MODEL_UPLOAD,
+    ),
     ("estimates beside samples", estimates_beside, m.Capabilities.CAP_ESTIMATE),
     ("estimates instead of samples", estimates_instead, m.Capabilities.CAP_ESTIMATE),
     ("model survives a reset", survives_reset, m.Capabilities.CAP_MODEL_UPLOAD),

@@ -56,6 +56,9 @@ class ModelInfo:
     capacity: int  # largest image MODEL_BEGIN accepts
     max_inputs: int
     max_hidden: int
+    #: the image's own CRC-32C (its trailing four bytes), which tells models and weight
+    #: formats apart; None without a model or from a device older than protocol 1.2
+    image_crc: int | None = None
 
     @property
     def has_model(self) -> bool:
@@ -81,6 +84,8 @@ class ModelInfo:
             msg.capacity,
             msg.max_inputs,
             msg.max_hidden,
+            # zero-filled by a 1.1 device; a real image CRC of 0 is a 1 in 2^32 chance
+            msg.image_crc if msg.present and msg.image_crc else None,
         )
 
     def as_dict(self) -> dict[str, Any]:

@@ -117,7 +117,8 @@ def encode_frame(
     *,
     validate: bool = True,
 ) -> bytes:
-    """Encode `message` as wire bytes including the trailing 0x00 delimiter.
+    """Encode `message` as wire bytes including the trailing 0x00 delimiter, in the layout of
+    `version`: an older minor version's frame carries only the fields that version knows.
 
     Raises FieldValueError (a ValueError) naming the field when a value is not allowed.
     """
@@ -125,7 +126,8 @@ def encode_frame(
         message.validate()
     if not 0 <= seq <= 0xFFFF:
         raise ValueError(f"seq = {seq} does not fit u16 (0..65535)")
-    raw = HEADER.pack(version[0], version[1], message.TYPE_ID, seq) + message.pack()
+    payload = message.pack()[: type(message).required_size(version[1])]
+    raw = HEADER.pack(version[0], version[1], message.TYPE_ID, seq) + payload
     return bytes(cobs.encode(raw + CRC.pack(crc32c(raw)))) + b"\x00"  # cobs is untyped
 
 

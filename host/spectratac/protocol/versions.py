@@ -20,6 +20,7 @@ from spectratac.protocol.generated import messages as m
 #: Definition hashes of released minor versions older than this library's (protocol 1.x).
 RELEASED_DEFINITION_HASHES: dict[int, int] = {
     0: 0xA731_4832,  # protocol 1.0
+    1: 0xF8BF_B43E,  # protocol 1.1
 }
 
 

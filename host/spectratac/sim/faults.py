@@ -58,6 +58,8 @@ CONFORMANCE_FAULTS = {
     "instead of samples)",
     "volatile_model": "a model uploaded before a reset is gone after it (model survives a reset)",
     "sticky_model": "MODEL_CLEAR is acknowledged but not carried out (model clear)",
+    "begin_erases": "every MODEL_BEGIN erases the installed model first, even one it refuses "
+    "(refused MODEL_BEGIN changes nothing)",
 }
 #: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
 ACCEPTS = {
@@ -68,7 +70,11 @@ ACCEPTS = {
 }
 MODEL_INFO_FAULTS = frozenset({"bad_model_info", "wrong_model_crc", "volatile_model"})
 #: faults that change what the host sends before the device sees it
-HOST_SIDE = frozenset({"late_stop", "ignore_estimate_only", "volatile_model", "sticky_model"})
+HOST_SIDE = frozenset(
+    {"late_stop", "ignore_estimate_only", "volatile_model", "sticky_model", "begin_erases"}
+)
+#: header seq of the MODEL_CLEAR a begin_erases device runs on its own (its ACK is not sent)
+HIDDEN_CLEAR_SEQ = 0xFFFF
 #: link faults: damage on the wire, not a protocol violation
 LINK_FAULTS = {
     "none": "no fault; only count what the device sends",
@@ -267,6 +273,8 @@ class FaultLayer:
             )
         elif isinstance(msg, m.Status) and "no_rx_errors" in f:
             msg = dataclasses.replace(msg, rx_errors=0)
+        elif isinstance(msg, m.Ack) and "begin_erases" in f and msg.acked_seq == HIDDEN_CLEAR_SEQ:
+            return None
         elif isinstance(msg, m.Nack) and any(ACCEPTS[a] == msg.error for a in f & ACCEPTS.keys()):
             msg = m.Ack(acked_type=msg.rejected_type, acked_seq=msg.rejected_seq)
         elif isinstance(msg, m.ModelInfo) and f & MODEL_INFO_FAULTS:
@@ -304,6 +312,9 @@ class FaultLayer:
         msg = frame.message
         if isinstance(msg, m.ModelBegin):
             self._uploading = True
+            if "begin_erases" in self.faults:  # as firmware that invalidates before checking
+                clear = encode_raw(m.ModelClear.TYPE_ID, b"", HIDDEN_CLEAR_SEQ, frame.version)
+                return clear + encoded + b"\x00"
         if isinstance(msg, m.ModelClear) and "sticky_model" in self.faults:
             self._ack(msg.TYPE_ID, frame.seq)
             return b""
@@ -358,7 +369,7 @@ def _model_info_fault(msg: m.ModelInfo, faults: frozenset[str], uploading: bool)
     if "bad_model_info" in faults:
         msg = dataclasses.replace(msg, max_hidden=0)
     if "wrong_model_crc" in faults and msg.present:
-        msg = dataclasses.replace(msg, crc=msg.crc ^ 1)
+        msg = dataclasses.replace(msg, crc=msg.crc ^ 1, image_crc=msg.image_crc ^ 1)
     if "volatile_model" in faults and not uploading:
         msg = m.ModelInfo(
             capacity=msg.capacity, max_inputs=msg.max_inputs, max_hidden=msg.max_hidden

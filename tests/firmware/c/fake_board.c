@@ -132,9 +132,21 @@ static uint32_t fake_write(void *ctx, const uint8_t *data, uint32_t len) {
     if (b->tx_frames < 1024u) {
         b->tx_pass[b->tx_frames] = b->pass;
         b->tx_done_pass[b->tx_frames] = b->done_pass;
+        b->tx_triggers[b->tx_frames] = b->s[0].triggers;
     }
     b->tx_frames++;
     return len;
+}
+
+static void fake_watchdog(void *ctx) {
+    ((fake_board_t *)ctx)->watchdog_refreshes++;
+}
+
+/* A cycle counter that runs FAKE_CYCLES_PER_READ cycles between two reads. */
+static uint32_t fake_cycles(void *ctx) {
+    fake_board_t *b = (fake_board_t *)ctx;
+    b->cycle_count += FAKE_CYCLES_PER_READ;
+    return b->cycle_count;
 }
 
 static uint32_t fake_read(void *ctx, uint8_t *buf, uint32_t cap) {
@@ -258,6 +270,9 @@ void fake_init(fake_board_t *b) {
     b->hal.store_data = fake_store_data;
     b->hal.store_erase = fake_store_erase;
     b->hal.store_program = fake_store_program;
+    b->hal.watchdog_refresh = fake_watchdog;
+    b->hal.cycles = fake_cycles;
+    b->hal.cycle_hz = FAKE_CYCLE_HZ;
     memset(b->flash, 0xFF, sizeof b->flash);
 }
 

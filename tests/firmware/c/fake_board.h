@@ -55,6 +55,9 @@ typedef struct fake_window {
 #define FAKE_FLASH_SECTORS 4u
 extern const uint32_t fake_flash_sector_start[FAKE_FLASH_SECTORS + 1u]; /* byte offsets */
 
+#define FAKE_CYCLE_HZ 96000000u
+#define FAKE_CYCLES_PER_READ 1000u
+
 #define FAKE_MAX_PWM 4096
 #define FAKE_MAX_WINDOWS 4096
 #define FAKE_TX_CAP 65536
@@ -77,6 +80,9 @@ typedef struct fake_board {
     uint32_t done_pass;         /* pass in which the firmware last saw a measurement finish */
     uint32_t tx_pass[1024];     /* per captured frame: the pass that sent it */
     uint32_t tx_done_pass[1024];/* per captured frame: done_pass at that moment */
+    uint32_t tx_triggers[1024]; /* per captured frame: sensor 0's triggers so far */
+    uint32_t watchdog_refreshes; /* HAL watchdog_refresh calls */
+    uint32_t cycle_count;        /* the fake cycle counter (FAKE_CYCLES_PER_READ per read) */
     uint8_t rx[FAKE_RX_CAP];
     size_t rx_len, rx_pos;
     _Alignas(8) uint8_t flash[FAKE_FLASH_SIZE];

@@ -42,7 +42,7 @@ TEST(cmd_get_info) {
     stac_info_t m;
     stac_info_unpack(&m, g_frames[0].payload, g_frames[0].len);
     CHECK_EQ(m.protocol_major, 1);
-    CHECK_EQ(m.protocol_minor, 1);
+    CHECK_EQ(m.protocol_minor, STAC_PROTOCOL_MINOR);
     CHECK_EQ(m.definition_hash, STAC_DEFINITION_HASH);
     CHECK(strcmp(m.board, "fake-board") == 0);
     CHECK(strcmp(m.build_id, "test") == 0);

@@ -255,12 +255,58 @@ TEST(store_begin_invalidates_at_once) {
     CHECK_EQ(model_info().present, STAC_STORE_NONE);
     reboot();
     CHECK_EQ(model_info().present, STAC_STORE_NONE);
-    /* Even a refused MODEL_BEGIN ends the old model. */
+}
+
+/* SPEC: a NACKed command changes nothing. A MODEL_BEGIN refused for its size leaves the
+ * installed model in use (and in flash, across a reboot) and an upload in progress open. */
+TEST(store_refused_begin_changes_nothing) {
+    boot();
     CHECK_EQ(upload(test_model_image, test_model_image_size, 5u, 224u), STAC_OK);
+    const uint32_t erases = g_b.flash_erases, programs = g_b.flash_programs;
     CHECK_EQ(begin(6u, IMAGE_CAP + 1u, 0u), STAC_MODEL_TOO_LARGE);
-    CHECK_EQ(model_info().present, STAC_STORE_NONE);
+    CHECK_EQ(begin(6u, 0xFFFFFFFFu, 0u), STAC_MODEL_TOO_LARGE);
+    CHECK_EQ(begin(6u, 0u, 0u), STAC_MODEL_INVALID);
+    CHECK_EQ(g_b.flash_erases, erases);
+    CHECK_EQ(g_b.flash_programs, programs);
+    stac_model_info_t m = model_info();
+    CHECK_EQ(m.present, STAC_STORE_UPLOADED);
+    CHECK_EQ(m.model_id, 5u);
     reboot();
-    CHECK_EQ(model_info().present, STAC_STORE_NONE);
+    m = model_info();
+    CHECK_EQ(m.present, STAC_STORE_UPLOADED);
+    CHECK_EQ(m.model_id, 5u);
+    /* An upload in progress survives a refused MODEL_BEGIN too. */
+    const uint8_t *img = test_model_image;
+    const uint32_t n = test_model_image_size;
+    CHECK_EQ(begin(7u, n, stac_crc32c(img, n)), STAC_OK);
+    CHECK_EQ(chunk(0u, img, 100u), STAC_OK);
+    CHECK_EQ(begin(8u, IMAGE_CAP + 1u, 0u), STAC_MODEL_TOO_LARGE);
+    for (uint32_t off = 100u; off < n; off += 224u) {
+        CHECK_EQ(chunk(off, img + off, n - off < 224u ? n - off : 224u), STAC_OK);
+    }
+    CHECK_EQ(commit(7u), STAC_OK);
+    CHECK_EQ(model_info().model_id, 7u);
+}
+
+/* Every refused chunk ends the upload (SPEC section 13): the right chunk after it is refused
+ * too, until a new MODEL_BEGIN. */
+static uint16_t refused_then_next(uint32_t bad_off, const uint8_t *bad, uint32_t bad_len,
+                                  uint32_t good_off, uint32_t good_len) {
+    const uint16_t err = chunk(bad_off, bad, bad_len);
+    if (err != STAC_MODEL_BAD_CHUNK) {
+        return err;
+    }
+    return chunk(good_off, test_model_image + good_off, good_len);
+}
+
+/* A fresh upload of the fixture with its first `bytes` bytes already sent. */
+static uint16_t restart(uint32_t bytes) {
+    const uint32_t n = test_model_image_size;
+    uint16_t err = begin(3u, n, stac_crc32c(test_model_image, n));
+    for (uint32_t off = 0u; err == STAC_OK && off < bytes; off += 200u) {
+        err = chunk(off, test_model_image + off, bytes - off < 200u ? bytes - off : 200u);
+    }
+    return err;
 }
 
 TEST(store_chunks_out_of_order_duplicate_or_past_the_end) {
@@ -268,35 +314,42 @@ TEST(store_chunks_out_of_order_duplicate_or_past_the_end) {
     const uint8_t *img = test_model_image;
     const uint32_t n = test_model_image_size;
     CHECK_EQ(chunk(0u, img, 16u), STAC_MODEL_BAD_CHUNK); /* no MODEL_BEGIN */
-    CHECK_EQ(begin(3u, n, stac_crc32c(img, n)), STAC_OK);
-    CHECK_EQ(chunk(16u, img + 16u, 16u), STAC_MODEL_BAD_CHUNK); /* gap */
-    CHECK_EQ(chunk(0u, img, 16u), STAC_OK);
-    CHECK_EQ(chunk(0u, img, 16u), STAC_MODEL_BAD_CHUNK);  /* duplicate */
-    CHECK_EQ(chunk(8u, img + 8u, 16u), STAC_MODEL_BAD_CHUNK); /* overlaps */
+    CHECK_EQ(restart(0u), STAC_OK);
+    CHECK_EQ(refused_then_next(16u, img + 16u, 16u, 0u, 16u), STAC_MODEL_BAD_CHUNK); /* gap */
+    CHECK_EQ(restart(16u), STAC_OK);
+    CHECK_EQ(refused_then_next(0u, img, 16u, 16u, 16u), STAC_MODEL_BAD_CHUNK); /* duplicate */
+    CHECK_EQ(restart(16u), STAC_OK);
+    CHECK_EQ(refused_then_next(8u, img + 8u, 16u, 16u, 16u), STAC_MODEL_BAD_CHUNK); /* overlap */
     uint8_t field = 0u;
     stac_model_chunk_t m;
     memset(&m, 0, sizeof m);
     m.offset = 16u;
     m.length = 0u;
     uint8_t p[STAC_MODEL_CHUNK_SIZE];
+    CHECK_EQ(restart(16u), STAC_OK);
     CHECK_EQ(command(STAC_MSG_MODEL_CHUNK, p, stac_model_chunk_pack(&m, p), &field),
              STAC_MODEL_BAD_CHUNK);
     CHECK_EQ(field, 1); /* length */
+    CHECK_EQ(chunk(16u, img + 16u, 16u), STAC_MODEL_BAD_CHUNK);
+    CHECK_EQ(restart(16u), STAC_OK);
     m.length = 225u;
     CHECK_EQ(command(STAC_MSG_MODEL_CHUNK, p, stac_model_chunk_pack(&m, p), &field),
              STAC_MODEL_BAD_CHUNK);
     CHECK_EQ(field, 1);
-    /* The refused chunks changed nothing: the upload goes on from byte 16. */
-    for (uint32_t off = 16u; off < n - 10u; off += 200u) {
-        const uint32_t len = n - 10u - off < 200u ? n - 10u - off : 200u;
-        CHECK_EQ(chunk(off, img + off, len), STAC_OK);
-    }
+    CHECK_EQ(chunk(16u, img + 16u, 16u), STAC_MODEL_BAD_CHUNK);
+    /* Past the size: refused, and the upload is over even for the right last chunk. */
+    CHECK_EQ(restart(n - 10u), STAC_OK);
     uint8_t tail[11] = {0u};
     memcpy(tail, img + n - 10u, 10u);
-    CHECK_EQ(chunk(n - 10u, tail, 11u), STAC_MODEL_BAD_CHUNK); /* past the size */
+    CHECK_EQ(refused_then_next(n - 10u, tail, 11u, n - 10u, 10u), STAC_MODEL_BAD_CHUNK);
+    CHECK_EQ(commit(3u), STAC_MODEL_BAD_CHUNK); /* no upload left to commit */
+    CHECK_EQ(model_info().present, STAC_STORE_NONE);
+    /* Restarted and sent in order, it commits. */
+    CHECK_EQ(restart(n - 10u), STAC_OK);
     CHECK_EQ(chunk(n - 10u, img + n - 10u, 10u), STAC_OK);
-    CHECK_EQ(chunk(n, img, 1u), STAC_MODEL_BAD_CHUNK);
-    CHECK_EQ(commit(3u), STAC_OK);
+    CHECK_EQ(chunk(n, img, 1u), STAC_MODEL_BAD_CHUNK); /* past the end ends it too */
+    CHECK_EQ(commit(3u), STAC_MODEL_BAD_CHUNK);
+    CHECK_EQ(upload(img, n, 3u, 224u), STAC_OK);
     CHECK_EQ(model_info().present, STAC_STORE_UPLOADED);
 }
 
@@ -308,9 +361,15 @@ TEST(store_commit_refusals_leave_no_model) {
     /* Short of the announced size. */
     CHECK_EQ(begin(1u, n, stac_crc32c(img, n)), STAC_OK);
     CHECK_EQ(chunk(0u, img, 200u), STAC_OK);
-    CHECK_EQ(commit(2u), STAC_MODEL_BAD_CHUNK); /* another model_id: the upload stays */
     CHECK_EQ(commit(1u), STAC_MODEL_BAD_CRC);
     CHECK_EQ(commit(1u), STAC_MODEL_BAD_CHUNK); /* the refused commit ended the upload */
+    /* Another model_id than MODEL_BEGIN's: MODEL_BAD_CRC (SPEC), and the upload is over. */
+    CHECK_EQ(begin(1u, n, stac_crc32c(img, n)), STAC_OK);
+    for (uint32_t off = 0u; off < n; off += 224u) {
+        CHECK_EQ(chunk(off, img + off, n - off < 224u ? n - off : 224u), STAC_OK);
+    }
+    CHECK_EQ(commit(2u), STAC_MODEL_BAD_CRC);
+    CHECK_EQ(commit(1u), STAC_MODEL_BAD_CHUNK);
     CHECK_EQ(model_info().present, STAC_STORE_NONE);
     /* MODEL_BEGIN announced another CRC. */
     CHECK_EQ(begin(1u, n, stac_crc32c(img, n) ^ 1u), STAC_OK);
@@ -556,6 +615,141 @@ TEST(store_estimates_restart_with_sample_seq_after_start) {
     CHECK_EQ(e.sample_seq, 0);
 }
 
+static uint32_t trailer_crc(const uint8_t *image, uint32_t size) {
+    const uint8_t *p = image + size - 4u;
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+
+/* MODEL_INFO.image_crc is the image's own CRC, so two models give two values the host can
+ * compare with its file; crc stays the transfer check, the same residue for both. */
+TEST(store_model_info_reports_the_image_crc) {
+    make_other_image();
+    const uint32_t n = test_model_image_size;
+    boot();
+    CHECK_EQ(model_info().image_crc, 0u);
+    CHECK_EQ(upload(test_model_image, n, 1u, 224u), STAC_OK);
+    const stac_model_info_t a = model_info();
+    CHECK_EQ(upload(g_other, n, 2u, 224u), STAC_OK);
+    const stac_model_info_t b = model_info();
+    CHECK_EQ(a.image_crc, trailer_crc(test_model_image, n));
+    CHECK_EQ(b.image_crc, trailer_crc(g_other, n));
+    CHECK(a.image_crc != b.image_crc);
+    CHECK_EQ(a.image_crc, stac_crc32c(test_model_image, n - 4u));
+    CHECK_EQ(a.crc, b.crc); /* CRC-32C of an image with its own CRC: always the residue */
+    reboot();
+    CHECK_EQ(model_info().image_crc, b.image_crc);
+}
+
+/* A synthetic image of `size` bytes whose own trailing CRC checks (no model: the header is
+ * not STMI), in the fake flash as if uploaded; MODEL_BEGIN's crc is its whole CRC. */
+static uint32_t fill_crc_image(uint32_t size) {
+    for (uint32_t i = 0u; i + 4u < size; i++) {
+        g_b.flash[i] = (uint8_t)(i * 7u);
+    }
+    const uint32_t body = stac_crc32c(g_b.flash, size - 4u);
+    for (uint32_t i = 0u; i < 4u; i++) {
+        g_b.flash[size - 4u + i] = (uint8_t)(body >> (8u * i));
+    }
+    return stac_crc32c(g_b.flash, size);
+}
+
+/* MODEL_COMMIT and boot make one CRC pass over the image, refreshing the watchdog after every
+ * STAC_STORE_CRC_BLOCK bytes of it (and once after the interpreter's checks): the longest
+ * stretch without a refresh is one block, whatever the image size. */
+TEST(store_commit_and_boot_refresh_the_watchdog_once_per_block) {
+    const uint32_t size = IMAGE_CAP - 100u; /* several blocks, not a whole number of them */
+    const uint32_t blocks = (size - 4u + STAC_STORE_CRC_BLOCK - 1u) / STAC_STORE_CRC_BLOCK;
+    CHECK(blocks >= 3u);
+    boot();
+    CHECK_EQ(begin(9u, size, 0u), STAC_OK);
+    const uint32_t crc = fill_crc_image(size);
+    /* Take the bytes as received: feed the upload state what a full transfer leaves. */
+    g_app.store.up_crc = crc;
+    g_app.store.received = size;
+    uint32_t before = g_b.watchdog_refreshes;
+    CHECK_EQ(commit(9u), STAC_MODEL_INVALID); /* CRC good, no STMI model: the pass ran whole */
+    CHECK_EQ(g_b.watchdog_refreshes - before, blocks + 1u);
+    /* A real model: one pass again (the interpreter reuses its CRC), and at boot the same. */
+    const uint32_t n = test_model_image_size;
+    const uint32_t model_blocks = (n - 4u + STAC_STORE_CRC_BLOCK - 1u) / STAC_STORE_CRC_BLOCK;
+    before = g_b.watchdog_refreshes;
+    CHECK_EQ(upload(test_model_image, n, 10u, 224u), STAC_OK);
+    CHECK_EQ(g_b.watchdog_refreshes - before, model_blocks + 1u);
+    before = g_b.watchdog_refreshes;
+    reboot();
+    CHECK_EQ(g_b.watchdog_refreshes - before, model_blocks + 1u);
+    CHECK_EQ(model_info().model_id, 10u);
+}
+
+/* The decode of sample k runs after the integration of sample k + 1 was triggered: the
+ * ESTIMATE goes out with one more trigger behind it than its SAMPLE, so decoding overlaps the
+ * sensors' integration instead of delaying the next one. */
+TEST(store_decode_runs_after_the_next_trigger) {
+    boot();
+    CHECK_EQ(upload(test_model_image, test_model_image_size, 0x77u, 224u), STAC_OK);
+    const int n = stream(STAC_CONFIG_ESTIMATE, 1000000u);
+    int checked = 0;
+    for (int i = 0; i < n && i < 1024; i++) {
+        if (g_frames[i].h.type != STAC_MSG_ESTIMATE) {
+            continue;
+        }
+        CHECK(i > 0 && g_frames[i - 1].h.type == STAC_MSG_SAMPLE);
+        CHECK_EQ(g_b.tx_triggers[i], g_b.tx_triggers[i - 1] + 1u);
+        CHECK_EQ(g_b.tx_pass[i], g_b.tx_pass[i - 1]); /* still in the pass of its SAMPLE */
+        checked++;
+    }
+    CHECK(checked > 10);
+    /* STOP: the last SAMPLE's ESTIMATE is still sent, before the STOP's ACK. */
+    fake_clear_tx(&g_b);
+    fake_send(&g_b, STAC_MSG_STOP, ++g_seq, NULL, 0u);
+    const int m = pass();
+    CHECK(m >= 1);
+    CHECK_EQ(g_frames[m - 1].h.type, STAC_MSG_ACK);
+}
+
+/* STATUS reports the HAL's cycle counter: its rate and the last and largest acquisition
+ * (per sample) and decode; RESET_STATS clears them. */
+TEST(store_status_reports_cycle_counts) {
+    boot();
+    CHECK_EQ(upload(test_model_image, test_model_image_size, 0x78u, 224u), STAC_OK);
+    CHECK(stream(STAC_CONFIG_ESTIMATE, 300000u) > 4);
+    fake_clear_tx(&g_b);
+    h_send_empty(&g_b, STAC_MSG_GET_STATUS, ++g_seq);
+    int n = pass();
+    const fake_frame_t *f = fake_last(g_frames, n, STAC_MSG_STATUS);
+    CHECK(f != NULL);
+    stac_status_t s;
+    stac_status_unpack(&s, f->payload, f->len);
+    CHECK_EQ(s.cycle_hz, FAKE_CYCLE_HZ);
+    /* Each span reads the counter twice or more: whole multiples of the fake's step. */
+    CHECK(s.acq_cycles_last >= FAKE_CYCLES_PER_READ);
+    CHECK(s.acq_cycles_max >= s.acq_cycles_last);
+    CHECK_EQ(s.decode_cycles_last, FAKE_CYCLES_PER_READ);
+    CHECK_EQ(s.decode_cycles_max, FAKE_CYCLES_PER_READ);
+    CHECK_EQ(command(STAC_MSG_RESET_STATS, NULL, 0u, NULL), STAC_OK);
+    CHECK_EQ(command(STAC_MSG_STOP, NULL, 0u, NULL), STAC_OK);
+    fake_clear_tx(&g_b);
+    h_send_empty(&g_b, STAC_MSG_GET_STATUS, ++g_seq);
+    n = pass();
+    f = fake_last(g_frames, n, STAC_MSG_STATUS);
+    CHECK(f != NULL);
+    stac_status_unpack(&s, f->payload, f->len);
+    CHECK_EQ(s.decode_cycles_max, 0u);
+    /* Without a cycle counter the device says so: 0 Hz, nothing measured. */
+    boot();
+    g_b.hal.cycles = NULL;
+    fake_boot(&g_b, &g_app);
+    fake_clear_tx(&g_b);
+    h_send_empty(&g_b, STAC_MSG_GET_STATUS, ++g_seq);
+    n = pass();
+    f = fake_last(g_frames, n, STAC_MSG_STATUS);
+    CHECK(f != NULL);
+    stac_status_unpack(&s, f->payload, f->len);
+    CHECK_EQ(s.cycle_hz, 0u);
+    CHECK_EQ(s.acq_cycles_last, 0u);
+}
+
 const test_case_t g_store_tests[] = {
     {"store_fixture_fits", store_fixture_fits},
     {"store_empty_reports_capacity_and_limits", store_empty_reports_capacity_and_limits},
@@ -567,6 +761,12 @@ const test_case_t g_store_tests[] = {
     {"store_begin_erases_only_the_sectors_the_image_needs",
      store_begin_erases_only_the_sectors_the_image_needs},
     {"store_begin_invalidates_at_once", store_begin_invalidates_at_once},
+    {"store_refused_begin_changes_nothing", store_refused_begin_changes_nothing},
+    {"store_model_info_reports_the_image_crc", store_model_info_reports_the_image_crc},
+    {"store_commit_and_boot_refresh_the_watchdog_once_per_block",
+     store_commit_and_boot_refresh_the_watchdog_once_per_block},
+    {"store_decode_runs_after_the_next_trigger", store_decode_runs_after_the_next_trigger},
+    {"store_status_reports_cycle_counts", store_status_reports_cycle_counts},
     {"store_chunks_out_of_order_duplicate_or_past_the_end",
      store_chunks_out_of_order_duplicate_or_past_the_end},
     {"store_commit_refusals_leave_no_model", store_commit_refusals_leave_no_model},

@@ -90,9 +90,11 @@ int main(void) {
         const size_t cn = canonical(h.type, payload, plen, canon);
         print_hex(canon, cn);
         fputs(" ", stdout);
+        /* Re-encoded in the frame's own minor version: that version's layout, no newer field. */
+        const size_t layout = (size_t)stac_payload_min_size(h.type, h.minor);
         uint8_t out[STAC_MAX_FRAME];
-        const size_t on =
-            stac_frame_encode_version(h.major, h.minor, h.type, h.seq, canon, cn, out, sizeof out);
+        const size_t on = stac_frame_encode_version(h.major, h.minor, h.type, h.seq, canon,
+                                                    cn < layout ? cn : layout, out, sizeof out);
         print_hex(out, on);
         fputs("\n", stdout);
     }

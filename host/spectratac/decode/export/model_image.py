@@ -370,6 +370,14 @@ def model_id(image: bytes) -> int:
     return int(_parse_header(image)["model_id"])
 
 
+def image_crc(image: bytes) -> int:
+    """The image's own CRC-32C (its trailing u32: the CRC-32C of every byte before it), which
+    a device reports as MODEL_INFO.image_crc: it tells models and weight formats apart,
+    where the CRC-32C of a whole image is always the same residue."""
+    (crc,) = CRC.unpack_from(image, len(image) - CRC.size)
+    return int(crc)
+
+
 def describe(image: bytes) -> dict[str, Any]:
     """What the image holds: format, sizes, dimensions, weight format, section sizes."""
     f = _parse_header(image)
