@@ -47,7 +47,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_output(p, required=True, help="the .mcap file to write")
     until = p.add_mutually_exclusive_group()
-    add_duration(until, None, "stop after S seconds")
+    add_duration(
+        until,
+        None,
+        "stop after S seconds of the sensor's clock (sim://…&speed=10 records them in S/10 "
+        "wall seconds)",
+    )
     add_count(until, None, "stop after N optical samples")
     add_renamed(until, "--samples", "count", "--count", type=int)
     p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
@@ -163,8 +168,9 @@ def _record(args: argparse.Namespace) -> int:
         s = summary
         print(
             f"recorded {s.path}: {s.samples} samples ({s.lost} lost, {s.crc_errors} CRC "
-            f"errors), {s.ft_samples} F/T samples ({s.ft_lost} lost), {s.labels} labels, "
-            f"{s.duration_s:.1f} s, {s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
+            f"errors), {s.ft_samples} F/T samples ({ft_loss_note(s.ft_lost, s.ft_simulated_loss)}"
+            f"), {s.labels} labels, {s.sensor_s:.1f} s of sensor time in {s.duration_s:.1f} s, "
+            f"{s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
         )
         if s.error:
             print(f"the session ended early: {s.error}", file=sys.stderr)
@@ -178,7 +184,7 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
     total = options.samples if by_samples else options.duration_s
     bar = tqdm(
         total=total,
-        unit="samples" if by_samples or total is None else "s",
+        unit="samples" if by_samples or total is None else "sensor s",
         desc="recording",
         file=sys.stderr,
         dynamic_ncols=True,
@@ -186,7 +192,7 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
     )
 
     def update(status: Any) -> None:
-        bar.n = status.samples if by_samples or total is None else round(status.elapsed_s, 1)
+        bar.n = status.samples if by_samples or total is None else round(status.sensor_s, 1)
         bar.set_postfix_str(
             f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, lost {status.lost}"
             f"+{status.ft_lost} F/T, CRC {status.crc_errors}, {status.file_bytes / 1e6:.1f} MB",
@@ -194,3 +200,15 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
         )
 
     return update, bar
+
+
+def ft_loss_note(lost: int, simulated_loss: float | None) -> str:
+    """How a summary names the F/T samples lost: a simulated sensor's are its deliberate
+    ft_loss (a sim URL parameter), not a fault of the link.
+
+    >>> ft_loss_note(3, None), ft_loss_note(3, 0.001)
+    ('3 lost', '3 lost on purpose: simulated ft_loss=0.001')
+    """
+    if simulated_loss is None:
+        return f"{lost} lost"
+    return f"{lost} lost on purpose: simulated ft_loss={simulated_loss:g}"
