@@ -331,6 +331,31 @@ def test_info_command(tour: Dataset, tmp_path: Path) -> None:
     assert bad.returncode == 3 and "cannot read" in bad.stderr
 
 
+def test_info_spans_the_sensors_clock(tour: Dataset, tmp_path: Path) -> None:
+    """The tour was recorded at speed=10: 500 samples at 50 ms are 25 s of data, though the
+    host saw them in 2.5 s (issue 24: `dataset info` said 60 s for 12,000 samples)."""
+    path = tour.save(tmp_path / "tour.npz")
+    period = float(np.median(np.diff(tour.device_time_us))) / 1e6
+    assert abs(period - 0.05) < 1e-6
+    info = json.loads(spectratac("dataset", "info", str(path), "--json").stdout)
+    assert abs(info["duration_s"] / (tour.n * 0.05) - 1) < 0.01, info["duration_s"]
+    text = spectratac("dataset", "info", str(path)).stdout
+    assert f"span {info['duration_s']:.1f} s of sensor time" in text
+
+
+def test_presses_are_counted_once_for_every_verb() -> None:
+    """Presses whose rows were all lost leave gaps in the ids: 3 presses here, not 6 (the
+    demo said max id + 1, `dataset info` the distinct ids); both now ask the dataset."""
+    from spectratac.apps import calibration_demo
+    from spectratac.cli.dataset_cmd import summary
+
+    press = np.array([-1, 0, 0, -1, 2, 2, -1, 5, -1])
+    ds = Dataset.generic(np.zeros((9, 1)), np.zeros((9, 1)), ["a"], ["Fz"], press=press)
+    assert ds.press_count() == 3 and summary(ds)["presses"] == 3
+    source = Path(calibration_demo.__file__).read_text(encoding="utf-8")
+    assert "press_count()" in source and "press.max" not in source
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     steps=st.lists(st.integers(0, (1 << 31) - 1), min_size=1, max_size=50),

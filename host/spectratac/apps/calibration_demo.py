@@ -126,7 +126,7 @@ def _build(opts: DemoOptions, say: Say) -> Any:
     (dataset,) = build_datasets([opts.out / "session.mcap"])
     dataset.save(opts.out / "data.npz")
     valid = float(dataset.target_valid.mean()) * 100
-    presses = int(dataset.press.max(initial=-1)) + 1
+    presses = dataset.press_count()  # the same count as `dataset info`
     say(f"      {dataset.n} samples, {valid:.1f} % with F/T targets, {presses} presses")
     return dataset
 

@@ -143,9 +143,9 @@ def summary(ds: Any) -> dict[str, Any]:
         "session_sources": [s.get("path") or s.get("source") for s in meta.get("sessions", [])],
         "target_valid": float(valid.mean()) if ds.n else 0.0,
         "in_contact": float(ds.in_contact.mean()) if ds.n else 0.0,
-        "presses": len(np.unique(ds.press[ds.press >= 0])),
+        "presses": ds.press_count(),
         "regions": {int(r): int(c) for r, c in zip(regions, counts, strict=True)},
-        "duration_s": float(ds.t_end.max() - ds.t_start.min()) if ds.n else 0.0,
+        "duration_s": ds.span_s() if ds.n else 0.0,  # the sensor's clock
         "target_min": dict(zip(ds.target_names, np.min(t, axis=0).tolist(), strict=True))
         if len(t)
         else {},
@@ -184,7 +184,8 @@ def _info(args: argparse.Namespace) -> int:
         say(f"  configuration    {cfg}")
     say(
         f"  targets          {s['target_valid'] * 100:.1f} % valid; in contact "
-        f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; span {s['duration_s']:.1f} s"
+        f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; "
+        f"span {s['duration_s']:.1f} s of sensor time"
     )
     if s["target_min"]:
         ranges = ", ".join(
