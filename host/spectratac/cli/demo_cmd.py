@@ -9,6 +9,7 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -124,10 +125,31 @@ def _demo(args: argparse.Namespace) -> int:
         "wall_s": round(time.monotonic() - t0, 2),
         "stats": stats,
     }
-    print(
-        json.dumps(summary)
-        if args.json
-        else f"{got}/{expected} samples in {summary['wall_s']} s; link: {stats}"
-    )
+    print(json.dumps(summary) if args.json else live_summary(summary))
     ok = got >= expected and stats["crc_errors"] == 0 and stats["sample_gaps"] == 0
     return ExitCode.OK if ok else ExitCode.FAILURE
+
+
+def live_summary(summary: dict[str, Any]) -> str:
+    """`demo --live`'s last lines for a person (--json prints `summary` itself): samples
+    against the expected count, and the link's health with only its non-zero counters named.
+
+    >>> print(live_summary({"samples": 200, "expected": 200, "wall_s": 10.1,
+    ...     "stats": {"frames_received": 205, "samples_received": 200, "crc_errors": 0,
+    ...               "sample_gaps": 0, "logs": 2}}))  # fmt: skip
+    200 of 200 samples in 10.1 s: complete
+    link: 205 frames received, 200 samples received, 2 logs; no CRC errors, no sample gaps
+    """
+    stats = summary["stats"]
+    seen = [f"{v} {k.replace('_', ' ')}" for k, v in stats.items() if v]
+    health = [f"no {name}" for key, name in _HEALTH.items() if key in stats and not stats[key]]
+    got, expected = summary["samples"], summary["expected"]
+    verdict = "complete" if got >= expected else f"{expected - got} missing"
+    return (
+        f"{got} of {expected} samples in {summary['wall_s']} s: {verdict}\n"
+        f"link: {', '.join(seen) or 'nothing received'}; {', '.join(health)}"
+    )
+
+
+#: The counters whose zero the live demo's verdict rests on, as a person names them.
+_HEALTH = {"crc_errors": "CRC errors", "sample_gaps": "sample gaps"}
