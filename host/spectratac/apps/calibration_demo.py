@@ -52,6 +52,13 @@ class DemoOptions:
     floor: Floor | None = None
     progress: bool = True
     timings: dict[str, float] = field(default_factory=dict)
+    # estimated seconds per stage ("record", "dataset", "train + evaluate"), said as each starts
+    estimates: dict[str, float] = field(default_factory=dict)
+
+    def about(self, stage: str) -> str:
+        """' (estimated 40 s)' for a stage with an estimate, else ''."""
+        seconds = self.estimates.get(stage)
+        return "" if seconds is None else f" (estimated {_seconds_text(seconds)})"
 
     @property
     def url(self) -> str:
@@ -89,16 +96,16 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
 
     path = opts.out / "session.mcap"
     say(
-        f"[1/4] recording {opts.scene_s:g} s of the calibration protocol at {opts.speed:g}x: "
-        f"simulated sensor (real firmware core on the twin) + simulated Bota F/T at "
-        f"{opts.ft_rate} Hz\n      {opts.url}"
+        f"[1/4] recording {opts.scene_s:g} s of the calibration protocol at {opts.speed:g}x"
+        f"{opts.about('record')}: simulated sensor (real firmware core on the twin) + "
+        f"simulated Bota F/T at {opts.ft_rate} Hz\n      {opts.url}"
     )
     bar = _bar(opts, total=opts.scene_s, unit="scene s", desc="recording")
     done = 0.0
 
     def progress(status: Any) -> None:
         nonlocal done
-        scene_now = min(status.elapsed_s * opts.speed, opts.scene_s)
+        scene_now = min(status.sensor_s, opts.scene_s)
         if bar is not None:
             bar.update(scene_now - done)
             bar.set_postfix_str(
@@ -126,7 +133,10 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
 def _build(opts: DemoOptions, say: Say) -> Any:
     from spectratac.dataset.build import build_datasets
 
-    say("[2/4] building the dataset: clocks aligned, F/T averaged over each integration window")
+    say(
+        f"[2/4] building the dataset{opts.about('dataset')}: clocks aligned, F/T averaged "
+        "over each integration window"
+    )
     (dataset,) = build_datasets([opts.out / "session.mcap"])
     dataset.save(opts.out / "data.npz")
     valid = float(dataset.target_valid.mean()) * 100
@@ -167,7 +177,8 @@ def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, 
     }
     for i, (name, spec) in enumerate(specs.items()):
         label = "the paper's recipe" if name == "paper" else "our best decoder"
-        say(f"[3/4] training {label} under the random and the blocked split ({i + 1}/2)")
+        about = opts.about("train + evaluate") if i == 0 else ""
+        say(f"[3/4] training {label} under the random and the blocked split ({i + 1}/2){about}")
         res = fit_and_evaluate(
             dataset,
             spec,
@@ -251,6 +262,11 @@ TWIN_INVERSE_NOTE = (
     "LEDs and environment but no press history (creep, hysteresis): a physics reference, not "
     "a floor; decoders with temporal context beat it"
 )
+
+
+def _seconds_text(seconds: float) -> str:
+    s = max(round(seconds), 0)
+    return f"{s} s" if s < 60 else f"{s // 60} min {s % 60} s"
 
 
 def _bar(opts: DemoOptions, total: float, unit: str, desc: str) -> Any:

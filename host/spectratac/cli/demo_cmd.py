@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -46,9 +47,22 @@ def _dispatch(args: argparse.Namespace) -> int:
         args.duration = args.duration or 10.0
         return _demo(args)
     from spectratac.apps.calibration_demo import DemoOptions, run_demo
+    from spectratac.cli.eta import announce
+    from spectratac.studies.cost_model import demo_estimate
     from spectratac.studies.oracle_floor import OracleFloor
 
     refuse_overwrite(args.output, args.force)
+    if not args.json:
+        print("estimating how long the demo takes on this machine…", file=sys.stderr, flush=True)
+    estimate = demo_estimate(
+        args.duration or 600.0,
+        float(args.speed or 15.0),
+        args.epochs,
+        args.oracle_samples,
+        seed=0 if args.seed is None else args.seed,
+    )
+    if not args.json:
+        announce("the demo", estimate)
     opts = DemoOptions(
         out=args.output,
         scene_s=args.duration or 600.0,
@@ -57,15 +71,18 @@ def _dispatch(args: argparse.Namespace) -> int:
         epochs=args.epochs,
         floor=OracleFloor(args.oracle_samples) if args.oracle_samples > 0 else None,
         progress=not (args.no_progress or args.json),
+        estimates=dict(estimate.parts_s),
     )
     summary = run_demo(opts, say=(lambda _: None) if args.json else print)
+    summary["estimate"] = estimate.as_dict()
     if args.json:
         print(json.dumps(summary))
     else:
         t = summary["timings_s"]
         print(
             f"done in {t['total_s']:.0f} s (record {t['record_s']:.0f} s, dataset "
-            f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s)"
+            f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s; "
+            f"estimated {estimate.total_s:.0f} s)"
         )
         print(
             f"watch the model you just trained live (force vs reference F/T, regions, Snake):\n"
