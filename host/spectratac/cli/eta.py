@@ -5,8 +5,8 @@ Estimates come from spectratac.studies.cost_model (rates measured now, on this m
 person reads the line on stderr before any work; --json carries the same figures under
 "estimate" and never a progress line on stdout.
 
->>> duration_text(42.4), duration_text(200), duration_text(4000)
-('42 s', '3 min 20 s', '1 h 7 min')
+>>> duration_text(0.2), duration_text(42.4), duration_text(200), duration_text(4000)
+('under 1 s', '42 s', '3 min 20 s', '1 h 7 min')
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from typing import Any, TextIO
 
 def duration_text(seconds: float) -> str:
     """Seconds as a person says them: 42 s, 3 min 20 s, 1 h 7 min."""
-    s = max(round(seconds), 0)
+    if seconds < 0.5:
+        return "under 1 s"
+    s = round(seconds)
     if s < 60:
         return f"{s} s"
     if s < 3600:
@@ -30,10 +32,13 @@ def duration_text(seconds: float) -> str:
 def estimate_line(what: str, estimate: Any) -> str:
     """One line: the total, then each part, then how it was measured."""
     parts = ", ".join(f"{k} {duration_text(v)}" for k, v in estimate.parts_s.items())
-    return (
-        f"{what}: estimated {duration_text(estimate.total_s)} ({parts}); from rates measured "
-        f"on this machine just now in {estimate.calibration_s:.1f} s"
-    )
+    if estimate.calibration_s > 0:
+        basis = f"; from rates measured on this machine just now, in {estimate.calibration_s:.1f} s"
+    elif estimate.rates:
+        basis = "; at " + ", ".join(f"{v:g} {k}" for k, v in estimate.rates.items())
+    else:
+        basis = ""
+    return f"{what}: estimated {duration_text(estimate.total_s)} ({parts}){basis}"
 
 
 def announce(what: str, estimate: Any, out: TextIO | None = None) -> None:

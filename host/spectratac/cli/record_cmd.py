@@ -133,12 +133,22 @@ def _record(args: argparse.Namespace) -> int:
             out=sys.stderr,
         )
 
-    def note(_link: Any, ft_url: str | None) -> None:
+    estimate: dict[str, Any] = {}
+
+    def note(link: Any, ft_url: str | None) -> None:
+        from spectratac.cli.eta import announce
+        from spectratac.studies.cost_model import recording_estimate
+
         if ft_url is None and not args.json:
             print(
                 "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
                 file=sys.stderr,
             )
+        found = recording_estimate(options.duration_s, link.clock_scale)
+        if found is not None:
+            estimate.update(found.as_dict())
+            if not args.json:
+                announce(f"recording {options.duration_s:g} s of sensor time", found)
 
     progress, bar = (None, None) if args.no_progress or guided else _progress_bar(options)
     # SIGINT/SIGTERM ask the recorder to stop: it finishes the file, then the CLI returns.
@@ -163,7 +173,7 @@ def _record(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     if args.json:
-        print(json.dumps(summary.as_dict()))
+        print(json.dumps(summary.as_dict() | ({"estimate": estimate} if estimate else {})))
     else:
         s = summary
         print(
@@ -177,12 +187,30 @@ def _record(args: argparse.Namespace) -> int:
     return ExitCode.ERROR if summary.stopped_by == "error" else ExitCode.OK
 
 
-def _progress_bar(options: Any) -> tuple[Any, Any]:
-    from tqdm import tqdm
+class _LazyBar:
+    """A tqdm bar made on first use: it appears once the device is open (after the estimate
+    line), and closing one never made is a no-op."""
 
+    def __init__(self, **kwargs: Any) -> None:
+        self.kwargs = kwargs
+        self.bar: Any = None
+
+    def get(self) -> Any:
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(**self.kwargs)
+        return self.bar
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _progress_bar(options: Any) -> tuple[Any, Any]:
     by_samples = options.samples is not None
     total = options.samples if by_samples else options.duration_s
-    bar = tqdm(
+    bar = _LazyBar(
         total=total,
         unit="samples" if by_samples or total is None else "sensor s",
         desc="recording",
@@ -192,8 +220,9 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
     )
 
     def update(status: Any) -> None:
-        bar.n = status.samples if by_samples or total is None else round(status.sensor_s, 1)
-        bar.set_postfix_str(
+        shown = bar.get()
+        shown.n = status.samples if by_samples or total is None else round(status.sensor_s, 1)
+        shown.set_postfix_str(
             f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, lost {status.lost}"
             f"+{status.ft_lost} F/T, CRC {status.crc_errors}, {status.file_bytes / 1e6:.1f} MB",
             refresh=True,

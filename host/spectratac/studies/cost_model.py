@@ -88,8 +88,9 @@ def twin_probe(seed: int = 0, scene_s: float = PROBE_SCENE_S) -> TwinProbe:
     return TwinProbe(session, scene, from_twin_session(session, scene), seconds / scene_s)
 
 
-def build_rate(probe: TwinProbe) -> float:
-    """Seconds per sample of building a dataset from a recording of the probe session."""
+def build_rate(probe: TwinProbe, per: str = "sample") -> float:
+    """Seconds per sample (or per byte of recording, `per="byte"`) of building a dataset
+    from a recording of the probe session."""
     from spectratac.dataset.build import build_datasets
     from spectratac.sim.synthetic_recording import write_twin_recording
 
@@ -98,7 +99,8 @@ def build_rate(probe: TwinProbe) -> float:
             Path(folder) / "probe.mcap", probe.session, probe.scene, "calibration"
         )
         _, seconds = _timed(build_datasets, [path])
-    return seconds / max(len(probe.session), 1)
+        units = Path(path).stat().st_size if per == "byte" else len(probe.session)
+    return seconds / max(units, 1)
 
 
 @dataclass(frozen=True)
@@ -244,6 +246,24 @@ def evaluation_estimate(decoder: Any, dataset: Dataset, models: int, oracle_rows
         {"predict s/row": per_row, "oracle s/row": per_oracle},
         time.perf_counter() - t0,
     )
+
+
+def build_estimate(paths: list[Path]) -> Estimate:
+    """`spectratac dataset build`: the recordings' bytes times the build rate per byte of a
+    probe recording (a twin session written as the recorder writes one)."""
+    t0 = time.perf_counter()
+    per_byte = build_rate(twin_probe(scene_s=60.0), per="byte")
+    size = sum(p.stat().st_size for p in paths if p.exists())
+    return Estimate({"build": per_byte * size}, {"s/MB": per_byte * 1e6}, time.perf_counter() - t0)
+
+
+def recording_estimate(duration_s: float | None, clock_scale: float | None) -> Estimate | None:
+    """`spectratac record --duration S`: S seconds of the sensor's clock take S / scale wall
+    seconds (the link's own pace: 1 for hardware, speed for a paced simulation); None when
+    the length is not known up front (a count, a guided protocol, Ctrl-C, speed=max)."""
+    if duration_s is None or not clock_scale:
+        return None
+    return Estimate({"record": duration_s / clock_scale}, {"sensor s per s": clock_scale}, 0.0)
 
 
 def _twin_data(dataset: Dataset) -> bool:
