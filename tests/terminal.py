@@ -12,7 +12,7 @@ import pyte
 ETA = re.compile(r"\[\d\d:\d\d<\d\d:\d\d")
 
 
-def screen(text: str, columns: int = 160, lines: int = 60) -> list[str]:
+def screen(text: str, columns: int = 400, lines: int = 1000) -> list[str]:
     """The terminal's lines after `text` was written to it (trailing blanks stripped)."""
     scr = pyte.Screen(columns, lines)
     stream = pyte.Stream(scr)

@@ -35,7 +35,7 @@ from spectratac.dataset.schema import Dataset
 #: Simulated seconds of the probe scene: long enough for every region, short enough to be
 #: a small fraction of any verb it estimates.
 PROBE_SCENE_S = 240.0
-PROBE_ORACLE_ROWS = 12
+PROBE_ORACLE_ROWS = 6
 
 
 @dataclass(frozen=True)
