@@ -204,6 +204,8 @@ def test_duration_is_sensor_time_at_speed_10(tmp_path: Path) -> None:
     assert run.returncode == 0, run.stderr
     assert "lost on purpose: simulated ft_loss=0.001" in run.stdout
     assert "s of sensor time" in run.stdout
+    # said before the work: 3 s of sensor time at the link's pace (speed=10)
+    assert run.stderr.startswith("recording 3 s of sensor time: estimated under 1 s")
     rec = read_recording(out)
     samples = recorded_samples(rec.frames, rec.frame_host_times)
     span = (int(samples["t_end_us"].max()) - int(samples["t_start_us"].min())) / 1e6
@@ -213,3 +215,4 @@ def test_duration_is_sensor_time_at_speed_10(tmp_path: Path) -> None:
     )
     summary = json.loads(json_run.stdout)
     assert 3.0 <= summary["sensor_s"] < 4.0 and summary["ft_simulated_loss"] == 0.001
+    assert summary["estimate"]["parts_s"]["record"] == 0.3
