@@ -117,6 +117,7 @@ def test_installed_codec_is_accelerated() -> None:
     assert accel.missing_extensions() == []
 
 
+@pytest.mark.subprocess
 def test_the_set_up_check_runs_without_warnings() -> None:
     """The Makefile's set-up step checks the C extensions and prints nothing else on stderr
     (issue 24: runpy warned that the module was already in sys.modules)."""

@@ -5,8 +5,8 @@ Estimates come from spectratac.studies.cost_model (rates measured now, on this m
 person reads the line on stderr before any work; --json carries the same figures under
 "estimate" and never a progress line on stdout.
 
->>> duration_text(0.2), duration_text(42.4), duration_text(200), duration_text(4000)
-('under 1 s', '42 s', '3 min 20 s', '1 h 7 min')
+>>> [duration_text(s) for s in (0.2, 42.4, 200, 4000, 10780)]
+['under 1 s', '42 s', '3 min 20 s', '1 h 7 min', '3 h']
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ def duration_text(seconds: float) -> str:
         return f"{s} s"
     if s < 3600:
         return f"{s // 60} min {s % 60} s" if s % 60 else f"{s // 60} min"
-    return f"{s // 3600} h {round(s % 3600 / 60)} min"
+    hours, minutes = divmod(round(s / 60), 60)
+    return f"{hours} h {minutes} min" if minutes else f"{hours} h"
 
 
 def estimate_line(what: str, estimate: Any) -> str:
