@@ -210,7 +210,7 @@ def test_an_ft_dropout_leaves_nan_targets_never_interpolated(
 def test_lost_ft_samples_invalidate_exactly_the_windows_with_gaps(tmp_path: Path) -> None:
     path = tmp_path / "lossy.mcap"
     record_url(
-        "sim://?scene=tour&seed=2&speed=10&ft=bota&ft_loss=0.2", path, RecordOptions(duration_s=1.5)
+        "sim://?scene=tour&seed=2&speed=10&ft=bota&ft_loss=0.2", path, RecordOptions(duration_s=15)
     )
     rec = read_recording(path)
     [ds] = session_datasets(rec)
@@ -304,7 +304,7 @@ def test_a_guided_session_labels_from_the_prompts(tmp_path: Path) -> None:
     record_url(
         "sim://?scene=tour&seed=1&speed=10&ft=bota",
         path,
-        RecordOptions(duration_s=10),
+        RecordOptions(duration_s=100),  # a bound: the guided protocol ends first
         guided=guided,
     )
     [ds] = build_datasets([path])
