@@ -130,7 +130,7 @@ def test_timeout_reaches_the_ft_sensor(tmp_path: Path) -> None:
 def test_sigint_stops_cleanly(tmp_path: Path) -> None:
     out = tmp_path / "int.mcap"
     proc = subprocess.Popen(
-        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120"),
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "1200"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -151,7 +151,7 @@ def test_sigint_stops_cleanly(tmp_path: Path) -> None:
 def test_sigkill_keeps_the_flushed_prefix(tmp_path: Path) -> None:
     out = tmp_path / "killed.mcap"
     proc = subprocess.Popen(
-        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120", "--no-progress"),
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "1200", "--no-progress"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
