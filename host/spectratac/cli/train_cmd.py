@@ -220,6 +220,7 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
     """How long this training will take: the --budget for the auto recipe (the search keeps
     to it, the final refit included); a recipe's rates probed on the dataset's first rows;
     None for a fine-tune (its epochs stop early on held-out presses)."""
+    from spectratac.errors import SpectraTacError
     from spectratac.studies.cost_model import Estimate, training_estimate
 
     if auto:
@@ -227,7 +228,11 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
     if spec is None or spec.model == "ridge":
         return None
     fits = 1 if (args.holdout or args.holdout_sessions or spec.val_fraction > 0) else 2
-    return training_estimate(ds, spec, fits=fits)
+    try:
+        return training_estimate(ds, spec, fits=fits)
+    except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
+        print(f"note: no time estimate ({exc})", file=sys.stderr)
+        return None
 
 
 def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:

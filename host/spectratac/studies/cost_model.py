@@ -121,7 +121,11 @@ class TrainingCost:
         rows (contiguous, so temporal context works as in the real run)."""
         from spectratac.train import train
 
-        one = dataclasses.replace(spec, epochs=1)
+        # no validation split: 64 probe rows hold too few groups to hold one out, and an
+        # epoch's validation pass is a small share of it
+        one = dataclasses.replace(
+            spec, epochs=1, val_fraction=0.0, best_val=False, uncertainty=False
+        )
         train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
         small = np.arange(min(64, dataset.n))
         rows = np.arange(min(batches * int(getattr(spec, "batch_size", 256)), dataset.n))
