@@ -122,12 +122,19 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
     s = summary.as_dict()
     say(
         f"      {s['samples']} samples ({s['lost']} lost), {s['ft_samples']} F/T samples "
-        f"({s['ft_lost']} lost), {s['labels']} labels -> {path} ({s['file_bytes'] / 1e6:.1f} MB)"
+        f"({s['ft_lost']} lost{_on_purpose(s['ft_simulated_loss'])}), {s['labels']} labels -> "
+        f"{path} ({s['file_bytes'] / 1e6:.1f} MB)"
     )
     return {
         k: s[k]
-        for k in ("path", "samples", "lost", "ft_samples", "ft_lost", "labels", "stopped_by")
+        for k in ("path", "samples", "lost", "ft_samples", "ft_lost", "ft_simulated_loss",
+                  "labels", "stopped_by")  # fmt: skip
     }
+
+
+def _on_purpose(simulated_loss: float | None) -> str:
+    """The simulated F/T drops samples on purpose (its ft_loss): say so beside the count."""
+    return "" if simulated_loss is None else f" on purpose: simulated ft_loss={simulated_loss:g}"
 
 
 def _build(opts: DemoOptions, say: Say) -> Any:
