@@ -127,8 +127,16 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
     )
     return {
         k: s[k]
-        for k in ("path", "samples", "lost", "ft_samples", "ft_lost", "ft_simulated_loss",
-                  "labels", "stopped_by")  # fmt: skip
+        for k in (
+            "path",
+            "samples",
+            "lost",
+            "ft_samples",
+            "ft_lost",
+            "ft_simulated_loss",
+            "labels",
+            "stopped_by",
+        )
     }
 
 
