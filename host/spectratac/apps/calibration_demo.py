@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from spectratac.apps.durations import duration_text
 from spectratac.evaluate.paper import paper_mae
 from spectratac.evaluate.run import Floor
 from spectratac.hardware.generated import vocabulary as vocab
@@ -58,7 +59,7 @@ class DemoOptions:
     def about(self, stage: str) -> str:
         """' (estimated 40 s)' for a stage with an estimate, else ''."""
         seconds = self.estimates.get(stage)
-        return "" if seconds is None else f" (estimated {_seconds_text(seconds)})"
+        return "" if seconds is None else f" (estimated {duration_text(seconds)})"
 
     @property
     def url(self) -> str:
@@ -277,11 +278,6 @@ TWIN_INVERSE_NOTE = (
     "LEDs and environment but no press history (creep, hysteresis): a physics reference, not "
     "a floor; decoders with temporal context beat it"
 )
-
-
-def _seconds_text(seconds: float) -> str:
-    s = max(round(seconds), 0)
-    return f"{s} s" if s < 60 else f"{s // 60} min {s % 60} s"
 
 
 def _bar(opts: DemoOptions, total: float, unit: str, desc: str) -> Any:

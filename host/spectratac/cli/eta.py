@@ -5,8 +5,7 @@ Estimates come from spectratac.studies.cost_model (rates measured now, on this m
 person reads the line on stderr before any work; --json carries the same figures under
 "estimate" and never a progress line on stdout.
 
->>> [duration_text(s) for s in (0.2, 42.4, 200, 4000, 10780)]
-['under 1 s', '42 s', '3 min 20 s', '1 h 7 min', '3 h']
+Durations read as a person says them (spectratac.apps.durations).
 """
 
 from __future__ import annotations
@@ -16,18 +15,7 @@ import threading
 import time
 from typing import Any, TextIO
 
-
-def duration_text(seconds: float) -> str:
-    """Seconds as a person says them: 42 s, 3 min 20 s, 1 h 7 min."""
-    if seconds < 0.5:
-        return "under 1 s"
-    s = round(seconds)
-    if s < 60:
-        return f"{s} s"
-    if s < 3600:
-        return f"{s // 60} min {s % 60} s" if s % 60 else f"{s // 60} min"
-    hours, minutes = divmod(round(s / 60), 60)
-    return f"{hours} h {minutes} min" if minutes else f"{hours} h"
+from spectratac.apps.durations import duration_text
 
 
 def estimate_line(what: str, estimate: Any) -> str:
