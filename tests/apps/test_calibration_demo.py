@@ -65,6 +65,7 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
     stages = [s for s in run.stdout.splitlines() if s.startswith(("[1/4]", "[2/4]", "[3/4]"))]
     assert all("(estimated " in s for s in stages[:3]), stages
     assert "estimated" in run.stdout.splitlines()[-3]  # done in … s (…; estimated … s)
+    assert "lost on purpose: simulated ft_loss=0.001" in run.stdout  # not an unexplained loss
     json_run = subprocess.run([*args, "-o", str(tmp_path / "b"), "--json"], capture_output=True,
                               text=True, timeout=1800)  # fmt: skip
     summary = json.loads(json_run.stdout)

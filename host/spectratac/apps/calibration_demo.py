@@ -102,18 +102,15 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
         f"simulated Bota F/T at {opts.ft_rate} Hz\n      {opts.url}"
     )
     bar = _bar(opts, total=opts.scene_s, unit="scene s", desc="recording")
-    done = 0.0
 
     def progress(status: Any) -> None:
-        nonlocal done
         scene_now = min(status.sensor_s, opts.scene_s)
         if bar is not None:
-            bar.update(scene_now - done)
+            bar.n = round(scene_now, 1)  # shown as a person reads it: 3.1, not 3.1000000000000005
             bar.set_postfix_str(
                 f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, "
                 f"lost {status.lost}+{status.ft_lost}"
             )
-        done = scene_now
 
     try:
         summary = record_url(opts.url, path, RecordOptions(), progress=progress)
