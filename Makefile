@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml requirements/lock.txt
 	# Pinned: every package (torch included, ==2.13.0 CPU) comes from the lock file.
 	$(BIN)/pip install --quiet -c requirements/lock.txt -e '.[$(EXTRAS)]'
 	# Fail set-up, not experiments, if cobs/crcmod fell back to pure Python (35x slower framing).
-	$(BIN)/python -m spectratac.protocol.accel
+	$(BIN)/python -W error -m spectratac.protocol.accel_check
 	touch $@
 
 # The main job on the built-in simulated sensor (real firmware core on the digital twin).

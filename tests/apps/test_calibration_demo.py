@@ -41,3 +41,33 @@ def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:
     oracle = summary["results"]["paper"]["blocked"]["oracle_mae"]
     assert oracle is not None and set(oracle) == set(vocab.FT_AXES)
     assert any("[4/4]" in line for line in said)
+
+
+@pytest.mark.slow
+@pytest.mark.subprocess
+def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
+    """Issue 26: `make demo` took 36 minutes against the README's 228 s without a word. The
+    estimate (rates measured now) comes before any work, each stage says its share, the bars
+    show the time left, and --json carries the estimate."""
+    import subprocess
+    import sys
+
+    from tests.terminal import assert_estimate_first
+
+    args = [sys.executable, "-m", "spectratac", "demo", "--duration", "60", "--epochs", "2",
+            "--oracle-samples", "20"]  # fmt: skip
+    run = subprocess.run([*args, "-o", str(tmp_path / "a")], capture_output=True, text=True,
+                         timeout=1800)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    line = assert_estimate_first(run.stderr, "the demo")
+    assert "record 4 s" in line and "dataset" in line and "train + evaluate" in line
+    assert run.stderr.index("estimating how long") < run.stderr.index(line)
+    stages = [s for s in run.stdout.splitlines() if s.startswith(("[1/4]", "[2/4]", "[3/4]"))]
+    assert all("(estimated " in s for s in stages[:3]), stages
+    assert "estimated" in run.stdout.splitlines()[-3]  # done in … s (…; estimated … s)
+    assert "lost on purpose: simulated ft_loss=0.001" in run.stdout  # not an unexplained loss
+    json_run = subprocess.run([*args, "-o", str(tmp_path / "b"), "--json"], capture_output=True,
+                              text=True, timeout=1800)  # fmt: skip
+    summary = json.loads(json_run.stdout)
+    assert summary["estimate"]["parts_s"]["record"] == 4.0
+    assert "%|" not in json_run.stdout and json_run.stderr == ""

@@ -39,8 +39,11 @@ def test_live_with_only_a_model_says_the_device_url_is_missing(tmp_path, capsys)
 
 
 @pytest.mark.slow
-def test_snake_json_prints_commands_then_the_outcome(press_model, capsys) -> None:
-    code = main(["snake", str(press_model), PRESSES_URL + "&speed=max", "--json",
+@pytest.mark.parametrize("speed", ["max", "10"])
+def test_snake_json_prints_commands_then_the_outcome(press_model, capsys, speed) -> None:
+    """--duration is the sensor's clock at any speed (as record's): the same 6.5 s of
+    presses give the same three commands at speed=max and at speed=10."""
+    code = main(["snake", str(press_model), PRESSES_URL + f"&speed={speed}", "--json",
                  "--duration", "6.5"])  # fmt: skip
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert code == 0

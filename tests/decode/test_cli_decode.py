@@ -69,3 +69,13 @@ def test_bad_arguments_and_models_without_a_configuration(tmp_path, capsys) -> N
     assert main(["decode", str(path), TOUR, "--count", "-1"]) == 3
     assert "--count" in capsys.readouterr().err
     assert main(["decode", str(tmp_path / "missing.stac"), TOUR]) == 3
+
+
+@pytest.mark.parametrize("speed", ["10", "max"])
+def test_duration_is_the_sensors_clock(model, capsys, speed) -> None:
+    """--duration 1.5 is 30 samples of 50 ms at any speed (it was wall seconds: 300 samples
+    at speed=10), as for record, stream and snake."""
+    url = f"sim://?scene=tour&seed=1&speed={speed}"
+    assert main(["decode", str(model), url, "--duration", "1.5", "--format", "jsonl"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert 29 <= len(rows) <= 32, len(rows)

@@ -143,3 +143,22 @@ def test_model_info_tells_whether_the_device_runs_a_file(
     )
     assert main(["model", "info", url, "--file", str(model_file)]) == ExitCode.FAILURE
     assert "not the device's model" in capsys.readouterr().out
+
+
+def test_a_sim_url_without_a_store_says_how_to_keep_a_model(
+    model_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each run of spectratac starts `sim://` with an empty store: upload then info (two
+    processes) said "no model" with no word why; both now name model_store=PATH, and the
+    help of the model verbs documents it."""
+    assert main(["model", "info", "sim://?seed=7"]) == ExitCode.OK
+    out = capsys.readouterr()
+    assert "no model" in out.out and "model_store=PATH" in out.err
+    assert main(["model", "upload", "sim://?seed=7", str(model_file)]) == ExitCode.OK
+    assert "model_store=PATH" in capsys.readouterr().err
+    stored = f"sim://?seed=7&model_store={tmp_path / 'dev.flash'}"
+    assert main(["model", "info", stored]) == ExitCode.OK
+    assert "model_store" not in capsys.readouterr().err  # a named store needs no note
+    with pytest.raises(SystemExit):
+        main(["model", "info", "--help"])
+    assert "model_store=PATH" in " ".join(capsys.readouterr().out.split())

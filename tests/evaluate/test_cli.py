@@ -143,3 +143,18 @@ def test_bench_decoder_cli(tmp_path, capsys) -> None:
     assert main(["bench", "decoder", "--quick", "--models", "cnn"]) == 3
     assert main(["bench", "decoder", "--quick", "--integration", "75"]) == 3
     assert "choose one of" in capsys.readouterr().err
+
+
+def test_evaluate_says_its_time_before_it_starts(trained, tmp_path, capsys) -> None:
+    """Issue 26: the estimate (prediction and the twin's inverse, rates measured now) is on
+    stderr before the progress bar, which then shows the time left; --json carries it."""
+    from tests.terminal import assert_estimate_first
+
+    model, data, _ = trained
+    assert main(["evaluate", str(model), str(data), "-o", str(tmp_path / "a"),
+                 "--oracle-samples", "30"]) == 0  # fmt: skip
+    line = assert_estimate_first(capsys.readouterr().err, "evaluate")
+    assert "predict" in line and "oracle" in line
+    rep = _json(capsys, ["evaluate", str(model), str(data), "-o", str(tmp_path / "b"),
+                         "--oracle-samples", "30", "--json"])  # fmt: skip
+    assert rep["estimate"]["parts_s"]["oracle"] > 0 and rep["estimate"]["calibration_s"] > 0

@@ -115,3 +115,21 @@ def test_pure_python_fallback_refused(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_installed_codec_is_accelerated() -> None:
     assert accel.missing_extensions() == []
+
+
+@pytest.mark.subprocess
+def test_the_set_up_check_runs_without_warnings() -> None:
+    """The Makefile's set-up step checks the C extensions and prints nothing else on stderr
+    (issue 24: runpy warned that the module was already in sys.modules)."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    makefile = (Path(__file__).resolve().parents[2] / "Makefile").read_text(encoding="utf-8")
+    (module,) = re.findall(r"\$\(BIN\)/python -W error -m (spectratac\.protocol\.\w+)", makefile)
+    run = subprocess.run(
+        [sys.executable, "-W", "error", "-m", module], capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    assert "C extensions in use" in run.stdout

@@ -17,9 +17,9 @@ def record_short(url: str, path: Path, **options: object) -> RecordingSummary:
 
 @pytest.fixture(scope="package")
 def tour_session(tmp_path_factory: pytest.TempPathFactory) -> tuple[RecordingSummary, Recording]:
-    """~2.5 s of wall time: ~25 scene seconds of the region tour, F/T at 1 kHz scene time."""
+    """25 scene seconds of the region tour (~2.5 s of wall time), F/T at 1 kHz scene time."""
     path = tmp_path_factory.mktemp("tour") / "tour.mcap"
-    summary = record_short(TOUR_FT, path, duration_s=2.5, sync_every_s=1.0)
+    summary = record_short(TOUR_FT, path, duration_s=25.0, sync_every_s=1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a finished recording reads without any warning
         rec = read_recording(path)

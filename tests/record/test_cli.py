@@ -130,7 +130,7 @@ def test_timeout_reaches_the_ft_sensor(tmp_path: Path) -> None:
 def test_sigint_stops_cleanly(tmp_path: Path) -> None:
     out = tmp_path / "int.mcap"
     proc = subprocess.Popen(
-        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120"),
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "1200"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -151,7 +151,7 @@ def test_sigint_stops_cleanly(tmp_path: Path) -> None:
 def test_sigkill_keeps_the_flushed_prefix(tmp_path: Path) -> None:
     out = tmp_path / "killed.mcap"
     proc = subprocess.Popen(
-        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "120", "--no-progress"),
+        spectratac("record", TOUR_FT, "-o", str(out), "--duration", "1200", "--no-progress"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -193,3 +193,26 @@ print("torch" in sys.modules)
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_duration_is_sensor_time_at_speed_10(tmp_path: Path) -> None:
+    """--duration 3 at speed=10 records 3 s of data (60 samples at 50 ms), not 3 wall
+    seconds (30 s of data); a simulated F/T's deliberate losses are named as such."""
+    out = tmp_path / "s.mcap"
+    args = ("record", TOUR_FT, "-o", str(out), "--duration", "3", "--no-progress")
+    run = subprocess.run(spectratac(*args), capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "lost on purpose: simulated ft_loss=0.001" in run.stdout
+    assert "s of sensor time" in run.stdout
+    # said before the work: 3 s of sensor time at the link's pace (speed=10)
+    assert run.stderr.startswith("recording 3 s of sensor time: estimated under 1 s")
+    rec = read_recording(out)
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    span = (int(samples["t_end_us"].max()) - int(samples["t_start_us"].min())) / 1e6
+    assert 3.0 <= span < 4.0, f"recorded {span:.2f} s of sensor time for --duration 3"
+    json_run = subprocess.run(
+        spectratac(*args, "--force", "--json"), capture_output=True, text=True, timeout=300
+    )
+    summary = json.loads(json_run.stdout)
+    assert 3.0 <= summary["sensor_s"] < 4.0 and summary["ft_simulated_loss"] == 0.001
+    assert summary["estimate"]["parts_s"]["record"] == 0.3

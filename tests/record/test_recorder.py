@@ -85,10 +85,10 @@ def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Reco
 def test_a_stop_request_finishes_the_file(tmp_path: Path) -> None:
     stop = threading.Event()
     path = tmp_path / "stopped.mcap"
-    with Sensor.open("sim://?scene=tour&speed=20") as sensor:
+    with Sensor.open("sim://?scene=tour&speed=20") as sensor:  # duration: sensor seconds
         timer = threading.Timer(0.5, stop.set)
         timer.start()
-        summary = Recorder(sensor, path, RecordOptions(duration_s=60)).run(stop)
+        summary = Recorder(sensor, path, RecordOptions(duration_s=1200)).run(stop)
     assert summary.stopped_by == "interrupt" and summary.samples > 0
     rec = read_recording(path)
     assert not rec.truncated and rec.end is not None and rec.end["stopped_by"] == "interrupt"
@@ -154,7 +154,7 @@ def test_guided_labels_are_recorded(tmp_path: Path) -> None:
     path = tmp_path / "guided.mcap"
     with Sensor.open("sim://?scene=idle&speed=max") as sensor:
         summary = Recorder(
-            sensor, path, RecordOptions(duration_s=30), guided=guided, clock=clock
+            sensor, path, RecordOptions(duration_s=3600), guided=guided, clock=clock
         ).run()
     assert summary.stopped_by == "guided" and summary.labels == 3
     rec = read_recording(path)

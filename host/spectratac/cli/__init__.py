@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from spectratac import __version__
 from spectratac.cli.exit_codes import ExitCode, exit_code_for
-from spectratac.cli.options import require
+from spectratac.cli.options import require, show_defaults
 from spectratac.errors import SpectraTacError
 
 # Verb modules under spectratac.cli, in the order they appear in --help.
@@ -50,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="verb", metavar="<verb>")
     for name in VERB_MODULES:
         importlib.import_module(f"spectratac.cli.{name}").register(subparsers)
+    show_defaults(parser)
     return parser
 
 

@@ -24,6 +24,9 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, npz_name, refuse_overwrite
 from spectratac.errors import printable
 
+#: Recordings at least this large (about two minutes of a session with F/T) get an estimate.
+LONG_BUILD_BYTES = 5_000_000
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("dataset", help="build datasets from recordings; describe one")
@@ -66,9 +69,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
+    from spectratac.cli.eta import ClockBar, announce
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
     from spectratac.errors import SpectraTacError
     from spectratac.record.errors import CorruptedRecordingWarning
+    from spectratac.studies.cost_model import build_estimate
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:
         raise SpectraTacError("--max-gap-ms must be > 0")
@@ -79,8 +84,15 @@ def _build(args: argparse.Namespace) -> int:
         from spectratac.dataset.external_ft import load_external_ft
 
         external = load_external_ft(args.ft)
+    paths = [Path(p) for p in args.recordings]
+    # the probe costs most of a second: worth it only where the build takes a while
+    long = sum(p.stat().st_size for p in paths if p.exists()) >= LONG_BUILD_BYTES
+    estimate = build_estimate(paths) if long else None
+    if estimate is not None and not args.json:
+        announce(f"dataset build of {len(paths)} recording(s)", estimate)
     bar = None
-    if not (args.no_progress or args.json) and len(args.recordings) > 1:
+    quiet = args.no_progress or args.json
+    if not quiet and len(args.recordings) > 1:
         from tqdm import tqdm
 
         bar = tqdm(total=len(args.recordings), desc="sessions", unit="file", file=sys.stderr)
@@ -92,13 +104,19 @@ def _build(args: argparse.Namespace) -> int:
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        one = len(args.recordings) == 1  # several: the bar per file says the time left
         try:
-            datasets = build_datasets(
-                args.recordings,
-                split=args.split,
-                options=BuildOptions(max_gap_ms=args.max_gap_ms, ft=external),
-                progress=progress,
-            )
+            with ClockBar(
+                estimate.total_s if estimate else 0.0,
+                "building",
+                enabled=one and not quiet and estimate is not None,
+            ):
+                datasets = build_datasets(
+                    args.recordings,
+                    split=args.split,
+                    options=BuildOptions(max_gap_ms=args.max_gap_ms, ft=external),
+                    progress=progress,
+                )
         finally:
             if bar is not None:
                 bar.close()
@@ -118,7 +136,16 @@ def _build(args: argparse.Namespace) -> int:
         if isinstance(w.message, CorruptedRecordingWarning)
     ]
     if args.json:
-        print(json.dumps({"outputs": written, "warnings": notes, "corrupted": damaged}))
+        print(
+            json.dumps(
+                {
+                    "outputs": written,
+                    "warnings": notes,
+                    "corrupted": damaged,
+                    "estimate": estimate.as_dict() if estimate else None,
+                }
+            )
+        )
     else:
         for w in written:
             print(
@@ -155,9 +182,9 @@ def summary(ds: Any) -> dict[str, Any]:
         "session_sources": [s.get("path") or s.get("source") for s in meta.get("sessions", [])],
         "target_valid": float(valid.mean()) if ds.n else 0.0,
         "in_contact": float(ds.in_contact.mean()) if ds.n else 0.0,
-        "presses": len(np.unique(ds.press[ds.press >= 0])),
+        "presses": ds.press_count(),
         "regions": {int(r): int(c) for r, c in zip(regions, counts, strict=True)},
-        "duration_s": float(ds.t_end.max() - ds.t_start.min()) if ds.n else 0.0,
+        "duration_s": ds.span_s() if ds.n else 0.0,  # the sensor's clock
         "target_min": dict(zip(ds.target_names, np.min(t, axis=0).tolist(), strict=True))
         if len(t)
         else {},
@@ -196,7 +223,8 @@ def _info(args: argparse.Namespace) -> int:
         say(f"  configuration    {cfg}")
     say(
         f"  targets          {s['target_valid'] * 100:.1f} % valid; in contact "
-        f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; span {s['duration_s']:.1f} s"
+        f"{s['in_contact'] * 100:.1f} %; {s['presses']} presses; "
+        f"span {s['duration_s']:.1f} s of sensor time"
     )
     if s["target_min"]:
         ranges = ", ".join(

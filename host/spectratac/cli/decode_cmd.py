@@ -47,11 +47,29 @@ def register(subparsers: Any) -> None:
     p.add_argument("model", help="decoder file (.stac)")
     add_device_url(p)
     add_count(p, 0, "estimates to print (0: no limit)")
-    add_duration(p, 0.0, "stop after this long (0: never)")
+    add_duration(p, 0.0, "stop after S seconds of the sensor's clock (0: never)")
     add_renamed(p, "--seconds", "duration", "--duration", type=float)
     add_row_format(p)
     add_decoding_checks(p)
     p.set_defaults(func=run)
+
+
+class SensorClock:
+    """Seconds of the sensor's clock from host seconds between estimates: times the link's
+    clock scale (a simulated device at speed=10 runs ten sensor seconds per host second). A
+    device clock not tied to the host's (speed=max) counts sample periods instead."""
+
+    def __init__(self, sensor: Any) -> None:
+        self.scale = sensor.link_info.clock_scale
+        cfg = sensor.get_config()
+        self.period_s = cfg.integration_ms / 1000.0
+        self.samples = 0
+
+    def elapsed(self, host_s: float) -> float:
+        self.samples += 1
+        if self.scale is None:
+            return (self.samples - 1) * self.period_s
+        return host_s * self.scale
 
 
 def _cells(e: Any, t0: float) -> list[Any]:
@@ -102,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
         if settings is not None:
             sensor.configure(**settings)
         writer = RowWriter(COLUMNS, args.format, width=8)
+        clock = SensorClock(sensor)
         sensor.start()
         try:
             first: float | None = None  # host time of the first sample: t_s counts from it
@@ -113,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
                 counts["ood"] += int(e.ood)
                 counts["contact"] += int(e.contact)
                 if (args.count and counts["estimates"] >= args.count) or (
-                    args.duration and time.monotonic() - t0 >= args.duration
+                    args.duration and clock.elapsed(e.time - first) >= args.duration
                 ):
                     break
         except BrokenPipeError:

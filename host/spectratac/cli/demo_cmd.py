@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -45,9 +47,22 @@ def _dispatch(args: argparse.Namespace) -> int:
         args.duration = args.duration or 10.0
         return _demo(args)
     from spectratac.apps.calibration_demo import DemoOptions, run_demo
+    from spectratac.cli.eta import announce
+    from spectratac.studies.cost_model import demo_estimate
     from spectratac.studies.oracle_floor import OracleFloor
 
     refuse_overwrite(args.output, args.force)
+    if not args.json:
+        print("estimating how long the demo takes on this machine…", file=sys.stderr, flush=True)
+    estimate = demo_estimate(
+        args.duration or 600.0,
+        float(args.speed or 15.0),
+        args.epochs,
+        args.oracle_samples,
+        seed=0 if args.seed is None else args.seed,
+    )
+    if not args.json:
+        announce("the demo", estimate)
     opts = DemoOptions(
         out=args.output,
         scene_s=args.duration or 600.0,
@@ -56,15 +71,18 @@ def _dispatch(args: argparse.Namespace) -> int:
         epochs=args.epochs,
         floor=OracleFloor(args.oracle_samples) if args.oracle_samples > 0 else None,
         progress=not (args.no_progress or args.json),
+        estimates=dict(estimate.parts_s),
     )
     summary = run_demo(opts, say=(lambda _: None) if args.json else print)
+    summary["estimate"] = estimate.as_dict()
     if args.json:
         print(json.dumps(summary))
     else:
         t = summary["timings_s"]
         print(
             f"done in {t['total_s']:.0f} s (record {t['record_s']:.0f} s, dataset "
-            f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s)"
+            f"{t['dataset_s']:.0f} s, train + evaluate {t['train_evaluate_s']:.0f} s; "
+            f"estimated {estimate.total_s:.0f} s)"
         )
         print(
             f"watch the model you just trained live (force vs reference F/T, regions, Snake):\n"
@@ -124,10 +142,31 @@ def _demo(args: argparse.Namespace) -> int:
         "wall_s": round(time.monotonic() - t0, 2),
         "stats": stats,
     }
-    print(
-        json.dumps(summary)
-        if args.json
-        else f"{got}/{expected} samples in {summary['wall_s']} s; link: {stats}"
-    )
+    print(json.dumps(summary) if args.json else live_summary(summary))
     ok = got >= expected and stats["crc_errors"] == 0 and stats["sample_gaps"] == 0
     return ExitCode.OK if ok else ExitCode.FAILURE
+
+
+def live_summary(summary: dict[str, Any]) -> str:
+    """`demo --live`'s last lines for a person (--json prints `summary` itself): samples
+    against the expected count, and the link's health with only its non-zero counters named.
+
+    >>> print(live_summary({"samples": 200, "expected": 200, "wall_s": 10.1,
+    ...     "stats": {"frames_received": 205, "samples_received": 200, "crc_errors": 0,
+    ...               "sample_gaps": 0, "logs": 2}}))  # fmt: skip
+    200 of 200 samples in 10.1 s: complete
+    link: 205 frames received, 200 samples received, 2 logs; no CRC errors, no sample gaps
+    """
+    stats = summary["stats"]
+    seen = [f"{v} {k.replace('_', ' ')}" for k, v in stats.items() if v]
+    health = [f"no {name}" for key, name in _HEALTH.items() if key in stats and not stats[key]]
+    got, expected = summary["samples"], summary["expected"]
+    verdict = "complete" if got >= expected else f"{expected - got} missing"
+    return (
+        f"{got} of {expected} samples in {summary['wall_s']} s: {verdict}\n"
+        f"link: {', '.join(seen) or 'nothing received'}; {', '.join(health)}"
+    )
+
+
+#: The counters whose zero the live demo's verdict rests on, as a person names them.
+_HEALTH = {"crc_errors": "CRC errors", "sample_gaps": "sample gaps"}

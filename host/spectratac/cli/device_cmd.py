@@ -13,7 +13,13 @@ from collections.abc import Iterator
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_count, add_device_url, add_row_format
+from spectratac.cli.options import (
+    add_count,
+    add_device_url,
+    add_duration,
+    add_row_format,
+    stop_count,
+)
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
@@ -27,7 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info.set_defaults(func=_info)
     stream = subparsers.add_parser("stream", help="stream samples to the terminal")
     add_device_url(stream)
-    add_count(stream, 20, "samples to print (0: forever)")
+    add_count(stream, None, "samples to print (0: forever; default 20 unless --duration)")
+    add_duration(stream, None, "stop after S seconds of the sensor's clock")
     add_row_format(stream)
     stream.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     stream.add_argument("--duty", type=int, default=500, help="white LED duty, permille")
@@ -91,8 +98,7 @@ PAIRING_WAIT_S = 0.5  # how long a sample waits for its estimate (it follows the
 def _stream(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
 
-    if args.count < 0:
-        raise SpectraTacError("--count must be >= 0 (0 streams until interrupted)")
+    count = stop_count(args.count, args.duration)
     if not 0 <= args.duty <= 1000:
         raise SpectraTacError("--duty is in permille: 0..1000")
     mode = args.estimates
@@ -108,11 +114,15 @@ def _stream(args: argparse.Namespace) -> int:
         writer = RowWriter(columns, args.format, width=7, table_cell=_cell)
         sensor.start()
         t0 = time.monotonic()
+        first_ms: int | None = None
         try:
             for cells, record in _rows(sensor, mode, columns):
+                first_ms = cells[1] if first_ms is None else first_ms
+                if args.duration is not None and cells[1] - first_ms >= args.duration * 1000:
+                    break  # sensor time, whatever the device's speed
                 writer.row(cells, record)
                 printed += 1
-                if args.count and printed >= args.count:
+                if count and printed >= count:
                     break
         except BrokenPipeError:
             reader_gone()
@@ -129,7 +139,7 @@ def _stream(args: argparse.Namespace) -> int:
         f"{stats.sample_gaps}, overflows {stats.buffer_overflows}{lost}",
         file=sys.stderr,
     )
-    return ExitCode.OK if args.count == 0 or printed >= args.count else ExitCode.FAILURE
+    return ExitCode.OK if count == 0 or printed >= count else ExitCode.FAILURE
 
 
 def _cell(value: Any) -> object:

@@ -66,11 +66,13 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
+    from spectratac.cli.eta import announce
     from spectratac.dataset.generic_io import load_data
     from spectratac.decode import Decoder
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
+    from spectratac.studies.cost_model import evaluation_estimate
     from spectratac.studies.oracle_floor import OracleFloor
     from spectratac.train.holdout import fingerprint, parse_sessions
 
@@ -90,6 +92,10 @@ def run(args: argparse.Namespace) -> int:
     if sessions is not None:
         kinds = ("sessions",)
     per = 1 + (baseline is not None) + (args.oracle_samples > 0)
+    models = len(kinds) * (1 + (baseline is not None))
+    estimate = evaluation_estimate(model, dataset, models, len(kinds) * args.oracle_samples)
+    if not args.json:
+        announce("evaluate", estimate)
     bar = tqdm(
         total=len(kinds) * per,
         desc="evaluate",
@@ -134,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
         "finetuned_from": (model.meta or {}).get("finetuned_from"),
     }
     rep = write_report(ev, args.output, dataset_info, model_info, dataset)
+    rep["estimate"] = estimate.as_dict()
     if args.json:
         print(json.dumps(rep))
     else:

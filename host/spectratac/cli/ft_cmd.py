@@ -15,9 +15,16 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_count, add_device_url, add_renamed, add_row_format
+from spectratac.cli.options import (
+    add_count,
+    add_device_url,
+    add_duration,
+    add_renamed,
+    add_row_format,
+    stop_count,
+)
 from spectratac.cli.output import RowWriter, reader_gone
-from spectratac.errors import SpectraTacError, printable
+from spectratac.errors import printable
 from spectratac.hardware.generated import vocabulary as vocab
 
 URL_HELP = (
@@ -38,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info.set_defaults(func=_info)
     stream = verbs.add_parser("stream", help="print F/T records")
     add_device_url(stream, URL_HELP)
-    add_count(stream, 20, "records to print (0: forever)")
+    add_count(stream, None, "records to print (0: forever; default 20 unless --duration)")
+    add_duration(stream, None, "stop after S seconds of the F/T sensor's clock")
     add_row_format(stream)
     stream.set_defaults(func=_stream)
 
@@ -90,15 +98,21 @@ def _check(rows: np.ndarray) -> dict[str, Any]:
 def _stream(args: argparse.Namespace) -> int:
     from spectratac.ft import FTTimeoutError, open_ft
 
-    if args.count < 0:
-        raise SpectraTacError("--count must be >= 0 (0 streams until interrupted)")
+    count = stop_count(args.count, args.duration)
     printed = 0
+    first: float | None = None
     with open_ft(args.url, timeout=args.timeout) as ft:
         writer = RowWriter(COLUMNS, args.format, width=10, table_cell=_rounded)
         try:
-            while args.count == 0 or printed < args.count:
-                want = 256 if args.count == 0 else min(256, args.count - printed)
+            while count == 0 or printed < count:
+                want = 256 if count == 0 else min(256, count - printed)
                 rows = ft.read(want, timeout=args.timeout)
+                if len(rows) and args.duration is not None:
+                    first = float(rows["sensor_time"][0]) if first is None else first
+                    ended = rows["sensor_time"] - first >= args.duration  # the F/T's clock
+                    if ended.any():
+                        rows = rows[: int(np.argmax(ended))]
+                        count = printed + len(rows)  # the last rows, then stop
                 if len(rows) == 0:
                     if printed == 0:
                         raise FTTimeoutError(
@@ -114,7 +128,7 @@ def _stream(args: argparse.Namespace) -> int:
             return ExitCode.OK
         stats = ft.stats.as_dict()
     print(f"{printed} records; " + ", ".join(f"{k} {v}" for k, v in stats.items()), file=sys.stderr)
-    return ExitCode.OK if args.count == 0 or printed >= args.count else ExitCode.FAILURE
+    return ExitCode.OK if count == 0 or printed >= count else ExitCode.FAILURE
 
 
 def _values(r: np.void) -> list[float | int]:

@@ -14,9 +14,13 @@ import sys
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_device_url
+from spectratac.cli.options import DEVICE_URL_HELP, add_device_url
 
 WEIGHTS = ("f32", "f16", "i8")
+URL_HELP = (
+    f"{DEVICE_URL_HELP}; a simulated device keeps its model between runs only with "
+    "sim://?model_store=PATH (the file that plays its flash)"
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -26,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sub = p.add_subparsers(dest="model_verb", metavar="<model verb>")
     p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
     info = sub.add_parser("info", help="which model the device decodes with, and its limits")
-    add_device_url(info)
+    add_device_url(info, URL_HELP)
     info.add_argument(
         "-f",
         "--file",
@@ -36,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     up = sub.add_parser("upload", help="export a .stac decoder and upload it into flash")
-    add_device_url(up)
+    add_device_url(up, URL_HELP)
     up.add_argument("model", help="decoder file (.stac) written by `spectratac train`")
     up.add_argument(
         "--weights",
@@ -53,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     up.add_argument("--json", action="store_true", help="machine-readable output")
     up.set_defaults(func=_upload)
     clear = sub.add_parser("clear", help="erase the uploaded model (a built-in one takes over)")
-    add_device_url(clear)
+    add_device_url(clear, URL_HELP)
     clear.add_argument("--json", action="store_true", help="machine-readable output")
     clear.set_defaults(func=_clear)
 
@@ -72,8 +76,30 @@ def _describe(info: Any) -> str:
     )
 
 
+def store_note(url: str) -> str | None:
+    """What to say about a sim:// URL whose model store lasts only one run: each
+    `spectratac` process gives it a new, empty store unless the URL names one."""
+    if not url.startswith("sim:"):
+        return None
+    from spectratac.sim.url import parse_sim_url
+
+    try:
+        if parse_sim_url(url).model_store is not None:
+            return None
+    except ValueError:
+        return None
+    return (
+        "this simulated device's model store lives only as long as this run (each run of "
+        "spectratac starts it empty); add model_store=PATH to the URL, e.g. "
+        '"sim://?model_store=/tmp/dev.flash", to keep an uploaded model between runs'
+    )
+
+
 def _print_info(url: str, info: Any) -> None:
     print(f"{url}: {_describe(info)}")
+    note = store_note(url)
+    if note is not None:
+        print(f"note: {note}", file=sys.stderr)
     print(
         f"  model store  {info.capacity} B; firmware limits {info.max_inputs} inputs, "
         f"{info.max_hidden} hidden units"

@@ -200,3 +200,61 @@ def add_count(parser: argparse._ActionsContainer, default: int | None, help: str
 def add_duration(parser: argparse._ActionsContainer, default: float | None, help: str) -> None:
     """--duration S: how long a verb runs (or how long a scene lasts), in seconds."""
     parser.add_argument("--duration", type=float, default=default, metavar="S", help=help)
+
+
+def stop_count(count: int | None, duration: float | None, default: int = 20) -> int:
+    """The --count a streaming verb stops at (0: none): `default` unless --duration is given.
+
+    >>> stop_count(None, None), stop_count(None, 2.0), stop_count(5, 2.0)
+    (20, 0, 5)
+    """
+    if count is not None and count < 0:
+        raise UsageError("--count must be >= 0 (0 streams until interrupted)")
+    if duration is not None and not duration > 0:
+        raise UsageError("--duration must be > 0 seconds")
+    if count is None:
+        return 0 if duration is not None else default
+    return count
+
+
+#: Actions whose default says nothing a user chooses (flags, help, sub-verbs, old spellings).
+_NO_DEFAULT_SHOWN = (
+    argparse._StoreTrueAction,
+    argparse._StoreFalseAction,
+    argparse._StoreConstAction,
+    argparse._HelpAction,
+    argparse._VersionAction,
+    argparse._SubParsersAction,
+    RenamedOption,
+)
+
+
+def shows_default(action: argparse.Action) -> bool:
+    """Whether `action` has a default a user should see in --help."""
+    return not (
+        isinstance(action, _NO_DEFAULT_SHOWN)
+        or action.default is None
+        or action.default is argparse.SUPPRESS
+        or action.help is argparse.SUPPRESS
+    )
+
+
+def show_defaults(parser: argparse.ArgumentParser) -> None:
+    """Append "(default: X)" to the help of every option of `parser` and its sub-verbs that
+    has a default and does not name it already, so `--help` never hides what a verb does when
+    the option is left out.
+
+    >>> p = argparse.ArgumentParser(prog="x")
+    >>> _ = p.add_argument("--speed", type=float, default=10.0, help="time scale")
+    >>> show_defaults(p)
+    >>> p._actions[-1].help
+    'time scale (default: %(default)s)'
+    """
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                show_defaults(child)
+        elif shows_default(action) and "default" not in (action.help or ""):
+            action.help = (
+                f"{action.help} (default: %(default)s)" if action.help else "default: %(default)s"
+            )

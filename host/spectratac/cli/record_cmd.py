@@ -48,7 +48,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_output(p, required=True, help="the .mcap file to write")
     until = p.add_mutually_exclusive_group()
-    add_duration(until, None, "stop after S seconds")
+    add_duration(
+        until,
+        None,
+        "stop after S seconds of the sensor's clock (sim://…&speed=10 records them in S/10 "
+        "wall seconds)",
+    )
     add_count(until, None, "stop after N optical samples")
     add_renamed(until, "--samples", "count", "--count", type=int)
     p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
@@ -129,12 +134,22 @@ def _record(args: argparse.Namespace) -> int:
             out=sys.stderr,
         )
 
-    def note(_link: Any, ft_url: str | None) -> None:
+    estimate: dict[str, Any] = {}
+
+    def note(link: Any, ft_url: str | None) -> None:
+        from spectratac.cli.eta import announce
+        from spectratac.studies.cost_model import recording_estimate
+
         if ft_url is None and not args.json:
             print(
                 "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
                 file=sys.stderr,
             )
+        found = recording_estimate(options.duration_s, link.clock_scale)
+        if found is not None:
+            estimate.update(found.as_dict())
+            if not args.json:
+                announce(f"recording {options.duration_s:g} s of sensor time", found)
 
     progress, bar = (None, None) if args.no_progress or guided else _progress_bar(options)
     # SIGINT/SIGTERM ask the recorder to stop: it finishes the file, then the CLI returns.
@@ -159,27 +174,46 @@ def _record(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     if args.json:
-        print(json.dumps(summary.as_dict()))
+        print(json.dumps(summary.as_dict() | ({"estimate": estimate} if estimate else {})))
     else:
         s = summary
         print(
             f"recorded {s.path}: {s.samples} samples ({s.lost} lost, {s.crc_errors} CRC "
-            f"errors), {s.ft_samples} F/T samples ({s.ft_lost} lost), {s.labels} labels, "
-            f"{s.duration_s:.1f} s, {s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
+            f"errors), {s.ft_samples} F/T samples ({ft_loss_note(s.ft_lost, s.ft_simulated_loss)}"
+            f"), {s.labels} labels, {s.sensor_s:.1f} s of sensor time in {s.duration_s:.1f} s, "
+            f"{s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
         )
         if s.error:
             print(f"the session ended early: {s.error}", file=sys.stderr)
     return ExitCode.ERROR if summary.stopped_by == "error" else ExitCode.OK
 
 
-def _progress_bar(options: Any) -> tuple[Any, Any]:
-    from tqdm import tqdm
+class _LazyBar:
+    """A tqdm bar made on first use: it appears once the device is open (after the estimate
+    line), and closing one never made is a no-op."""
 
+    def __init__(self, **kwargs: Any) -> None:
+        self.kwargs = kwargs
+        self.bar: Any = None
+
+    def get(self) -> Any:
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(**self.kwargs)
+        return self.bar
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _progress_bar(options: Any) -> tuple[Any, Any]:
     by_samples = options.samples is not None
     total = options.samples if by_samples else options.duration_s
-    bar = tqdm(
+    bar = _LazyBar(
         total=total,
-        unit="samples" if by_samples or total is None else "s",
+        unit="samples" if by_samples or total is None else "sensor s",
         desc="recording",
         file=sys.stderr,
         dynamic_ncols=True,
@@ -187,11 +221,24 @@ def _progress_bar(options: Any) -> tuple[Any, Any]:
     )
 
     def update(status: Any) -> None:
-        bar.n = status.samples if by_samples or total is None else round(status.elapsed_s, 1)
-        bar.set_postfix_str(
+        shown = bar.get()
+        shown.n = status.samples if by_samples or total is None else round(status.sensor_s, 1)
+        shown.set_postfix_str(
             f"{status.samples} samples, F/T {status.ft_rate_hz:.0f} Hz, lost {status.lost}"
             f"+{status.ft_lost} F/T, CRC {status.crc_errors}, {status.file_bytes / 1e6:.1f} MB",
             refresh=True,
         )
 
     return update, bar
+
+
+def ft_loss_note(lost: int, simulated_loss: float | None) -> str:
+    """How a summary names the F/T samples lost: a simulated sensor's are its deliberate
+    ft_loss (a sim URL parameter), not a fault of the link.
+
+    >>> ft_loss_note(3, None), ft_loss_note(3, 0.001)
+    ('3 lost', '3 lost on purpose: simulated ft_loss=0.001')
+    """
+    if simulated_loss is None:
+        return f"{lost} lost"
+    return f"{lost} lost on purpose: simulated ft_loss={simulated_loss:g}"

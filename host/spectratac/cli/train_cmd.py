@@ -130,6 +130,7 @@ def register(subparsers: Any) -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
+    from spectratac.cli.eta import ClockBar, announce
     from spectratac.dataset.generic_io import load_data
     from spectratac.decode import DecoderError
     from spectratac.decode.export import FORMATS
@@ -169,19 +170,28 @@ def _train(args: argparse.Namespace) -> int:
         if not args.no_progress:
             print(f"  {line}", file=sys.stderr)
 
-    trained = fit(
-        ds,
-        spec,
-        holdout=SplitSpec(args.holdout, seed=args.split_seed) if args.holdout else None,
-        holdout_sessions=args.holdout_sessions,
-        finetune_from=args.finetune,
-        finetune_options=tune,
-        budget=args.budget if args.recipe == "auto" and not args.finetune else None,
-        workers=args.workers,
-        ray_address=args.ray,
-        progress=not args.no_progress,
-        log=say,
-    )
+    auto = args.recipe == "auto" and not args.finetune
+    estimate = _estimate(ds, spec, auto, args)
+    if estimate is not None and not args.json:
+        announce("train", estimate)
+    with ClockBar(
+        estimate.total_s if estimate else 0.0,
+        "searching",
+        enabled=auto and estimate is not None and not args.no_progress,
+    ):
+        trained = fit(
+            ds,
+            spec,
+            holdout=SplitSpec(args.holdout, seed=args.split_seed) if args.holdout else None,
+            holdout_sessions=args.holdout_sessions,
+            finetune_from=args.finetune,
+            finetune_options=tune,
+            budget=args.budget if auto else None,
+            workers=args.workers,
+            ray_address=args.ray,
+            progress=not args.no_progress,
+            log=say,
+        )
     if trained.search is not None and not args.json:
         print(trained.search.text())
     dec = trained.decoder
@@ -191,6 +201,8 @@ def _train(args: argparse.Namespace) -> int:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
         written[fmt] = str(dec.export(fmt, path))
     summary = trained.report(written)
+    if estimate is not None:
+        summary["estimate"] = estimate.as_dict()
     check = trained.check
     if check.warning:
         print(f"warning: {check.warning}: the model fits what is particular to its "
@@ -202,6 +214,25 @@ def _train(args: argparse.Namespace) -> int:
     else:
         print(_human(summary))
     return ExitCode.OK
+
+
+def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
+    """How long this training will take: the --budget for the auto recipe (the search keeps
+    to it, the final refit included); a recipe's rates probed on the dataset's first rows;
+    None for a fine-tune (its epochs stop early on held-out presses)."""
+    from spectratac.errors import SpectraTacError
+    from spectratac.studies.cost_model import Estimate, training_estimate
+
+    if auto:
+        return Estimate({"search + final refit (--budget)": args.budget}, {}, 0.0)
+    if spec is None or spec.model == "ridge":
+        return None
+    fits = 1 if (args.holdout or args.holdout_sessions or spec.val_fraction > 0) else 2
+    try:
+        return training_estimate(ds, spec, fits=fits)
+    except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
+        print(f"note: no time estimate ({exc})", file=sys.stderr)
+        return None
 
 
 def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:

@@ -87,6 +87,8 @@ def register(subparsers: Any) -> None:
 
 
 def _report(args: argparse.Namespace) -> int:
+    from spectratac.cli.eta import announce
+    from spectratac.studies.cost_model import twin_report_estimate
     from spectratac.studies.twin_fidelity import ReportConfig, fidelity_report, format_report
     from spectratac.twin.errors import TwinError
 
@@ -98,6 +100,9 @@ def _report(args: argparse.Namespace) -> int:
         epochs=args.epochs,
         oracle_samples=args.oracle_samples,
     )
+    estimate = twin_report_estimate(cfg)
+    if not args.json:
+        announce("twin report", estimate)
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -120,12 +125,15 @@ def _report(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
+    rep["estimate"] = estimate.as_dict()
     print(json.dumps(rep) if args.json else format_report(rep))
     return ExitCode.FAILURE if args.check and not rep["pass"] else ExitCode.OK
 
 
 def _generate(args: argparse.Namespace) -> int:
+    from spectratac.cli.eta import ClockBar, announce
     from spectratac.sim.named_scenes import named_scene, scene_names, scene_settings
+    from spectratac.studies.cost_model import generation_estimate
     from spectratac.twin import generate_session, white_step
 
     if args.list:
@@ -144,8 +152,12 @@ def _generate(args: argparse.Namespace) -> int:
     settings.setdefault("sens_low", args.sensitivity == "low")
     if args.duty is not None:
         settings["led_steps"] = white_step(args.duty)
+    estimate = generation_estimate(scene.duration_s, seed=args.seed)
+    if not args.json:
+        announce(f"twin generate ({scene.duration_s:g} s of '{scene.name}')", estimate)
     t0 = time.perf_counter()
-    s = generate_session(scene, seed=args.seed, **settings)
+    with ClockBar(estimate.total_s, "generating", enabled=not args.json):
+        s = generate_session(scene, seed=args.seed, **settings)
     gen_s = time.perf_counter() - t0
     s.save_npz(args.output)
     summary = {
@@ -157,6 +169,7 @@ def _generate(args: argparse.Namespace) -> int:
         "saturated_fraction": float(s.saturated.mean()),
         "labelled_fraction": float(np.mean(s.region > 0)),
         "clear_mean": [float(v) for v in s.counts[:, :, 3].mean(axis=0)],
+        "estimate": estimate.as_dict(),
     }
     if args.json:
         print(json.dumps(summary))
@@ -181,11 +194,16 @@ def _unit_list(text: str) -> list[int]:
 
 
 def _population(args: argparse.Namespace) -> int:
+    from spectratac.cli.eta import announce
     from spectratac.sim.twin_dataset import population
+    from spectratac.studies.cost_model import generation_estimate
 
     units = _unit_list(args.units)
     refuse_overwrite(npz_name(args.output), args.force)
     total = len(units) * max(args.sessions, 0)
+    estimate = generation_estimate(total * args.duration, seed=args.seed)
+    if not args.json:
+        announce(f"twin population ({total} sessions of {args.duration:g} s)", estimate)
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -215,6 +233,7 @@ def _population(args: argparse.Namespace) -> int:
         "samples": ds.n,
         "generation_s": round(gen_s, 3),
         "seconds_per_simulated_minute": round(gen_s / minutes, 4),
+        "estimate": estimate.as_dict(),
     }
     if args.json:
         print(json.dumps(summary))

@@ -116,6 +116,35 @@ class Dataset:
     def target_names(self) -> list[str]:
         return list(self.meta["target_names"])
 
+    def press_count(self) -> int:
+        """Presses the dataset holds: distinct press ids with at least one row (ids of
+        presses whose rows were all lost leave gaps, so the largest id + 1 overcounts)."""
+        press = self.arrays["press"]
+        return int(np.unique(press[press >= 0]).size)
+
+    def span_s(self) -> float:
+        """Seconds of the sensor's clock the rows cover, summed over sessions. Recorded
+        datasets count on the device clock (`device_time_us`): host times of a simulated
+        device recorded at speed=10 are compressed tenfold. Steps back of the device clock (a
+        reconnect restarted it) are skipped; gaps of lost samples count as time."""
+        a = self.arrays
+        total = 0.0
+        for s in np.unique(a["session"]):
+            rows = a["session"] == s
+            if "device_time_us" in a:
+                t_end = a["device_time_us"][rows].astype(np.float64) / 1e6
+                steps = np.diff(t_end)
+                total += float(steps[steps > 0].sum()) + self._window_s()
+            else:
+                total += float(a["t_end"][rows].max() - a["t_start"][rows].min())
+        return total
+
+    def _window_s(self) -> float:
+        """One integration window on the device clock (0 when the config does not say)."""
+        cfg = self.meta.get("config")
+        ms = cfg.get("integration_ms") if isinstance(cfg, dict) else None
+        return float(ms) / 1000.0 if isinstance(ms, (int, float)) else 0.0
+
     def subset(self, rows: NDArray[Any] | slice) -> Dataset:
         """The rows selected by a boolean mask, index array or slice (metadata shared)."""
         return Dataset({k: v[rows] for k, v in self.arrays.items()}, dict(self.meta))

@@ -1,7 +1,7 @@
 """Write an evaluation as report.json, report.md and the Fig. 3 panels (PNG) into a folder.
 
 Per evaluated section (random split, blocked split, or the whole held-out dataset) the
-table puts our decoder, the paper's reported figures, the twin oracle floor (simulated data)
+table puts our decoder, the paper's reported figures, the twin oracle's reference (simulated data)
 and an optional baseline side by side.
 
 >>> import numpy as np, tempfile, pathlib, json

@@ -3,14 +3,14 @@
 Both packages build C extensions at install time and silently fall back to Python when that
 build fails, which makes framing ~35x slower. We check once at import and fail loudly, so that
 a slow install is noticed at set-up rather than as dropped samples in an experiment.
-Run ``python -m spectratac.protocol.accel`` to check an installation.
+Run ``python -m spectratac.protocol.accel_check`` to check an installation (a module of its
+own: this one is imported by the package, so running it with -m would load it twice).
 """
 
 from __future__ import annotations
 
 import importlib
 import os
-import sys
 
 from spectratac.errors import SpectraTacError
 
@@ -43,12 +43,3 @@ def require_extensions() -> None:
         f"python3-dev), then reinstall: pip install --force-reinstall --no-binary :all: "
         f"{' '.join(missing)}. To accept the slow path anyway set {ALLOW_SLOW_ENV}=1."
     )
-
-
-if __name__ == "__main__":
-    try:
-        require_extensions()
-    except AccelerationError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        sys.exit(1)
-    print("cobs and crcmod C extensions in use")

@@ -62,7 +62,9 @@ StopReason = Literal["duration", "samples", "scene_end", "guided", "interrupt", 
 @dataclass
 class RecordOptions:
     """What to record and how. Stops at whichever of duration_s, samples, the guided
-    protocol's end or a stop request comes first (none given: only a stop request)."""
+    protocol's end or a stop request comes first (none given: only a stop request).
+    duration_s is on the sensor's clock (what "60 s of data" means: 1200 samples at 50 ms,
+    whether a simulated device runs at speed=1 or speed=10)."""
 
     duration_s: float | None = None
     samples: int | None = None
@@ -88,9 +90,11 @@ class RecordOptions:
 
 @dataclass
 class RecordingStatus:
-    """Live figures for a progress display."""
+    """Live figures for a progress display. elapsed_s: wall clock; sensor_s: the sensor's
+    clock covered by the samples so far (what duration_s counts)."""
 
     elapsed_s: float
+    sensor_s: float
     samples: int
     ft_samples: int
     ft_rate_hz: float
@@ -112,13 +116,15 @@ class RecordingSummary:
     crc_errors: int
     ft_lost: int
     labels: int
-    duration_s: float
+    duration_s: float  # wall clock
     file_bytes: int
     stopped_by: StopReason
     config_id: int
     error: str | None = None
     sensor_stats: dict[str, int] = field(default_factory=dict)
     ft_stats: dict[str, int] | None = None
+    sensor_s: float = 0.0  # the sensor's clock covered by the samples (duration_s counts it)
+    ft_simulated_loss: float | None = None  # a simulated F/T's deliberate loss probability
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self) | {"path": str(self.path)}
@@ -166,6 +172,10 @@ class Recorder:
         self._ft_rows = 0
         self._labels = 0
         self._scene_now = 0.0  # device clock of the newest sample, s (= scene time in sim)
+        # sensor time covered: closed epochs (a reconnect may restart the device clock), and
+        # the current epoch's (epoch, first integration start in s)
+        self._sensor_done_s = 0.0
+        self._segment: tuple[int, float] | None = None
         self._sync_seen = 0
         self._ft_window: collections.deque[tuple[float, int]] = collections.deque()
 
@@ -242,7 +252,16 @@ class Recorder:
             error=error,
             sensor_stats=st.as_dict(),
             ft_stats=self.ft.stats.as_dict() if self.ft is not None else None,
+            sensor_s=self.sensor_s,
+            ft_simulated_loss=_simulated_loss(self.ft),
         )
+
+    @property
+    def sensor_s(self) -> float:
+        """Seconds of the sensor's clock the recorded samples cover."""
+        if self._segment is None:
+            return self._sensor_done_s
+        return self._sensor_done_s + max(self._scene_now - self._segment[1], 0.0)
 
     def _start(self, writer: RecordingWriter) -> int:
         opts = self.options
@@ -308,13 +327,23 @@ class Recorder:
                 return "interrupt", None
             if opts.samples is not None and self._samples >= opts.samples:
                 return "samples", None
-            if opts.duration_s is not None and now - t_begin >= opts.duration_s:
+            if opts.duration_s is not None and self.sensor_s >= opts.duration_s:
                 return "duration", None
             if self.guided is not None and self.guided.done(self.clock()):
                 return "guided", None
             if self.scene_end_s is not None and self._scene_now >= self.scene_end_s:
                 return "scene_end", None
-            stop.wait(opts.poll_s)
+            stop.wait(self._next_wait())
+
+    def _next_wait(self) -> float:
+        """poll_s, or less when the duration ends sooner on the sensor's clock (a fast
+        simulated device covers poll_s x speed of sensor time per poll)."""
+        opts = self.options
+        scale = self.sensor.link_info.clock_scale
+        if opts.duration_s is None or not scale:
+            return opts.poll_s
+        left = (opts.duration_s - self.sensor_s) / scale
+        return min(opts.poll_s, max(left, 0.001))
 
     def _finish(self, writer: RecordingWriter, stopped_by: StopReason, error: str | None) -> None:
         """Stop both streams, keep what is still in flight, write the end summary, close."""
@@ -433,7 +462,12 @@ class Recorder:
         batch = self.sensor.read(1 << 30, timeout=0)  # keeps the sensor's buffer empty
         if len(batch):
             self._samples += len(batch)
-            self._scene_now = float(batch["device_time_us"][-1]) / 1e6
+            for epoch in np.unique(batch["epoch"]):  # in arrival order: epochs only grow
+                rows = batch[batch["epoch"] == epoch]
+                if self._segment is None or self._segment[0] != int(epoch):
+                    self._sensor_done_s = self.sensor_s
+                    self._segment = (int(epoch), float(rows["t_start_us"][0]) / 1e6)
+                self._scene_now = float(rows["device_time_us"][-1]) / 1e6
 
     def _sync(self, writer: RecordingWriter) -> None:
         self.sensor.sync_clock(self.options.sync_exchanges)
@@ -482,6 +516,7 @@ class Recorder:
         st = self.sensor.stats
         return RecordingStatus(
             elapsed_s=elapsed,
+            sensor_s=self.sensor_s,
             samples=self._samples,
             ft_samples=self._ft_rows,
             ft_rate_hz=rate,
@@ -502,3 +537,12 @@ def _epoch_event(epoch: int, reason: str, host_time: float) -> dict[str, Any]:
 
 def _listify(leds: Any) -> Any:
     return None if leds is None else np.asarray(leds).tolist()
+
+
+def _simulated_loss(ft: Any) -> float | None:
+    """The loss probability a simulated F/T sensor applies on purpose (its driver says so in
+    FTInfo.extra["simulated_loss"]); None for a real sensor, whose losses are the link's."""
+    if ft is None:
+        return None
+    loss = ft.info.extra.get("simulated_loss")
+    return None if loss is None else float(loss)

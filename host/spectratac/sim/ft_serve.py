@@ -124,5 +124,7 @@ def open_sim_ft(url: str, *, timeout: float, buffer_size: int, **options: Any) -
         world.release()
         raise
     sensor.info.extra["sim"] = url
+    # losses it makes on purpose (ft_loss), so a report can tell them from a link's
+    sensor.info.extra["simulated_loss"] = FTParams.from_sim(opts).loss
     sensor._on_close += [server.stop, world.release]
     return sensor

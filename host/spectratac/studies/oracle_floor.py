@@ -1,11 +1,14 @@
-"""The twin's oracle as a floor column for simulated datasets.
+"""The twin's oracle as a reference column for simulated datasets (the API keeps the name
+"floor", the slot `spectratac.evaluate` gives it; it is not a lower bound).
 
 For a dataset generated from the twin, the oracle (`spectratac.twin.oracle`) knows the unit,
-the settings, the LEDs and the environment, and inverts the forward model per sample: its
-error is the floor a learned decoder can approach. It needs the scene, which the dataset's
-metadata names (scene, seed; calibration scenes also their duration). The scene is rebuilt
-from that and *checked* against the dataset (its contact state must agree with the recorded
-one), so a wrong guess never silently produces a floor. The oracle is slow per sample, so it
+the settings, the LEDs and the environment, and inverts the forward model per sample. It
+does not know the press history (the elastomer's creep and hysteresis), so a learned decoder
+with temporal context beats it: its error is a physics reference, not a floor. It needs the
+scene, which the dataset's metadata names (scene, seed; calibration scenes also their
+duration). The scene is rebuilt from that and *checked* against the dataset (its contact
+state must agree with the recorded one), so a wrong guess never silently produces a
+reference. The oracle is slow per sample, so it
 runs on a deterministic subsample of the test rows, and the report says so.
 
 >>> from spectratac.twin import generate_session, builtin_scenes as scenes

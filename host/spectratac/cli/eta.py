@@ -1,0 +1,87 @@
+"""How long a long verb will take, said before it starts (issue 26): the estimate line on
+stderr, and a progress bar that runs on the clock for work that has no finer steps.
+
+Estimates come from spectratac.studies.cost_model (rates measured now, on this machine). A
+person reads the line on stderr before any work; --json carries the same figures under
+"estimate" and never a progress line on stdout.
+
+Durations read as a person says them (spectratac.apps.durations).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Any, TextIO
+
+from spectratac.apps.durations import duration_text
+
+
+def estimate_line(what: str, estimate: Any) -> str:
+    """One line: the total, then each part, then how it was measured."""
+    parts = ", ".join(f"{k} {duration_text(v)}" for k, v in estimate.parts_s.items())
+    if estimate.calibration_s > 0:
+        basis = f"; from rates measured on this machine just now, in {estimate.calibration_s:.1f} s"
+    elif estimate.rates:
+        basis = "; at " + ", ".join(f"{v:g} {k}" for k, v in estimate.rates.items())
+    else:
+        basis = ""
+    return f"{what}: estimated {duration_text(estimate.total_s)} ({parts}){basis}"
+
+
+def announce(what: str, estimate: Any, out: TextIO | None = None) -> None:
+    """Print the estimate line on stderr (flushed: it must show before the work starts)."""
+    stream = out or sys.stderr
+    print(estimate_line(what, estimate), file=stream, flush=True)
+
+
+class ClockBar:
+    """A tqdm bar over the estimated seconds of one block of work, advanced by the wall clock
+    from a thread (tqdm then shows the time left): for work that reports no steps of its own
+    (the auto recipe's budgeted search, one twin session, one dataset build). The bar stops
+    one step short of its total until the work really ends.
+
+    >>> with ClockBar(0.05, "probe", enabled=False) as bar:
+    ...     bar.enabled
+    False
+    """
+
+    def __init__(self, seconds: float, desc: str, *, enabled: bool = True, every: float = 0.25):
+        self.seconds = max(seconds, 0.1)
+        self.desc = desc
+        self.enabled = enabled
+        self.every = every
+        self._done = threading.Event()
+        self._bar: Any = None
+        self._thread: threading.Thread | None = None
+
+    def __enter__(self) -> ClockBar:
+        if self.enabled:
+            from tqdm import tqdm
+
+            self._bar = tqdm(
+                total=round(self.seconds, 1),
+                desc=self.desc,
+                unit="s",
+                file=sys.stderr,
+                leave=False,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]",
+            )
+            self._thread = threading.Thread(target=self._run, name="clock-bar", daemon=True)
+            self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        t0 = time.monotonic()
+        while not self._done.wait(self.every):
+            elapsed = min(time.monotonic() - t0, self.seconds * 0.99)
+            self._bar.n = round(elapsed, 1)
+            self._bar.refresh()
+
+    def __exit__(self, *exc: object) -> None:
+        self._done.set()
+        if self._thread is not None:
+            self._thread.join()
+        if self._bar is not None:
+            self._bar.close()
