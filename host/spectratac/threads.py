@@ -19,6 +19,7 @@ torch is imported) and in the benchmarks.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Mapping, MutableMapping
@@ -118,10 +119,9 @@ def apply(workers: int = 1) -> ThreadPolicy:
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(p.threads)
-        try:  # only possible before torch's first parallel work; then it keeps its pool
+        # only possible before torch's first parallel work; after it, torch keeps its pool
+        with contextlib.suppress(RuntimeError):
             torch.set_num_interop_threads(1)
-        except RuntimeError:
-            pass
     return p
 
 

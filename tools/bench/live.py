@@ -120,8 +120,7 @@ def main() -> None:
                         "echoes": e["n"],
                         "server_part_ms": m["pipeline"][f"{q}_ms"],
                         "sample_period_ms": SAMPLE_PERIOD_MS,
-                        "within_one_sample_period": value is not None
-                        and value < SAMPLE_PERIOD_MS,
+                        "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
                         "max_ms": b["max_ms"],
                         "busy_loops": n,
                         "loadavg": load,

@@ -3,7 +3,8 @@
 All three have one interface: `submit(job)` starts a trial, `done(timeout)` returns the
 finished ones as (job, result or the exception it raised). Local workers each get the dataset
 once (at start-up) and their share of the CPUs under the thread policy (`spectratac.threads`:
-one thread each for two trials on two cores), so that trials do not fight over the cores. Ray is imported only by `RayRunner` (`--ray ADDRESS`).
+one thread each for two trials on two cores), so that trials do not fight over the cores.
+Ray is imported only by `RayRunner` (`--ray ADDRESS`).
 """
 
 from __future__ import annotations
