@@ -1,6 +1,6 @@
 """`spectratac demo` end to end, quiet and beside N busy-loop processes, in the same run.
 
-    python tools/bench/demo.py [--json] [--busy 2] [--epochs 40]
+    python tools/bench/demo.py [--json] [--busy 2] [--epochs 40] [--duration 600]
 
 Runs the demo as `make demo` does (a fresh process, after set-up: the venv exists) into a
 temporary folder and reads its own stage timings (record, dataset, train + evaluate). The quiet
@@ -27,13 +27,13 @@ BUDGET_S = 120.0  # README: make demo on a quiet machine after set-up
 LOADED_RATIO = 2.5  # the issue's bound beside two busy loops
 
 
-def run_demo(epochs: int) -> dict[str, float]:
+def run_demo(epochs: int, duration: float) -> dict[str, float]:
     """One `spectratac demo --json` in its own process: its stage timings and wall time."""
     with tempfile.TemporaryDirectory(prefix="stac-bench-demo-") as tmp:
         t0 = time.monotonic()
         out = subprocess.run(
             [sys.executable, "-m", "spectratac", "demo", "-o", f"{tmp}/out", "--json",
-             "--epochs", str(epochs)],
+             "--epochs", str(epochs), "--duration", f"{duration:g}"],
             capture_output=True, text=True, check=False,
         )  # fmt: skip
         wall = time.monotonic() - t0
@@ -46,15 +46,16 @@ def run_demo(epochs: int) -> dict[str, float]:
 def main() -> None:
     p = benchlib.parser(__doc__.splitlines()[0], busy=True)
     p.add_argument("--epochs", type=int, default=40, help="as the demo's default")
+    p.add_argument("--duration", type=float, default=600.0, help="scene s, as the demo's")
     args = p.parse_args()
-    quiet = run_demo(args.epochs)
+    quiet = run_demo(args.epochs, args.duration)
     figures = [
         benchlib.Figure("make demo, quiet", quiet["wall_s"], "s", "budget", BUDGET_S,
                         quiet["wall_s"] / BUDGET_S, {**quiet, "loadavg": benchlib.loadavg()})
     ]  # fmt: skip
     if args.busy:
         with benchlib.busy_loops(args.busy):
-            loaded = run_demo(args.epochs)
+            loaded = run_demo(args.epochs, args.duration)
             load = benchlib.loadavg()
         figures.append(
             benchlib.Figure(
