@@ -229,8 +229,11 @@ def test_lost_ft_samples_invalidate_exactly_the_windows_with_gaps(tmp_path: Path
     for i in np.flatnonzero(ds.target_valid):
         assert not np.any((t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i]))
     # a generous --max-gap-ms accepts the same windows: averages over what remains
+    # (inside the F/T's span: on a loaded host its last rows may arrive after the recording
+    # stopped, which leaves the last windows uncovered, not gapped)
     [loose] = session_datasets(rec, BuildOptions(max_gap_ms=50.0))
-    assert loose.target_valid.mean() > 0.99
+    covered = (loose.t_start > t[0]) & (loose.t_end < t[-1])
+    assert covered.sum() > 10 and loose.target_valid[covered].mean() > 0.99
 
 
 def test_no_reference_sensor_gives_flagged_nan_targets(quick_mcaps: dict[str, Path]) -> None:
@@ -427,7 +430,9 @@ def test_a_hardware_style_session_over_a_pty(tmp_path: Path) -> None:
         summary = record_url(
             port,
             path,
-            RecordOptions(duration_s=1.5, sync_every_s=0.5),
+            # a sample count (1.5 s of the sensor's clock), not a wall-clock duration: a
+            # loaded machine records the same
+            RecordOptions(samples=30, sync_every_s=0.5),
             ft_url="sim://?scene=idle&speed=1&ft=netft",
         )
     finally:
