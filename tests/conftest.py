@@ -12,8 +12,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from spectratac import threads
 
 REPO = Path(__file__).resolve().parents[1]
+# The test process trains beside the processes it starts: it follows the thread policy too,
+# before any test imports torch.
+threads.apply()
 
 Figures = dict[str, dict[str, Any]]
 

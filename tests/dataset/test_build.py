@@ -187,10 +187,15 @@ def test_an_ft_dropout_leaves_nan_targets_never_interpolated(
 ) -> None:
     rec = read_recording(tour_mcap)
     assert rec.ft is not None
-    arrival = rec.ft["host_time"]
-    g0 = arrival[0] + 0.4 * np.ptp(arrival)
+    # The gap is cut on the F/T's own clock, not by arrival: on a loaded host rows arrive in
+    # late bursts, so an arrival-time cut left rows sampled inside the gap. Sensor seconds
+    # -> host seconds at speed 10; the offset is the arrivals' lower envelope (a row never
+    # arrives before it is sampled).
+    sampled = rec.ft["sensor_time"] / 10.0
+    sampled = sampled + np.min(rec.ft["host_time"] - sampled)
+    g0 = sampled[0] + 0.4 * np.ptp(sampled)
     g1 = g0 + 0.3  # host seconds without F/T: 3 scene seconds at speed 10
-    cut = dataclasses.replace(rec, ft=rec.ft[(arrival < g0) | (arrival >= g1)])
+    cut = dataclasses.replace(rec, ft=rec.ft[(sampled < g0) | (sampled >= g1)])
     [ds] = session_datasets(cut)
     inside = (ds.t_start > g0 + 0.03) & (ds.t_end < g1 - 0.03)
     outside = (ds.t_end < g0 - 0.03) | (ds.t_start > g1 + 0.03)
@@ -224,8 +229,11 @@ def test_lost_ft_samples_invalidate_exactly_the_windows_with_gaps(tmp_path: Path
     for i in np.flatnonzero(ds.target_valid):
         assert not np.any((t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i]))
     # a generous --max-gap-ms accepts the same windows: averages over what remains
+    # (inside the F/T's span: on a loaded host its last rows may arrive after the recording
+    # stopped, which leaves the last windows uncovered, not gapped)
     [loose] = session_datasets(rec, BuildOptions(max_gap_ms=50.0))
-    assert loose.target_valid.mean() > 0.99
+    covered = (loose.t_start > t[0]) & (loose.t_end < t[-1])
+    assert covered.sum() > 10 and loose.target_valid[covered].mean() > 0.99
 
 
 def test_no_reference_sensor_gives_flagged_nan_targets(quick_mcaps: dict[str, Path]) -> None:
@@ -447,7 +455,9 @@ def test_a_hardware_style_session_over_a_pty(tmp_path: Path) -> None:
         summary = record_url(
             port,
             path,
-            RecordOptions(duration_s=1.5, sync_every_s=0.5),
+            # a sample count (1.5 s of the sensor's clock), not a wall-clock duration: a
+            # loaded machine records the same
+            RecordOptions(samples=30, sync_every_s=0.5),
             ft_url="sim://?scene=idle&speed=1&ft=netft",
         )
     finally:
@@ -461,7 +471,10 @@ def test_a_hardware_style_session_over_a_pty(tmp_path: Path) -> None:
     assert clock["scale"] == 1.0
     # the simulator stamps TIME_SYNC replies late (its last step), often enough to be caught
     assert clock["method"] == "envelope+exchanges" or "exchanges_rejected" in clock
-    assert abs(session["clock"]["drift"]) < 1e-3  # one host, one clock: no drift to speak of
+    # one host, one clock: no drift to speak of. What matters is what a drift does to the
+    # timestamps over the session (arrival jitter on a loaded host moves a 1.5 s fit's slope
+    # by a few 1e-3): under 5 ms, a tenth of the 50 ms integration window
+    assert abs(session["clock"]["drift"]) * 1.5 < 5e-3
     assert ds.target_valid[1:-1].all() and not ds.in_contact.any()  # idle: nothing touches
     assert np.all(ds.region == -1) and np.all(ds.press == -1)
     # windows end before their frames arrive, by less than the link's latency

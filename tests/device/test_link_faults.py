@@ -143,7 +143,7 @@ def test_stray_bytes_before_a_command_do_not_swallow_it() -> None:
 
 def test_a_lost_stop_is_sent_again_with_a_new_sequence_number() -> None:
     link = LineNoiseTransport(SimTransport(FAST))
-    with Sensor.attach(link, timeout=1.0) as sensor:
+    with Sensor.attach(link, timeout=6.0) as sensor:
         sensor.start()
         sensor.read(5, timeout=10)
         link.drop = 1  # the STOP is lost on its way to the device

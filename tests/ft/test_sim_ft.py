@@ -83,3 +83,30 @@ def test_the_twins_first_build_is_not_charged_to_the_open_timeout(
     seed = 7 + KINDS.index(kind)  # a world of its own: no rig built by an earlier test
     with open_ft(f"sim://?scene=press&seed={seed}&speed=10&ft={kind}", timeout=0.5) as ft:
         assert len(ft.read(20, timeout=10.0)) == 20
+
+
+def test_a_scripted_scene_starts_when_its_devices_are_ready_not_when_built(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The scene's clock starts once the devices are built, not while a loaded machine is
+    still building the F/T twin: otherwise at speed 4 the first scripted presses are over
+    before the host reads a sample (the live session's flaky Snake commands)."""
+    from spectratac.device import Sensor
+    from spectratac.sim import world as world_module
+
+    real = world_module.TwinRig
+    delay_s, speed = 3.0, 4.0
+
+    def slow_rig(*args: object, **kwargs: object) -> object:
+        time.sleep(delay_s)  # injected slowness of the F/T twin's build (a loaded machine)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(world_module, "TwinRig", slow_rig)
+    url = f"sim://?scene=presses&order=up,right&seed=11&speed={speed:g}&ft=bota"
+    before = set(SimWorld._registry)
+    with Sensor.open(url) as sensor, open_ft(url) as ft:
+        (key,) = set(SimWorld._registry) - before
+        scene_s = SimWorld._registry[key].scene_time()
+        # both opens and the handshakes only: far less than the build's delay x speed
+        assert scene_s < delay_s * speed, f"the scene ran {scene_s:.1f} s before the host read"
+        assert sensor.info is not None and len(ft.read(10, timeout=30.0)) == 10

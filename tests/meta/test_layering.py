@@ -50,8 +50,9 @@ COMPOSER = "cli"
 #: Beside the data flow: the physics model, the simulated devices, twin-only evaluation.
 BESIDE = ("twin", "sim", "studies")
 #: Modules every part may import, and which import no part themselves: the shared errors, the
-#: URL-scheme registry, and `hardware` (constants generated from the part and board definitions).
-SHARED = frozenset({"errors", "url_schemes", "hardware"})
+#: URL-scheme registry, `hardware` (constants generated from the part and board definitions), and
+#: `threads` (the thread policy every process applies).
+SHARED = frozenset({"errors", "url_schemes", "hardware", "threads"})
 
 
 def _up_to(part: str) -> set[str]:

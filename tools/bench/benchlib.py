@@ -3,15 +3,22 @@
 House rule: this machine is shared and noisy, so every figure is reported as a ratio to a
 reference measured side by side in the same run, alternating the two so that load spikes hit
 both; each benchmark prints a human table and, with --json, one JSON line per figure.
+`--busy N` (where a benchmark offers it) measures again beside N busy-loop processes started
+and stopped by `busy_loops`, in the same run, so a figure's quiet and loaded values sit side by
+side. Every benchmark runs under the toolkit's thread policy (spectratac.threads).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import statistics
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -48,10 +55,49 @@ def side_by_side(
     return statistics.median(s_rates), statistics.median(r_rates)
 
 
-def parser(description: str) -> argparse.ArgumentParser:
+def parser(description: str, busy: bool = False) -> argparse.ArgumentParser:
+    """The common options; applies the thread policy first, as every toolkit process does."""
+    from spectratac import threads
+
+    threads.apply()
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--json", action="store_true", help="print one JSON line per figure")
+    if busy:
+        p.add_argument(
+            "--busy",
+            type=int,
+            default=0,
+            metavar="N",
+            help="also measure beside N busy-loop processes (the issue's 'under load': 2)",
+        )
     return p
+
+
+@contextlib.contextmanager
+def busy_loops(n: int) -> Iterator[list[subprocess.Popen[bytes]]]:
+    """N processes that each spin one core (`while True: pass`) for the duration, then are
+    killed; they run at normal priority like a user's other work."""
+    procs = [
+        subprocess.Popen([sys.executable, "-c", "while True: pass"], env=dict(os.environ))
+        for _ in range(max(0, n))
+    ]
+    try:
+        time.sleep(0.2 if procs else 0.0)  # let them reach the run queue
+        yield procs
+    finally:
+        for proc in procs:
+            proc.kill()
+        for proc in procs:
+            proc.wait()
+
+
+def load_label(n: int) -> str:
+    return "quiet" if n == 0 else f"{n} busy loops"
+
+
+def loadavg() -> float:
+    """The 1-minute load average at measurement time, reported beside each figure."""
+    return round(os.getloadavg()[0], 2)
 
 
 def report(figures: list[Figure], as_json: bool) -> None:

@@ -1,6 +1,6 @@
 """Live page latency: a sample's frame arriving at the host -> its estimate in the browser.
 
-    python tools/bench/live.py [--json] [--seconds S] [--warmup S] [--model PATH]
+    python tools/bench/live.py [--json] [--seconds S] [--warmup S] [--model PATH] [--busy 2]
 
 Runs `spectratac live`'s server on the simulated sensor at real time (20 samples/s, the
 scripted presses scene, a simulated Bota F/T as reference) and opens the page in headless
@@ -11,7 +11,10 @@ at the same time on the same socket: half the round trip of a bare WebSocket ech
 server pings the page every 250 ms). Also reported: the part spent before the message
 leaves the server (decoding included), and whether p99 stays under one sample period.
 
-Without --model, a small decoder is trained first on twin presses (a few seconds).
+Without --model, a small decoder is trained first on twin presses (a few seconds). With
+--busy N the same measurement runs again beside N busy-loop processes (a new server and page),
+each figure against the echo of its own run: the target is p99 <= 2x the echo's, quiet and
+loaded.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from benchlib import Figure, parser, report
+from benchlib import Figure, busy_loops, load_label, loadavg, parser, report
 from spectratac.apps.live.server import LiveServer, bind
 from spectratac.apps.live.session import LiveSession
 from spectratac.decode import Decoder
@@ -87,36 +90,43 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
 
 
 def main() -> None:
-    p = parser(__doc__.splitlines()[0])
+    p = parser(__doc__.splitlines()[0], busy=True)
     p.add_argument("--seconds", type=float, default=30.0, help="measured seconds")
     p.add_argument("--warmup", type=float, default=3.0, help="seconds before measuring")
     p.add_argument("--model", type=Path, help="decoder file (default: train a small one)")
     args = p.parse_args()
+    runs = []
     with tempfile.TemporaryDirectory() as tmp:
         model = args.model or small_model(Path(tmp))
-        m = measure(model, args.seconds, args.warmup)
-    b, e = m["browser"], m["echo"]
+        for n in sorted({0, args.busy}):
+            with busy_loops(n):
+                runs.append((n, measure(model, args.seconds, args.warmup), loadavg()))
     figures = []
-    for q in ("p50", "p99"):
-        value, ref = b[f"{q}_ms"], e[f"{q}_ms"]
-        figures.append(
-            Figure(
-                f"frame arrival -> browser {q}",
-                value,
-                "ms",
-                f"bare WebSocket echo, half round trip, {q}",
-                ref,
-                round(value / ref, 2) if value is not None and ref else float("nan"),
-                {
-                    "estimates_received": b["n"],
-                    "echoes": e["n"],
-                    "server_part_ms": m["pipeline"][f"{q}_ms"],
-                    "sample_period_ms": SAMPLE_PERIOD_MS,
-                    "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
-                    "max_ms": b["max_ms"],
-                },
+    for n, m, load in runs:
+        b, e = m["browser"], m["echo"]
+        suffix = "" if not args.busy else f", {load_label(n)}"
+        for q in ("p50", "p99"):
+            value, ref = b[f"{q}_ms"], e[f"{q}_ms"]
+            figures.append(
+                Figure(
+                    f"frame arrival -> browser {q}{suffix}",
+                    value,
+                    "ms",
+                    f"bare WebSocket echo, half round trip, {q}",
+                    ref,
+                    round(value / ref, 2) if value is not None and ref else float("nan"),
+                    {
+                        "estimates_received": b["n"],
+                        "echoes": e["n"],
+                        "server_part_ms": m["pipeline"][f"{q}_ms"],
+                        "sample_period_ms": SAMPLE_PERIOD_MS,
+                        "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
+                        "max_ms": b["max_ms"],
+                        "busy_loops": n,
+                        "loadavg": load,
+                    },
+                )
             )
-        )
     report(figures, args.json)
 
 

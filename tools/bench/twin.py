@@ -1,13 +1,14 @@
 """Benchmark: generating the 50-minute calibration session (60,000 optical samples plus the
 1 kHz F/T stream) against merely allocating its output arrays, side by side in one run.
 
-    .venv/bin/python tools/bench/twin.py [--json] [--rounds 3]
+    .venv/bin/python tools/bench/twin.py [--json] [--rounds 3] [--busy 2]
 
 Also times a population dataset (4 units x 3 sessions x 5 minutes, each session with its own
 unit, mounting, temperature and ageing) against one session of the same simulated length, in
 seconds per simulated minute, and one register-level integration window (three sensors
 triggered together) against a bare NumPy call of similar size, the cost the
-firmware-in-the-loop device pays per sample.
+firmware-in-the-loop device pays per sample. With --busy N the session is generated again
+beside N busy-loop processes (with its allocation reference), in the same run.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def allocate_like(n: int, m: int) -> int:
 
 
 def main() -> None:
-    p = benchlib.parser(__doc__.splitlines()[0])
+    p = benchlib.parser(__doc__.splitlines()[0], busy=True)
     p.add_argument("--rounds", type=int, default=3)
     args = p.parse_args()
     scene = scenes.calibration_session(seed=0)
@@ -62,6 +63,24 @@ def main() -> None:
 
     gen_rate, alloc_rate = benchlib.side_by_side(gen, lambda: allocate_like(n, m), args.rounds)
     gen_s, alloc_s = n / gen_rate, n / alloc_rate
+    loaded: list[benchlib.Figure] = []
+    if args.busy:
+        with benchlib.busy_loops(args.busy):
+            busy_rate, busy_alloc = benchlib.side_by_side(
+                gen, lambda: allocate_like(n, m), args.rounds
+            )
+            load = benchlib.loadavg()
+        loaded.append(
+            benchlib.Figure(
+                f"calibration session generation, {benchlib.load_label(args.busy)}",
+                n / busy_rate,
+                "s",
+                "the quiet generation",
+                gen_s,
+                (n / busy_rate) / gen_s,
+                {"allocate_outputs_s": n / busy_alloc, "loadavg": load},
+            )
+        )
 
     pop_units, pop_sessions, pop_s = [0, 1, 2, 3], 3, 300.0
     pop_minutes = len(pop_units) * pop_sessions * pop_s / 60.0
@@ -112,8 +131,9 @@ def main() -> None:
                 "allocate outputs",
                 alloc_s,
                 gen_s / alloc_s,
-                {"samples": n, "ft_samples": m, "budget_s": 5.0},
+                {"samples": n, "ft_samples": m, "budget_s": 1.5, "loadavg": benchlib.loadavg()},
             ),
+            *loaded,
             benchlib.Figure(
                 "population dataset, 4 units x 3 sessions x 300 s",
                 pop_per_min,

@@ -14,7 +14,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from spectratac import __version__
+from spectratac import __version__, threads
 from spectratac.cli.exit_codes import ExitCode, exit_code_for
 from spectratac.cli.options import require, show_defaults
 from spectratac.errors import SpectraTacError
@@ -64,6 +64,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one verb; returns its exit code (see spectratac.cli.exit_codes)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    try:
+        # Before any verb imports torch (training, sim servers, benchmarks): see threads.py.
+        threads.apply()
+    except SpectraTacError as exc:
+        print(f"spectratac: error: {exc}", file=sys.stderr)
+        return ExitCode.USAGE
     if not hasattr(args, "func"):
         parser.print_help()
         return ExitCode.USAGE

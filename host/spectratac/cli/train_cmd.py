@@ -102,7 +102,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--val-fraction", type=float)
     p.add_argument("--degree", type=int, help="--model ridge: polynomial degree 1-3")
     p.add_argument("--seed", type=int)
-    p.add_argument("--threads", type=int)
+    p.add_argument(
+        "--threads",
+        type=int,
+        help="torch threads (default: the thread policy, SPECTRATAC_THREADS; README)",
+    )
     p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
     p.add_argument("--split-seed", type=int, default=0, help="seed of the --holdout split")
     p.add_argument(

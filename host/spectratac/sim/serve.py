@@ -149,13 +149,17 @@ def _open_pty(link: Path | None) -> tuple[int, str]:
 
 
 def _signal_stop(stop: StopFlag | None) -> StopFlag:
-    """`stop` (set by the caller from another thread), or SIGTERM in the main thread: the
-    handler sets a lock-free StopRequest, never an Event (it could deadlock there). The
-    request's pipe lives as long as the process serves, which is until it exits."""
+    """`stop` (set by the caller from another thread), or SIGTERM or SIGINT in the main
+    thread: the handler sets a lock-free StopRequest, never an Event (it could deadlock
+    there). SIGINT too, rather than a KeyboardInterrupt raised wherever the main thread is
+    (between booting a device and its clean-up, say: a Ctrl-C right after the announcement
+    then left the server hanging on a loaded machine); a second Ctrl-C still interrupts.
+    The request's pipe lives as long as the process serves, which is until it exits."""
     if threading.current_thread() is not threading.main_thread():
         return stop or threading.Event()
     signalled = StopRequest()
-    signal.signal(signal.SIGTERM, stop_handler(signalled))
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, stop_handler(signalled))
     return signalled if stop is None else AnyStop(stop, signalled)
 
 
@@ -194,7 +198,7 @@ def serve_pty(
                 if link is not None:
                     _remove_link(link, path)
                 stop.wait(replug_after)
-    finally:  # SIGINT (KeyboardInterrupt), SIGTERM (stop) or an error: leave no link behind
+    finally:  # SIGINT or SIGTERM (stop), a second SIGINT or an error: leave no link behind
         if link is not None and path is not None:
             _remove_link(link, path)
 

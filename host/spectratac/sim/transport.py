@@ -43,7 +43,6 @@ class SimTransport:
         except ValueError as exc:
             raise DeviceError(str(exc)) from None
         self.options = opts
-        self.ground_truth = SceneTruth(self.world.scene, self._describe())
         self.link_info = LinkInfo(
             clock_scale=None if opts.speed == MAX else float(opts.speed),
             paired_ft_url=url if opts.scene_params.get("ft") else None,  # ft=bota|netft
@@ -76,7 +75,9 @@ class SimTransport:
         except ModelStoreError as exc:
             self.world.release()
             raise DeviceError(str(exc)) from None
+        # The device and its twin are built: the world's clock may start (its first read).
         epoch = self.world.epoch if self.world.paced else None
+        self.ground_truth = SceneTruth(self.world.scene, self._describe())
         self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
 
     def _describe(self) -> dict[str, Any]:

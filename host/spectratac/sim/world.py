@@ -2,9 +2,13 @@
 sim:// URL shares, so that the optical sensor and a simulated reference F/T sensor opened
 on the same scene and seed see the same contact at the same moment.
 
-Scene time runs at `speed` times the host's monotonic clock from the world's epoch (the
-moment its first device opened). Worlds are shared within one process by key (scene,
-seed, speed, scene parameters) and dropped when the last device releases them.
+Scene time runs at `speed` times the host's monotonic clock from the world's epoch: the
+moment its first device is ready to answer a host, not the moment the world was made. What
+takes long to build (each device's twin, and for a URL with ``ft=`` the F/T twin with its
+first evaluation) is built before the clock starts, so a loaded machine that builds slowly
+does not let a scripted scene run ahead of the host that opens it. Worlds are shared within
+one process by key (scene, seed, speed, scene parameters) and dropped when the last device
+releases them.
 
 >>> from spectratac.sim.url import parse_sim_url
 >>> a = SimWorld.join(parse_sim_url("sim://?scene=press&seed=2&speed=5"))
@@ -52,9 +56,19 @@ class SimWorld:
         self.scene = scene
         self.seed = seed
         self.speed = speed
-        self.epoch = time.monotonic()
+        self._epoch: float | None = None  # started by the first device that is ready
+        self._epoch_lock = threading.Lock()
         self._users = 0
         self._ft_rig: TwinRig | None = None
+
+    @property
+    def epoch(self) -> float:
+        """Host monotonic time of scene time 0: started on the first read, which devices
+        make once they are built and about to serve."""
+        with self._epoch_lock:
+            if self._epoch is None:
+                self._epoch = time.monotonic()
+            return self._epoch
 
     @classmethod
     def join(cls, opts: SimOptions) -> SimWorld:
@@ -67,7 +81,13 @@ class SimWorld:
                 scene = make_scene(opts.scene, seed=str(opts.seed), **params)
                 world = cls._registry[key] = SimWorld(key, scene, opts.seed, opts.speed)
             world._users += 1
-            return world
+        if opts.scene_params.get("ft") and world.paced:
+            try:
+                world.ft_rig.ft([0.0])  # the F/T twin's build and first call: before the clock
+            except BaseException:
+                world.release()
+                raise
+        return world
 
     def release(self) -> None:
         with self._lock:

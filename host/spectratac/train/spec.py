@@ -76,7 +76,7 @@ class TrainSpec:
     lr: float = 3e-3
     weight_decay: float = 1e-4
     seed: int = 0
-    threads: int = 2
+    threads: int = 0  # torch threads; 0: the thread policy's share (spectratac.threads)
     hidden: int = 128
     blocks: int = 3
     val_fraction: float = 0.0
@@ -112,7 +112,7 @@ class TrainSpec:
         stray = [k for k, _ in self.loss_weights if k not in self.targets]
         if stray:
             raise DecoderError(f"TrainSpec.loss_weights names {stray}, which are not targets")
-        ints = {"context": 0, "epochs": 1, "batch_size": 1, "threads": 1, "hidden": 1}
+        ints = {"context": 0, "epochs": 1, "batch_size": 1, "threads": 0, "hidden": 1}
         for name, low in ints.items():
             if int(getattr(self, name)) < low:
                 raise DecoderError(f"TrainSpec.{name}={getattr(self, name)}: must be >= {low}")

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac import threads
 from spectratac.train.plan import Plan
 from spectratac.train.spec import TrainSpec
 
@@ -83,12 +84,14 @@ def fit_network(
 ) -> tuple[dict, list, list]:
     """Optimise the network on `fit_rows`. `start`: initial weights (fine-tuning) instead of a
     fresh initialisation; `trainable`: which parameters (by name) the optimiser updates."""
+    # Before torch's first import: its OpenMP pool reads the thread variables once.
+    share = threads.apply(threads.current().workers).threads
     import torch
 
     from spectratac.decode.export.torch_net import Net
 
     torch.manual_seed(spec.seed)
-    torch.set_num_threads(max(1, spec.threads))
+    torch.set_num_threads(spec.threads or share)
     gen = torch.Generator().manual_seed(spec.seed)
     heads = p.heads
     sl = heads.slices()

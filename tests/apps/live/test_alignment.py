@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from spectratac.apps.live.alignment import LiveClock, ReferenceTracker
 from spectratac.dataset.labels import CONTACT_N
 from spectratac.ft.records import FT_RECORD
+from spectratac.fusion import window_average
 
 
 def _pairs(seconds: float, rate: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
@@ -74,3 +75,72 @@ def test_running_mae_in_contact_counts_only_windows_the_reference_calls_contact(
     assert tracker.mae_contact()["Fz"] == (pytest.approx(want, abs=1e-9) if contact.any() else None)
     assert tracker.mae_contact()["Tx"] == (0.0 if contact.any() else None)
     assert (tracker.overall.windows, tracker.contact.windows) == (len(forces), contact.sum())
+
+
+# --------------------------------------------------------------- the reference per estimate
+def _ft_rows(t: np.ndarray, seed: int = 0) -> np.ndarray:
+    from spectratac.ft.records import FT_RECORD
+
+    rows = np.zeros(t.size, FT_RECORD)
+    rows["sensor_time"] = rows["host_time"] = t
+    rows["wrench"] = np.random.default_rng(seed).normal(size=(t.size, 6))
+    return rows
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    drops=st.lists(st.tuples(st.floats(0.0, 2.9), st.floats(0.005, 0.1)), max_size=3),
+    windows=st.lists(st.floats(0.0, 2.95), min_size=1, max_size=20),
+    batch=st.integers(1, 400),
+)
+def test_the_reference_is_the_f_t_average_over_the_estimate_window(drops, windows, batch) -> None:
+    """Each estimate's reference is `window_average` of the F/T rows over its window, the
+    dataset builder's rule (dropouts inside or at the edge give no reference), however the
+    rows arrive in batches."""
+    t = np.round(np.arange(0.0, 3.0, 0.001), 6)  # 1 kHz on the host clock already
+    gone = np.zeros(t.size, bool)
+    for start, length in drops:
+        gone |= (t >= start) & (t < start + length)
+    rows = _ft_rows(t[~gone])
+    tracker = ReferenceTracker(LiveClock(None), keep_s=10.0)
+    for key, t0 in enumerate(sorted(windows)):
+        tracker.add_estimate(key, t0, t0 + 0.05, np.zeros(6))
+    got = []
+    for i in range(0, rows.size, batch):
+        tracker.add_ft(rows[i : i + batch])
+        got += tracker.ready()
+    t0s = np.array(sorted(windows))
+    want, valid, _ = window_average(rows["sensor_time"], rows["wrench"], t0s, t0s + 0.05)
+    last = rows["sensor_time"][-1]
+    covered = [k for k in range(t0s.size) if valid[k] and t0s[k] + 0.05 <= last]
+    assert [k for k, _, _ in got] == covered
+    for key, t_end, ref in got:
+        assert t_end == t0s[key] + 0.05
+        np.testing.assert_allclose(ref, want[key], rtol=1e-9, atol=1e-12)
+
+
+def test_a_reference_looks_only_at_the_f_t_rows_near_its_window(monkeypatch) -> None:
+    """The work per estimate does not grow with the 10 s buffer of a 1 kHz F/T: averaging
+    the whole buffer for every estimate cost ~10 ms each and most of the page's latency on
+    a loaded machine."""
+    import spectratac.apps.live.alignment as alignment
+
+    seen: list[int] = []
+    real = alignment.window_average
+
+    def spy(t, *args, **kwargs):
+        seen.append(len(t))
+        return real(t, *args, **kwargs)
+
+    monkeypatch.setattr(alignment, "window_average", spy)
+    tracker = ReferenceTracker(LiveClock(None), keep_s=10.0)
+    t = np.arange(0.0, 12.0, 0.001)
+    for key, t0 in enumerate(np.arange(10.0, 11.5, 0.05)):
+        tracker.add_estimate(key, t0, t0 + 0.05, np.zeros(6))
+    rows = _ft_rows(t)
+    for i in range(0, rows.size, 50):  # 20 batches a second, as the live session reads them
+        tracker.add_ft(rows[i : i + 50])
+        tracker.ready()
+    assert len(seen) == 30
+    near = (0.05 + 2 * alignment.NEAR_S) * 1000 + 2
+    assert max(seen) <= near, f"a window averaged {max(seen)} rows, not only those near it"

@@ -281,12 +281,12 @@ class LiveSession:
                     if update.commands or update.steps:
                         msg["snake"] = self.snake.state()
                         msg["commands"] = [c.as_dict() for c in update.commands]
-            self.history.add_row(seq, self._row(msg, sample))
             self.estimates += 1
             self.last = msg
-            publish(msg)
+            publish(msg)  # first: the history and the figures below are not on the page's path
             now = time.monotonic()
             self.pipeline.add([(now - sample.host_time) * 1e3])
+            self.history.add_row(seq, self._row(msg, sample))
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())

@@ -2,17 +2,18 @@
 
 All three have one interface: `submit(job)` starts a trial, `done(timeout)` returns the
 finished ones as (job, result or the exception it raised). Local workers each get the dataset
-once (at start-up) and run torch on one thread, so that two trials on two cores do not fight
-over them. Ray is imported only by `RayRunner` (`--ray ADDRESS`).
+once (at start-up) and their share of the CPUs under the thread policy (`spectratac.threads`:
+one thread each for two trials on two cores), so that trials do not fight over the cores.
+Ray is imported only by `RayRunner` (`--ray ADDRESS`).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-import os
 from typing import Any
 
+from spectratac import threads
 from spectratac.dataset.schema import Dataset
 from spectratac.train.auto_recipe.trial import TrialJob, run_trial
 
@@ -50,10 +51,10 @@ class InlineRunner:
 _WORKER_DS: Dataset | None = None
 
 
-def _init_worker(ds: Dataset) -> None:
+def _init_worker(ds: Dataset, workers: int) -> None:
     global _WORKER_DS
     _WORKER_DS = ds
-    os.environ["OMP_NUM_THREADS"] = "1"
+    threads.apply(workers)  # this worker's share, before its trials import torch
 
 
 def _run_in_worker(job: TrialJob) -> dict[str, Any]:
@@ -68,9 +69,11 @@ class LocalRunner:
 
     def __init__(self, ds: Dataset, workers: int) -> None:
         self.workers = max(1, workers)
+        # Spawned children inherit this environment: their share from the first import on.
+        threads.apply(self.workers)
         ctx = multiprocessing.get_context("spawn")
         self._pool = cf.ProcessPoolExecutor(
-            self.workers, mp_context=ctx, initializer=_init_worker, initargs=(ds,)
+            self.workers, mp_context=ctx, initializer=_init_worker, initargs=(ds, self.workers)
         )
         self._running: dict[cf.Future[dict[str, Any]], TrialJob] = {}
 
@@ -96,6 +99,7 @@ class LocalRunner:
         for fut in self._running:
             fut.cancel()
         self._pool.shutdown(wait=True, cancel_futures=True)
+        threads.apply(1)  # the workers are gone: this process computes alone again
 
 
 class RayRunner:

@@ -18,7 +18,6 @@ a fold did) and its report is stored in the decoder's metadata under "auto_recip
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -27,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from spectratac import threads
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError
@@ -188,7 +188,7 @@ def search(
     tv = np.asarray(dataset.target_valid, bool)[sel]
     std = {t: float(np.nanstd(y[tv, dataset.target_names.index(t)])) or 1.0 for t in reg}
     n_fold = int(np.mean([f.size for f, _ in fold_rows]))
-    ncores = os.cpu_count() or 1
+    ncores = threads.usable_cpus()
     runner = _runner(dataset, ray_address, workers or ncores)
     cost = CostModel()
     table: dict[str, dict[str, Any]] = {}
@@ -255,7 +255,7 @@ def search(
     chosen = by_name[chosen_name]
     search_s = budget.elapsed()
     t_refit = clock()
-    spec = _refit_spec(chosen, min(n_fold, max_fit_rows), sel.size, max(1, ncores))
+    spec = _refit_spec(chosen, min(n_fold, max_fit_rows), sel.size, 0)
     dec = train(dataset, spec, rows=sel, progress=False)
     refit_seconds = clock() - t_refit
     report = {

@@ -41,7 +41,7 @@ def _ridge(features: str, targets: tuple[str, ...], **kw: Any) -> TrainSpec:
 
 
 def _net(features: str, targets: tuple[str, ...], **kw: Any) -> TrainSpec:
-    base: dict[str, Any] = {"threads": 1, "epochs": NETWORK_EPOCHS}
+    base: dict[str, Any] = {"threads": 0, "epochs": NETWORK_EPOCHS}
     return TrainSpec.paper(features=features, targets=targets, **{**base, **kw})
 
 
@@ -84,5 +84,5 @@ def candidates(
     ]
     out += [Candidate(n, "network", _net(features, targets, **kw)) for n, kw in nets]
     if features == "paper33":  # SpectraTac: our best recipe, with the symmetry augmentation
-        out.append(Candidate("best", "network", TrainSpec.best(targets=targets, threads=1)))
+        out.append(Candidate("best", "network", TrainSpec.best(targets=targets, threads=0)))
     return out

@@ -14,6 +14,7 @@ process or a Ray task.
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -107,4 +108,11 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
         "train_mae": train_mae,
         "seconds": time.perf_counter() - t0,
         "cost": cost,
+        # What the thread policy gave this trial's process (torch's pool, if it trained one).
+        "threads": _torch_threads(),
     }
+
+
+def _torch_threads() -> int | None:
+    torch = sys.modules.get("torch")
+    return None if torch is None else int(torch.get_num_threads())
