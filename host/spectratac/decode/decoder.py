@@ -45,6 +45,7 @@ class Decoder:
     layout: Layout
     guard: Guard
     meta: dict[str, Any] = field(default_factory=dict)
+    _streams: set[Assembler] = field(default_factory=set, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
     @property
@@ -156,12 +157,15 @@ class Decoder:
                 f"inputs have shape {x.shape}; this decoder takes (N, "
                 f"{len(self.layout.channels)}) columns {list(self.layout.channels)}"
             )
-        u, valid = assemble(self.layout, x, step, session, t)
+        seen = np.zeros(x.shape[0], bool)
+        u, valid = assemble(self.layout, x, step, session, t, seen=seen)
         sel = np.arange(x.shape[0]) if rows is None else np.asarray(rows)
         if sel.dtype == bool:
             sel = np.flatnonzero(sel)
         st = None if status is None else np.asarray(status)[sel]
-        return self._estimates(u[sel], valid[sel], st)
+        est = self._estimates(u[sel], valid[sel], st)
+        est.no_rest = valid[sel] & ~seen[sel]
+        return est
 
     def predict_assembled(self, u: Any, status: Any = None) -> Estimates:
         """Estimates for assembled vectors (N, D) (the exports' input)."""
@@ -208,6 +212,19 @@ class Decoder:
         return est
 
     # ------------------------------------------------------------------ live
+    def tare(self) -> None:
+        """Zero the drift baseline of every running `stream` on its next sample: call it
+        while nothing touches the skin (as the bias button of an F/T sensor's software).
+
+        >>> import numpy as np
+        >>> from spectratac.dataset import Dataset
+        >>> ds = Dataset.generic(np.ones((2, 3)), np.zeros((2, 1)), ["a", "b", "c"], ["Fz"])
+        >>> dec = Decoder.untrained(ds)
+        >>> dec.tare()  # the next sample of each stream() becomes the zero
+        """
+        for asm in list(self._streams):
+            asm.tare()
+
     def stream(self, sensor: SampleStream, check_config: bool = True) -> Iterator[Estimate]:
         """Estimates of a live, streaming sensor (a `spectratac.device.SampleStream` such as
         `spectratac.device.Sensor`), one per sample.
@@ -218,7 +235,8 @@ class Decoder:
         yielded instead of decoding on the host (contact_prob and std are then not known);
         otherwise the samples are decoded here. Checks the sensor's configuration first
         (DecoderConfigError on mismatch) and again whenever the configuration id changes;
-        warns if the unit differs.
+        warns if the unit differs. With a drift baseline, each estimate's `no_rest` says the
+        baseline has not yet seen the skin at rest; `tare()` zeroes it on the next sample.
         """
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
@@ -227,20 +245,24 @@ class Decoder:
             return
         config_id = None
         asm = Assembler(self.layout)
+        self._streams.add(asm)
         run1 = self.runtime.run1
         s = self.heads.slices()
         fi = [self.target_names.index(n) if n in self.target_names else -1 for n in FORCE]
         ti = [self.target_names.index(n) if n in self.target_names else -1 for n in TORQUE]
-        for sample in sensor:
-            if sample.config_id != config_id:
-                if check_config:
-                    self.check_config(sensor.get_config(), "the sensor")
-                config_id = sample.config_id
-                asm.reset()
-            counts = np.asarray(sample.counts, dtype=np.float64)
-            x = counts[:, :4].reshape(-1)
-            u, ok = asm.push(int(sample.step), x)
-            yield self._one(sample, u, ok, run1, s, fi, ti)
+        try:
+            for sample in sensor:
+                if sample.config_id != config_id:
+                    if check_config:
+                        self.check_config(sensor.get_config(), "the sensor")
+                    config_id = sample.config_id
+                    asm.reset()
+                counts = np.asarray(sample.counts, dtype=np.float64)
+                x = counts[:, :4].reshape(-1)
+                u, ok = asm.push(int(sample.step), x)
+                yield self._one(sample, u, ok, run1, s, fi, ti, not asm.rest_seen)
+        finally:
+            self._streams.discard(asm)
 
     def model_id(self, weights: str = "f32") -> int:
         """The id of this decoder's model image with `weights` (what a device that runs it
@@ -274,7 +296,15 @@ class Decoder:
             yield Estimate.from_device(row, self.target_names)
 
     def _one(
-        self, sample: Sample, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any
+        self,
+        sample: Sample,
+        u: F64,
+        ok: bool,
+        run1: Any,
+        s: Any,
+        fi: Any,
+        ti: Any,
+        no_rest: bool = False,
     ) -> Estimate:
         heads = self.heads
         out = run1(u).astype(np.float64) if ok else None
@@ -324,6 +354,7 @@ class Decoder:
             False,
             tg.copy(),
             std,
+            no_rest,
         )
 
     # ------------------------------------------------------------------ files
