@@ -32,6 +32,7 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
+from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit
 from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
 from spectratac.hardware.generated import vocabulary as vocab
@@ -45,7 +46,11 @@ class Decoder:
     layout: Layout
     guard: Guard
     meta: dict[str, Any] = field(default_factory=dict)
+    #: what `stream` does when the sensor is another unit (decode.unit_check): "warn",
+    #: "strict" (DecoderUnitError) or "off"
+    unit_policy: UnitPolicy = field(default="warn", compare=False)
     _streams: set[Assembler] = field(default_factory=set, repr=False, compare=False)
+    _tare_next: bool = field(default=False, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
     @property
@@ -221,9 +226,13 @@ class Decoder:
         >>> ds = Dataset.generic(np.ones((2, 3)), np.zeros((2, 1)), ["a", "b", "c"], ["Fz"])
         >>> dec = Decoder.untrained(ds)
         >>> dec.tare()  # the next sample of each stream() becomes the zero
+
+        Called before any stream runs, it zeroes the next stream on its first sample.
         """
-        for asm in list(self._streams):
+        streams = list(self._streams)
+        for asm in streams:
             asm.tare()
+        self._tare_next = not streams
 
     def stream(self, sensor: SampleStream, check_config: bool = True) -> Iterator[Estimate]:
         """Estimates of a live, streaming sensor (a `spectratac.device.SampleStream` such as
@@ -235,16 +244,21 @@ class Decoder:
         yielded instead of decoding on the host (contact_prob and std are then not known);
         otherwise the samples are decoded here. Checks the sensor's configuration first
         (DecoderConfigError on mismatch) and again whenever the configuration id changes;
-        warns if the unit differs. With a drift baseline, each estimate's `no_rest` says the
+        compares the sensor's unit with the model's on open (`unit_policy`: warns, or raises
+        DecoderUnitError when "strict"). With a drift baseline, each estimate's `no_rest` says the
         baseline has not yet seen the skin at rest; `tare()` zeroes it on the next sample.
         """
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
+        check_sensor_unit(self.unit_id, sensor, self.unit_policy)
         if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
             return
         config_id = None
         asm = Assembler(self.layout)
+        if self._tare_next:
+            asm.tare()
+            self._tare_next = False
         self._streams.add(asm)
         run1 = self.runtime.run1
         s = self.heads.slices()
