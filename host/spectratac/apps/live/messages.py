@@ -5,6 +5,7 @@
     {"type": "estimate", "seq": 41, "t": 2.05, "arrival_ms": 1.7e12,
      "force": [Fx, Fy, Fz], "torque": [Tx, Ty, Tz],           N and N·m, null if not decoded
      "region": 2, "p": 0.97, "contact": true, "ood": false, "invalid": false,
+     "no_rest": false,                       the drift baseline has not yet seen rest (Tare)
      "step": 0, "counts": [12 counts: s0 R G B C, s1 ..., s2 ...],
      "saturated": [12 bools], "dark": [3 bools: each sensor's Clear below the dark level],
      "status": [3 SENSOR_* bit sets: saturated 1, bus fault 2, stale 4, absent 8],
@@ -63,6 +64,7 @@ def estimate_message(
         "contact": bool(estimate.contact),
         "ood": bool(estimate.ood),
         "invalid": bool(estimate.invalid),
+        "no_rest": bool(getattr(estimate, "no_rest", False)),
         "step": int(sample.step),
         "counts": counts,
         "saturated": saturated,

@@ -146,6 +146,10 @@ class LiveSession:
             "release_n": det.release_n,
         }
 
+    def tare(self) -> None:
+        """Zero the decoder's drift baseline on the next sample (the page's Tare button)."""
+        self.decoder.tare()
+
     def snake_state(self) -> dict[str, Any]:
         with self._lock:
             return self.snake.state()

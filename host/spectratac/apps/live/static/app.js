@@ -62,6 +62,7 @@ $("save").addEventListener("click", async () => {
   }
 });
 $("snake-restart").addEventListener("click", () => send({ type: "snake_restart" }));
+$("tare").addEventListener("click", () => send({ type: "tare" }));
 
 // ---------------------------------------------------------------- plots (uPlot)
 function plotOpts(key, series, height, legend) {
@@ -204,6 +205,7 @@ function showRegion(msg) {
   $("flag-contact").classList.toggle("on", msg.contact);
   $("flag-ood").classList.toggle("on", msg.ood);
   $("flag-invalid").classList.toggle("on", msg.invalid);
+  $("flag-no-rest").classList.toggle("on", !!msg.no_rest);
   const f = msg.force;
   $("readout").textContent = `Fx ${fmt(f[0], 2)}  Fy ${fmt(f[1], 2)}  Fz ${fmt(f[2], 2)} N`;
 }
