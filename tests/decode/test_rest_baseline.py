@@ -86,3 +86,55 @@ def test_tare_zeroes_the_baseline_on_the_next_sample(model: Decoder) -> None:
     u, ok = asm.push(int(ds.step[1]), x[1])
     assert ok and asm.rest_seen
     assert np.array_equal(u[-model.layout.base :], x[1])  # the zero is the tared sample
+
+
+def test_tare_in_a_live_stream(model: Decoder) -> None:
+    """The README's example: a stream joined under a held press says no_rest until tared."""
+    from spectratac.apps.sensor_setup import open_for_decoder
+
+    held = "sim://?scene=presses&order=5&force=3&hold=600&start=5&speed=max&seed=0"
+    flags = []
+    with open_for_decoder(model, held) as sensor:
+        for i, e in enumerate(model.stream(sensor)):
+            flags.append(e.no_rest)
+            if i == 20:
+                model.tare()  # the next sample is the zero
+            if i == 30:
+                break
+    assert all(flags[:21]) and not any(flags[21:])
+
+
+def test_a_press_held_from_the_start_is_never_taken_for_rest(model: Decoder) -> None:
+    """Held still for seconds, a pressed skin far above the model's rest stays a press: the
+    held press reads as it does when the stream saw it come down (joined at rest)."""
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import generate_session
+
+    fz = {}
+    for start in (0.0, 5.0):  # the press rises at 1.5 s and holds for 10 minutes
+        scene = make_scene("presses", order="5", force="3", hold="600", start=str(start))
+        scene = replace(scene, duration_s=10.0)
+        ds = from_twin_session(generate_session(scene, seed=0), scene)
+        est = model.predict(ds)
+        fz[start] = float(np.mean(est.column("Fz")[-60:]))  # the last 3 s
+    assert abs(fz[5.0] - fz[0.0]) < 0.3, fz
+
+
+def test_another_units_still_skin_stands_in_for_rest_but_is_not_called_rest(model) -> None:
+    """Unit 10's rest lies as far from the model's (unit 0's) as a press: on another unit a
+    still skin stands in after HOLD samples, flagged; on the model's own unit it would be a
+    held press, and the model's rest stays."""
+    from spectratac.decode.assemble import HOLD
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import generate_session
+
+    scene = make_scene("idle", duration="4")
+    x = np.asarray(from_twin_session(generate_session(scene, seed=10), scene).inputs)
+    lay = model.layout
+    for same_unit, want in ((False, x[: HOLD + 5].mean(axis=0)), (True, np.asarray(lay.rest))):
+        asm = Assembler(lay, same_unit=same_unit)
+        for row in x[: HOLD + 5]:
+            u, ok = asm.push(0, row)
+        base = u[-lay.base :]
+        assert ok and not asm.rest_seen
+        assert np.max(np.abs(base / want - 1)) < 0.03, (same_unit, base / want)

@@ -38,7 +38,7 @@ STUCK = 2400  # 2 min at 20 Hz without a no-contact sample: the baseline is wron
 JOIN = 0.06  # a first sample this far above the model's rest is pressed
 DROP = 0.04  # a fall (or rise) of the score this large is contact ending (or starting)
 STILL = 2  # samples still after coming down that make the low rest
-HOLD = 20  # samples still, never having come down, after which the skin replaces the model's rest
+HOLD = 20  # samples still, never having come down, after which another unit's skin stands in
 
 
 class _Ema:
@@ -70,13 +70,19 @@ class _Baseline:
     sample seen so far (`low`) is followed down, each fall of more than DROP showing that
     what came before was contact. The low is rest once the skin stays there STILL samples
     after coming down (or presses again from it); then the usual gated average takes over.
-    A skin that sits still HOLD samples without having come down replaces the model's rest
-    (another unit's rest may look pressed to it) but is not yet called rest. `rest_seen`
-    says whether the baseline stands on a rest it has seen; `tare` makes the next sample it.
+    Units' rests differ as much as a press moves one, so on another unit (or an unknown one)
+    a skin that sits still HOLD samples without having come down stands in for the model's
+    rest (it may be that unit's rest), not yet called rest; on the model's own unit
+    (`same_unit`) a still skin that far above its rest is a held press and is never used.
+    `rest_seen` says whether the baseline stands on a rest it has seen; `tare` makes the
+    next sample it.
     """
 
-    def __init__(self, rest: F64 | None = None, press: F64 | None = None) -> None:
+    def __init__(
+        self, rest: F64 | None = None, press: F64 | None = None, same_unit: bool = False
+    ) -> None:
         self.value: F64 | None = None
+        self._same_unit = same_unit
         self.out_of_gate = 0
         self.rest_seen = False
         self._rest, self._press = rest, press
@@ -171,7 +177,7 @@ class _Baseline:
             self._low_score = self._score(low)
         if self._armed and self._still >= STILL:
             self._found()
-        elif self._still >= HOLD and self._on_rest:
+        elif self._still >= HOLD and self._on_rest and not self._same_unit:
             self._on_rest = False
             self.value[:] = low  # this skin, still for a while: better than another's rest
         elif not self._on_rest:
@@ -194,8 +200,10 @@ class Assembler:
     it in one `take`.
     """
 
-    def __init__(self, layout: Layout) -> None:
+    def __init__(self, layout: Layout, same_unit: bool = False) -> None:
+        """`same_unit`: the samples come from the unit the layout's rest was learned on."""
         self.layout = layout
+        self.same_unit = same_unit
         self._c = len(layout.channels)
         b, lags = layout.base, layout.lags
         self._out = np.empty(layout.size)
@@ -216,7 +224,7 @@ class Assembler:
         self._n_seen = 0
         self._started = False
         self._ema = _Ema(self.layout.emas)
-        self._base = _baseline(self.layout)
+        self._base = _baseline(self.layout, self.same_unit)
 
     @property
     def rest_seen(self) -> bool:
@@ -267,14 +275,18 @@ class Assembler:
         return np.full(self.layout.size, np.nan), False
 
 
-def _baseline(layout: Layout) -> _Baseline:
+def _baseline(layout: Layout, same_unit: bool) -> _Baseline:
     if layout.rest and layout.press:
-        return _Baseline(np.asarray(layout.rest), np.asarray(layout.press))
+        return _Baseline(np.asarray(layout.rest), np.asarray(layout.press), same_unit)
     return _Baseline()
 
 
 def assemble_session(
-    layout: Layout, x: F64, step: NDArray[np.integer], seen: NDArray[np.bool_] | None = None
+    layout: Layout,
+    x: F64,
+    step: NDArray[np.integer],
+    seen: NDArray[np.bool_] | None = None,
+    same_unit: bool = False,
 ) -> tuple[F64, NDArray]:
     """What `Assembler.push` gives for each row of one time-ordered session, vectorised
     (forward fill per step, lag indexing) except for the recursive EMAs and baseline.
@@ -301,7 +313,7 @@ def assemble_session(
             ema.step(cur[p], block[p])
         u[rows, k * b : (k + len(layout.emas)) * b] = block
     if layout.drift:
-        base = _baseline(layout)
+        base = _baseline(layout, same_unit)
         block = np.empty((rows.size, b))
         flags = np.empty(rows.size, bool)
         for p in range(rows.size):
@@ -332,12 +344,14 @@ def assemble(
     session: NDArray[np.integer] | None = None,
     t: F64 | None = None,
     seen: NDArray[np.bool_] | None = None,
+    same_unit: bool = False,
 ) -> tuple[F64, NDArray[np.bool_]]:
     """Assembled vectors (N, D) and validity (N,) for rows of possibly several sessions.
 
     Rows are processed per session in time order `t` (default: row order); invalid rows are
     NaN. With a trivial layout the inputs pass through unchanged (non-finite rows invalid).
-    `seen` (N,), if given, receives whether each row's baseline stood on a seen rest.
+    `seen` (N,), if given, receives whether each row's baseline stood on a seen rest;
+    `same_unit`: the rows come from the unit the layout's rest was learned on.
     """
     x = np.asarray(inputs, dtype=np.float64)
     n = x.shape[0]
@@ -356,7 +370,7 @@ def assemble(
     part = None if seen is None else np.zeros(n, bool)
     for rows in session_order(ses, tt):
         sub = None if part is None else np.zeros(rows.size, bool)
-        u[rows], valid[rows] = assemble_session(layout, x[rows], st[rows], sub)
+        u[rows], valid[rows] = assemble_session(layout, x[rows], st[rows], sub, same_unit)
         if part is not None and sub is not None:
             part[rows] = sub
     if seen is not None and part is not None:

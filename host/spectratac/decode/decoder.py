@@ -32,7 +32,7 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
-from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit
+from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit, device_unit_ids
 from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
 from spectratac.hardware.generated import vocabulary as vocab
@@ -132,6 +132,7 @@ class Decoder:
         self.check_config(dataset.meta.get("config"), "the dataset")
         self.check_unit(dataset.meta.get("unit_id"), "the dataset")
         status = dataset.arrays.get("status")
+        unit = dataset.meta.get("unit_id")
         est = self.predict_inputs(
             dataset.inputs,
             step=dataset.step,
@@ -139,6 +140,7 @@ class Decoder:
             t=dataset.t_end,
             status=status,
             rows=rows,
+            same_unit=unit is not None and unit == self.unit_id,
         )
         return est
 
@@ -150,11 +152,13 @@ class Decoder:
         t: Any = None,
         status: Any = None,
         rows: Any = None,
+        same_unit: bool = False,
     ) -> Estimates:
         """Estimates for raw input rows (N, C) in the decoder's channel order.
 
         step, session, t (time order) matter for LED sequences, temporal context and the
-        baseline; status (N, ...) SENSOR_* bits mark saturated or faulty rows OOD.
+        baseline; status (N, ...) SENSOR_* bits mark saturated or faulty rows OOD;
+        same_unit: the rows come from the decoder's own unit (see assemble._Baseline).
         """
         x = np.asarray(inputs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != len(self.layout.channels):
@@ -163,7 +167,7 @@ class Decoder:
                 f"{len(self.layout.channels)}) columns {list(self.layout.channels)}"
             )
         seen = np.zeros(x.shape[0], bool)
-        u, valid = assemble(self.layout, x, step, session, t, seen=seen)
+        u, valid = assemble(self.layout, x, step, session, t, seen=seen, same_unit=same_unit)
         sel = np.arange(x.shape[0]) if rows is None else np.asarray(rows)
         if sel.dtype == bool:
             sel = np.flatnonzero(sel)
@@ -251,11 +255,12 @@ class Decoder:
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         check_sensor_unit(self.unit_id, sensor, self.unit_policy)
+        same = self.unit_id is not None and self.unit_id in device_unit_ids(sensor)
         if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
             return
         config_id = None
-        asm = Assembler(self.layout)
+        asm = Assembler(self.layout, same_unit=same)
         if self._tare_next:
             asm.tare()
             self._tare_next = False

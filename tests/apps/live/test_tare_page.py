@@ -37,6 +37,6 @@ def test_tare_button_zeroes_a_skin_joined_under_load(press_model: Path, tmp_path
             driver.find_element("id", "tare").click()
             wait_for(driver, f"!{FLAG} && stac.last && !stac.last.no_rest")
             driver.save_screenshot(str(SHOTS / "live-tared.png"))
+            assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
         finally:
             server.stop()
-    assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]

@@ -125,10 +125,9 @@ class CommandDetector:
             return None
         last = self._reads[-self.confirm :]
         forces = [f for f, _ in last]
-        regions = {r for _, r in last}
-        if len(last) == self.confirm and len(regions) == 1 and min(forces) > self.threshold_n:
-            if max(forces) <= (1.0 + STEADY) * min(forces):
-                return self._decide(last[-1][1], normal, t)
+        held = len(last) == self.confirm and len({r for _, r in last}) == 1
+        if held and self.threshold_n < min(forces) and max(forces) <= (1 + STEADY) * min(forces):
+            return self._decide(last[-1][1], normal, t)
         if normal < FALLING * self._peak:
             return self._decide(self._near_peak(), normal, t)
         return None
