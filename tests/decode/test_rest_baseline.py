@@ -12,6 +12,8 @@ from spectratac.decode import Decoder
 from spectratac.decode.assemble import Assembler
 from spectratac.sim.named_scenes import make_scene
 
+pytestmark = pytest.mark.train
+
 #: 226 ms into the tour's first press (it starts at 0.056 s and rises for 0.22 s): where the
 #: issue's live run joined.
 MID_PRESS_S = 0.056 + 0.226

@@ -10,8 +10,8 @@ differs between units, its rise does not, which is what `assemble._Baseline` rel
 >>> import numpy as np
 >>> x = np.array([[10.0, 100.0], [10.0, 101.0], [20.0, 50.0]])
 >>> rest, press = rest_signature(x, np.array([False, False, True]), min_rows=1)
->>> rest.tolist(), [round(v, 2) for v in press]
-([10.0, 100.5], [0.71, -0.71])
+>>> rest.tolist(), press.round(2).tolist()
+([10.0, 100.5], [0.7, -0.71])
 """
 
 from __future__ import annotations

@@ -7,8 +7,8 @@ True
 >>> msg = unit_mismatch("twin-0", ("0a1b", "twin-3"))
 >>> msg.split(":")[0]
 "the sensor is unit '0a1b' (twin-3) but the model was calibrated on unit 'twin-0'"
->>> "--finetune" in msg and "\n" not in msg
-True
+>>> "--finetune" in msg and len(msg.splitlines())
+1
 >>> unit_mismatch(None, ("0a1b",)) is None  # a model without a unit id: nothing to compare
 True
 """
