@@ -14,8 +14,9 @@ the detector as it was before issue 22 (re-armed by an out-of-distribution flick
 decided on the rise), so the effect of the detector is seen apart from the model's.
 
 Without --model, a population model is trained here (a few minutes): the paper's network with
-context and a drift baseline, on `twin population` data of units 10-19 (one 4-minute
-calibration session each, with its re-mounting and ageing), so no test unit is seen.
+context and a drift baseline, on `twin population` data of units 10-19 (one 2-minute
+calibration session each, with its re-mounting and ageing), so no test unit is seen;
+--save-model PATH keeps it for another run (--model PATH).
 """
 
 from __future__ import annotations
@@ -45,9 +46,9 @@ def population_model(folder: Path) -> Path:
     from spectratac.sim.twin_dataset import population
     from spectratac.train import TrainSpec, train
 
-    ds = population(list(TRAIN_UNITS), sessions_per_unit=1, session_s=240.0)
-    spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=30,
-                           hidden=64, blocks=2, threads=2, context=2, drift="baseline")  # fmt: skip
+    ds = population(list(TRAIN_UNITS), sessions_per_unit=1, session_s=120.0)
+    spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=15,
+                           hidden=64, blocks=1, threads=2, context=2, drift="baseline")  # fmt: skip
     return train(ds, spec, progress=False).save(folder / "population.stac")
 
 
@@ -125,12 +126,15 @@ def main() -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--seeds", default="0-9", help="unit seeds, e.g. 0-9 or 0,3,5")
     p.add_argument("--model", type=Path, help="a .stac (default: train a population model)")
+    p.add_argument("--save-model", type=Path, help="where to keep the trained population model")
     args = p.parse_args()
     lo, _, hi = args.seeds.partition("-")
     seeds = list(range(int(lo), int(hi) + 1)) if hi else [int(s) for s in lo.split(",")]
     with tempfile.TemporaryDirectory() as tmp:
         path = args.model or population_model(Path(tmp))
         decoder = Decoder.load(path)
+        if args.save_model is not None and args.model is None:
+            decoder.save(args.save_model)
     decoder.unit_policy = "off"  # another unit on purpose: that is what is measured
     per_unit = {seed: play_unit(decoder, seed) for seed in seeds}
     tot = {k: {m: sum(u[k][m] for u in per_unit.values()) for m in ("presses", "right",
