@@ -16,7 +16,9 @@ decided on the rise), so the effect of the detector is seen apart from the model
 Without --model, a population model is trained here (a few minutes): the paper's network with
 context and a drift baseline, on `twin population` data of units 10-19 (one 2-minute
 calibration session each, with its re-mounting and ageing), so no test unit is seen;
---save-model PATH keeps it for another run (--model PATH).
+--save-model PATH keeps it for another run (--model PATH). With --finetune-minutes M each
+unit first gets its own fine-tune (`train --finetune`) of the model on M minutes of that
+unit's calibration (a twin session of the unit, not the scene played).
 """
 
 from __future__ import annotations
@@ -40,6 +42,19 @@ from spectratac.twin.scripted_presses import press_regions
 
 URL = "sim://?scene=presses&speed=max&seed={seed}"
 TRAIN_UNITS = tuple(range(10, 20))
+
+
+def tuned(decoder: Decoder, seed: int, minutes: float) -> Decoder:
+    """`decoder` fine-tuned on `minutes` of unit `seed`'s calibration (itself when 0)."""
+    if not minutes:
+        return decoder
+    from spectratac.sim.twin_dataset import population
+    from spectratac.train import finetune
+
+    own = population([seed], sessions_per_unit=1, session_s=60.0 * minutes, seed=1)
+    out = finetune(decoder, own, progress=False)
+    out.unit_policy = "off"
+    return out
 
 
 def population_model(folder: Path) -> Path:
@@ -127,6 +142,7 @@ def main() -> None:
     p.add_argument("--seeds", default="0-9", help="unit seeds, e.g. 0-9 or 0,3,5")
     p.add_argument("--model", type=Path, help="a .stac (default: train a population model)")
     p.add_argument("--save-model", type=Path, help="where to keep the trained population model")
+    p.add_argument("--finetune-minutes", type=float, default=0.0, help="fine-tune per unit")
     args = p.parse_args()
     lo, _, hi = args.seeds.partition("-")
     seeds = list(range(int(lo), int(hi) + 1)) if hi else [int(s) for s in lo.split(",")]
@@ -136,7 +152,9 @@ def main() -> None:
         if args.save_model is not None and args.model is None:
             decoder.save(args.save_model)
     decoder.unit_policy = "off"  # another unit on purpose: that is what is measured
-    per_unit = {seed: play_unit(decoder, seed) for seed in seeds}
+    per_unit = {
+        seed: play_unit(tuned(decoder, seed, args.finetune_minutes), seed) for seed in seeds
+    }
     tot = {k: {m: sum(u[k][m] for u in per_unit.values()) for m in ("presses", "right",
                                                                      "doubled", "stray")}
            for k in ("new", "old")}  # fmt: skip
@@ -156,6 +174,7 @@ def main() -> None:
             "per_unit": {s: u["new"] for s, u in per_unit.items()},
             "per_unit_old": {s: u["old"] for s, u in per_unit.items()},
             "model": str(args.model or "population model, units 10-19"),
+            "finetune_minutes": args.finetune_minutes,
         },
     )
     report([fig], args.json)
