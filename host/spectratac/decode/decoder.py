@@ -49,8 +49,9 @@ class Decoder:
     #: what `stream` does when the sensor is another unit (decode.unit_check): "warn",
     #: "strict" (DecoderUnitError) or "off"
     unit_policy: UnitPolicy = field(default="warn", compare=False)
-    _streams: set[Assembler] = field(default_factory=set, repr=False, compare=False)
-    _tare_next: bool = field(default=False, repr=False, compare=False)
+    # running streams' assemblers (tare reaches them); not copied by dataclasses.replace
+    _streams: set[Assembler] = field(default_factory=set, init=False, repr=False, compare=False)
+    _tare_next: bool = field(default=False, init=False, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
     @property
