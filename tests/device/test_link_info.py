@@ -28,7 +28,9 @@ def test_a_simulated_link_says_its_speed_its_f_t_and_its_truth(
 ) -> None:
     with Sensor.open(url) as sensor:
         info = sensor.link_info
-    assert info == LinkInfo(scale, url if paired else None, True)
+    # and the unit's name, as twin datasets of seed 0's unit call it (the unit check on open)
+    assert info == LinkInfo(scale, url if paired else None, True, "twin-0")
+    assert "unit_name" not in info.as_dict()  # recordings name the unit by its unique id
 
 
 def test_link_info_round_trips_as_json_and_ignores_unknown_keys() -> None:

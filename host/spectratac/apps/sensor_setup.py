@@ -75,3 +75,12 @@ class SampleTap:
 
     def get_config(self) -> m.Config:
         return self.sensor.get_config()
+
+    @property
+    def info(self) -> Any:
+        """The sensor's INFO (its unique id: the decoder compares units on open), if any."""
+        return getattr(self.sensor, "info", None)
+
+    @property
+    def link_info(self) -> Any:
+        return getattr(self.sensor, "link_info", None)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from collections.abc import Sequence
 
 from spectratac import __version__, threads
@@ -54,6 +55,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(message: Warning | str, category: type[Warning], *_: object, **__: object) -> None:
+    from spectratac.cli.options import warn
+
+    warn(str(message))
+
+
 def command(args: argparse.Namespace) -> str:
     """The verb and sub-verb that ran, e.g. 'ft info' (sub-verb dests end in _verb)."""
     subs = [v for k, v in vars(args).items() if k.endswith("_verb") and isinstance(v, str)]
@@ -75,7 +82,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return ExitCode.USAGE
     try:
         require(args)
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line  # a SpectraTac warning says what to do: no file:line
+            return int(args.func(args))
     except SpectraTacError as exc:
         print(f"spectratac {command(args)}: error: {exc}", file=sys.stderr)
         return exit_code_for(exc)

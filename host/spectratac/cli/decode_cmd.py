@@ -4,8 +4,12 @@ Loads the model file (NumPy only: torch is never imported), configures the senso
 model was trained (integration time, gain, LED sequence; `--keep-config` uses the device's
 own and refuses to decode if it differs), streams and prints one estimate per sample:
 force (N), torque (N·m), contact region and its probability, contact and out-of-distribution
-flags. Samples the decoder cannot use (LED sequence not complete yet, non-finite counts) are
-printed as invalid, not dropped.
+flags, and no_rest: the model's drift baseline has not yet seen the skin at rest (it finds
+rest by itself after a press and release; --tare zeroes it on the first sample instead).
+The sensor's unique id is compared with the model's unit on open: another unit is a warning
+(--strict-unit: an error, exit code 3) that points to `train --finetune`. Samples the decoder
+cannot use (LED sequence not complete yet, non-finite counts) are printed as invalid, not
+dropped.
 
     spectratac decode model.stac "sim://?scene=tour&speed=1" --count 40
     spectratac decode model.stac /dev/ttyACM0 --duration 60 --format jsonl > live.jsonl
@@ -28,13 +32,15 @@ from spectratac.cli.options import (
     add_duration,
     add_renamed,
     add_row_format,
+    load_decoder,
 )
 from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
 
 # t_s: seconds since the first sample (host clock)
-COLUMNS = ("t_s", *vocab.FT_AXES, "region", "p", "contact", "ood", "invalid")
+# no_rest: the drift baseline has not yet seen the skin at rest (forces may be offset; --tare)
+COLUMNS = ("t_s", *vocab.FT_AXES, "region", "p", "contact", "ood", "invalid", "no_rest")
 
 
 def register(subparsers: Any) -> None:
@@ -85,6 +91,7 @@ def _cells(e: Any, t0: float) -> list[Any]:
         int(e.contact),
         int(e.ood),
         int(e.invalid),
+        int(e.no_rest),
     ]
 
 
@@ -102,19 +109,19 @@ def _record(e: Any, t0: float) -> dict[str, Any]:
         "contact_prob": clean(e.contact_prob),
         "ood": bool(e.ood),
         "invalid": bool(e.invalid),
+        "no_rest": bool(e.no_rest),
         "std": None if e.std is None else [clean(v) for v in e.std],
     }
 
 
 def run(args: argparse.Namespace) -> int:
-    from spectratac.decode import Decoder
     from spectratac.device import Sensor
 
     if args.count < 0 or args.duration < 0:
         raise SpectraTacError("--count and --duration must be >= 0 (0: no limit)")
-    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    decoder = load_decoder(args)
     settings = None if args.keep_config else sensor_settings(decoder.config)
-    counts = {"estimates": 0, "invalid": 0, "ood": 0, "contact": 0}
+    counts = {"estimates": 0, "invalid": 0, "ood": 0, "contact": 0, "no_rest": 0}
     t0 = time.monotonic()
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
         if settings is not None:
@@ -131,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
                 counts["invalid"] += int(e.invalid)
                 counts["ood"] += int(e.ood)
                 counts["contact"] += int(e.contact)
+                counts["no_rest"] += int(e.no_rest)
                 if (args.count and counts["estimates"] >= args.count) or (
                     args.duration and clock.elapsed(e.time - first) >= args.duration
                 ):
@@ -144,7 +152,12 @@ def run(args: argparse.Namespace) -> int:
     rate = counts["estimates"] / max(time.monotonic() - t0, 1e-9)
     print(
         f"{counts['estimates']} estimates ({rate:.1f}/s): {counts['contact']} in contact, "
-        f"{counts['ood']} out of distribution, {counts['invalid']} invalid",
+        f"{counts['ood']} out of distribution, {counts['invalid']} invalid"
+        + (
+            f", {counts['no_rest']} before the baseline saw rest (--tare zeroes it at once)"
+            if counts["no_rest"]
+            else ""
+        ),
         file=sys.stderr,
     )
     return ExitCode.OK

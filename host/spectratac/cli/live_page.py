@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_decoding_checks, add_device_url
+from spectratac.cli.options import add_decoding_checks, add_device_url, load_decoder
 from spectratac.errors import SpectraTacError
 
 
@@ -92,13 +92,12 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     """Serve the page of a live session on `args` until Ctrl-C or --duration."""
     from spectratac.apps.live.server import LiveServer, bind
     from spectratac.apps.live.session import NO_MODEL, TRAIN_HINT, LiveSession
-    from spectratac.decode import Decoder
 
     if args.duration < 0:
         raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
     if args.model is None and args.url.endswith(".stac"):
         raise SpectraTacError(f"{args.url} is a model: give the device URL after it")
-    decoder = None if args.model is None else Decoder.load(args.model, expect_unit=args.unit)
+    decoder = None if args.model is None else load_decoder(args)
     session = LiveSession(
         decoder,
         args.url,

@@ -176,15 +176,56 @@ def add_device_url(
 
 
 def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
-    """--keep-config and --unit of the verbs that decode a live sensor (decode, live, snake)."""
+    """--keep-config, --unit, --strict-unit and --tare of the verbs that decode a live sensor
+    (decode, live, snake)."""
     parser.add_argument(
         "--keep-config",
         action="store_true",
         help="do not configure the sensor; decode only if its configuration matches",
     )
     parser.add_argument(
-        "--unit", help="unit id of the sensor (warns if the model is another unit's)"
+        "--unit",
+        help="unit id of the sensor (warns if the model is another unit's); the sensor's own "
+        "unique id is compared on open anyway",
     )
+    parser.add_argument(
+        "--strict-unit",
+        action="store_true",
+        help="refuse (exit code 3) to decode a sensor that is another unit than the model's",
+    )
+    parser.add_argument(
+        "--tare",
+        action="store_true",
+        help="zero the drift baseline on the first sample (nothing may touch the skin then); "
+        "without it the baseline finds rest itself and flags estimates (no_rest) until it has",
+    )
+
+
+def load_decoder(args: argparse.Namespace) -> Any:
+    """The decoder of a decoding verb, set up from add_decoding_checks' options."""
+    from spectratac.decode import Decoder
+    from spectratac.decode.unit_check import unit_mismatch
+
+    decoder = Decoder.load(args.model)
+    if args.unit is not None:  # the user's word about the unit, checked before open
+        msg = unit_mismatch(decoder.unit_id, (args.unit,))
+        if msg is not None and args.strict_unit:
+            from spectratac.decode.errors import DecoderUnitError
+
+            raise DecoderUnitError(msg + " (or drop --strict-unit to decode anyway)")
+        if msg is not None:
+            warn(msg)
+            decoder.unit_policy = "off"  # said once is enough
+    if args.strict_unit:
+        decoder.unit_policy = "strict"
+    if args.tare:
+        decoder.tare()  # no stream runs yet: the next one zeroes on its first sample
+    return decoder
+
+
+def warn(message: str) -> None:
+    """A warning for the person at the terminal: one line on stderr."""
+    print(f"spectratac: warning: {message}", file=sys.stderr, flush=True)
 
 
 def add_row_format(parser: argparse.ArgumentParser) -> None:

@@ -29,7 +29,7 @@ from spectratac.cli.live_page import (
     controller_from_args,
     serve,
 )
-from spectratac.cli.options import add_duration
+from spectratac.cli.options import add_duration, load_decoder
 from spectratac.errors import SpectraTacError
 
 
@@ -56,14 +56,12 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from spectratac.decode import Decoder
-
     if args.duration < 0:
         raise SpectraTacError("--duration must be >= 0 (0: until quit)")
     controller = controller_from_args(args)
     if args.web:
         return serve(args, controller, tab="snake")
-    decoder = Decoder.load(args.model, expect_unit=args.unit)
+    decoder = load_decoder(args)
     from spectratac.apps.snake.play import play
 
     if args.json:

@@ -32,6 +32,13 @@ F64 = NDArray[np.float64]
 TAU = 600.0  # 30 s at 20 Hz: far slower than a press, faster than thermal drift
 GATE = 0.03  # RMS relative deviation below which a sample counts as no-contact
 STUCK = 2400  # 2 min at 20 Hz without a no-contact sample: the baseline is wrong, follow
+# The search for rest (a layout with a rest signature), in press-score units (log counts
+# along the press direction): at rest the score's noise is ~0.01, a 0.3 N press raises it
+# by ~0.12 on every twin unit, and units' rest levels differ by up to ~0.2.
+JOIN = 0.06  # a first sample this far above the model's rest is pressed
+DROP = 0.04  # a fall (or rise) of the score this large is contact ending (or starting)
+STILL = 2  # samples still after coming down that make the low rest
+HOLD = 20  # samples still, never having come down, after which another unit's skin stands in
 
 
 class _Ema:
@@ -55,33 +62,131 @@ class _Ema:
 
 
 class _Baseline:
-    """Gated running no-contact baseline; `step` writes it as it was before the sample."""
+    """Gated running no-contact baseline; `step` writes it as it was before the sample.
 
-    def __init__(self) -> None:
+    With the layout's rest signature (`rest`, `press`: decode.rest_signature) it first makes
+    sure it starts from rest. A first sample whose press score (press . log x) lies above the
+    model's rest by more than JOIN is pressed: the model's rest stands in while the lowest
+    sample seen so far (`low`) is followed down, each fall of more than DROP showing that
+    what came before was contact. The low is rest once the skin stays there STILL samples
+    after coming down (or presses again from it); then the usual gated average takes over.
+    Units' rests differ as much as a press moves one, so on another unit (or an unknown one)
+    a skin that sits still HOLD samples without having come down stands in for the model's
+    rest (it may be that unit's rest), not yet called rest; on the model's own unit
+    (`same_unit`) a still skin that far above its rest is a held press and is never used.
+    `rest_seen` says whether the baseline stands on a rest it has seen; `tare` makes the
+    next sample it.
+    """
+
+    def __init__(
+        self, rest: F64 | None = None, press: F64 | None = None, same_unit: bool = False
+    ) -> None:
         self.value: F64 | None = None
+        self._same_unit = same_unit
         self.out_of_gate = 0
+        self.rest_seen = False
+        self._rest, self._press = rest, press
+        self._rest_score = self._score(rest) if rest is not None else 0.0
+        self._tare = False
         self._diff: F64 | None = None
         self._dev: F64 | None = None
+        # the search for rest (signature only)
+        self._searching = False
+        self._low: F64 | None = None
+        self._low_score = 0.0
+        self._armed = False  # the skin came down onto the low: what was above it was contact
+        self._still = 0
+        self._on_rest = False  # the output is the model's rest, not this skin's
 
-    def step(self, cur: F64, out: F64) -> None:
-        base = self.value
-        if base is None:
-            self.value = cur.copy()
-            self._diff, self._dev = np.empty_like(cur), np.empty_like(cur)
-            out[:] = cur
-            return
-        out[:] = base  # the sample is judged against the baseline before it
+    def tare(self) -> None:
+        """Take the next sample as the zero (the user says the skin is at rest)."""
+        self._tare = True
+
+    def _score(self, x: F64) -> float:
+        assert self._press is not None
+        return float(np.dot(self._press, np.log(np.maximum(x, 1.0))))
+
+    def _start(self, value: F64) -> None:
+        self.value = value.copy()
+        self.out_of_gate = 0
+        if self._diff is None:
+            self._diff, self._dev = np.empty_like(value), np.empty_like(value)
+
+    def _rel(self, cur: F64, base: F64) -> float:
+        """RMS deviation of `cur` from `base` relative to |base| (plus a floor)."""
         n = base.shape[0]
         dev, diff = self._dev, self._diff
+        assert dev is not None and diff is not None
         np.abs(base, out=dev)
         dev += 1e-6 + 0.01 * float(dev.sum()) / n  # scale: |base| + a floor
         np.subtract(cur, base, out=diff)
         np.divide(diff, dev, out=dev)  # relative deviation
-        rel = math.sqrt(float(np.dot(dev, dev)) / n)
+        return math.sqrt(float(np.dot(dev, dev)) / n)
+
+    def step(self, cur: F64, out: F64) -> None:
+        if self._tare:
+            self._tare, self._searching, self.rest_seen = False, False, True
+            self._start(cur)
+            out[:] = cur
+            return
+        base = self.value
+        if base is None:
+            self._first(cur)
+            assert self.value is not None
+            out[:] = self.value
+            return
+        out[:] = base  # the sample is judged against the baseline before it
+        if self._searching:
+            self._search(cur)
+            return
+        rel = self._rel(cur, base)
         self.out_of_gate = 0 if rel < GATE else self.out_of_gate + 1
         if self.out_of_gate == 0 or self.out_of_gate > STUCK:
+            diff = self._diff
+            assert diff is not None
             diff /= TAU
             base += diff
+
+    def _first(self, cur: F64) -> None:
+        self._start(cur)
+        if self._press is None or self._rest is None:
+            return  # no signature: as before, and rest is never known to be seen
+        s = self._score(cur)
+        if s <= self._rest_score + JOIN:
+            self.rest_seen = True
+            return
+        self._searching, self._on_rest = True, True
+        self._start(self._rest)
+        self._low, self._low_score = cur.copy(), s
+
+    def _search(self, cur: F64) -> None:
+        low = self._low
+        assert low is not None and self.value is not None
+        s = self._score(cur)
+        if s < self._low_score - DROP:  # came down: what was above was contact
+            low[:] = cur
+            self._low_score, self._armed, self._still = s, True, 0
+        elif s > self._low_score + DROP:  # pressed (again) from the low
+            if self._armed:
+                self._found()
+                return
+            self._still = 0
+        elif self._rel(cur, low) < GATE:
+            self._still += 1
+            low += (cur - low) / (self._still + 1)  # the mean of the still stretch
+            self._low_score = self._score(low)
+        if self._armed and self._still >= STILL:
+            self._found()
+        elif self._still >= HOLD and self._on_rest and not self._same_unit:
+            self._on_rest = False
+            self.value[:] = low  # this skin, still for a while: better than another's rest
+        elif not self._on_rest:
+            self.value[:] = low
+
+    def _found(self) -> None:
+        assert self._low is not None
+        self._start(self._low)
+        self._searching, self.rest_seen = False, True
 
 
 class Assembler:
@@ -95,8 +200,10 @@ class Assembler:
     it in one `take`.
     """
 
-    def __init__(self, layout: Layout) -> None:
+    def __init__(self, layout: Layout, same_unit: bool = False) -> None:
+        """`same_unit`: the samples come from the unit the layout's rest was learned on."""
         self.layout = layout
+        self.same_unit = same_unit
         self._c = len(layout.channels)
         b, lags = layout.base, layout.lags
         self._out = np.empty(layout.size)
@@ -117,7 +224,17 @@ class Assembler:
         self._n_seen = 0
         self._started = False
         self._ema = _Ema(self.layout.emas)
-        self._base = _Baseline()
+        self._base = _baseline(self.layout, self.same_unit)
+
+    @property
+    def rest_seen(self) -> bool:
+        """False while the drift baseline has not stood on a rest it has seen (always True
+        without a baseline)."""
+        return not self.layout.drift or self._base.rest_seen
+
+    def tare(self) -> None:
+        """Make the next valid sample the baseline's zero (the skin is at rest now)."""
+        self._base.tare()
 
     def push(self, step: int, x: F64) -> tuple[F64, bool]:
         """Feed one sample (its step, its C inputs); return (assembled vector, valid).
@@ -158,9 +275,22 @@ class Assembler:
         return np.full(self.layout.size, np.nan), False
 
 
-def assemble_session(layout: Layout, x: F64, step: NDArray[np.integer]) -> tuple[F64, NDArray]:
+def _baseline(layout: Layout, same_unit: bool) -> _Baseline:
+    if layout.rest and layout.press:
+        return _Baseline(np.asarray(layout.rest), np.asarray(layout.press), same_unit)
+    return _Baseline()
+
+
+def assemble_session(
+    layout: Layout,
+    x: F64,
+    step: NDArray[np.integer],
+    seen: NDArray[np.bool_] | None = None,
+    same_unit: bool = False,
+) -> tuple[F64, NDArray]:
     """What `Assembler.push` gives for each row of one time-ordered session, vectorised
-    (forward fill per step, lag indexing) except for the recursive EMAs and baseline."""
+    (forward fill per step, lag indexing) except for the recursive EMAs and baseline.
+    `seen` (M,), if given, receives `Assembler.rest_seen` after each row."""
     m, b = x.shape[0], layout.base
     ok = np.all(np.isfinite(x), axis=1) & (step >= 0) & (step < layout.steps)
     idx = np.arange(m)
@@ -183,11 +313,18 @@ def assemble_session(layout: Layout, x: F64, step: NDArray[np.integer]) -> tuple
             ema.step(cur[p], block[p])
         u[rows, k * b : (k + len(layout.emas)) * b] = block
     if layout.drift:
-        base = _Baseline()
+        base = _baseline(layout, same_unit)
         block = np.empty((rows.size, b))
+        flags = np.empty(rows.size, bool)
         for p in range(rows.size):
             base.step(cur[p], block[p])
+            flags[p] = base.rest_seen
         u[rows, -b:] = block
+        if seen is not None:  # a row before the first valid one has seen nothing
+            seen[:] = False
+            seen[rows] = flags
+    elif seen is not None:
+        seen[:] = True
     return u, valid
 
 
@@ -206,11 +343,15 @@ def assemble(
     step: NDArray[np.integer] | None = None,
     session: NDArray[np.integer] | None = None,
     t: F64 | None = None,
+    seen: NDArray[np.bool_] | None = None,
+    same_unit: bool = False,
 ) -> tuple[F64, NDArray[np.bool_]]:
     """Assembled vectors (N, D) and validity (N,) for rows of possibly several sessions.
 
     Rows are processed per session in time order `t` (default: row order); invalid rows are
     NaN. With a trivial layout the inputs pass through unchanged (non-finite rows invalid).
+    `seen` (N,), if given, receives whether each row's baseline stood on a seen rest;
+    `same_unit`: the rows come from the unit the layout's rest was learned on.
     """
     x = np.asarray(inputs, dtype=np.float64)
     n = x.shape[0]
@@ -218,12 +359,20 @@ def assemble(
     if layout.trivial:
         u = x.copy()
         u[~finite] = np.nan
+        if seen is not None:
+            seen[:] = True
         return u, finite
     st = np.zeros(n, np.int64) if step is None else np.asarray(step, np.int64)
     ses = np.zeros(n, np.int64) if session is None else np.asarray(session)
     tt = np.arange(n, dtype=np.float64) if t is None else np.asarray(t, np.float64)
     u = np.full((n, layout.size), np.nan)
     valid = np.zeros(n, bool)
+    part = None if seen is None else np.zeros(n, bool)
     for rows in session_order(ses, tt):
-        u[rows], valid[rows] = assemble_session(layout, x[rows], st[rows])
+        sub = None if part is None else np.zeros(rows.size, bool)
+        u[rows], valid[rows] = assemble_session(layout, x[rows], st[rows], sub, same_unit)
+        if part is not None and sub is not None:
+            part[rows] = sub
+    if seen is not None and part is not None:
+        seen[:] = part
     return u, valid

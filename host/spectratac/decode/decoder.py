@@ -32,6 +32,7 @@ from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
+from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit, device_unit_ids
 from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
 from spectratac.hardware.generated import vocabulary as vocab
@@ -45,6 +46,12 @@ class Decoder:
     layout: Layout
     guard: Guard
     meta: dict[str, Any] = field(default_factory=dict)
+    #: what `stream` does when the sensor is another unit (decode.unit_check): "warn",
+    #: "strict" (DecoderUnitError) or "off"
+    unit_policy: UnitPolicy = field(default="warn", compare=False)
+    # running streams' assemblers (tare reaches them); not copied by dataclasses.replace
+    _streams: set[Assembler] = field(default_factory=set, init=False, repr=False, compare=False)
+    _tare_next: bool = field(default=False, init=False, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
     @property
@@ -126,6 +133,7 @@ class Decoder:
         self.check_config(dataset.meta.get("config"), "the dataset")
         self.check_unit(dataset.meta.get("unit_id"), "the dataset")
         status = dataset.arrays.get("status")
+        unit = dataset.meta.get("unit_id")
         est = self.predict_inputs(
             dataset.inputs,
             step=dataset.step,
@@ -133,6 +141,7 @@ class Decoder:
             t=dataset.t_end,
             status=status,
             rows=rows,
+            same_unit=unit is not None and unit == self.unit_id,
         )
         return est
 
@@ -144,11 +153,13 @@ class Decoder:
         t: Any = None,
         status: Any = None,
         rows: Any = None,
+        same_unit: bool = False,
     ) -> Estimates:
         """Estimates for raw input rows (N, C) in the decoder's channel order.
 
         step, session, t (time order) matter for LED sequences, temporal context and the
-        baseline; status (N, ...) SENSOR_* bits mark saturated or faulty rows OOD.
+        baseline; status (N, ...) SENSOR_* bits mark saturated or faulty rows OOD;
+        same_unit: the rows come from the decoder's own unit (see assemble._Baseline).
         """
         x = np.asarray(inputs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != len(self.layout.channels):
@@ -156,12 +167,15 @@ class Decoder:
                 f"inputs have shape {x.shape}; this decoder takes (N, "
                 f"{len(self.layout.channels)}) columns {list(self.layout.channels)}"
             )
-        u, valid = assemble(self.layout, x, step, session, t)
+        seen = np.zeros(x.shape[0], bool)
+        u, valid = assemble(self.layout, x, step, session, t, seen=seen, same_unit=same_unit)
         sel = np.arange(x.shape[0]) if rows is None else np.asarray(rows)
         if sel.dtype == bool:
             sel = np.flatnonzero(sel)
         st = None if status is None else np.asarray(status)[sel]
-        return self._estimates(u[sel], valid[sel], st)
+        est = self._estimates(u[sel], valid[sel], st)
+        est.no_rest = valid[sel] & ~seen[sel]
+        return est
 
     def predict_assembled(self, u: Any, status: Any = None) -> Estimates:
         """Estimates for assembled vectors (N, D) (the exports' input)."""
@@ -208,6 +222,23 @@ class Decoder:
         return est
 
     # ------------------------------------------------------------------ live
+    def tare(self) -> None:
+        """Zero the drift baseline of every running `stream` on its next sample: call it
+        while nothing touches the skin (as the bias button of an F/T sensor's software).
+
+        >>> import numpy as np
+        >>> from spectratac.dataset import Dataset
+        >>> ds = Dataset.generic(np.ones((2, 3)), np.zeros((2, 1)), ["a", "b", "c"], ["Fz"])
+        >>> dec = Decoder.untrained(ds)
+        >>> dec.tare()  # the next sample of each stream() becomes the zero
+
+        Called before any stream runs, it zeroes the next stream on its first sample.
+        """
+        streams = list(self._streams)
+        for asm in streams:
+            asm.tare()
+        self._tare_next = not streams
+
     def stream(self, sensor: SampleStream, check_config: bool = True) -> Iterator[Estimate]:
         """Estimates of a live, streaming sensor (a `spectratac.device.SampleStream` such as
         `spectratac.device.Sensor`), one per sample.
@@ -218,29 +249,40 @@ class Decoder:
         yielded instead of decoding on the host (contact_prob and std are then not known);
         otherwise the samples are decoded here. Checks the sensor's configuration first
         (DecoderConfigError on mismatch) and again whenever the configuration id changes;
-        warns if the unit differs.
+        compares the sensor's unit with the model's on open (`unit_policy`: warns, or raises
+        DecoderUnitError when "strict"). With a drift baseline, each estimate's `no_rest` says the
+        baseline has not yet seen the skin at rest; `tare()` zeroes it on the next sample.
         """
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
+        check_sensor_unit(self.unit_id, sensor, self.unit_policy)
+        same = self.unit_id is not None and self.unit_id in device_unit_ids(sensor)
         if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
             yield from self._device_estimates(sensor, check_config)
             return
         config_id = None
-        asm = Assembler(self.layout)
+        asm = Assembler(self.layout, same_unit=same)
+        if self._tare_next:
+            asm.tare()
+            self._tare_next = False
+        self._streams.add(asm)
         run1 = self.runtime.run1
         s = self.heads.slices()
         fi = [self.target_names.index(n) if n in self.target_names else -1 for n in FORCE]
         ti = [self.target_names.index(n) if n in self.target_names else -1 for n in TORQUE]
-        for sample in sensor:
-            if sample.config_id != config_id:
-                if check_config:
-                    self.check_config(sensor.get_config(), "the sensor")
-                config_id = sample.config_id
-                asm.reset()
-            counts = np.asarray(sample.counts, dtype=np.float64)
-            x = counts[:, :4].reshape(-1)
-            u, ok = asm.push(int(sample.step), x)
-            yield self._one(sample, u, ok, run1, s, fi, ti)
+        try:
+            for sample in sensor:
+                if sample.config_id != config_id:
+                    if check_config:
+                        self.check_config(sensor.get_config(), "the sensor")
+                    config_id = sample.config_id
+                    asm.reset()
+                counts = np.asarray(sample.counts, dtype=np.float64)
+                x = counts[:, :4].reshape(-1)
+                u, ok = asm.push(int(sample.step), x)
+                yield self._one(sample, u, ok, run1, s, fi, ti, not asm.rest_seen)
+        finally:
+            self._streams.discard(asm)
 
     def model_id(self, weights: str = "f32") -> int:
         """The id of this decoder's model image with `weights` (what a device that runs it
@@ -274,7 +316,15 @@ class Decoder:
             yield Estimate.from_device(row, self.target_names)
 
     def _one(
-        self, sample: Sample, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any
+        self,
+        sample: Sample,
+        u: F64,
+        ok: bool,
+        run1: Any,
+        s: Any,
+        fi: Any,
+        ti: Any,
+        no_rest: bool = False,
     ) -> Estimate:
         heads = self.heads
         out = run1(u).astype(np.float64) if ok else None
@@ -324,6 +374,7 @@ class Decoder:
             False,
             tg.copy(),
             std,
+            no_rest,
         )
 
     # ------------------------------------------------------------------ files

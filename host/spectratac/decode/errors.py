@@ -27,3 +27,8 @@ class DecoderFileError(DecoderError):
 
 class DecoderUnitWarning(UserWarning):
     """The decoder runs on another unit than it was calibrated on: expect larger errors."""
+
+
+class DecoderUnitError(DecoderError):
+    """The sensor is another unit than the decoder was calibrated on, and the caller asked
+    for the same unit (strict unit checking, `--strict-unit`)."""

@@ -55,6 +55,9 @@ class Estimates:
     invalid: NDArray[np.bool_]  # (N,) NaN/inf inputs or incomplete LED sequence: NaN outputs
     std: F64 | None = None  # (N, T) calibrated standard deviation, if trained for
     region_probs: F64 | None = None  # (N, K) all class probabilities
+    # (N,) the drift baseline has not yet seen the skin at rest (joined under load, no tare):
+    # forces may be offset until it has; None is all False (no baseline)
+    no_rest: NDArray[np.bool_] | None = None
 
     @classmethod
     def empty(cls, target_names: tuple[str, ...], n: int) -> Estimates:
@@ -68,6 +71,7 @@ class Estimates:
             nan.copy(),
             np.zeros(n, bool),
             np.zeros(n, bool),
+            no_rest=np.zeros(n, bool),
         )
 
     def __len__(self) -> int:
@@ -118,6 +122,7 @@ class Estimate:
     invalid: bool
     targets: F64  # (T,) every regression target, in target_names order
     std: F64 | None = None
+    no_rest: bool = False  # the drift baseline has not yet seen the skin at rest (see tare)
 
     @classmethod
     def from_device(cls, row: Any, target_names: tuple[str, ...]) -> Estimate:

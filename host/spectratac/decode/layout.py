@@ -31,6 +31,10 @@ class Layout:
     lags: tuple[int, ...] = ()  # temporal context lags in samples
     drift: bool = False  # running baseline appended
     emas: tuple[float, ...] = ()  # time constants (samples) of moving averages appended
+    # the skin at rest and the direction a press moves it (decode.rest_signature); empty:
+    # the baseline starts on the first sample, as models made before it did
+    rest: tuple[float, ...] = ()
+    press: tuple[float, ...] = ()
 
     @property
     def base(self) -> int:
@@ -69,6 +73,8 @@ class Layout:
             "lags": list(self.lags),
             "drift": self.drift,
             "emas": list(self.emas),
+            "rest": list(self.rest),
+            "press": list(self.press),
         }
 
     @classmethod
@@ -79,4 +85,6 @@ class Layout:
             tuple(d["lags"]),
             bool(d["drift"]),
             tuple(float(t) for t in d.get("emas", ())),
+            tuple(float(v) for v in d.get("rest", ())),
+            tuple(float(v) for v in d.get("press", ())),
         )

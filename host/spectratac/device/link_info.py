@@ -7,7 +7,7 @@ attribute; `link_info_of` reads it, and the data flow asks this value instead of
 URLs, so no part of it needs to know which kind of link it talks to.
 
 >>> link_info_of(object())
-LinkInfo(clock_scale=1.0, paired_ft_url=None, ground_truth=False)
+LinkInfo(clock_scale=1.0, paired_ft_url=None, ground_truth=False, unit_name=None)
 >>> info = LinkInfo(clock_scale=None, paired_ft_url="sim://?ft=bota", ground_truth=True)
 >>> LinkInfo.from_dict(info.as_dict()) == info, info.as_dict()["clock_scale"]
 (True, None)
@@ -25,15 +25,20 @@ class LinkInfo:
     paced simulation's speed; None when the device clock is not tied to the host's, as for a
     simulation at full speed); paired_ft_url: a reference F/T URL that serves the same
     contacts as this device (None: bring your own); ground_truth: the link carries
-    `spectratac.device.GroundTruth` (`ground_truth_of` returns it)."""
+    `spectratac.device.GroundTruth` (`ground_truth_of` returns it); unit_name: the name
+    datasets of this unit carry besides its unique id (a simulated unit: twin-<seed>)."""
 
     clock_scale: float | None = 1.0
     paired_ft_url: str | None = None
     ground_truth: bool = False
+    unit_name: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON form, as a recording's session message stores it (record/FORMAT.md)."""
-        return asdict(self)
+        """JSON form, as a recording's session message stores it (record/FORMAT.md); the
+        unit name stays out (a recording names its unit by the INFO's unique id)."""
+        d = asdict(self)
+        del d["unit_name"]
+        return d
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> LinkInfo:

@@ -2,7 +2,8 @@
 populations all pick their scene here.
 
 sim://?scene=idle | press | tour | calibration | drift | presses | saturation_ambient | ... &seed=3
-Scene parameters (strings, as in a URL): duration (s; idle, calibration, drift), press
+Scene parameters (strings, as in a URL): start (s: join the scene this far in, e.g. mid-press;
+any scene), duration (s; idle, calibration, drift), press
 (region, force), tour (period), presses (order, force, hold, gap: `twin.scripted_presses`).
 Hard cases have a fixed script and carry the acquisition settings they need.
 
@@ -126,10 +127,12 @@ def make_scene(name: str, **params: str) -> Scene:
     seed, duration and the scene's own."""
     seed = int(params.pop("seed", "0"))
     duration = params.pop("duration", None)
-    return named_scene(
+    start = float(params.pop("start", "0"))
+    scene = named_scene(
         name,
         seed,
         None if duration is None else float(duration),
         params,
         open_ended_s=DEVICE_OPEN_ENDED_S,
     )
+    return scene.starting_at(start) if start else scene

@@ -12,7 +12,7 @@ paired F/T URL when the URL asks for one with ``ft=``).
 >>> truth.describe()["scene"], truth.contact(np.array([1.5]))["region"].tolist()
 ('press', [5])
 >>> link.link_info
-LinkInfo(clock_scale=None, paired_ft_url=None, ground_truth=True)
+LinkInfo(clock_scale=None, paired_ft_url=None, ground_truth=True, unit_name='twin-2')
 >>> link.close()
 """
 
@@ -47,6 +47,7 @@ class SimTransport:
             clock_scale=None if opts.speed == MAX else float(opts.speed),
             paired_ft_url=url if opts.scene_params.get("ft") else None,  # ft=bota|netft
             ground_truth=True,
+            unit_name=f"twin-{opts.seed}",  # what twin datasets of this unit call it
         )
         self._out = bytearray()
         self._cond = threading.Condition()

@@ -145,7 +145,8 @@ def check_compatible(base: Decoder, dataset: Dataset, spec: TrainSpec) -> Plan:
         p = plan(dataset, spec)
     except DecoderConfigError as exc:
         raise refuse(str(exc)) from None
-    if p.layout != base.layout:
+    # the rest signature is the new unit's own (its rest, seen in its data), the rest must match
+    if replace(p.layout, rest=(), press=()) != replace(base.layout, rest=(), press=()):
         raise refuse("the LED steps or temporal layout differ")
     if p.heads != base.heads:
         raise refuse(f"heads {p.heads} differ from the base's {base.heads}")

@@ -10,17 +10,19 @@ metadata (which rows fitted and which validated).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
+from spectratac.decode.assemble import assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.feature_matrices import FeatureSet, build_features
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
+from spectratac.decode.rest_signature import rest_signature
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.train.spec import TrainSpec
 
@@ -92,6 +94,8 @@ def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
         spec.drift == "baseline",
         spec.context_ema,
     )
+    if layout.drift:
+        layout = with_rest_signature(layout, dataset)
     heads = Heads(
         tuple(reg),
         uncertainty=spec.uncertainty and bool(reg),
@@ -107,6 +111,15 @@ def plan(dataset: Dataset, spec: TrainSpec) -> Plan:
         class_name if want_class else None,
         labels,
     )
+
+
+def with_rest_signature(layout: Layout, dataset: Dataset) -> Layout:
+    """`layout` with the skin's rest and press direction (decode.rest_signature) from the
+    dataset's contact labels, so that a live baseline can tell a pressed start from rest."""
+    bare = Layout(layout.channels, layout.steps)
+    cur, valid = assemble(bare, dataset.inputs, dataset.step, dataset.session, dataset.t_end)
+    rest, press = rest_signature(cur[valid], np.asarray(dataset.in_contact, bool)[valid])
+    return replace(layout, rest=tuple(map(float, rest)), press=tuple(map(float, press)))
 
 
 def select_rows(n: int, rows: ArrayLike | None) -> NDArray[np.intp]:

@@ -14,7 +14,7 @@ is the tangential (shear) load in board axes. Friction caps the shear at ``frict
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -217,6 +217,26 @@ class Scene:
             normal=normal,
             indenter_radius_mm=p.indenter_radius_mm[idx],
             in_contact=inside & (normal > 0),
+        )
+
+    def starting_at(self, start_s: float) -> Scene:
+        """The same scene joined `start_s` seconds in: what happened before is gone (a press
+        under way at `start_s` is already pressed at time 0).
+
+        >>> sc = Scene.single_press(start_s=0.5)
+        >>> bool(sc.starting_at(1.0).contact(np.array([0.0])).in_contact[0])
+        True
+        """
+        if not (np.isfinite(start_s) and 0.0 <= start_s < self.duration_s):
+            raise TwinError(
+                f"start={start_s!r}: give seconds in [0, {self.duration_s:g}) of scene {self.name}"
+            )
+        p, env = self.presses, self.env
+        return replace(
+            self,
+            duration_s=self.duration_s - start_s,
+            presses=replace(p, start=p.start - start_s),
+            env=replace(env, times=env.times - start_s),
         )
 
     def press_index(self, t: F64) -> NDArray[np.int32]:

@@ -59,8 +59,35 @@ def test_no_command_at_or_below_the_threshold() -> None:
 
 def test_the_region_must_hold_before_a_press_is_decided() -> None:
     det = CommandDetector(confirm=3)
-    # misread as 3 for one sample on the way up: the press is decided on 2
-    assert feed(det, [(1.5, 3), (1.6, 2), (1.7, 2), (1.8, 2)]) == [("up", 2)]
+    # misread as 3 for one sample on the way up: the press is decided on 2 once it holds
+    assert feed(det, [(1.5, 3), (1.6, 2), (1.7, 2), (1.8, 2), (1.8, 2)]) == [("up", 2)]
+
+
+def test_the_region_is_decided_on_the_steady_part_not_the_rise() -> None:
+    """Issue 22 item 3: a rise misread as "left" for two samples no longer fires "left"."""
+    det = CommandDetector(confirm=2)
+    rise = [(1.2, 4), (1.8, 4), (2.5, 2), (2.9, 2), (3.0, 2), (3.0, 2)]
+    assert feed(det, rise + [(0.2, 2)] * 3) == [("up", 2)]
+
+
+def test_a_press_that_never_holds_still_is_decided_near_its_peak() -> None:
+    det = CommandDetector(confirm=2)
+    spike = [(1.1, 4), (1.6, 8), (2.4, 8), (3.2, 8), (2.2, 8), (0.5, 8), (0.2, 8)]
+    assert feed(det, spike) == [("down", 8)]  # decided as it fell below 80 % of 3.2 N
+    brief = [(1.4, 6), (2.0, 6), (0.3, 6), (0.2, 6)]
+    assert feed(CommandDetector(confirm=3), brief) == [("right", 6)]  # decided at release
+
+
+def test_a_flickering_ood_flag_never_fires_a_steady_press_twice() -> None:
+    """Issue 22 item 3: OOD estimates inside a press are unknown, not a release."""
+    det = CommandDetector()
+    out = []
+    for i in range(40):  # a 2 s steady press on "right"; the flag flickers on 2 of every 5
+        e = est(2.5, 6, ood=i % 5 in (2, 3))
+        c = det.feed(e, i * 0.05)
+        out += [c.direction] if c else []
+    assert out == ["right"]
+    assert det.pressed  # still the same press
 
 
 def test_centre_presses_are_decided_neutral_and_unusable_estimates_are_no_press() -> None:

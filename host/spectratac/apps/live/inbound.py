@@ -5,6 +5,7 @@ Every WebSocket message is one of::
     {"type": "latency", "values": [ms, ...]}   # receipt latencies, at most MAX_LATENCY_VALUES
     {"type": "pong", "id": n}                  # echo of the server's ping n
     {"type": "snake_restart"}
+    {"type": "tare"}                           # zero the drift baseline (nothing touches the skin)
 
 Anything else (not JSON, NaN/Infinity, ``1e999``, huge integers, deep nesting, wrong types,
 too long) raises `BadMessage`, which the server answers with
@@ -56,7 +57,12 @@ class SnakeRestart:
     pass
 
 
-ClientMessage = Latency | Pong | SnakeRestart
+@dataclass(frozen=True)
+class Tare:
+    pass
+
+
+ClientMessage = Latency | Pong | SnakeRestart | Tare
 
 
 def parse(text: str) -> ClientMessage:
@@ -77,7 +83,11 @@ def parse(text: str) -> ClientMessage:
         return Pong(_ping_id(msg.get("id")))
     if kind == "snake_restart":
         return SnakeRestart()
-    raise BadMessage(f"unknown message type {_show(kind)}: send latency, pong or snake_restart")
+    if kind == "tare":
+        return Tare()
+    raise BadMessage(
+        f"unknown message type {_show(kind)}: send latency, pong, snake_restart or tare"
+    )
 
 
 def _show(v: Any) -> str:

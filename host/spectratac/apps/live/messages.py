@@ -5,6 +5,7 @@
     {"type": "estimate", "seq": 41, "t": 2.05, "arrival_ms": 1.7e12,
      "force": [Fx, Fy, Fz], "torque": [Tx, Ty, Tz],           N and N·m, null if not decoded
      "region": 2, "p": 0.97, "contact": true, "ood": false, "invalid": false,
+     "no_rest": false,                       the drift baseline has not yet seen rest (Tare)
      "step": 0, "counts": [15 counts: s0 R G B C IR, s1 ..., s2 ...],
      "saturated": [15 bools], "dark": [3 bools: each sensor's Clear below the dark level],
      "status": [3 SENSOR_* bit sets: saturated 1, bus fault 2, stale 4, absent 8],
@@ -45,7 +46,7 @@ from spectratac.protocol.generated.messages import SensorStatus
 
 _DARK = vocab.CHANNELS.index(DARK_CHANNEL)
 #: The estimate's fields, null in the messages of a session without a model.
-ESTIMATE_FIELDS = ("force", "torque", "region", "p", "contact", "ood", "invalid")
+ESTIMATE_FIELDS = ("force", "torque", "region", "p", "contact", "ood", "invalid", "no_rest")
 
 
 def _num(v: float, digits: int) -> float | None:
@@ -96,6 +97,7 @@ def estimate_message(
             contact=bool(estimate.contact),
             ood=bool(estimate.ood),
             invalid=bool(estimate.invalid),
+            no_rest=bool(getattr(estimate, "no_rest", False)),
         )
     msg.update(step=int(sample.step), counts=counts, saturated=saturated, dark=dark,
                status=status)  # fmt: skip

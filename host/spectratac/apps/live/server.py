@@ -209,6 +209,8 @@ async def _receive(
         sent = hub.pings.pop(msg.id, None)
         if sent is not None:
             session.echo.add([(time.monotonic() - sent) * 1e3 / 2])
+    elif isinstance(msg, inbound.Tare):
+        session.tare()
     else:
         hub.publish({"type": "snake", "snake": session.restart_snake()})
     return None

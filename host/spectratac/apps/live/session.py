@@ -162,6 +162,12 @@ class LiveSession:
             "release_n": det.release_n,
         }
 
+    def tare(self) -> None:
+        """Zero the decoder's drift baseline on the next sample (the page's Tare button;
+        without a model there is no baseline, and the page hides the button)."""
+        if self.decoder is not None:
+            self.decoder.tare()
+
     def snake_state(self) -> dict[str, Any]:
         with self._lock:
             return self.snake.state()

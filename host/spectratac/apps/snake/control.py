@@ -1,14 +1,17 @@
 """Estimates -> direction commands: one press, one command, only above the force threshold.
 
 A press starts when the normal force (−Fz: the F/T convention reads a press as Fz < 0)
-exceeds `threshold_n` (the paper's 1.0 N). Its region is decided once the decoded region
-has stayed the same for `confirm` consecutive estimates above the threshold (a press
-rising through the skin can be misread for a sample or two); a mapped region fires its
-direction, a neutral one (the centre) fires nothing. Nothing more fires until the force
-has fallen below `threshold_n − hysteresis_n` for `rearm` consecutive estimates: a
-trembling finger near the threshold, or a press sliding to a neighbouring region, never
-gives a second command. Invalid and (unless `accept_ood`) out-of-distribution estimates
-count as no press.
+exceeds `threshold_n` (the paper's 1.0 N). Its region is decided on the press's steady part:
+once `confirm` consecutive estimates above the threshold read the same region with forces
+within STEADY of each other (a press rising through the skin is misread more often than a
+held one); a press that never holds still is decided as it starts to fall (below FALLING of
+its peak) or at its release, by the region most read near its peak. A mapped region fires
+its direction, a neutral one (the centre) fires nothing. Nothing more fires until the force
+has fallen below `threshold_n − hysteresis_n` for `rearm` consecutive usable estimates: a
+trembling finger near the threshold, a press sliding to a neighbouring region, or an
+out-of-distribution flag flickering during a press never gives a second command. Invalid
+and (unless `accept_ood`) out-of-distribution estimates are not looked at: they neither
+start, decide nor end a press.
 
 >>> from types import SimpleNamespace as E
 >>> det = CommandDetector(DirectionMap.parse("cross"), confirm=2, rearm=1)
@@ -32,6 +35,8 @@ THRESHOLD_N = 1.0  # the paper: commands only above 1.0 N of normal force
 HYSTERESIS_N = 0.3
 CONFIRM = 2  # estimates (100 ms at 20 Hz) with the same region before a press is decided
 REARM = 2  # estimates below the release level before the next press can fire
+STEADY = 0.10  # a press holds still while its last `confirm` forces are within 10 %
+FALLING = 0.8  # below this fraction of its peak a press is ending: decide it now
 
 
 @dataclass(frozen=True)
@@ -83,9 +88,9 @@ class CommandDetector:
     def reset(self) -> None:
         self.pressed = False  # above the threshold since the last re-arm
         self.decided = False  # this press has given its command (or was neutral)
-        self._candidate = -1
-        self._streak = 0
         self._below = 0
+        self._peak = 0.0
+        self._reads: list[tuple[float, int]] = []  # (normal, region) above the release level
 
     @staticmethod
     def normal_force(estimate: Any) -> float:
@@ -95,26 +100,48 @@ class CommandDetector:
 
     def feed(self, estimate: Any, t: float) -> Command | None:
         """Update with one estimate at time `t` (s); the press's command when decided."""
-        usable = not estimate.invalid and (self.accept_ood or not estimate.ood)
-        normal = self.normal_force(estimate) if usable else math.nan
+        if estimate.invalid or (estimate.ood and not self.accept_ood):
+            return None  # unknown, not released: a flickering flag must not re-arm
+        normal = self.normal_force(estimate)
+        if not math.isfinite(normal):
+            return None
         if not self.pressed:
-            if normal > self.threshold_n:
-                self.pressed, self.decided, self._streak, self._below = True, False, 0, 0
-            else:
+            if normal <= self.threshold_n:
                 return None
-        if not normal >= self.release_n:  # NaN (unusable) counts as released
+            self.pressed, self.decided, self._below = True, False, 0
+            self._peak, self._reads = 0.0, []
+        if normal < self.release_n:
             self._below += 1
-            self._streak = 0
-            if self._below >= self.rearm:
-                self.pressed = False
-            return None
+            if self._below < self.rearm:
+                return None
+            self.pressed = False  # released: decide a press too brief to have held still
+            return None if self.decided else self._decide(self._near_peak(), normal, t)
         self._below = 0
-        if self.decided or normal <= self.threshold_n:
+        if self.decided:
             return None
-        region = int(estimate.region)
-        self._streak = self._streak + 1 if region == self._candidate else 1
-        self._candidate = region
-        if self._streak < self.confirm or region < 1:
+        self._peak = max(self._peak, normal)
+        self._reads.append((normal, int(estimate.region)))
+        if normal <= self.threshold_n:
+            return None
+        last = self._reads[-self.confirm :]
+        forces = [f for f, _ in last]
+        held = len(last) == self.confirm and len({r for _, r in last}) == 1
+        if held and self.threshold_n < min(forces) and max(forces) <= (1 + STEADY) * min(forces):
+            return self._decide(last[-1][1], normal, t)
+        if normal < FALLING * self._peak:
+            return self._decide(self._near_peak(), normal, t)
+        return None
+
+    def _near_peak(self) -> int:
+        """The region read most often at forces near the press's peak (-1: none)."""
+        votes: dict[int, int] = {}
+        for f, r in self._reads:
+            if f >= FALLING * self._peak and f > self.threshold_n and r >= 1:
+                votes[r] = votes.get(r, 0) + 1
+        return max(votes, key=lambda r: votes[r]) if votes else -1
+
+    def _decide(self, region: int, normal: float, t: float) -> Command | None:
+        if region < 1:
             return None
         self.decided = True
         return Command(self.mapping.direction(region), region, float(t), normal)

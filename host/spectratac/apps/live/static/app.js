@@ -71,6 +71,7 @@ $("save").addEventListener("click", async () => {
   }
 });
 $("snake-restart").addEventListener("click", () => send({ type: "snake_restart" }));
+$("tare").addEventListener("click", () => send({ type: "tare" }));
 
 // ---------------------------------------------------------------- plots (uPlot)
 // stac.plots[key] = {u: the uPlot, columns(): its data arrays, minSpan, counts: a raw plot}
@@ -341,6 +342,7 @@ function showRegion(msg) {
   $("flag-contact").classList.toggle("on", msg.contact);
   $("flag-ood").classList.toggle("on", msg.ood);
   $("flag-invalid").classList.toggle("on", msg.invalid);
+  $("flag-no-rest").classList.toggle("on", !!msg.no_rest);
   const f = msg.force;
   $("readout").textContent = `Fx ${fmt(f[0], 2)}  Fy ${fmt(f[1], 2)}  Fz ${fmt(f[2], 2)} N`;
 }
@@ -515,6 +517,7 @@ function onMeta(meta) {
     (withModel ? `model ${m.path || ""} (${m.targets.join(", ")})` : "no model");
   document.body.classList.toggle("no-model", !withModel);
   $("no-model").hidden = withModel;
+  $("tare").hidden = !withModel;  // raw counts have no baseline to zero
   if (!withModel) { $("no-model-note").textContent = meta.no_model.note; $("no-model-hint").textContent = meta.no_model.hint; }
   $("panel-region").hidden = !withModel;
   $("tab-snake").hidden = !withModel;
