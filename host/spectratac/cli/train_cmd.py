@@ -255,10 +255,12 @@ def _human(s: dict[str, Any]) -> str:
             f"against {ft['val_mae_scaled']['base']:.4g}); more data of the new unit may help"
         )
     epochs = ft["epochs"] if ft else spec["epochs"]
+    # ridge is solved in closed form: no epochs to report
+    how = "closed form" if spec["model"] == "ridge" and not ft else f"{epochs} epochs"
     lines += [
         f"trained {spec['model']} on {spec['features']} features "
         f"(context {spec['context']}, drift {spec['drift']}) for {', '.join(spec['targets'])}",
-        f"  {s['n_train']} rows, {epochs} epochs in {s['train_seconds']:.1f} s; "
+        f"  {s['n_train']} rows, {how} in {s['train_seconds']:.1f} s; "
         f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
         f"{s['flops_per_sample']:,} FLOPs per sample",
     ]
