@@ -178,13 +178,13 @@ class Decoder:
             return est
         out = np.full((n, heads.n_out), np.nan)
         if valid.any():
-            out[valid] = self.runtime.run(u[valid])
+            out[valid] = self.runtime.run(self.guard.bound_inputs(u[valid]))
         # a non-finite output (damaged weights, overflow) is no estimate: invalid, all NaN
         valid = valid & np.all(np.isfinite(out), axis=1)
         out[~valid] = np.nan
         est.invalid = ~valid
         s = heads.slices()
-        est.targets = out[:, s["targets"]].astype(np.float64)
+        est.targets = self.guard.bound_targets(out[:, s["targets"]].astype(np.float64))
         if heads.uncertainty:
             est.std = out[:, s["std"]].astype(np.float64)
         if heads.n_classes:
@@ -277,7 +277,7 @@ class Decoder:
         self, sample: Sample, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any
     ) -> Estimate:
         heads = self.heads
-        out = run1(u).astype(np.float64) if ok else None
+        out = run1(self.guard.bound_inputs(u[None, :])[0]).astype(np.float64) if ok else None
         if out is None or not np.all(np.isfinite(out)):  # no estimate: invalid, all NaN
             nan3 = np.full(3, np.nan)
             return Estimate(
@@ -292,7 +292,7 @@ class Decoder:
                 True,
                 np.full(heads.n_reg, np.nan),
             )
-        tg = out[s["targets"]]
+        tg = self.guard.bound_targets(out[None, s["targets"]])[0]
         force = np.array([tg[i] if i >= 0 else np.nan for i in fi])
         torque = np.array([tg[i] if i >= 0 else np.nan for i in ti])
         region, rprob = -1, float("nan")

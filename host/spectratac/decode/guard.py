@@ -3,7 +3,14 @@
 A sample is out of distribution when any current input lies outside the training range
 widened by MARGIN of its span, when a channel is saturated (counts at the 16-bit limit, or
 the device's status says so), when a SpectraTac sensor is dark (Clear below DARK_COUNTS),
-or when a decoded target lies outside its training range widened the same way.
+or when a decoded target lies outside its training range widened the same way, or at the
+edge of it: within EDGE of the span from the training extreme that lies away from zero (a
+network saturates there, so a load beyond the training range reads as one at its edge).
+
+Bounds: inputs are clipped to INPUT_SPANS spans around their training range before decoding
+(an input of 1e30 overflows float32 features to NaN) and targets to one span beyond their
+widened range (`bound_inputs`, `bound_targets`): estimates stay finite and bounded, and such
+rows are flagged by `check` anyway.
 
 >>> g = Guard.fit(np.array([[0.0, 10.0], [1.0, 20.0]]), np.array([[0.0], [2.0]]))
 >>> g.check(np.array([[0.5, 15.0], [0.5, 40.0]]), np.array([[1.0], [1.0]])).tolist()
@@ -24,6 +31,9 @@ SATURATION = 65535.0  # VEML3328 16-bit full scale
 DARK_COUNTS = 20.0
 # SENSOR_SATURATED | SENSOR_BUS_FAULT | SENSOR_STALE | SENSOR_ABSENT
 STATUS_BAD = 0x0F
+EDGE = 0.05  # outputs this close (fraction of the span) to a training extreme are flagged
+EDGE_MIN_REACH = 0.25  # ... when that extreme lies at least this far (of the span) from zero
+INPUT_SPANS = 10.0  # inputs are clipped this many spans beyond their training range
 
 
 @dataclass
@@ -60,10 +70,46 @@ class Guard:
                 bad |= np.any(x[:, self.dark_cols] < DARK_COUNTS, axis=1)
             if y is not None and y.shape[1]:
                 bad |= np.any((y < self.t_lo) | (y > self.t_hi), axis=1)
+            if y is not None and y.shape[1]:
+                bad |= self.at_edge(y)
         if status is not None:
             st = np.asarray(status).reshape(x.shape[0], -1)
             bad |= np.any(st & STATUS_BAD, axis=1)
         return bad
+
+    def _raw_targets(self) -> tuple[F64, F64, F64]:
+        """The training targets' (min, max, span), undoing the MARGIN widening."""
+        wide = np.asarray(self.t_hi, np.float64) - np.asarray(self.t_lo, np.float64)
+        span = wide / (1 + 2 * MARGIN)
+        return self.t_lo + MARGIN * span, self.t_hi - MARGIN * span, span
+
+    def at_edge(self, y: F64) -> NDArray[np.bool_]:
+        """(N,) True where a target lies within EDGE of its span from a training extreme
+        that is at least EDGE_MIN_REACH of the span away from zero (so rest, near zero,
+        is never an edge) or beyond it."""
+        lo, hi, span = self._raw_targets()
+        with np.errstate(invalid="ignore"):
+            reach_hi = np.isfinite(hi) & (hi >= EDGE_MIN_REACH * span)
+            reach_lo = np.isfinite(lo) & (lo <= -EDGE_MIN_REACH * span)
+            edge = (reach_hi & (y >= hi - EDGE * span)) | (reach_lo & (y <= lo + EDGE * span))
+        return np.any(edge, axis=1)
+
+    def bound_inputs(self, u: F64) -> F64:
+        """Assembled vectors (N, D) clipped to INPUT_SPANS spans around the training range of
+        the current inputs (every block of `u` holds the same channels: context, baseline)."""
+        lo, hi = np.asarray(self.in_lo, np.float64), np.asarray(self.in_hi, np.float64)
+        if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or u.shape[-1] % lo.size:
+            return u
+        span = hi - lo
+        reps = u.shape[-1] // lo.size
+        return np.clip(u, np.tile(lo - INPUT_SPANS * span, reps),
+                       np.tile(hi + INPUT_SPANS * span, reps))  # fmt: skip
+
+    def bound_targets(self, y: F64) -> F64:
+        """Targets (N, R) clipped to one span beyond their widened training range."""
+        lo, hi = np.asarray(self.t_lo, np.float64), np.asarray(self.t_hi, np.float64)
+        span = hi - lo
+        return np.clip(y, lo - span, hi + span)
 
     def arrays(self) -> dict[str, F64]:
         return {"in_lo": self.in_lo, "in_hi": self.in_hi, "t_lo": self.t_lo, "t_hi": self.t_hi}
