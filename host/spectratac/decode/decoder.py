@@ -381,6 +381,7 @@ class Decoder:
         rt = Runtime.create(fs, arch, w, heads, u)
         guard = Guard.fit(u, np.zeros((u.shape[0], heads.n_reg)))
         guard.t_lo[:], guard.t_hi[:] = -np.inf, np.inf
+        guard.center = guard.whiten = guard.dist_max = None  # untrained: no distance check
         meta = {
             "spec": {"features": features, "model": arch[0]},
             "targets": list(targets),

@@ -3,7 +3,9 @@
 A sample is out of distribution when any current input lies outside the training range
 widened by MARGIN of its span, when a channel is saturated (counts at the 16-bit limit, or
 the device's status says so), when a SpectraTac sensor is dark (Clear below DARK_COUNTS),
-or when a decoded target lies outside its training range widened the same way, or at the
+when its distance from the training inputs (Mahalanobis, whitened by their covariance)
+exceeds DIST_MARGIN x the DIST_QUANTILE of the training rows' distances, or when a decoded
+target lies outside its training range widened the same way, or at the
 edge of it: within EDGE of the span from the training extreme that lies away from zero (a
 network saturates there, so a load beyond the training range reads as one at its edge).
 
@@ -44,6 +46,11 @@ class Guard:
     t_hi: F64
     saturation: float | None = None  # inputs at or above this are saturated
     dark_cols: list[int] = field(default_factory=list)  # columns that must not be dark
+    # Distance in input space: rows whose whitened distance from the training mean exceeds
+    # dist_max are flagged (None in models saved before it: no distance check).
+    center: F64 | None = None  # (B,)
+    whiten: F64 | None = None  # (B, B): (x - center) @ whiten has identity covariance
+    dist_max: F64 | None = None  # (1,)
 
     @classmethod
     def fit(
@@ -56,9 +63,14 @@ class Guard:
             span = np.maximum(hi - lo, 1e-9 * np.maximum(np.abs(hi), 1.0))
             return lo - MARGIN * span, hi + MARGIN * span
 
-        in_lo, in_hi = rng(np.asarray(x, np.float64))
+        x = np.asarray(x, np.float64)
+        in_lo, in_hi = rng(x)
         t_lo, t_hi = rng(np.asarray(y, np.float64))
-        return cls(in_lo, in_hi, t_lo, t_hi, saturation, list(dark_cols or []))
+        g = cls(in_lo, in_hi, t_lo, t_hi, saturation, list(dark_cols or []))
+        ok = np.all(np.isfinite(x), axis=1)
+        if ok.sum() > 2 * x.shape[1] + 1:
+            g.center, g.whiten, g.dist_max = _distance_model(x[ok])
+        return g
 
     def check(self, x: F64, y: F64 | None = None, status: NDArray[Any] | None = None) -> NDArray:
         """(N,) True where a row of current inputs x (N, B) or targets y (N, R) is OOD."""
@@ -72,6 +84,9 @@ class Guard:
                 bad |= np.any((y < self.t_lo) | (y > self.t_hi), axis=1)
             if y is not None and y.shape[1]:
                 bad |= self.at_edge(y)
+            if self.center is not None and self.whiten is not None and self.dist_max is not None:
+                d = np.linalg.norm((x - self.center) @ self.whiten, axis=1)
+                bad |= ~(d <= self.dist_max[0])
         if status is not None:
             st = np.asarray(status).reshape(x.shape[0], -1)
             bad |= np.any(st & STATUS_BAD, axis=1)
@@ -112,7 +127,10 @@ class Guard:
         return np.clip(y, lo - span, hi + span)
 
     def arrays(self) -> dict[str, F64]:
-        return {"in_lo": self.in_lo, "in_hi": self.in_hi, "t_lo": self.t_lo, "t_hi": self.t_hi}
+        a = {"in_lo": self.in_lo, "in_hi": self.in_hi, "t_lo": self.t_lo, "t_hi": self.t_hi}
+        if self.center is not None and self.whiten is not None and self.dist_max is not None:
+            a.update(center=self.center, whiten=self.whiten, dist_max=self.dist_max)
+        return a
 
     def header(self) -> dict[str, Any]:
         return {"saturation": self.saturation, "dark_cols": self.dark_cols}
@@ -125,6 +143,12 @@ class Guard:
             a = np.asarray(getattr(self, name))
             if a.shape != (n,) or not np.issubdtype(a.dtype, np.number) or np.isnan(a).any():
                 raise ValueError(f"guard range {name} is {a.shape} {a.dtype}; expected ({n},)")
+        if self.center is not None and (
+            np.shape(self.center) != (n_inputs,)
+            or np.shape(self.whiten) != (n_inputs, n_inputs)
+            or np.shape(self.dist_max) != (1,)
+        ):
+            raise ValueError(f"guard distance model does not fit {n_inputs} inputs")
         if any(not 0 <= c < n_inputs for c in self.dark_cols):
             raise ValueError(f"guard dark_cols {self.dark_cols} outside 0..{n_inputs - 1}")
 
@@ -137,4 +161,23 @@ class Guard:
             arrays["t_hi"],
             header.get("saturation"),
             list(header.get("dark_cols", [])),
+            arrays.get("center"),
+            arrays.get("whiten"),
+            arrays.get("dist_max"),
         )
+
+
+DIST_QUANTILE = 0.995  # of the training rows' distances ...
+DIST_MARGIN = 1.10  # ... widened by this factor: the distance beyond which a row is flagged
+
+
+def _distance_model(x: F64) -> tuple[F64, F64, F64]:
+    """(center, whitening matrix, flag distance) of training inputs x (N, B): a Mahalanobis
+    distance, regularised so that a channel constant in training does not divide by 0."""
+    center = x.mean(axis=0)
+    cov = np.atleast_2d(np.cov(x.T))
+    ridge = 1e-6 * max(float(np.trace(cov)) / cov.shape[0], 1e-12)
+    chol = np.linalg.cholesky(cov + ridge * np.eye(cov.shape[0]))
+    whiten = np.linalg.inv(chol).T
+    d = np.linalg.norm((x - center) @ whiten, axis=1)
+    return center, whiten, np.array([DIST_MARGIN * float(np.quantile(d, DIST_QUANTILE))])

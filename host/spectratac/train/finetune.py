@@ -301,6 +301,9 @@ def finetune(
         np.maximum(base.guard.t_hi, new_guard.t_hi),
         base.guard.saturation,
         list(base.guard.dark_cols),
+        new_guard.center,  # the distance model of the data it is now calibrated on
+        new_guard.whiten,
+        new_guard.dist_max,
     )
     meta = dict(base.meta)
     meta.pop("holdout", None)  # the base's training rows are not this model's
