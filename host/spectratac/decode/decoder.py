@@ -178,7 +178,13 @@ class Decoder:
             return est
         out = np.full((n, heads.n_out), np.nan)
         if valid.any():
-            out[valid] = self.runtime.run(self.guard.bound_inputs(u[valid]))
+            out[valid] = self.runtime.run(u[valid])
+            # absurd inputs (1e30) overflow the features to inf/NaN: decode them clipped to
+            # the guard's bounds instead (flagged by the guard either way); in range, the
+            # inputs are used as they are, exactly as the exports and the device use them
+            redo = valid & ~np.all(np.isfinite(out), axis=1)
+            if redo.any():
+                out[redo] = self.runtime.run(self.guard.bound_inputs(u[redo]))
         # a non-finite output (damaged weights, overflow) is no estimate: invalid, all NaN
         valid = valid & np.all(np.isfinite(out), axis=1)
         out[~valid] = np.nan
@@ -277,7 +283,9 @@ class Decoder:
         self, sample: Sample, u: F64, ok: bool, run1: Any, s: Any, fi: Any, ti: Any
     ) -> Estimate:
         heads = self.heads
-        out = run1(self.guard.bound_inputs(u[None, :])[0]).astype(np.float64) if ok else None
+        out = run1(u).astype(np.float64) if ok else None
+        if out is not None and not np.all(np.isfinite(out)):  # overflow: see _estimates
+            out = run1(self.guard.bound_inputs(u[None, :])[0]).astype(np.float64)
         if out is None or not np.all(np.isfinite(out)):  # no estimate: invalid, all NaN
             nan3 = np.full(3, np.nan)
             return Estimate(
