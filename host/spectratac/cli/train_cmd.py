@@ -15,8 +15,10 @@ exactly the held-out rows; without it every row trains the model.
 
 The work is `spectratac.train.fit`'s; this verb parses the options, writes the files and
 prints the result. Training error and held-out error are always printed side by side (and in
---json: train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
-else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
+--json: train_mae, heldout_mae, heldout_worst, forward, expected_mae, gap, warning), with the
+worst held-out group beside the mean and, with 3 or more sessions, forward chaining (trained
+on earlier sessions, scored on later ones), whose worst later session is printed as the MAE
+to expect on a new session. Held out are whole groups (sessions, else presses, else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
 model's own validation groups (--val-fraction), else those of a check model trained on the
 other 80 % of the groups. When the held-out error exceeds the training error by more than
 2x (train/check.py) a warning goes to stderr and into the JSON.
@@ -288,6 +290,23 @@ def _human(s: dict[str, Any]) -> str:
         tr = s["train_mae"].get(t, float("nan"))
         ratio = v / tr if tr > 0 else float("nan")
         lines.append(f"    {t:<8} training {tr:.4g}  held-out {v:.4g}  ({ratio:.1f}x)")
+    if s.get("heldout_worst"):
+        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["heldout_worst"].items())
+        lines.append(
+            f"    worst held-out {s['heldout_groups']} ({s['heldout_worst_group']}): {cells}"
+        )
+    fwd = s.get("forward")
+    if fwd:
+        lines.append(
+            f"  forward in time (trained on earlier sessions, scored on sessions "
+            f"{', '.join(map(str, fwd['sessions']))}): mean / worst (session "
+            f"{fwd['worst_session']})"
+        )
+        for t, v in fwd["mean_mae"].items():
+            lines.append(f"    {t:<8} {v:.4g} / {fwd['worst_mae'].get(t, float('nan')):.4g}")
+    if s.get("expected_mae"):
+        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["expected_mae"].items())
+        lines.append(f"  expect on a new session: MAE {cells} ({s['expected_source']})")
     if s["warning"]:
         lines.append(f"  WARNING: {s['warning']}")
     if s["class_accuracy"] is not None:
