@@ -235,6 +235,8 @@ def parse_duration(text: str) -> float:
 
 
 def _human(s: dict[str, Any]) -> str:
+    from spectratac.train.check import plural
+
     spec = s["spec"]
     ft = s.get("finetuned_from")
     lines = (
@@ -242,18 +244,14 @@ def _human(s: dict[str, Any]) -> str:
         if not ft
         else [
             f"fine-tuned {ft.get('path', ft['id'])} (unit {ft['unit_id']}, mode {ft['mode']}, "
-            f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
+            f"held-out {plural(ft.get('val_groups', 'group'))}: early stopping and the check "
+            "against the base)"
         ]
     )
-    if ft and not ft["early_stopping"]:
-        lines.append(
-            "  unchecked: too few presses to hold some out, so neither early stopping nor the "
-            "check against the base ran (measured: half a minute of data can make a good base "
-            "worse); record a minute or more of presses"
-        )
     if ft and ft.get("kept") == "base":
         lines.append(
-            "  kept the base as it was: fine-tuning did worse on the held-out presses "
+            f"  kept the base as it was: fine-tuning did worse on the held-out "
+            f"{plural(ft.get('val_groups', 'group'))} "
             f"(scaled MAE {min(v for k, v in ft['val_mae_scaled'].items() if k != 'base'):.4g} "
             f"against {ft['val_mae_scaled']['base']:.4g}); more data of the new unit may help"
         )

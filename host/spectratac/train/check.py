@@ -99,7 +99,7 @@ class HeldOutCheck:
                 f"forward chaining: the worst of the {len(self.forward.sessions)} later "
                 "sessions scored by models trained on the sessions before each"
             )
-        return dict(self.heldout_mae), f"held-out {self.heldout_groups}s"
+        return dict(self.heldout_mae), f"held-out {plural(self.heldout_groups)}"
 
 
 @dataclass(frozen=True)
@@ -232,3 +232,12 @@ def cv_check(report: dict[str, Any]) -> HeldOutCheck:
         f"{report['folds']}-fold cross-validation of the chosen candidate",
         report["rows"],
     )
+
+
+def plural(kind: str) -> str:
+    """A group kind in the plural: 'press' -> 'presses', 'session' -> 'sessions'.
+
+    >>> plural("press"), plural("block")
+    ('presses', 'blocks')
+    """
+    return kind + ("es" if kind.endswith("s") else "s")

@@ -31,8 +31,9 @@ without held-out presses (too little data) it is not refitted, from the figures 
 Validation is grouped: whole presses (a press and the idle rows after it) are held out, never
 single rows, whose near-duplicate neighbours would sit in training. The weights of the epoch
 with the lowest validation loss are kept (early stopping). With fewer than MIN_VAL_GROUPS
-presses in the data a validation loss would be decided by which one or two presses landed in
-it, so the fixed epoch count runs instead and the last weights are kept. Last, on the same
+sessions or presses in the data (a validation loss would be decided by which one or two
+landed in it), N_BLOCKS guarded time blocks are held out instead; data too short even for
+those raises FinetuneCheckError: the check is never skipped. Last, on the same
 held-out presses, a fine-tuned decoder is kept only if its error beats the base's as it was;
 otherwise the base is returned unchanged (`meta["finetuned_from"]["kept"]`: "finetuned",
 "finetuned+refit" or "base", with each one's validation score), so a few minutes of data
@@ -74,7 +75,13 @@ from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
 from spectratac.train.fitting import augmented
-from spectratac.train.groups import GUARD_ROWS, row_groups, val_split
+from spectratac.train.groups import (
+    GUARD_ROWS,
+    N_BLOCKS,
+    Groups,
+    row_groups,
+    val_split,
+)
 from spectratac.train.plan import Plan, check_rows, plan, ranges, select_rows
 from spectratac.train.spec import TrainSpec
 from spectratac.train.torch_loop import Progress, fit_network
@@ -84,7 +91,8 @@ DEFAULT_MODE = "first"
 DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
 VAL_FRACTION = 0.2  # share of presses held out for early stopping
-MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
+MIN_VAL_GROUPS = 10  # fewer sessions or presses than this: time blocks are held out
+MIN_BLOCK_ROWS = 2  # rows per time block at least, else too little data to check
 
 
 @dataclass(frozen=True)
@@ -98,6 +106,11 @@ class FinetuneOptions:
     lr: float | None = None
     seed: int = 0
     targets: tuple[str, ...] | None = None
+
+
+class FinetuneCheckError(DecoderDataError):
+    """Too little data to hold some out: the fine-tuned decoder could not be checked against
+    its base, so none is returned."""
 
 
 class FinetuneMismatchError(DecoderConfigError):
@@ -180,14 +193,39 @@ def grouped_validation(
     >>> val.size, np.intersect1d(ds.press[fit], ds.press[val]).size
     (20, 0)
     """
+    fit, val, _ = validation_groups(dataset, order, fraction)
+    return fit, val
+
+
+def validation_groups(
+    dataset: Dataset, order: NDArray[np.intp], fraction: float = VAL_FRACTION
+) -> tuple[NDArray[np.intp], NDArray[np.intp], str]:
+    """`grouped_validation` and the kind of groups held out. With fewer than MIN_VAL_GROUPS
+    sessions or presses, guarded time blocks are held out instead (a few sessions of a new
+    unit are the normal case, and the keep-the-base check must still run); with too few
+    rows even for those, FinetuneCheckError says so (never a silent skip)."""
+    if fraction <= 0:
+        return order, order[:0], "none"
     groups = row_groups(dataset.session, dataset.press, dataset.t_end, order)
     n_groups = np.count_nonzero(np.unique(groups.ids[order]) >= 0)
-    if n_groups < MIN_VAL_GROUPS or fraction <= 0:
-        return order, order[:0]
+    if n_groups < MIN_VAL_GROUPS:
+        blocks = np.full(dataset.n, -1, np.int64)
+        # N_BLOCKS blocks of the rows being fine-tuned on, not of the whole dataset
+        for k, chunk in enumerate(np.array_split(order, N_BLOCKS)):
+            blocks[chunk] = k
+        groups = Groups(blocks, "block")
+        n_groups = np.count_nonzero(np.unique(blocks[order]) >= 0)
     # a guard gap wider than a quarter of a block would purge most of a minute of data
-    guard = min(GUARD_ROWS, order.size // (4 * n_groups))
-    fit, val = val_split(order, fraction, groups, guard)
-    return (fit, val) if fit.size >= 2 else (order, order[:0])
+    guard = min(GUARD_ROWS, order.size // (4 * max(n_groups, 1)))
+    short = order.size < MIN_BLOCK_ROWS * N_BLOCKS and groups.kind == "block"
+    fit, val = (order, order[:0]) if short else val_split(order, fraction, groups, guard)
+    if fit.size < 2 or val.size == 0:
+        raise FinetuneCheckError(
+            f"cannot check the recalibration: {order.size} usable rows are too few to hold "
+            f"some {groups.kind}s out (the check against the base needs held-out data); "
+            "record a minute or more of the new unit"
+        )
+    return fit, val, groups.kind
 
 
 def finetune(
@@ -240,7 +278,7 @@ def finetune(
     if order.size < 2:
         raise DecoderDataError("fewer than 2 usable rows after LED-step assembly")
     predicate = trainable(mode, base.runtime.arch[0])
-    fit_rows, val_rows = grouped_validation(dataset, order) if predicate else (order, order[:0])
+    fit_rows, val_rows, val_kind = validation_groups(dataset, order)
     y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
     tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
     choose = bool(val_rows.size and p.reg_cols)  # held-out presses to decide with
@@ -314,7 +352,7 @@ def finetune(
             "n_val": int(val_rows.size),
             "fit_rows": ranges(fit_rows),  # rows of `dataset`, not of the base's data
             "val_rows": ranges(val_rows),
-            "val_groups": row_groups(dataset.session, dataset.press, dataset.t_end).kind,
+            "val_groups": val_kind,
             "n_augmented": n_augmented,
             "train_seconds": time.perf_counter() - t0,
             "history": history,
@@ -327,6 +365,7 @@ def finetune(
                 "epochs": spec.epochs if predicate else 0,
                 "lr": spec.lr,
                 "early_stopping": bool(val_rows.size),
+                "val_groups": val_kind,  # what the check held out: sessions, presses, blocks
                 "kept": kept,
                 "val_mae_scaled": val_scores,
             },
