@@ -36,6 +36,7 @@ STATUS_BAD = 0x0F
 EDGE = 0.05  # outputs this close (fraction of the span) to a training extreme are flagged
 EDGE_MIN_REACH = 0.25  # ... when that extreme lies at least this far (of the span) from zero
 INPUT_SPANS = 10.0  # inputs are clipped this many spans beyond their training range
+NO_EDGE = 1e30  # the edge bound of a target without one
 
 
 @dataclass
@@ -98,16 +99,24 @@ class Guard:
         span = wide / (1 + 2 * MARGIN)
         return self.t_lo + MARGIN * span, self.t_hi - MARGIN * span, span
 
-    def at_edge(self, y: F64) -> NDArray[np.bool_]:
-        """(N,) True where a target lies within EDGE of its span from a training extreme
-        that is at least EDGE_MIN_REACH of the span away from zero (so rest, near zero,
-        is never an edge) or beyond it."""
+    def edge_bounds(self) -> tuple[F64, F64]:
+        """(lo, hi) per target: a target <= lo or >= hi is at (or beyond) the edge of the
+        training targets: within EDGE of the span from an extreme that lies at least
+        EDGE_MIN_REACH of the span away from zero (so rest, near zero, is never an edge);
+        NO_EDGE (+-1e30, a finite value every export can hold) where there is none."""
         lo, hi, span = self._raw_targets()
         with np.errstate(invalid="ignore"):
             reach_hi = np.isfinite(hi) & (hi >= EDGE_MIN_REACH * span)
             reach_lo = np.isfinite(lo) & (lo <= -EDGE_MIN_REACH * span)
-            edge = (reach_hi & (y >= hi - EDGE * span)) | (reach_lo & (y <= lo + EDGE * span))
-        return np.any(edge, axis=1)
+            e_lo = np.where(reach_lo, lo + EDGE * span, -NO_EDGE)
+            e_hi = np.where(reach_hi, hi - EDGE * span, NO_EDGE)
+        return e_lo, e_hi
+
+    def at_edge(self, y: F64) -> NDArray[np.bool_]:
+        """(N,) True where a target is at the edge of the training targets (`edge_bounds`)."""
+        e_lo, e_hi = self.edge_bounds()
+        with np.errstate(invalid="ignore"):
+            return np.any((y <= e_lo) | (y >= e_hi), axis=1)
 
     def bound_inputs(self, u: F64) -> F64:
         """Assembled vectors (N, D) clipped to INPUT_SPANS spans around the training range of
