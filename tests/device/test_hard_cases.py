@@ -11,6 +11,8 @@ from spectratac.decode import Decoder
 from spectratac.device import Sensor
 from spectratac.train import TrainSpec, train
 
+pytestmark = pytest.mark.train
+
 N_SAMPLES = 150  # 50 LED sequences: every state of the first press
 
 
