@@ -17,9 +17,9 @@ The work is `spectratac.train.fit`'s; this verb parses the options, writes the f
 prints the result. Training error and held-out error are always printed side by side (and in
 --json: train_mae, heldout_mae, heldout_worst, forward, expected_mae, gap, warning), with the
 worst held-out group beside the mean and, with 3 or more sessions, forward chaining (trained
-on earlier sessions, scored on later ones), whose trend carried one session on is printed as
-the MAE to expect on a new session. Held out are whole groups (sessions, else presses, else guarded
-time blocks: train/groups.py): the --holdout split's test rows, else the
+on earlier sessions, scored on later ones), whose mean is printed as the MAE to expect on a
+new session, its worst session beside it. Held out are whole groups (sessions, else presses,
+else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
 model's own validation groups (--val-fraction), else those of a check model trained on the
 other 80 % of the groups. When the held-out error exceeds the training error by more than
 2x (train/check.py) a warning goes to stderr and into the JSON.
