@@ -96,7 +96,7 @@ def test_a_recalibration_that_does_not_help_is_not_kept(base, new_unit) -> None:
     rec = wild.meta["finetuned_from"]
     assert rec["kept"] == "base" and rec["refit_scaler"] is False
     scores = rec["val_mae_scaled"]
-    assert set(scores) == {"finetuned", "finetuned+refit", "base"}
+    assert set(scores) == {"finetuned", "finetuned+refit", "base", "gain"}
     assert scores["base"] < min(scores["finetuned"], scores["finetuned+refit"])
     bw = base.runtime.weights
     assert all(np.array_equal(wild.runtime.weights[k], bw[k]) for k in bw)
@@ -214,3 +214,19 @@ def test_cli_checks_few_presses_and_refuses_data_too_short_to_check(base, tmp_pa
     argv = ["train", str(tiny), "--inputs", "a,b,c", "--finetune", str(base_file)]
     assert main([*argv, "-o", str(tmp_path / "t.stac"), "--epochs", "2", "--no-progress"]) != 0
     assert "cannot check the recalibration" in capsys.readouterr().err
+
+
+def test_gain_drift_is_recalibrated_by_a_gain_before_any_layer(base) -> None:
+    """Issue 22: a sensor whose response drifted by a factor (forces read 62-87 % of the
+    truth) is recalibrated by one output gain per target first; layers are kept only if they
+    beat it on held-out data."""
+    same = _unit(7, 1.0, 0.0, 600)
+    drifted = Dataset(
+        {**same.arrays, "targets": same.targets * 1.35}, dict(same.meta, unit_id="unit-drift")
+    )
+    dec = finetune(base, drifted, epochs=1, lr=1e-6, progress=False)
+    rec = dec.meta["finetuned_from"]
+    assert {"base", "gain", "finetuned"} <= set(rec["val_mae_scaled"])
+    assert rec["kept"] == "gain", rec
+    assert rec["val_mae_scaled"]["gain"] < 0.7 * rec["val_mae_scaled"]["base"]
+    assert _mae(dec, drifted) < 0.7 * _mae(base, drifted)

@@ -248,6 +248,13 @@ def _human(s: dict[str, Any]) -> str:
             "against the base)"
         ]
     )
+    if ft and ft.get("kept") == "gain":
+        sc = ft["val_mae_scaled"]
+        lines.append(
+            "  recalibrated by one output gain per target: it beat the fine-tuned layers "
+            f"and the base on the held-out {plural(ft.get('val_groups', 'group'))} (scaled "
+            f"MAE {sc['gain']:.4g} against base {sc['base']:.4g})"
+        )
     if ft and ft.get("kept") == "base":
         lines.append(
             f"  kept the base as it was: fine-tuning did worse on the held-out "

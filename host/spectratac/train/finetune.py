@@ -34,9 +34,11 @@ with the lowest validation loss are kept (early stopping). With fewer than MIN_V
 sessions or presses in the data (a validation loss would be decided by which one or two
 landed in it), N_BLOCKS guarded time blocks are held out instead; data too short even for
 those raises FinetuneCheckError: the check is never skipped. Last, on the same
-held-out presses, a fine-tuned decoder is kept only if its error beats the base's as it was;
-otherwise the base is returned unchanged (`meta["finetuned_from"]["kept"]`: "finetuned",
-"finetuned+refit" or "base", with each one's validation score), so a few minutes of data
+held-out groups, a fine-tuned decoder is kept only if its error beats both the base's as it
+was and the gain-only recalibration (one output gain per target fitted on the fit rows,
+`gain_calibrated`: the first step, a unit's or a session's gain drift); otherwise the best of
+those is returned (`meta["finetuned_from"]["kept"]`: "finetuned", "finetuned+refit", "gain"
+or "base", with each one's validation score), so a few minutes of data
 never make a good base worse by what they happen to hold.
 
 >>> import numpy as np
@@ -319,11 +321,19 @@ def finetune(
     if choose:
         # the last automatic choice, on the same held-out presses: recalibration must earn its
         # place against the base as it was (refitting the normalisation against not doing so)
-        options = {k: v[1] for k, v in runs.items()} | {"base": base.runtime}
+        # ... and the layers must beat a gain-only recalibration (one output gain per
+        # target, fitted on the fit rows): the first step, a unit's or a session's gain drift
+        fit_ok = fit_rows[tv[fit_rows]]
+        gain_rt = gain_calibrated(base.runtime, u[fit_ok], y_all[fit_ok])
+        options = {k: v[1] for k, v in runs.items()} | {"base": base.runtime, "gain": gain_rt}
         ok = val_rows[tv[val_rows]]
-        val_scores = {k: _scaled_mae(r, u[ok], y_all[ok]) for k, r in options.items()}
+        scale = base.runtime.y_scale  # one yardstick for every candidate
+        val_scores = {k: _scaled_mae(r, u[ok], y_all[ok], scale) for k, r in options.items()}
         kept = min(val_scores, key=lambda k: val_scores[k])  # ties: the first
-    if kept == "base":
+    if kept == "gain":
+        refit, history, val_history, n_augmented = False, [], [], 0
+        out_rt = replace(gain_rt, dtype=base.runtime.dtype, _plan=None)
+    elif kept == "base":
         refit, out_rt, history, val_history, n_augmented = False, base.runtime, [], [], 0
         out_rt = replace(out_rt, _plan=None)
     else:
@@ -374,11 +384,31 @@ def finetune(
     return Decoder(out_rt, p.layout, guard, meta)
 
 
-def _scaled_mae(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64]) -> float:
-    """Mean over regression targets of MAE / target scale: the validation score that
-    decides between the fine-tuned weights and the base's."""
+GAIN_RANGE = (0.25, 4.0)  # a gain outside this is no drift but another sensor: clipped
+
+
+def gain_calibrated(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64]) -> Runtime:
+    """`rt` with one output gain per regression target, fitted by least squares through
+    zero on rows (u, y): the one-parameter recalibration of a sensor whose response has
+    drifted by a factor (predictions 62-87 % of the true force on real later sessions)."""
+    if not u.shape[0]:
+        return rt
+    pred = rt.run(u)[:, rt.heads.slices()["targets"]]
+    ok = np.isfinite(pred) & np.isfinite(y)
+    num = np.sum(np.where(ok, pred * y, 0.0), axis=0)
+    den = np.sum(np.where(ok, pred * pred, 0.0), axis=0)
+    g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
+    return replace(rt, y_scale=rt.y_scale * np.clip(g, *GAIN_RANGE), _plan=None)
+
+
+def _scaled_mae(
+    rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64], scale: NDArray[np.float64]
+) -> float:
+    """Mean over regression targets of MAE / `scale` (the base's target scales): the
+    validation score that decides between the base, its gain-only recalibration and the
+    fine-tuned weights."""
     if not u.shape[0]:
         return float("inf")
     pred = rt.run(u)[:, rt.heads.slices()["targets"]]
-    err = np.abs(pred - y) / rt.y_scale
+    err = np.abs(pred - y) / scale
     return float(np.nanmean(err)) if np.isfinite(err).any() else float("inf")
