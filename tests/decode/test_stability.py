@@ -92,7 +92,11 @@ def test_forces_beyond_the_training_range_are_flagged_ood() -> None:
     ds = Dataset.generic(x, fz[:, None], ["a", "b", "c"], ["Fz"])
     d = train(ds, TrainSpec(features="raw", model="linear", targets=("Fz",), epochs=60,
                             batch_size=64, lr=3e-2), progress=False)  # fmt: skip
-    inside = d.predict_inputs(x[:50])
+    # training rows away from the edge of the training forces (the top and bottom 5 % of
+    # the span are flagged: a saturating model reads loads beyond them as ones there)
+    lo, hi = fz.min(), fz.max()
+    mid = (fz > lo + 0.1 * (hi - lo)) & (fz < hi - 0.1 * (hi - lo))
+    inside = d.predict_inputs(x[:50][mid[:50]])
     assert not inside.ood.any()
     far = d.predict_inputs(np.array([[3.0, 0.5, 0.5], [0.5, 0.5, -2.0]]))
     assert far.ood.all()

@@ -143,10 +143,11 @@ def test_sessions_that_cannot_be_scored_are_refused(files, tmp_path, capsys, ses
 def test_a_model_trained_on_every_row_refuses_any_session(files) -> None:
     ds = load_data([files["train"]], ["a", "b", "c"], ["Fz", "position"])
     full = Decoder.load(files["model"])
-    # no record: allowed with a caveat (the model could have seen them)
-    assert "only meaningful if the model never saw them" in check_sessions_unseen(
-        full.meta, ds, [2]
-    )
+    # training without a hold-out records the dataset: every session of it was seen
+    with pytest.raises(SessionLeakError, match="trained on sessions 2"):
+        check_sessions_unseen(full.meta, ds, [2])
+    # a model without the record is allowed with a caveat (it could have seen them)
+    assert "only meaningful if the model never saw them" in check_sessions_unseen({}, ds, [2])
     held = Decoder.load(files["held"])
     with pytest.raises(SessionLeakError, match="trained on sessions 0"):
         evaluate_model(held, ds, sessions=[0])

@@ -14,10 +14,12 @@ from spectratac.decode import Decoder, DecoderConfigError, DecoderUnitWarning
 from spectratac.train import TrainSpec, train
 from spectratac.train.finetune import (
     MIN_VAL_GROUPS,
+    FinetuneCheckError,
     FinetuneMismatchError,
     finetune,
     grouped_validation,
     model_id,
+    validation_groups,
 )
 
 pytestmark = pytest.mark.train
@@ -94,7 +96,7 @@ def test_a_recalibration_that_does_not_help_is_not_kept(base, new_unit) -> None:
     rec = wild.meta["finetuned_from"]
     assert rec["kept"] == "base" and rec["refit_scaler"] is False
     scores = rec["val_mae_scaled"]
-    assert set(scores) == {"finetuned", "finetuned+refit", "base"}
+    assert set(scores) == {"finetuned", "finetuned+refit", "base", "gain"}
     assert scores["base"] < min(scores["finetuned"], scores["finetuned+refit"])
     bw = base.runtime.weights
     assert all(np.array_equal(wild.runtime.weights[k], bw[k]) for k in bw)
@@ -110,15 +112,25 @@ def test_grouped_validation_holds_out_whole_presses(new_unit) -> None:
     fit, val = grouped_validation(shots, order)
     assert val.size and np.intersect1d(shots.press[fit], shots.press[val]).size == 0
     few = shots.subset(np.arange(20 * (MIN_VAL_GROUPS - 1)))
-    fit, val = grouped_validation(few, np.arange(few.n))
-    assert val.size == 0 and fit.size == few.n  # too few presses: fixed epochs
+    fit, val, kind = validation_groups(few, np.arange(few.n))
+    # too few presses: guarded time blocks are held out instead (the check still runs)
+    assert kind == "block" and val.size and fit.size and np.intersect1d(fit, val).size == 0
 
 
-def test_too_little_data_runs_fixed_epochs(base) -> None:
+def test_few_presses_still_check_against_the_base_on_time_blocks(base) -> None:
+    """Issue 22: with fewer than MIN_VAL_GROUPS groups the keep-the-base check never ran and
+    the message blamed 'too few presses'; now it runs on time blocks."""
     few = _unit(3, 1.4, 0.3, 20 * (MIN_VAL_GROUPS - 1))
     dec = finetune(base, few, epochs=4, progress=False)
-    assert dec.meta["finetuned_from"]["early_stopping"] is False
-    assert len(dec.meta["history"]) == 4 and dec.meta["val_history"] == []
+    rec = dec.meta["finetuned_from"]
+    assert rec["early_stopping"] is True and rec["val_groups"] == "block"
+    assert "base" in rec["val_mae_scaled"] and dec.meta["n_val"] > 0
+
+
+def test_too_little_data_to_check_fails_loudly(base) -> None:
+    tiny = _unit(3, 1.4, 0.3, 12)
+    with pytest.raises(FinetuneCheckError, match="too few to hold some"):
+        finetune(base, tiny, epochs=2, progress=False)
 
 
 def test_mismatching_data_is_refused(base) -> None:
@@ -190,9 +202,31 @@ def test_cli_says_when_it_kept_the_base(base, tmp_path, capsys) -> None:
     assert "kept the base" in out and "fine-tuning did worse on the held-out presses" in out
 
 
-def test_cli_says_when_the_recalibration_is_unchecked(base, tmp_path, capsys) -> None:
+def test_cli_checks_few_presses_and_refuses_data_too_short_to_check(base, tmp_path, capsys) -> None:
     base_file = base.save(tmp_path / "base.stac")
     data = _csv(tmp_path / "few.csv", _unit(3, 1.4, 0.3, 20 * (MIN_VAL_GROUPS - 1)))
     argv = ["train", str(data), "--inputs", "a,b,c", "--finetune", str(base_file)]
     assert main([*argv, "-o", str(tmp_path / "ft.stac"), "--epochs", "2", "--no-progress"]) == 0
-    assert "unchecked: too few presses" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "held-out blocks: early stopping and the check against the base" in out, out
+    assert "unchecked" not in out and "too few presses" not in out
+    tiny = _csv(tmp_path / "tiny.csv", _unit(3, 1.4, 0.3, 12))
+    argv = ["train", str(tiny), "--inputs", "a,b,c", "--finetune", str(base_file)]
+    assert main([*argv, "-o", str(tmp_path / "t.stac"), "--epochs", "2", "--no-progress"]) != 0
+    assert "cannot check the recalibration" in capsys.readouterr().err
+
+
+def test_gain_drift_is_recalibrated_by_a_gain_before_any_layer(base) -> None:
+    """Issue 22: a sensor whose response drifted by a factor (forces read 62-87 % of the
+    truth) is recalibrated by one output gain per target first; layers are kept only if they
+    beat it on held-out data."""
+    same = _unit(7, 1.0, 0.0, 600)
+    drifted = Dataset(
+        {**same.arrays, "targets": same.targets * 1.35}, dict(same.meta, unit_id="unit-drift")
+    )
+    dec = finetune(base, drifted, epochs=1, lr=1e-6, progress=False)
+    rec = dec.meta["finetuned_from"]
+    assert {"base", "gain", "finetuned"} <= set(rec["val_mae_scaled"])
+    assert rec["kept"] == "gain", rec
+    assert rec["val_mae_scaled"]["gain"] < 0.7 * rec["val_mae_scaled"]["base"]
+    assert _mae(dec, drifted) < 0.7 * _mae(base, drifted)

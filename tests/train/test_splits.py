@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from spectratac.dataset import Dataset
 from spectratac.train.groups import SplitError, SplitSpec, make_split
 
 
@@ -120,3 +121,20 @@ def test_bad_specs_and_degenerate_data_are_refused_with_reasons() -> None:
     with pytest.raises(SplitError, match="guard"):
         make_split(SplitSpec(guard_s=100.0, block_s=1.0), t, t, np.zeros(10), -np.ones(10))
     assert SplitSpec.from_dict({**SplitSpec().to_dict(), "future_field": 1}) == SplitSpec()
+
+
+def test_blocked_split_guard_band_is_in_device_time() -> None:
+    """A paced simulation at speed=20 stamps host times 20x closer together than the device
+    clock; its blocked split must purge what the same recording at speed=1 purges."""
+    from spectratac.train.groups import SplitSpec, split_dataset
+
+    dev_s = np.arange(6000) * 0.01  # 60 s of samples at 100 Hz on the device clock
+    purged = {}
+    for speed in (1.0, 20.0):
+        ds = Dataset.generic(np.zeros((dev_s.size, 1)), np.zeros(dev_s.size), ["a"], ["Fz"],
+                             t=dev_s / speed)  # fmt: skip
+        ds.arrays["device_time_us"] = (dev_s * 1e6).astype(np.int64)
+        sp = split_dataset(ds, SplitSpec("blocked", seed=0, by="time"))
+        purged[speed] = sp.n_guard / ds.n
+    assert purged[20.0] == pytest.approx(purged[1.0]), purged
+    assert purged[1.0] < 0.1, purged

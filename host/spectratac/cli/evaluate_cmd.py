@@ -160,7 +160,9 @@ def _num(v: Any, digits: int = 4) -> str:
 def summary(rep: dict[str, Any], out: Path) -> str:
     """Short human table per section; the full one is in report.md."""
     from spectratac.evaluate.paper import paper_mae
+    from spectratac.evaluate.report import NO_CONTACT_LABELS
 
+    paper = rep.get("paper") is not None  # the paper's figures: SpectraTac data only
     lines: list[str] = []
     for name, sec in rep["sections"].items():
         lines.append(f"{name}: {sec['note']}")
@@ -169,19 +171,23 @@ def summary(rep: dict[str, Any], out: Path) -> str:
             continue
         orc = sec.get("oracle", {}).get("components", {})
         base = sec.get("baseline", {}).get("components", {})
-        head = f"  {'':<4} {'MAE':>9} {'RMSE':>9} {'R2':>7} {'paper':>9} {'oracle':>9}"
-        lines.append(head + (f" {'baseline':>9}" if base else ""))
+        head = f"  {'':<4} {'MAE':>9} {'RMSE':>9} {'R2':>7}" + (f" {'paper':>9}" if paper else "")
+        lines.append(head + f" {'oracle':>9}" + (f" {'baseline':>9}" if base else ""))
         for comp, m in sec["decoder"]["components"].items():
             row = (
-                f"  {comp:<4} {_num(m['mae']):>9} {_num(m['rmse']):>9} {_num(m['r2'], 3):>7} "
-                f"{paper_mae(comp) or '–':>9} {_num(orc.get(comp, {}).get('mae')):>9}"
+                f"  {comp:<4} {_num(m['mae']):>9} {_num(m['rmse']):>9} {_num(m['r2'], 3):>7}"
+                + (f" {paper_mae(comp) or '–':>9}" if paper else "")
+                + f" {_num(orc.get(comp, {}).get('mae')):>9}"
             )
             lines.append(row + (f" {_num(base.get(comp, {}).get('mae')):>9}" if base else ""))
         reg = sec["decoder"].get("region")
         if reg and reg["accuracy"] is not None:
-            lines.append(f"  region accuracy {100 * reg['accuracy']:.2f} % (paper 99.9 %)")
+            ref = " (paper 99.9 %)" if paper else ""
+            lines.append(f"  region accuracy {100 * reg['accuracy']:.2f} %{ref}")
         con = sec["decoder"].get("contact")
-        if con and con["accuracy"] is not None:
+        if con and con.get("labels") == "none":
+            lines.append(f"  contact accuracy not scored ({NO_CONTACT_LABELS})")
+        elif con and con["accuracy"] is not None:
             lines.append(f"  contact accuracy {100 * con['accuracy']:.2f} % ({con['source']})")
         cov = sec["decoder"].get("coverage")
         if cov:

@@ -15,7 +15,10 @@ exactly the held-out rows; without it every row trains the model.
 
 The work is `spectratac.train.fit`'s; this verb parses the options, writes the files and
 prints the result. Training error and held-out error are always printed side by side (and in
---json: train_mae, heldout_mae, gap, warning). Held out are whole groups (sessions, else presses,
+--json: train_mae, heldout_mae, heldout_worst, forward, expected_mae, gap, warning), with the
+worst held-out group beside the mean and, with 3 or more sessions, forward chaining (trained
+on earlier sessions, scored on later ones), whose mean is printed as the MAE to expect on a
+new session, its worst session beside it. Held out are whole groups (sessions, else presses,
 else guarded time blocks: train/groups.py): the --holdout split's test rows, else the
 model's own validation groups (--val-fraction), else those of a check model trained on the
 other 80 % of the groups. When the held-out error exceeds the training error by more than
@@ -267,6 +270,8 @@ def parse_duration(text: str) -> float:
 
 
 def _human(s: dict[str, Any]) -> str:
+    from spectratac.train.check import plural
+
     spec = s["spec"]
     ft = s.get("finetuned_from")
     lines = (
@@ -274,26 +279,31 @@ def _human(s: dict[str, Any]) -> str:
         if not ft
         else [
             f"fine-tuned {ft.get('path', ft['id'])} (unit {ft['unit_id']}, mode {ft['mode']}, "
-            f"{'early stopping on held-out presses' if ft['early_stopping'] else 'fixed epochs'})"
+            f"held-out {plural(ft.get('val_groups', 'group'))}: early stopping and the check "
+            "against the base)"
         ]
     )
-    if ft and not ft["early_stopping"]:
+    if ft and ft.get("kept") == "gain":
+        sc = ft["val_mae_scaled"]
         lines.append(
-            "  unchecked: too few presses to hold some out, so neither early stopping nor the "
-            "check against the base ran (measured: half a minute of data can make a good base "
-            "worse); record a minute or more of presses"
+            "  recalibrated by one output gain per target: it beat the fine-tuned layers "
+            f"and the base on the held-out {plural(ft.get('val_groups', 'group'))} (scaled "
+            f"MAE {sc['gain']:.4g} against base {sc['base']:.4g})"
         )
     if ft and ft.get("kept") == "base":
         lines.append(
-            "  kept the base as it was: fine-tuning did worse on the held-out presses "
+            f"  kept the base as it was: fine-tuning did worse on the held-out "
+            f"{plural(ft.get('val_groups', 'group'))} "
             f"(scaled MAE {min(v for k, v in ft['val_mae_scaled'].items() if k != 'base'):.4g} "
             f"against {ft['val_mae_scaled']['base']:.4g}); more data of the new unit may help"
         )
     epochs = ft["epochs"] if ft else spec["epochs"]
+    # ridge is solved in closed form: no epochs to report
+    how = "closed form" if spec["model"] == "ridge" and not ft else f"{epochs} epochs"
     lines += [
         f"trained {spec['model']} on {spec['features']} features "
         f"(context {spec['context']}, drift {spec['drift']}) for {', '.join(spec['targets'])}",
-        f"  {s['n_train']} rows, {epochs} epochs in {s['train_seconds']:.1f} s; "
+        f"  {s['n_train']} rows, {how} in {s['train_seconds']:.1f} s; "
         f"final loss {s['final_loss']:.4f}; {s['params']:,} parameters, "
         f"{s['flops_per_sample']:,} FLOPs per sample",
     ]
@@ -321,6 +331,23 @@ def _human(s: dict[str, Any]) -> str:
         tr = s["train_mae"].get(t, float("nan"))
         ratio = v / tr if tr > 0 else float("nan")
         lines.append(f"    {t:<8} training {tr:.4g}  held-out {v:.4g}  ({ratio:.1f}x)")
+    if s.get("heldout_worst"):
+        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["heldout_worst"].items())
+        lines.append(
+            f"    worst held-out {s['heldout_groups']} ({s['heldout_worst_group']}): {cells}"
+        )
+    fwd = s.get("forward")
+    if fwd:
+        lines.append(
+            f"  forward in time (trained on earlier sessions, scored on sessions "
+            f"{', '.join(map(str, fwd['sessions']))}): mean / worst (session "
+            f"{fwd['worst_session']})"
+        )
+        for t, v in fwd["mean_mae"].items():
+            lines.append(f"    {t:<8} {v:.4g} / {fwd['worst_mae'].get(t, float('nan')):.4g}")
+    if s.get("expected_mae"):
+        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["expected_mae"].items())
+        lines.append(f"  expect on a new session: MAE {cells} ({s['expected_source']})")
     if s["warning"]:
         lines.append(f"  WARNING: {s['warning']}")
     if s["class_accuracy"] is not None:

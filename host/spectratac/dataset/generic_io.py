@@ -209,6 +209,9 @@ def load_table(
         ds.arrays["session"] = _floats(by["session"], cols[by["session"]]).astype(np.int16)
         n_ses = int(ds.arrays["session"].max(initial=0)) + 1
         ds.meta["sessions"] = ds.meta["sessions"] * max(n_ses, 1)
+    # A class column names regions, not contact: without a contact column there are no
+    # contact labels to score against.
+    ds.meta["contact_labels"] = "given" if "contact" in by else "none"
     if "contact" in by:
         ds.arrays["in_contact"] = _floats(by["contact"], cols[by["contact"]]) > 0.5
     ds.validate()

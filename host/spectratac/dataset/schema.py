@@ -270,6 +270,8 @@ class Dataset:
             "config": None,
             "sessions": [{"source": "generic"}],
             "labels": "none" if region is None else "given",
+            # in_contact above is a default, not a measurement: scoring contact needs labels
+            "contact_labels": "none" if region is None else "from regions",
         }
         return cls(arrays, {**info, **(meta or {})})
 

@@ -193,12 +193,18 @@ class Decoder:
         out = np.full((n, heads.n_out), np.nan)
         if valid.any():
             out[valid] = self.runtime.run(u[valid])
+            # absurd inputs (1e30) overflow the features to inf/NaN: decode them clipped to
+            # the guard's bounds instead (flagged by the guard either way); in range, the
+            # inputs are used as they are, exactly as the exports and the device use them
+            redo = valid & ~np.all(np.isfinite(out), axis=1)
+            if redo.any():
+                out[redo] = self.runtime.run(self.guard.bound_inputs(u[redo]))
         # a non-finite output (damaged weights, overflow) is no estimate: invalid, all NaN
         valid = valid & np.all(np.isfinite(out), axis=1)
         out[~valid] = np.nan
         est.invalid = ~valid
         s = heads.slices()
-        est.targets = out[:, s["targets"]].astype(np.float64)
+        est.targets = self.guard.bound_targets(out[:, s["targets"]].astype(np.float64))
         if heads.uncertainty:
             est.std = out[:, s["std"]].astype(np.float64)
         if heads.n_classes:
@@ -328,6 +334,8 @@ class Decoder:
     ) -> Estimate:
         heads = self.heads
         out = run1(u).astype(np.float64) if ok else None
+        if out is not None and not np.all(np.isfinite(out)):  # overflow: see _estimates
+            out = run1(self.guard.bound_inputs(u[None, :])[0]).astype(np.float64)
         if out is None or not np.all(np.isfinite(out)):  # no estimate: invalid, all NaN
             nan3 = np.full(3, np.nan)
             return Estimate(
@@ -342,7 +350,7 @@ class Decoder:
                 True,
                 np.full(heads.n_reg, np.nan),
             )
-        tg = out[s["targets"]]
+        tg = self.guard.bound_targets(out[None, s["targets"]])[0]
         force = np.array([tg[i] if i >= 0 else np.nan for i in fi])
         torque = np.array([tg[i] if i >= 0 else np.nan for i in ti])
         region, rprob = -1, float("nan")
@@ -432,6 +440,7 @@ class Decoder:
         rt = Runtime.create(fs, arch, w, heads, u)
         guard = Guard.fit(u, np.zeros((u.shape[0], heads.n_reg)))
         guard.t_lo[:], guard.t_hi[:] = -np.inf, np.inf
+        guard.center = guard.whiten = guard.dist_max = None  # untrained: no distance check
         meta = {
             "spec": {"features": features, "model": arch[0]},
             "targets": list(targets),

@@ -19,7 +19,8 @@ kinds (per LED step, on the current sample x_t):
 - raw: the C inputs as they are.
 - generic: the C inputs and each as a fraction of their summed magnitude (any sensor).
 Then, whatever the kind: x_t - x_{t-lag} per context lag, x_t - ema_tau per moving average,
-and x_t - b_t and x_t / b_t with a baseline.
+and x_t - b_t and x_t / (|b_t| + |x_t| / RATIO_BOUND) with a baseline (|ratio| <= RATIO_BOUND
+even where b_t ~ 0).
 
 >>> from spectratac.decode.layout import Layout
 >>> from spectratac.dataset import SPECTRATAC_INPUTS
@@ -51,6 +52,9 @@ from spectratac.hardware.generated import vocabulary as vocab
 F64 = NDArray[np.float64]
 MAX_DEGREE = 3
 NO_FACTOR = -1  # a monomial's unused factor slot (the product skips it)
+#: |x_t / b_t| never exceeds this: a baseline b near zero (a channel whose dark offset is ~0)
+#: would otherwise give ratios of 1e4 and more that no network trained on x ~ b has seen.
+RATIO_BOUND = 100.0
 
 
 def _no_monomials() -> NDArray[np.int64]:
@@ -180,7 +184,9 @@ def build_features(kind: str, layout: Layout, degree: int = 1) -> FeatureSet:
             lin_names.append(f"{names_in[i]}-{names_in[d - base + i]}")
         for i in range(base):  # relative change: cancels per-channel gain and LED drift
             num.append(unit(i))
-            den.append(unit(d - base + i))
+            # |b| + |x|/RATIO_BOUND: bounds |x/b| by RATIO_BOUND where the dark offset b is
+            # near zero, and is x/b within 1 % elsewhere (x ~ b)
+            den.append(unit(d - base + i) + unit(i) / RATIO_BOUND)
             rat_names.append(f"{names_in[i]}/{names_in[d - base + i]}")
     L = np.array(lin).reshape(-1, d)
     P = np.array(num).reshape(-1, d)

@@ -36,16 +36,26 @@ from spectratac.evaluate import plots
 from spectratac.evaluate.paper import paper_figures, paper_mae
 from spectratac.evaluate.run import Evaluation, Section
 
+NO_CONTACT_LABELS = "no labels: the dataset has no contact column"
 TITLES = {
     "random": "Random split (the paper's protocol; leaks near-duplicate neighbours)",
     "blocked": "Blocked split (whole presses / time blocks held out: measures generalisation)",
-    "all": "Whole dataset (held out from training)",
+    "all": "Whole dataset",
+    "training": "Training rows (NOT held out: the model's training error)",
     "sessions": "Held-out sessions",
 }
 
 
-def report_dict(ev: Evaluation, dataset_info: dict[str, Any], model: dict[str, Any]) -> dict:
-    """JSON-ready report."""
+def is_spectratac(dataset: Dataset | None) -> bool:
+    """Whether the paper's figures apply: the dataset's sensor metadata says SpectraTac (a
+    dataset built from SpectraTac recordings); other sensors' data get no paper column."""
+    return dataset is not None and dataset.meta.get("kind") == "spectratac"
+
+
+def report_dict(
+    ev: Evaluation, dataset_info: dict[str, Any], model: dict[str, Any], paper: bool = True
+) -> dict:
+    """JSON-ready report; `paper`: include the paper's figures (SpectraTac data only)."""
     sections: dict[str, Any] = {}
     for name, s in ev.sections.items():
         d: dict[str, Any] = {"note": s.note, "available": s.available, "n_rows": int(s.rows.size)}
@@ -69,7 +79,7 @@ def report_dict(ev: Evaluation, dataset_info: dict[str, Any], model: dict[str, A
             "model": model,
             "dataset": dataset_info,
             "notes": ev.notes,
-            "paper": paper_figures(),
+            "paper": paper_figures() if paper else None,
             "sections": sections,
         }
     )
@@ -132,7 +142,9 @@ def section_markdown(s: Section, paper: bool = True) -> list[str]:
             + (f" ({'; '.join(refs)})." if refs else ".")
         )
     con = s.decoder.scores.get("contact")
-    if con is not None:
+    if con is not None and con.get("labels") == "none":
+        lines.append(f"Contact detection: not scored ({NO_CONTACT_LABELS}).")
+    elif con is not None:
         lines.append(
             f"Contact detection: accuracy {_pct(con['accuracy'])}, precision "
             f"{_pct(con['precision'])}, recall {_pct(con['recall'])}."
@@ -245,7 +257,8 @@ def write_report(
     """Write report.json, report.md and the panels into `out`; return the JSON dict."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    rep = report_dict(ev, dataset_info, model or {})
+    paper = is_spectratac(dataset)
+    rep = report_dict(ev, dataset_info, model or {}, paper)
     (out / "report.json").write_text(json.dumps(rep, indent=1) + "\n")
     lines = ["# SpectraTac decoder evaluation", ""]
     lines += [
@@ -254,7 +267,6 @@ def write_report(
     ]
     lines += [f"- {n}" for n in ev.notes if n]
     # The paper's figures describe SpectraTac; other sensors get no paper column.
-    paper = dataset is None or dataset.meta.get("kind", "spectratac") == "spectratac"
     if paper:
         lines.append(
             "- paper (spectratac.tex): MAE 0.161 / 0.164 / 0.429 N (Fx, Fy, Fz), torques "

@@ -5,7 +5,9 @@ optional baseline model.
 A model's `meta["holdout"]` (see `train.holdout`) names the split it was trained under;
 only that split's test rows are scored with it. The other split is scored with a companion
 model trained under that split (`fit_and_evaluate` writes both), or reported as unavailable.
-A model without the record, or one trained on another dataset, is scored on every row.
+A model without the record, or one trained on another dataset, is scored on every row; one
+trained on every row of this dataset is scored on every row as section "training", whose
+title and note say it is training error.
 A model trained with sessions left out is scored on those sessions; `sessions=[...]` scores
 the named sessions only, refusing (SessionLeakError) sessions the model was trained on. Every
 scored section also reports its MAE per session (`Section.per_session`).
@@ -145,7 +147,7 @@ def evaluate_model(
         notes.append(f"the model was trained on unit {m_unit!r}; this data comes from {d_unit!r}")
     plan: list[tuple[str, Any, NDArray[np.int64], str]] = []
     if h.rows is not None:
-        plan.append(("sessions", model, h.rows, h.note))
+        plan.append(("training" if h.status == "training" else "sessions", model, h.rows, h.note))
     elif h.split is None:
         plan.append(("all", model, np.arange(dataset.n), h.note))
     else:

@@ -63,7 +63,9 @@ def score(dataset: Dataset, rows: NDArray[np.int64], pred: Predictions) -> Score
     labels = np.asarray(a["region"][rows], dtype=np.int64)
     if pred.region is not None:
         scores["region"] = region_scores(labels, pred.region)
-    if pred.contact is not None:
+    if pred.contact is not None and not has_contact_labels(dataset):
+        scores["contact"] = {"accuracy": None, "labels": "none", "n": 0}
+    elif pred.contact is not None:
         scores["contact"] = contact_scores(a["in_contact"][rows], pred.contact)
         cp = pred.contact_prob
         scores["contact"]["source"] = (
@@ -72,3 +74,9 @@ def score(dataset: Dataset, rows: NDArray[np.int64], pred: Predictions) -> Score
     if pred.std is not None:
         scores["coverage"] = interval_coverage(y, p, pred.aligned(names, std=True), names, valid)
     return Scored(scores, rows, names, y, p, labels, pred.region)
+
+
+def has_contact_labels(dataset: Dataset) -> bool:
+    """Whether `dataset.in_contact` is a label (recorded, or a contact column) rather than the
+    all-False default of data that has none (meta "contact_labels" == "none")."""
+    return dataset.meta.get("contact_labels") != "none"

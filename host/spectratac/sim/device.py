@@ -12,6 +12,9 @@ the counts of each completed window (`TwinRig.read_window`); windows the twin ev
 `registers="python"` routes every transfer to the twin's own `Veml3328` instead; both give
 the same frames for the same seed (tests/device/test_sim_models.py).
 
+`settings=` (a hard-case scene's acquisition settings, `sim.scene_config`) configures the
+firmware with them at boot, so the scene plays saturated or dark as it is meant to.
+
 `model_store=PATH` keeps the firmware's model store (the flash an uploaded decoder is written
 to) in that file, so the model is there again when a new SimDevice boots with the same file;
 without it the store lives in the instance only.
@@ -31,9 +34,9 @@ from __future__ import annotations
 import ctypes
 import logging
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -65,6 +68,7 @@ class SimDevice:
         registers: Literal["native", "python"] = "native",
         lookahead: bool = True,
         model_store: str | Path | None = None,
+        settings: Mapping[str, Any] | None = None,
     ) -> None:
         if registers not in ("native", "python"):
             raise ValueError(f"registers={registers!r}: choose 'native' or 'python'")
@@ -123,6 +127,22 @@ class SimDevice:
         if model_store is not None:
             self._attach_store(Path(model_store))
         self._flush_duties()  # the firmware switched the LEDs off while booting
+        if settings:
+            self._boot_configure(settings)
+
+    def _boot_configure(self, settings: Mapping[str, Any]) -> None:
+        """Configure the firmware with a scene's acquisition settings right after boot, as
+        if its operator had; the ACK goes nowhere (no host has spoken yet), so the host's
+        first GET_CONFIG reads them and its samples carry their config_id."""
+        from spectratac.protocol import encode_frame
+        from spectratac.sim.scene_config import configure_message
+
+        sink, self.on_tx = self.on_tx, None
+        try:
+            self.feed(b"\x00" + encode_frame(configure_message(settings), seq=0))
+            self.step(self.now_us)
+        finally:
+            self.on_tx = sink
 
     def _attach_store(self, path: Path) -> None:
         """Keep the model store in `path` (created erased when missing) and boot it."""

@@ -30,7 +30,7 @@ from spectratac.record.stop import AnyStop, SignalFlag, StopFlag, StopRequest, s
 from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.model_store import store_path
-from spectratac.sim.named_scenes import make_scene
+from spectratac.sim.named_scenes import make_scene, scene_settings
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import SimOptions
 
@@ -108,6 +108,7 @@ def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
             on_tx=endpoint.send,
             baud=921_600,
             model_store=store_path(opts.model_store, opts.seed),
+            settings=scene_settings(opts.scene),
         )
         return DeviceRunner(device, opts.speed).start()
     runner: _FaultyRunner
@@ -126,6 +127,7 @@ def _boot(opts: SimOptions, endpoint: _Endpoint) -> DeviceRunner:
         on_tx=layer.from_device,
         baud=921_600,
         model_store=store_path(opts.model_store, opts.seed),
+        settings=scene_settings(opts.scene),
     )
     runner = _FaultyRunner(device, opts.speed)
     runner.layer = layer

@@ -27,6 +27,7 @@ from spectratac.sim.device import SimDevice
 from spectratac.sim.faults import FaultLayer
 from spectratac.sim.ground_truth import SceneTruth
 from spectratac.sim.model_store import ModelStoreError, store_path
+from spectratac.sim.named_scenes import scene_settings
 from spectratac.sim.runner import MAX, DeviceRunner
 from spectratac.sim.url import parse_sim_url
 from spectratac.sim.world import SimWorld
@@ -72,6 +73,7 @@ class SimTransport:
                 absent=opts.absent,
                 on_tx=self.faults.from_device if self.faults else self._on_tx,
                 model_store=store_path(opts.model_store, opts.seed),
+                settings=scene_settings(opts.scene),  # hard cases: saturated / dark
             )
         except ModelStoreError as exc:
             self.world.release()

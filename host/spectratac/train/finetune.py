@@ -31,11 +31,14 @@ without held-out presses (too little data) it is not refitted, from the figures 
 Validation is grouped: whole presses (a press and the idle rows after it) are held out, never
 single rows, whose near-duplicate neighbours would sit in training. The weights of the epoch
 with the lowest validation loss are kept (early stopping). With fewer than MIN_VAL_GROUPS
-presses in the data a validation loss would be decided by which one or two presses landed in
-it, so the fixed epoch count runs instead and the last weights are kept. Last, on the same
-held-out presses, a fine-tuned decoder is kept only if its error beats the base's as it was;
-otherwise the base is returned unchanged (`meta["finetuned_from"]["kept"]`: "finetuned",
-"finetuned+refit" or "base", with each one's validation score), so a few minutes of data
+sessions or presses in the data (a validation loss would be decided by which one or two
+landed in it), N_BLOCKS guarded time blocks are held out instead; data too short even for
+those raises FinetuneCheckError: the check is never skipped. Last, on the same
+held-out groups, a fine-tuned decoder is kept only if its error beats both the base's as it
+was and the gain-only recalibration (one output gain per target fitted on the fit rows,
+`gain_calibrated`: the first step, a unit's or a session's gain drift); otherwise the best of
+those is returned (`meta["finetuned_from"]["kept"]`: "finetuned", "finetuned+refit", "gain"
+or "base", with each one's validation score), so a few minutes of data
 never make a good base worse by what they happen to hold.
 
 >>> import numpy as np
@@ -74,7 +77,13 @@ from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
 from spectratac.train.fitting import augmented
-from spectratac.train.groups import GUARD_ROWS, row_groups, val_split
+from spectratac.train.groups import (
+    GUARD_ROWS,
+    N_BLOCKS,
+    Groups,
+    row_groups,
+    val_split,
+)
 from spectratac.train.plan import Plan, check_rows, plan, ranges, select_rows
 from spectratac.train.spec import TrainSpec
 from spectratac.train.torch_loop import Progress, fit_network
@@ -84,7 +93,8 @@ DEFAULT_MODE = "first"
 DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
 VAL_FRACTION = 0.2  # share of presses held out for early stopping
-MIN_VAL_GROUPS = 10  # fewer presses than this: fixed epochs, no validation
+MIN_VAL_GROUPS = 10  # fewer sessions or presses than this: time blocks are held out
+MIN_BLOCK_ROWS = 2  # rows per time block at least, else too little data to check
 
 
 @dataclass(frozen=True)
@@ -98,6 +108,11 @@ class FinetuneOptions:
     lr: float | None = None
     seed: int = 0
     targets: tuple[str, ...] | None = None
+
+
+class FinetuneCheckError(DecoderDataError):
+    """Too little data to hold some out: the fine-tuned decoder could not be checked against
+    its base, so none is returned."""
 
 
 class FinetuneMismatchError(DecoderConfigError):
@@ -181,14 +196,39 @@ def grouped_validation(
     >>> val.size, np.intersect1d(ds.press[fit], ds.press[val]).size
     (20, 0)
     """
+    fit, val, _ = validation_groups(dataset, order, fraction)
+    return fit, val
+
+
+def validation_groups(
+    dataset: Dataset, order: NDArray[np.intp], fraction: float = VAL_FRACTION
+) -> tuple[NDArray[np.intp], NDArray[np.intp], str]:
+    """`grouped_validation` and the kind of groups held out. With fewer than MIN_VAL_GROUPS
+    sessions or presses, guarded time blocks are held out instead (a few sessions of a new
+    unit are the normal case, and the keep-the-base check must still run); with too few
+    rows even for those, FinetuneCheckError says so (never a silent skip)."""
+    if fraction <= 0:
+        return order, order[:0], "none"
     groups = row_groups(dataset.session, dataset.press, dataset.t_end, order)
     n_groups = np.count_nonzero(np.unique(groups.ids[order]) >= 0)
-    if n_groups < MIN_VAL_GROUPS or fraction <= 0:
-        return order, order[:0]
+    if n_groups < MIN_VAL_GROUPS:
+        blocks = np.full(dataset.n, -1, np.int64)
+        # N_BLOCKS blocks of the rows being fine-tuned on, not of the whole dataset
+        for k, chunk in enumerate(np.array_split(order, N_BLOCKS)):
+            blocks[chunk] = k
+        groups = Groups(blocks, "block")
+        n_groups = np.count_nonzero(np.unique(blocks[order]) >= 0)
     # a guard gap wider than a quarter of a block would purge most of a minute of data
-    guard = min(GUARD_ROWS, order.size // (4 * n_groups))
-    fit, val = val_split(order, fraction, groups, guard)
-    return (fit, val) if fit.size >= 2 else (order, order[:0])
+    guard = min(GUARD_ROWS, order.size // (4 * max(n_groups, 1)))
+    short = order.size < MIN_BLOCK_ROWS * N_BLOCKS and groups.kind == "block"
+    fit, val = (order, order[:0]) if short else val_split(order, fraction, groups, guard)
+    if fit.size < 2 or val.size == 0:
+        raise FinetuneCheckError(
+            f"cannot check the recalibration: {order.size} usable rows are too few to hold "
+            f"some {groups.kind}s out (the check against the base needs held-out data); "
+            "record a minute or more of the new unit"
+        )
+    return fit, val, groups.kind
 
 
 def finetune(
@@ -241,7 +281,7 @@ def finetune(
     if order.size < 2:
         raise DecoderDataError("fewer than 2 usable rows after LED-step assembly")
     predicate = trainable(mode, base.runtime.arch[0])
-    fit_rows, val_rows = grouped_validation(dataset, order) if predicate else (order, order[:0])
+    fit_rows, val_rows, val_kind = validation_groups(dataset, order)
     y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
     tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
     choose = bool(val_rows.size and p.reg_cols)  # held-out presses to decide with
@@ -282,11 +322,19 @@ def finetune(
     if choose:
         # the last automatic choice, on the same held-out presses: recalibration must earn its
         # place against the base as it was (refitting the normalisation against not doing so)
-        options = {k: v[1] for k, v in runs.items()} | {"base": base.runtime}
+        # ... and the layers must beat a gain-only recalibration (one output gain per
+        # target, fitted on the fit rows): the first step, a unit's or a session's gain drift
+        fit_ok = fit_rows[tv[fit_rows]]
+        gain_rt = gain_calibrated(base.runtime, u[fit_ok], y_all[fit_ok])
+        options = {k: v[1] for k, v in runs.items()} | {"base": base.runtime, "gain": gain_rt}
         ok = val_rows[tv[val_rows]]
-        val_scores = {k: _scaled_mae(r, u[ok], y_all[ok]) for k, r in options.items()}
+        scale = base.runtime.y_scale  # one yardstick for every candidate
+        val_scores = {k: _scaled_mae(r, u[ok], y_all[ok], scale) for k, r in options.items()}
         kept = min(val_scores, key=lambda k: val_scores[k])  # ties: the first
-    if kept == "base":
+    if kept == "gain":
+        refit, history, val_history, n_augmented = False, [], [], 0
+        out_rt = replace(gain_rt, dtype=base.runtime.dtype, _plan=None)
+    elif kept == "base":
         refit, out_rt, history, val_history, n_augmented = False, base.runtime, [], [], 0
         out_rt = replace(out_rt, _plan=None)
     else:
@@ -302,6 +350,9 @@ def finetune(
         np.maximum(base.guard.t_hi, new_guard.t_hi),
         base.guard.saturation,
         list(base.guard.dark_cols),
+        new_guard.center,  # the distance model of the data it is now calibrated on
+        new_guard.whiten,
+        new_guard.dist_max,
     )
     meta = dict(base.meta)
     meta.pop("holdout", None)  # the base's training rows are not this model's
@@ -312,7 +363,7 @@ def finetune(
             "n_val": int(val_rows.size),
             "fit_rows": ranges(fit_rows),  # rows of `dataset`, not of the base's data
             "val_rows": ranges(val_rows),
-            "val_groups": row_groups(dataset.session, dataset.press, dataset.t_end).kind,
+            "val_groups": val_kind,
             "n_augmented": n_augmented,
             "train_seconds": time.perf_counter() - t0,
             "history": history,
@@ -325,6 +376,7 @@ def finetune(
                 "epochs": spec.epochs if predicate else 0,
                 "lr": spec.lr,
                 "early_stopping": bool(val_rows.size),
+                "val_groups": val_kind,  # what the check held out: sessions, presses, blocks
                 "kept": kept,
                 "val_mae_scaled": val_scores,
             },
@@ -333,11 +385,31 @@ def finetune(
     return Decoder(out_rt, p.layout, guard, meta)
 
 
-def _scaled_mae(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64]) -> float:
-    """Mean over regression targets of MAE / target scale: the validation score that
-    decides between the fine-tuned weights and the base's."""
+GAIN_RANGE = (0.25, 4.0)  # a gain outside this is no drift but another sensor: clipped
+
+
+def gain_calibrated(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64]) -> Runtime:
+    """`rt` with one output gain per regression target, fitted by least squares through
+    zero on rows (u, y): the one-parameter recalibration of a sensor whose response has
+    drifted by a factor (predictions 62-87 % of the true force on real later sessions)."""
+    if not u.shape[0]:
+        return rt
+    pred = rt.run(u)[:, rt.heads.slices()["targets"]]
+    ok = np.isfinite(pred) & np.isfinite(y)
+    num = np.sum(np.where(ok, pred * y, 0.0), axis=0)
+    den = np.sum(np.where(ok, pred * pred, 0.0), axis=0)
+    g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
+    return replace(rt, y_scale=rt.y_scale * np.clip(g, *GAIN_RANGE), _plan=None)
+
+
+def _scaled_mae(
+    rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64], scale: NDArray[np.float64]
+) -> float:
+    """Mean over regression targets of MAE / `scale` (the base's target scales): the
+    validation score that decides between the base, its gain-only recalibration and the
+    fine-tuned weights."""
     if not u.shape[0]:
         return float("inf")
     pred = rt.run(u)[:, rt.heads.slices()["targets"]]
-    err = np.abs(pred - y) / rt.y_scale
+    err = np.abs(pred - y) / scale
     return float(np.nanmean(err)) if np.isfinite(err).any() else float("inf")

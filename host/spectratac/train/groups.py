@@ -186,9 +186,39 @@ def make_split(
 
 
 def split_dataset(dataset: Dataset, spec: SplitSpec) -> Split:
-    """`make_split` over a `spectratac.dataset.Dataset`."""
+    """`make_split` over a `spectratac.dataset.Dataset`, in device time when the dataset has
+    it (`device_time`): block lengths and guard bands are durations of the sensor's life."""
     a = dataset.arrays
-    return make_split(spec, a["t_start"], a["t_end"], a["session"], a["press"])
+    t0, t1 = device_time(dataset)
+    return make_split(spec, t0, t1, a["session"], a["press"])
+
+
+def device_time(dataset: Dataset) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Window (start, end) of each row in seconds of the device clock when the dataset records
+    it (`device_time_us`), else its host times. A paced simulation runs the device clock
+    `speed` times faster than the host's, so host seconds would shrink every time block and
+    widen every guard band by `speed`; the host window is mapped per session through the
+    least-squares line from host to device time (the window ends are what both clocks
+    stamp)."""
+    a = dataset.arrays
+    h0 = np.asarray(a["t_start"], np.float64)
+    h1 = np.asarray(a["t_end"], np.float64)
+    dev = a.get("device_time_us")
+    if dev is None:
+        return h0, h1
+    d1 = np.asarray(dev, np.float64) * 1e-6
+    t0, t1 = h0.copy(), h1.copy()
+    ses = np.asarray(a["session"], np.int64)
+    for s in np.unique(ses):
+        m = ses == s
+        if m.sum() < 2 or np.ptp(h1[m]) <= 0:
+            continue
+        slope, icpt = np.polyfit(h1[m] - h1[m][0], d1[m], 1)
+        if not (np.isfinite(slope) and slope > 0):
+            continue
+        t0[m] = icpt + slope * (h0[m] - h1[m][0])
+        t1[m] = icpt + slope * (h1[m] - h1[m][0])
+    return t0, t1
 
 
 def press_units(t: ArrayLike, session: ArrayLike, press: ArrayLike) -> I64:

@@ -81,6 +81,17 @@ def mark(
     model.meta[KEY] = record
 
 
+def mark_all(model: Any, dataset: Dataset) -> None:
+    """Record in `model.meta` that it was trained on every row of `dataset` (so that scoring
+    it on that dataset is reported as training error, never as held out)."""
+    model.meta[KEY] = {
+        "dataset": fingerprint(dataset),
+        "n_rows": int(dataset.n),
+        "all": True,
+        "n_train": int(dataset.n),
+    }
+
+
 def parse_sessions(text: str) -> list[int]:
     """Sorted unique session ids from "3,4,7" or ranges "30-35" (inclusive), or a mix."""
     out: set[int] = set()
@@ -160,7 +171,9 @@ def check_sessions_unseen(meta: dict[str, Any], dataset: Dataset, sessions: list
             "are held out"
         )
     rows = session_rows(dataset, sessions)
-    if "sessions" in rec:
+    if rec.get("all") is True:
+        used = sorted(set(sessions))
+    elif "sessions" in rec:
         used = sorted(set(sessions) & set(rec["sessions"].get("trained", [])))
     else:
         split = split_dataset(dataset, SplitSpec.from_dict(rec["split"]))
@@ -178,8 +191,9 @@ def check_sessions_unseen(meta: dict[str, Any], dataset: Dataset, sessions: list
 @dataclass(frozen=True)
 class Holdout:
     """`status`: "split" (test rows of the model's split), "sessions" (the sessions the model
-    left out of its training dataset: `rows`), "other" (the dataset is not the training one:
-    all rows held out) or "unknown" (no record: all rows, caveat)."""
+    left out of its training dataset: `rows`), "training" (the model was trained on every row
+    of this dataset: `rows` are all of them, training error), "other" (the dataset is not
+    the training one: all rows held out) or "unknown" (no record: all rows, caveat)."""
 
     status: str
     split: Split | None
@@ -190,7 +204,11 @@ class Holdout:
 
 def resolve(meta: dict[str, Any], dataset: Dataset) -> Holdout:
     rec = meta.get(KEY)
-    known = isinstance(rec, dict) and "dataset" in rec and ("split" in rec or "sessions" in rec)
+    known = (
+        isinstance(rec, dict)
+        and "dataset" in rec
+        and ("split" in rec or "sessions" in rec or rec.get("all") is True)
+    )
     if not known:
         return Holdout(
             "unknown",
@@ -207,6 +225,16 @@ def resolve(meta: dict[str, Any], dataset: Dataset) -> Holdout:
             f"the model was trained on another dataset ({rec['dataset']}): every row of this "
             "one is held out",
             comp,
+        )
+    if rec.get("all") is True:
+        return Holdout(
+            "training",
+            None,
+            f"not held out: the model was trained on all {rec['n_rows']} rows of this dataset, "
+            "so these figures are its training error; evaluate on another recording (or train "
+            "with --holdout blocked) for held-out figures",
+            comp,
+            np.arange(dataset.n, dtype=np.int64),
         )
     if "sessions" in rec:
         held = [int(v) for v in rec["sessions"].get("held_out", [])]

@@ -42,7 +42,13 @@ from spectratac.train.check import HeldOutCheck, cv_check, held_out_check
 from spectratac.train.finetune import FinetuneOptions, finetune
 from spectratac.train.fitting import train
 from spectratac.train.groups import Split, SplitSpec, split_dataset
-from spectratac.train.holdout import mark, mark_sessions, parse_sessions, session_rows
+from spectratac.train.holdout import (
+    mark,
+    mark_all,
+    mark_sessions,
+    parse_sessions,
+    session_rows,
+)
 from spectratac.train.metrics import region_accuracy, target_mae
 from spectratac.train.plan import default_features, default_targets
 from spectratac.train.spec import TrainSpec
@@ -170,6 +176,8 @@ def fit(
         test = split.test
     if held is not None:
         mark_sessions(dec, dataset, held)
+    if split is None and held is None:
+        mark_all(dec, dataset)  # so evaluating on this data is reported as training error
     return Trained(dec, check, summarise(dec, dataset, test), found)
 
 
@@ -211,7 +219,7 @@ def summarise(dec: Decoder, dataset: Dataset, test: Rows | None = None) -> dict[
     return {
         "mae_rows": "held-out" if test is not None else "all (training rows included)",
         "holdout": (held.get("split") or {"kind": "sessions", **held["sessions"]})
-        if held
+        if held and ("split" in held or "sessions" in held)
         else None,
         "n_test": int(rows.size) if test is not None else 0,
         "spec": m["spec"],

@@ -65,6 +65,7 @@ def render(dec: Any) -> str:
     defines = {
         "STAC_N_IN": rt.n_inputs,
         "STAC_N_BASE": dec.layout.base,
+        "STAC_HAS_DIST": int(guard.center is not None),
         "STAC_N_LIN": n_lin,
         "STAC_N_RAT": n_rat,
         "STAC_N_MON": int(fs.M.shape[0]),
@@ -136,10 +137,18 @@ def render(dec: Any) -> str:
             _array("stac_y_scale", rt.y_scale),
             _array("stac_t_lo", guard.t_lo),
             _array("stac_t_hi", guard.t_hi),
+            _array("stac_edge_lo", guard.edge_bounds()[0]),
+            _array("stac_edge_hi", guard.edge_bounds()[1]),
         ]
     if heads.uncertainty and heads.n_reg:
         data.append(_array("stac_std_mul", rt.y_scale * rt.std_scale))
     data += [_array("stac_in_lo", guard.in_lo), _array("stac_in_hi", guard.in_hi)]
+    if guard.center is not None and guard.whiten is not None and guard.dist_max is not None:
+        data += [
+            _array("stac_dist_center", guard.center),
+            _array("stac_dist_whiten", guard.whiten),
+            f"#define STAC_DIST_MAX {float(guard.dist_max[0])!r}",
+        ]
     if guard.dark_cols:
         cols = _ints(guard.dark_cols)
         data.append(f"static const int stac_dark_cols[{len(guard.dark_cols)}] = {{{cols}}};")

@@ -155,6 +155,7 @@ static inline int stac_decode(const stac_real u[STAC_N_IN], stac_real out[STAC_N
     for (int r = 0; r < STAC_N_REG; ++r) {
         out[r] = raw[r] * stac_y_scale[r];
         if (out[r] < stac_t_lo[r] || out[r] > stac_t_hi[r]) flags |= STAC_FLAG_OOD;
+        if (out[r] <= stac_edge_lo[r] || out[r] >= stac_edge_hi[r]) flags |= STAC_FLAG_OOD;
     }
 #endif
 #if STAC_N_STD > 0
@@ -188,6 +189,18 @@ static inline int stac_decode(const stac_real u[STAC_N_IN], stac_real out[STAC_N
 #if STAC_N_DARK > 0
     for (int i = 0; i < STAC_N_DARK; ++i)
         if (u[stac_dark_cols[i]] < STAC_C(STAC_DARK_COUNTS)) flags |= STAC_FLAG_OOD;
+#endif
+#if STAC_HAS_DIST
+    { /* whitened (Mahalanobis) distance from the training inputs (decode/guard.py) */
+        double d2 = 0.0;
+        for (int j = 0; j < STAC_N_BASE; ++j) {
+            double z = 0.0;
+            for (int i = 0; i < STAC_N_BASE; ++i)
+                z += ((double)u[i] - (double)stac_dist_center[i]) * (double)stac_dist_whiten[i][j];
+            d2 += z * z;
+        }
+        if (!(d2 <= (double)STAC_DIST_MAX * (double)STAC_DIST_MAX)) flags |= STAC_FLAG_OOD;
+    }
 #endif
     return flags;
 }
