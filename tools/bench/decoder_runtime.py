@@ -29,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
 from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
+from spectratac import threads
 from spectratac.decode import Decoder
 
 BATCH = 50  # calls per alternation
@@ -161,7 +162,8 @@ def training_figure(samples: int, epochs: int) -> benchlib.Figure:
     dec = train(ds, spec, progress=False)
     train_s = time.perf_counter() - t0
     # plain GEMMs of the model's shapes, same total FLOPs (forward + backward = 3x forward)
-    torch.set_num_threads(spec.threads)
+    # the threads training had: the spec's, else the thread policy's share (spec.threads 0)
+    torch.set_num_threads(spec.threads or threads.current().threads)
     a = torch.randn(spec.batch_size, 128)
     b = torch.randn(128, 128)
     per = 2 * spec.batch_size * 128 * 128
