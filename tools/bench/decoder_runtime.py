@@ -28,8 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 from spectratac import threads
+from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder
 
 BATCH = 50  # calls per alternation
