@@ -217,3 +217,17 @@ def test_one_se_rule_keeps_the_best_when_it_wins_on_every_fold() -> None:
     noisy = plain + np.array([-0.05, 0.04, -0.03, 0.06]) - 0.02  # no better on some folds
     rows[1] = row("mlp", "network", noisy, 1e4)
     assert one_se_choice(rows)[0] == "mlp"
+
+
+def test_the_linear_baselines_cost_is_set_aside_before_cheaper_trials(skin) -> None:
+    """On 250k rows the always-run linear baselines came after the cheaper networks in cost
+    order and took the search over its budget: their cost is reserved first."""
+    full = search(skin, 60.0, space=tiny_space(), workers=1, folds=3, clock=SteppedClock())
+    work = {c["name"]: c["work_s"] for c in full.report["candidates"]}
+    nets = work["mlp8"] + work["mlp8+drift"]
+    assert nets < work["linear"]  # the networks come first in cost order
+    res = search(skin, work["linear"] + nets / 4, space=tiny_space(), workers=1, folds=3,
+                 clock=SteppedClock())  # fmt: skip
+    status = {c["name"]: c["status"] for c in res.report["candidates"]}
+    assert status["linear"] == "done"
+    assert status["mlp8+drift"] == "skipped: would not fit the budget"

@@ -242,6 +242,11 @@ def search(
     order = sorted(space, key=lambda c: trial_s[c.name])
     needs_all = len(reg) < len(tg)  # classes asked for: only networks decode them
 
+    launched: set[str] = set()
+
+    def is_always(c: Candidate) -> bool:
+        return c.classical and c.spec.degree == 1  # the linear baselines: seconds
+
     def best_refit() -> float:
         done = [n for n, r in table.items() if r.get("status") == "done"]
         if not done:
@@ -270,14 +275,18 @@ def search(
             collect(0)
             # the refit of the best so far or of this one, on every core
             refit = max(refit_s[c.name], best_refit()) * runner.workers
-            always = c.classical and c.spec.degree == 1  # the linear baselines: seconds
-            if not always and not budget.fits(trial_s[c.name], refit):
+            always = is_always(c)
+            # the linear baselines always run: their cost is set aside before any other trial
+            reserve = sum(trial_s[o.name] for o in order if is_always(o) and o.name not in launched
+                          and o is not c)  # fmt: skip
+            if not always and not budget.fits(trial_s[c.name] + reserve, refit):
                 table[c.name] = {"status": "skipped: would not fit the budget",
                                  "predicted_s": trial_s[c.name]}  # fmt: skip
                 continue
             budget.spend(trial_s[c.name])
             job = TrialJob(c.name, c.spec.to_dict(), fold_rows, fit_n, std)
             runner.submit(job)
+            launched.add(c.name)
         while runner.busy:
             collect(None)
         collect(0)
