@@ -4,13 +4,14 @@ and a fixed averaging decay both ruined short runs)."""
 from __future__ import annotations
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.train.torch_loop import average_decay, batch_sizes
 
 pytestmark = pytest.mark.train
 
 
+@settings(deadline=None)  # no wall-clock limit: the machine is shared (up to 200k sizes)
 @given(st.integers(1, 200_000), st.integers(1, 4096))
 def test_batches_cover_every_row_once_in_near_equal_sizes(n: int, batch_size: int) -> None:
     sizes = batch_sizes(n, batch_size)

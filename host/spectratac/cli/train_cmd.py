@@ -26,7 +26,9 @@ other 80 % of the groups. When the held-out error exceeds the training error by 
 
 --recipe auto searches linear and polynomial ridge, MLPs and ResMLPs with and without
 temporal context, drift baseline and regularisation by grouped K-fold cross-validation
-within --budget (e.g. 300, 90s, 5m, 1h; the final refit included), on --workers local
+within --budget (e.g. 300, 90s, 5m, 1h; the final refit included; counted in units of work
+at the reference machine's rate, so a busy machine takes longer but chooses the same), on
+--workers local
 processes or on the Ray cluster at --ray ADDRESS, keeps the cheapest model within one
 standard error of the best and prints every candidate's CV error and inference cost
 (train/auto_recipe).
@@ -116,7 +118,7 @@ def register(subparsers: Any) -> None:
         "--budget",
         type=parse_duration,
         default=300.0,
-        help="--recipe auto: wall-time budget, e.g. 300, 90s, 5m, 1h (default 5m)",
+        help="--recipe auto: budget in nominal seconds of work, e.g. 300, 90s, 5m (default 5m)",
     )
     p.add_argument(
         "--ray",

@@ -1,14 +1,15 @@
-"""The search report as text: every candidate's CV error beside its inference cost.
+"""The search report as text: every candidate's CV error beside its inference cost, and the
+budget's use in work (nominal seconds, what decides) beside the wall time (what it took).
 
->>> text = render({"budget_s": 60.0, "elapsed_s": 12.5, "search_s": 10.0, "refit_s": 2.5,
-...     "within_budget": True, "runner": "inline", "workers": 1, "folds": 3,
+>>> text = render({"budget_s": 60.0, "work_s": 40.0, "elapsed_s": 12.5, "search_s": 10.0,
+...     "refit_s": 2.5, "within_budget": True, "runner": "inline", "workers": 1, "folds": 3,
 ...     "groups": {"kind": "session", "n": 6}, "rows": 600, "chosen": "linear",
 ...     "best": "linear", "rule": "fewest FLOPs within 1 se", "target_std": {"Fz": 2.0},
 ...     "candidates": [{"name": "linear", "family": "classical", "status": "done",
 ...     "cv_score": 0.5, "cv_se": 0.05, "cv_mae": {"Fz": {"mean": 1.0, "se": 0.1}},
 ...     "gap": 1.2, "flops": 64.0, "us_per_sample": 0.5, "us_single": 9.0, "seconds": 1.0}]})
 >>> print(text.splitlines()[1])
-  budget 60 s: search 10.0 s + refit 2.5 s = 12.5 s (within budget)
+  budget 60 s of work: used 40.0 s (within budget); wall: search 10.0 s + refit 2.5 s = 12.5 s
 >>> text.splitlines()[3].split()[:6], text.splitlines()[3].endswith("<- chosen (best)")
 (['linear', 'classical', '0.5000', '±', '0.0500', '1.000'], True)
 """
@@ -25,8 +26,9 @@ def render(r: dict[str, Any]) -> str:
     lines = [
         f"auto recipe: {len(r['candidates'])} candidates, {r['folds']}-fold CV by {g['kind']} "
         f"({g['n']} groups, {r['rows']} rows), {r['runner']} runner x{r['workers']}",
-        f"  budget {r['budget_s']:.0f} s: search {r['search_s']:.1f} s + refit "
-        f"{r['refit_s']:.1f} s = {r['elapsed_s']:.1f} s ({within})",
+        f"  budget {r['budget_s']:.0f} s of work: used {r.get('work_s', float('nan')):.1f} s "
+        f"({within}); wall: search {r['search_s']:.1f} s + refit {r['refit_s']:.1f} s = "
+        f"{r['elapsed_s']:.1f} s",
         "  "
         + f"{'candidate':<24}{'family':<11}{'CV score ± se':<18}"
         + "".join(f"{t + ' MAE ± se':<16}" for t in targets)

@@ -1,4 +1,4 @@
-"""`search`: honest model selection within a time budget (`spectratac train --recipe auto`).
+"""`search`: honest model selection within a budget of work (`spectratac train --recipe auto`).
 
     from spectratac.train.auto_recipe import search
     result = search(dataset, budget_s=300)          # grouped K-fold CV, local processes
@@ -6,14 +6,23 @@
     print(result.text()); result.report             # every candidate: CV error, cost
 
 Each candidate (auto_recipe/space.py) is cross-validated by groups: whole sessions, else
-presses, else guarded time blocks (train/groups.py), or the `groups` given. Trials run in
-parallel (local processes, or Ray with `ray_address`), cheapest first, while the budget
-allows (auto_recipe/budget.py). The linear baselines always run; polynomial ridge runs
-when it fits the budget and has at most MAX_RIDGE_FEATURES monomials. The winner is the model
-with the fewest inference FLOPs whose mean CV error is within one standard error (over folds)
-of the best candidate's (the one-standard-error rule: differences smaller than that are
-noise). It is refitted on all rows (network epochs scaled so that it sees as many samples as
-a fold did) and its report is stored in the decoder's metadata under "auto_recipe".
+presses, else guarded time blocks (train/groups.py), or the `groups` given. Every trial, ridge
+and network alike, fits each fold on a subsample of at most `max_fit_rows` rows (every k-th
+row: at 100 Hz neighbours are near-duplicates), and on fold 0 also on half of it: the
+learning curve in the report says whether more rows would still help. Trials run in parallel
+(local processes, or Ray with `ray_address`) in order of predicted cost, cheapest first,
+while the budget allows. The budget is in units of work (auto_recipe/budget.py), not wall
+seconds, so the same data and seed give the same trials and the same choice on a quiet or a
+busy machine; the wall time is reported beside it. The linear baselines always run; ridge
+with more than MAX_RIDGE_FEATURES monomials is left out.
+
+The winner is the model with the fewest inference FLOPs whose CV error is within one
+standard error of the best candidate's, the error of the paired per-fold difference (the
+folds are the same for every candidate, so fold-to-fold spread common to all of them is not
+noise between them; with the unpaired error over 4 folds the rule discarded the context
+models that were best). It is refitted on all rows (network epochs scaled so that it sees as
+many samples as a fold did) and its report is stored in the decoder's metadata under
+"auto_recipe".
 """
 
 from __future__ import annotations
@@ -31,7 +40,7 @@ from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError
 from spectratac.decode.networks import flops
-from spectratac.train.auto_recipe.budget import Budget, CostModel, work
+from spectratac.train.auto_recipe.budget import Stopwatch, WorkBudget, nominal_s, work
 from spectratac.train.auto_recipe.report import render
 from spectratac.train.auto_recipe.space import Candidate, candidates
 from spectratac.train.auto_recipe.trial import Fold, TrialJob
@@ -40,8 +49,8 @@ from spectratac.train.groups import Groups, group_folds, purge, row_groups
 from spectratac.train.plan import default_features, default_targets, plan, select_rows
 from spectratac.train.spec import TrainSpec
 
-DEFAULT_FOLDS = 4
-MAX_FIT_ROWS = 20_000  # network trials: rows per fold fit (every k-th row)
+DEFAULT_FOLDS = 5
+MAX_FIT_ROWS = 20_000  # rows per fold fit, every trial (every k-th row)
 # ridge candidates with more features are left out: the design matrix grows with the
 # feature count and the normal equations with its square. 2000 admits the quadratic over the
 # paper's features with the drift baseline's (1710 monomials: one fit on 36 000 twin rows
@@ -74,12 +83,24 @@ def _n_features(ds: Dataset, c: Candidate) -> int:
 
 
 def _units(ds: Dataset, c: Candidate, rows: int) -> float:
+    """Work of one fit of `c` on `rows` rows."""
     p = plan(ds, c.spec)
     f = p.features.n_features
     if c.classical:
         return work("classical", rows, f, 1, 0)
     train_flops = 3 * flops(c.spec.arch, f, p.heads.n_out)
     return work("network", rows, f, c.spec.epochs, train_flops)
+
+
+def trial_units(ds: Dataset, c: Candidate, fit_rows: int, k: int) -> float:
+    """Work of a trial: k fold fits on `fit_rows` rows, plus the learning curve's half fit."""
+    return _units(ds, c, fit_rows) * k + _units(ds, c, fit_rows // 2)
+
+
+def refit_units(ds: Dataset, c: Candidate, fit_rows: int, all_rows: int) -> float:
+    """Work of the final refit: ridge on every row; a network for as many samples as a
+    fold's fit saw (its epochs are scaled, `_refit_spec`)."""
+    return _units(ds, c, all_rows if c.classical else fit_rows)
 
 
 def _refit_spec(c: Candidate, fold_rows: int, all_rows: int, threads: int) -> TrainSpec:
@@ -89,33 +110,53 @@ def _refit_spec(c: Candidate, fold_rows: int, all_rows: int, threads: int) -> Tr
     return replace(c.spec, epochs=epochs, threads=threads)
 
 
+def _se(v: NDArray[np.float64]) -> float:
+    return float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else float("nan")
+
+
 def _summarise(c: Candidate, res: dict[str, Any], k: int) -> dict[str, Any]:
     s = np.asarray(res["fold_score"], np.float64)
-    se = float(s.std(ddof=1) / np.sqrt(s.size)) if s.size > 1 else float("nan")
     mae = {}
     for t in res["fold_mae"][0]:
         v = np.asarray([f[t] for f in res["fold_mae"]])
-        mae[t] = {"mean": float(v.mean()), "se": float(v.std(ddof=1) / np.sqrt(v.size))}
+        mae[t] = {"mean": float(v.mean()), "se": _se(v)}
     tr = float(np.mean(res["train_score"]))
     train_mae = {t: float(np.mean([f[t] for f in res["train_mae"]])) for t in mae}
     return {
         "status": "done",
         "cv_score": float(s.mean()),
-        "cv_se": se,
+        "cv_se": _se(s),
+        "fold_score": [float(x) for x in s],
         "cv_mae": mae,
         "train_score": tr,
         "train_mae": train_mae,
         "gap": float(s.mean() / tr) if tr > 0 else float("inf"),
+        "learning_curve": res["learning_curve"],
         "seconds": float(res["seconds"]),
         **res["cost"],
     }
 
 
+def paired_se(r: dict[str, Any], best: dict[str, Any]) -> float:
+    """Standard error of r's CV score minus the best's: over the per-fold differences when
+    both have per-fold scores on the same folds, else the best's own standard error.
+
+    >>> best = {"cv_se": 0.05, "fold_score": [0.10, 0.30, 0.20]}
+    >>> round(paired_se({"fold_score": [0.12, 0.32, 0.22]}, best), 6), paired_se({}, best)
+    (0.0, 0.05)
+    """
+    a, b = r.get("fold_score"), best.get("fold_score")
+    if a is not None and b is not None and len(a) == len(b) > 1:
+        return _se(np.asarray(a, np.float64) - np.asarray(b, np.float64))
+    se = best.get("cv_se", float("nan"))
+    return float(se) if np.isfinite(se) else 0.0
+
+
 def one_se_choice(rows: list[dict[str, Any]]) -> tuple[str, str]:
-    """(chosen, best) names: the fewest FLOPs within one standard error of the best mean,
-    where a network must also earn its cost: it is chosen only if its mean is no worse than
-    every classical baseline's (rows with "family": "classical"), so that a cheap network
-    never wins by noise over a better ridge.
+    """(chosen, best) names: the fewest FLOPs within one standard error of the best mean
+    (the paired error over folds, `paired_se`), where a network must also earn its cost: it
+    is chosen only if its mean is no worse than every classical baseline's (rows with
+    "family": "classical"), so that a cheap network never wins by noise over a better ridge.
 
     >>> ok = {"status": "done", "eligible": True, "cv_se": 0.02}
     >>> r = [{"name": "big", "cv_score": 0.10, "flops": 1e5, **ok},
@@ -130,13 +171,12 @@ def one_se_choice(rows: list[dict[str, Any]]) -> tuple[str, str]:
     if not ok:
         raise DecoderConfigError("no candidate finished within the budget: give more time")
     best = min(ok, key=lambda r: r["cv_score"])
-    se = best["cv_se"] if np.isfinite(best["cv_se"]) else 0.0
     classical = min((r["cv_score"] for r in ok if r.get("family") == "classical"), default=np.inf)
 
     def earns(r: dict[str, Any]) -> bool:
         return r.get("family") == "classical" or r["cv_score"] <= classical
 
-    near = [r for r in ok if r["cv_score"] <= best["cv_score"] + se and earns(r)]
+    near = [r for r in ok if r["cv_score"] <= best["cv_score"] + paired_se(r, best) and earns(r)]
     chosen = min(near, key=lambda r: (r["flops"], r["cv_score"]))
     return chosen["name"], best["name"]
 
@@ -157,17 +197,18 @@ def search(
     clock: Callable[[], float] = time.monotonic,
     progress: Callable[[str], None] | None = None,
 ) -> SearchResult:
-    """Search the recipe space on `rows` (default all) of `dataset` within `budget_s` seconds
-    of wall time (the final refit included) and return the chosen decoder and the report.
+    """Search the recipe space on `rows` (default all) of `dataset` within `budget_s`
+    nominal seconds per worker (units of work, the final refit included: budget.py) and
+    return the chosen decoder and the report.
 
     groups: a group id per dataset row (>= 0; rows of a group are held out together), e.g.
     units for a held-out-unit study; default sessions, else presses, else time blocks.
     targets / features: as TrainSpec's (default: every target and class of the dataset;
     paper33 for SpectraTac data, else generic). workers: parallel trials (default: cores);
     1 runs them in this process. ray_address: run trials on that Ray cluster instead.
-    space: the candidates (default `space.candidates`). clock: seconds, for the budget.
+    space: the candidates (default `space.candidates`). clock: wall seconds, reported only.
     """
-    budget = Budget(budget_s, clock)
+    watch = Stopwatch(clock)
     sel = select_rows(dataset.n, rows)
     tg = tuple(targets) if targets else default_targets(dataset)
     feats = features or default_features(dataset)
@@ -188,92 +229,102 @@ def search(
     tv = np.asarray(dataset.target_valid, bool)[sel]
     std = {t: float(np.nanstd(y[tv, dataset.target_names.index(t)])) or 1.0 for t in reg}
     n_fold = int(np.mean([f.size for f, _ in fold_rows]))
+    fit_n = min(n_fold, max_fit_rows) if max_fit_rows > 0 else n_fold
     ncores = threads.usable_cpus()
     runner = _runner(dataset, ray_address, workers or ncores)
-    cost = CostModel()
+    budget = WorkBudget(budget_s, runner.workers)
     table: dict[str, dict[str, Any]] = {}
-    units: dict[str, float] = {}
-    ends: dict[str, float] = {}  # predicted end (elapsed s) of running trials
+    trial_s = {c.name: nominal_s(c.family, trial_units(dataset, c, fit_n, k)) for c in space}
+    refit_s = {c.name: nominal_s(c.family, refit_units(dataset, c, fit_n, sel.size)) for c in space}
     by_name = {c.name: c for c in space}
+    # cheapest first (stable: ties keep the space's order), so that a costly early candidate
+    # never spends the budget the cheaper ones would have used
+    order = sorted(space, key=lambda c: trial_s[c.name])
     needs_all = len(reg) < len(tg)  # classes asked for: only networks decode them
 
-    def refit_s(c: Candidate) -> float:
-        return cost.seconds(c.family, units[c.name]) / k * (1 if not c.classical else 1.25)
+    launched: set[str] = set()
+
+    def is_always(c: Candidate) -> bool:
+        return c.classical and c.spec.degree == 1  # the linear baselines: seconds
 
     def best_refit() -> float:
         done = [n for n, r in table.items() if r.get("status") == "done"]
         if not done:
             return 0.0
-        return refit_s(by_name[min(done, key=lambda n: table[n]["cv_score"])])
+        return refit_s[min(done, key=lambda n: table[n]["cv_score"])]
 
     def collect(timeout: float | None) -> None:
         for job, res in runner.done(timeout):
             c = by_name[job.name]
-            ends.pop(job.name, None)
             if isinstance(res, BaseException):
                 table[c.name] = {"status": f"failed: {res}"}
                 continue
-            cost.add(c.family, res["seconds"], units[c.name])
             table[c.name] = _summarise(c, res, k)
             if progress:
                 progress(f"{c.name}: CV {table[c.name]['cv_score']:.4f} "
                          f"({res['seconds']:.1f} s)")  # fmt: skip
 
     try:
-        for c in space:
-            fit_n = n_fold if c.classical else min(n_fold, max_fit_rows)
-            units[c.name] = _units(dataset, c, fit_n) * k
-            while runner.busy >= runner.workers:
-                collect(None)
-            collect(0)
-            predicted = cost.seconds(c.family, units[c.name])
-            refit = max(refit_s(c), best_refit())
-            running_until = max(ends.values(), default=0.0)
+        for c in order:
             if c.classical and _n_features(dataset, c) > MAX_RIDGE_FEATURES:
                 table[c.name] = {"status": f"skipped: {_n_features(dataset, c)} features, "
                                  f"over {MAX_RIDGE_FEATURES} for ridge"}  # fmt: skip
                 continue
-            always = c.classical and c.spec.degree == 1  # the linear baselines: seconds
-            if not always and not budget.fits(predicted, refit, running_until):
+            while runner.busy >= runner.workers:
+                collect(None)
+            collect(0)
+            # the refit of the best so far or of this one, on every core
+            refit = max(refit_s[c.name], best_refit()) * runner.workers
+            always = is_always(c)
+            # the linear baselines always run: their cost is set aside before any other trial
+            reserve = sum(trial_s[o.name] for o in order if is_always(o) and o.name not in launched
+                          and o is not c)  # fmt: skip
+            if not always and not budget.fits(trial_s[c.name] + reserve, refit):
                 table[c.name] = {"status": "skipped: would not fit the budget",
-                                 "predicted_s": predicted}  # fmt: skip
+                                 "predicted_s": trial_s[c.name]}  # fmt: skip
                 continue
-            ends[c.name] = budget.elapsed() + predicted
-            job = TrialJob(c.name, c.spec.to_dict(), fold_rows, max_fit_rows, std)
+            budget.spend(trial_s[c.name])
+            job = TrialJob(c.name, c.spec.to_dict(), fold_rows, fit_n, std)
             runner.submit(job)
+            launched.add(c.name)
         while runner.busy:
             collect(None)
         collect(0)
     finally:
         runner.close()
     rows_out = []
-    for c in space:
+    for c in order:
         r = {"name": c.name, "family": c.family, "spec": c.spec.to_dict(), **table[c.name]}
         r["eligible"] = not (needs_all and c.classical)
+        r["work_s"] = trial_s[c.name]
         rows_out.append(r)
     chosen_name, best_name = one_se_choice(rows_out)
     chosen = by_name[chosen_name]
-    search_s = budget.elapsed()
+    search_s = watch.elapsed()
     t_refit = clock()
-    spec = _refit_spec(chosen, min(n_fold, max_fit_rows), sel.size, 0)
+    spec = _refit_spec(chosen, fit_n, sel.size, 0)
     dec = train(dataset, spec, rows=sel, progress=False)
     refit_seconds = clock() - t_refit
+    budget.spend(refit_s[chosen_name] * runner.workers)
     report = {
         "budget_s": float(budget_s),
+        "budget": "nominal seconds per worker: units of work at the reference machine's rate",
+        "work_s": budget.spent / runner.workers,
         "search_s": search_s,
         "refit_s": refit_seconds,
-        "elapsed_s": budget.elapsed(),
-        "within_budget": budget.elapsed() <= budget_s,
+        "elapsed_s": watch.elapsed(),
+        "within_budget": budget.spent <= budget.total,
         "runner": runner.name,
         "workers": runner.workers,
         "folds": k,
+        "fit_rows": fit_n,
         "groups": {"kind": g.kind, "n": g.n_groups},
         "rows": int(sel.size),
         "targets": list(tg),
         "score": "mean over regression targets of CV MAE / target std (lower is better)",
         "target_std": std,
-        "rule": "fewest inference FLOPs within one standard error (over folds) of the best; "
-        "a network only if no classical baseline scores better",
+        "rule": "fewest inference FLOPs within one standard error (paired over folds) of the "
+        "best; a network only if no classical baseline scores better",
         "chosen": chosen_name,
         "best": best_name,
         "candidates": rows_out,

@@ -1,10 +1,11 @@
 """One trial: a candidate's grouped K-fold cross-validation, run wherever a runner puts it.
 
-A trial trains the candidate once per fold on the other folds' rows (network candidates on
-at most `max_fit_rows` of them, every k-th row: at 100 Hz neighbours are near-duplicates)
-and scores it on the fold's held-out groups. The error is the mean absolute error per
-regression target (train/metrics.py), and a unit-free score: the mean over targets of
-MAE / the target's std.
+A trial trains the candidate once per fold on the other folds' rows (at most `max_fit_rows`
+of them, every k-th row: at 100 Hz neighbours are near-duplicates; ridge and networks alike)
+and scores it on the fold's held-out groups. On fold 0 it also trains on half those rows:
+the learning curve (rows, score) says whether the refit on all rows can still gain. The
+error is the mean absolute error per regression target (train/metrics.py), and a
+unit-free score: the mean over targets of MAE / the target's std.
 The fold-0 decoder's inference cost is measured too: batch µs per sample and the latency of
 one sample through the fused single-sample path.
 
@@ -89,8 +90,9 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
     train_scores: list[float] = []
     train_mae: list[dict[str, float]] = []
     cost: dict[str, float] = {}
+    curve: list[list[float]] = []
     for i, (fit, held) in enumerate(job.folds):
-        rows = fit if spec.model == "ridge" else thin(fit, job.max_fit_rows)
+        rows = thin(fit, job.max_fit_rows)
         dec = train(ds, spec, rows=rows, progress=False)
         err = decoder_mae(dec, ds, held)
         per_fold.append(err)
@@ -100,12 +102,17 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
         train_mae.append(tr)
         if i == 0:
             cost = inference_cost(dec, ds, held)
+            half = rows[::2]
+            err_half = decoder_mae(train(ds, spec, rows=half, progress=False), ds, held)
+            half_score = float(np.mean([err_half[t] / job.target_std[t] for t in err_half]))
+            curve = [[int(half.size), half_score], [int(rows.size), scores[0]]]
     return {
         "name": job.name,
         "fold_mae": per_fold,
         "fold_score": scores,
         "train_score": train_scores,
         "train_mae": train_mae,
+        "learning_curve": curve,
         "seconds": time.perf_counter() - t0,
         "cost": cost,
         # What the thread policy gave this trial's process (torch's pool, if it trained one).
