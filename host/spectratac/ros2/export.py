@@ -7,7 +7,7 @@ F/T is recorded in as well):
 | topic | type | one message per |
 |---|---|---|
 | /spectratac/reference/wrench | geometry_msgs/msg/WrenchStamped | recorded F/T sample |
-| /spectratac/estimate/wrench | geometry_msgs/msg/WrenchStamped | decoded sample (with a model) |
+| /spectratac/estimate/wrench | geometry_msgs/msg/WrenchStamped | estimate (a model, or recorded) |
 | /spectratac/raw/step_K/counts | std_msgs/msg/UInt16MultiArray | optical sample of LED step K |
 
 Times come from the clock fits the dataset builder uses (`spectratac.dataset.align`): an F/T
@@ -19,6 +19,9 @@ per message): a UInt16MultiArray holds one sample's counts exactly, its layout n
 dimensions "sensor" (3) and "channel" (R, G, B, C, IR in that order), one topic per LED step
 because samples of different steps are different measurements. Estimates the decoder does
 not make (a force-only model's torques) are NaN; invalid samples get no estimate message.
+Without a model, the estimates the recording holds (format 4: an on-device model's ESTIMATE
+frames, or the live page's decoder in a clip) are written, each stamped with the optical
+sample whose integration it ends.
 
 Storage: sqlite3 by default, the storage ROS 2 Humble's `ros2 bag play` reads out of the box
 (MCAP needs the rosbag2_storage_mcap plug-in there; it is the default from Iron on), with
@@ -160,6 +163,11 @@ def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list
             topics.append(_Topic(counts_topic(int(step)), UINT16_ARRAY, ns[rows], payloads))
         if decoder is not None:
             topics.append(_estimates(decoder, parts, offset))
+        elif rec.estimates:
+            topic = _recorded_estimates(rec.estimates, parts, offset)
+            if topic is not None:
+                topics.append(topic)
+                notes.append(f"estimates as recorded ({', '.join(_sources(rec.estimates))})")
     elif decoder is not None:
         raise BagExportError(f"{rec.path}: no optical samples to decode with the model")
     return topics, notes
@@ -177,6 +185,44 @@ def _estimates(decoder: Decoder, parts: list[Dataset], offset: int) -> _Topic:
     wrench = np.concatenate(wrenches)[order]
     ns = ns[order]
     return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, FRAME_ID))
+
+
+def _recorded_estimates(
+    estimates: list[dict[str, Any]], parts: list[Dataset], offset: int
+) -> _Topic | None:
+    """The recording's own estimates (None: none matches an optical sample), each stamped as
+    the sample whose integration window it ends: its device time is that sample's."""
+    host_of: dict[int, float] = {}
+    for ds in parts:
+        if "device_time_us" not in ds.arrays:
+            continue
+        for dev, host in zip(ds.arrays["device_time_us"].tolist(), ds.t_end.tolist(), strict=True):
+            host_of.setdefault(int(dev), float(host))
+    stamps, wrenches = [], []
+    for e in estimates:
+        host = host_of.get(int(e.get("t_end_us", -1)))
+        if host is None or e.get("invalid"):
+            continue
+        stamps.append(host)
+        wrenches.append(
+            [_axis(e, "force", a) for a in "xyz"] + [_axis(e, "torque", a) for a in "xyz"]
+        )
+    if not stamps:
+        return None
+    ns = seconds_to_ns(np.asarray(stamps), offset)
+    order = np.argsort(ns, kind="stable")
+    ns, wrench = ns[order], np.asarray(wrenches, np.float64)[order]
+    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, FRAME_ID))
+
+
+def _axis(estimate: dict[str, Any], part: str, axis: str) -> float:
+    value = (estimate.get(part) or {}).get(axis)
+    return float("nan") if value is None else float(value)
+
+
+def _sources(estimates: list[dict[str, Any]]) -> list[str]:
+    names = {"device": "the on-device model", "host": "the live page's decoder"}
+    return sorted({names.get(str(e.get("source")), str(e.get("source"))) for e in estimates})
 
 
 def _write(

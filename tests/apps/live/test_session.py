@@ -100,6 +100,25 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     shared = [e for e in clip.estimates if e["t_end_us"] in csv_fz]
     assert len(shared) >= 10
     assert all(e["force"]["z"] == pytest.approx(csv_fz[e["t_end_us"]]) for e in shared)
+    # ... and a ROS user gets them from the clip without the model: the exporter writes the
+    # recorded estimates (rosbags' own reader here, not ours)
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+    from spectratac.ros2 import export_rosbag
+
+    summary = export_rosbag(mcap_clip["path"], mcap_clip["path"] + ".bag")
+    assert any("estimates as recorded" in n for n in summary.notes)
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with Reader(mcap_clip["path"] + ".bag") as reader:
+        bag_fz = [
+            store.deserialize_cdr(raw, conn.msgtype).wrench.force.z
+            for conn, _, raw in reader.messages()
+            if conn.topic == "/spectratac/estimate/wrench"
+        ]
+    valid = [e["force"]["z"] for e in clip.estimates if not e["invalid"]]
+    valid = [v for v in valid if v is not None]
+    assert 0.9 * len(valid) <= len(bag_fz) <= len(valid)  # each stamped by its own sample
+    assert set(np.round(bag_fz, 5)) <= set(np.round(valid, 5))
 
 
 @pytest.mark.slow
