@@ -19,6 +19,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "semihost.h"
 #include "stac_app.h"
 #include "stac_frame.h"
 #include "veml_model.h"
@@ -28,75 +29,11 @@
 #define CPU_HZ 96u /* MHz */
 #define I2C_US_PER_BYTE_X10 225u /* 9 bits at 400 kHz */
 
-#define SYS_OPEN 0x01u
-#define SYS_CLOSE 0x02u
-#define SYS_WRITE 0x05u
-#define SYS_READ 0x06u
-#define SYS_EXIT_EXTENDED 0x20u
-#define ADP_STOPPED_APPLICATION_EXIT 0x20026u
-#define OPEN_RB 1u
-#define OPEN_WB 5u
-
-#define SCB_CPACR (*(volatile uint32_t *)0xE000ED88u)
-#define SYST_CSR (*(volatile uint32_t *)0xE000E010u)
-#define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
-#define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
-#define SYST_ENABLE_CPUCLK 0x5u
 #define CALIB_ITERS 100000u
-
-extern uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _estack;
-int main(void);
-void Reset_Handler(void);
-void Fault_Handler(void);
-
-__attribute__((section(".isr_vector"), used)) static void (*const k_vectors[16])(void) = {
-    [0] = (void (*)(void))(uintptr_t)&_estack,
-    [1] = Reset_Handler,
-    [2] = Fault_Handler,
-    [3] = Fault_Handler,
-    [4] = Fault_Handler,
-    [5] = Fault_Handler,
-    [6] = Fault_Handler,
-    [11] = Fault_Handler,
-    [12] = Fault_Handler,
-    [14] = Fault_Handler,
-    [15] = Fault_Handler,
-};
-
-static uint32_t semihost(uint32_t op, const void *arg) {
-    register uint32_t r0 __asm("r0") = op;
-    register const void *r1 __asm("r1") = arg;
-    __asm volatile("bkpt 0xAB" : "+r"(r0) : "r"(r1) : "memory");
-    return r0;
-}
-
-static __attribute__((noreturn)) void semihost_exit(uint32_t code) {
-    const uint32_t args[2] = {ADP_STOPPED_APPLICATION_EXIT, code};
-    for (;;) (void)semihost(SYS_EXIT_EXTENDED, args);
-}
-
-void Fault_Handler(void) { semihost_exit(3u); }
-
-void Reset_Handler(void) {
-    SCB_CPACR |= 0xFu << 20; /* the FPU on before any float instruction */
-    __asm volatile("dsb\n isb" ::: "memory");
-    uint32_t *src = &_sidata;
-    for (uint32_t *dst = &_sdata; dst < &_edata;) *dst++ = *src++;
-    for (uint32_t *dst = &_sbss; dst < &_ebss;) *dst++ = 0u;
-    semihost_exit((uint32_t)main());
-}
-
-static uint32_t open_file(const char *name, uint32_t len, uint32_t mode) {
-    const uint32_t args[3] = {(uint32_t)(uintptr_t)name, mode, len};
-    return semihost(SYS_OPEN, args);
-}
 
 static uint32_t g_out;
 
-static void write_out(const void *buf, uint32_t n) {
-    const uint32_t args[3] = {g_out, (uint32_t)(uintptr_t)buf, n};
-    if (semihost(SYS_WRITE, args) != 0u) semihost_exit(4u);
-}
+static void write_out(const void *buf, uint32_t n) { sh_write(g_out, buf, n); }
 
 /* ------------------------------------------------------------------ the modelled clock */
 static uint32_t g_cpi_x1000;
@@ -118,10 +55,7 @@ static uint64_t now_us(void) {
 }
 
 static void calibrate(void) {
-    const uint32_t t0 = SYST_CVR;
-    uint32_t n = CALIB_ITERS;
-    __asm volatile("1: subs %0, %0, #1\n bne 1b" : "+r"(n) : : "cc");
-    const uint32_t ticks = (t0 - SYST_CVR) & 0xFFFFFFu;
+    const uint32_t ticks = systick_spin(CALIB_ITERS);
     g_ticks_per_kinsn = (uint64_t)ticks * 1000u / (2u * CALIB_ITERS);
     if (g_ticks_per_kinsn == 0u) g_ticks_per_kinsn = 1u;
     g_last_cvr = SYST_CVR;
@@ -222,17 +156,14 @@ static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data
 static stac_app_t g_app;
 
 int main(void) {
-    SYST_RVR = 0xFFFFFFu;
-    SYST_CVR = 0u;
-    SYST_CSR = SYST_ENABLE_CPUCLK;
+    systick_start();
     calibrate();
     static const char in_name[] = "timeline.in", out_name[] = "timeline.out";
-    const uint32_t in = open_file(in_name, sizeof in_name - 1u, OPEN_RB);
-    g_out = open_file(out_name, sizeof out_name - 1u, OPEN_WB);
-    if (in == 0xFFFFFFFFu || g_out == 0xFFFFFFFFu) return 1;
+    const uint32_t in = sh_open(in_name, sizeof in_name - 1u, SH_OPEN_RB);
+    g_out = sh_open(out_name, sizeof out_name - 1u, SH_OPEN_WB);
+    if (in == SH_BAD_HANDLE || g_out == SH_BAD_HANDLE) return 1;
     uint32_t params[4];
-    const uint32_t read_args[3] = {in, (uint32_t)(uintptr_t)params, sizeof params};
-    if (semihost(SYS_READ, read_args) != 0u) return 2;
+    if (sh_read(in, params, sizeof params) != 0u) return 2;
     g_cpi_x1000 = params[0];
     const uint32_t estimates = params[1], samples = params[2];
 
@@ -261,11 +192,10 @@ int main(void) {
     stac_app_init(&g_app, &hal, &id, hal_clock(0));
     const uint64_t boot_insns = instructions() - boot0;
     static const char boot_name[] = "timeline.boot";
-    const uint32_t boot = open_file(boot_name, sizeof boot_name - 1u, OPEN_WB);
-    const uint32_t boot_args[3] = {boot, (uint32_t)(uintptr_t)&boot_insns, sizeof boot_insns};
-    if (boot == 0xFFFFFFFFu || semihost(SYS_WRITE, boot_args) != 0u) return 6;
-    const uint32_t boot_close[1] = {boot};
-    (void)semihost(SYS_CLOSE, boot_close);
+    const uint32_t boot = sh_open(boot_name, sizeof boot_name - 1u, SH_OPEN_WB);
+    if (boot == SH_BAD_HANDLE) return 6;
+    sh_write(boot, &boot_insns, sizeof boot_insns);
+    sh_close(boot);
     if (g_app.store.present != STAC_STORE_UPLOADED) return 7; /* the region did not validate */
 
     /* The host's one command: stream at the given integration time, with estimates or not. */
@@ -287,7 +217,6 @@ int main(void) {
             g_waited_us += wake - now; /* WFI until the next thing to do */
         }
     }
-    const uint32_t close_args[1] = {g_out};
-    (void)semihost(SYS_CLOSE, close_args);
+    sh_close(g_out);
     return g_app.stats.samples_taken >= samples ? 0 : 5;
 }
