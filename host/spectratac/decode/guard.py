@@ -21,7 +21,7 @@ rows are flagged by `check` anyway.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -115,6 +115,13 @@ class Guard:
             e_hi = np.where(reach_hi, hi - EDGE * span, NO_EDGE)
         return e_lo, e_hi
 
+    def on_device(self) -> Guard:
+        """The checks an on-device model image carries (input and target ranges, saturation,
+        dark inputs, sensor status): the distance model and the edge band stay on the host,
+        so the device flags a little less than the host does. The reference its flags match."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return _DeviceGuard(**values | {"center": None, "whiten": None, "dist_max": None})
+
     def at_edge(self, y: F64) -> NDArray[np.bool_]:
         """(N,) True where a target is at the edge of the training targets (`edge_bounds`)."""
         e_lo, e_hi = self.edge_bounds()
@@ -193,3 +200,10 @@ def _distance_model(x: F64) -> tuple[F64, F64, F64]:
     whiten = np.linalg.inv(chol).T
     d = np.linalg.norm((x - center) @ whiten, axis=1)
     return center, whiten, np.array([DIST_MARGIN * float(np.quantile(d, DIST_QUANTILE))])
+
+
+class _DeviceGuard(Guard):
+    """`Guard.on_device`: no edge band (the model image has no room for it)."""
+
+    def at_edge(self, y: F64) -> NDArray[np.bool_]:
+        return np.zeros(np.asarray(y).shape[0], dtype=bool)

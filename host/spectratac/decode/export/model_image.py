@@ -136,12 +136,14 @@ def _layers(dec: Decoder) -> list[tuple[str, int, int]]:
 
 def as_stored(dec: Decoder, weights: str = "f32") -> Decoder:
     """A copy of `dec` whose network weights are the values an image in `weights` format
-    holds (float16 or int8 rounding): the reference its device estimates must match."""
+    holds (float16 or int8 rounding) and whose guard makes the checks the image carries
+    (`Guard.on_device`): the reference its device estimates and flags must match."""
     _check_format(weights)
     w = dict(dec.runtime.weights)
     for name, _, _ in _layers(dec):
         w[name + ".weight"] = _quantise(w[name + ".weight"], weights)[2]
-    return replace(dec, runtime=replace(dec.runtime, weights=w, _plan=None))
+    runtime = replace(dec.runtime, weights=w, _plan=None)
+    return replace(dec, runtime=runtime, guard=dec.guard.on_device())
 
 
 def _check_format(weights: str) -> None:
