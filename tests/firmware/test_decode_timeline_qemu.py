@@ -13,7 +13,6 @@ simulator's timeline: test_decode_timeline.py.
 
 from __future__ import annotations
 
-import shutil
 import struct
 import subprocess
 import sys
@@ -26,7 +25,7 @@ from spectratac.decode.export import model_image as mi
 from spectratac.protocol import crc32c, decode_frame
 from spectratac.protocol.generated import messages as m
 
-from .conftest import REPO
+from .conftest import REPO, need
 from .test_decode_timeline import paper  # noqa: F401  (the module's fixture)
 
 sys.path.insert(0, str(REPO / "tools" / "platformio"))
@@ -46,8 +45,8 @@ MODELLED_MS = {"f32": 9.8, "f16": 14.8, "i8": 11.7}  # the same model's ms per s
 
 @pytest.fixture(scope="module")
 def elf() -> Path:
-    if shutil.which("qemu-system-arm") is None or shutil.which("arm-none-eabi-gcc") is None:
-        pytest.skip("needs qemu-system-arm and gcc-arm-none-eabi (apt)")
+    need("qemu-system-arm", "qemu-system-arm")  # both installed by .ci/run
+    need("arm-none-eabi-gcc", "gcc-arm-none-eabi")
     result = pio.run(["run", "-e", "timeline"], timeout=900)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     return REPO / "build" / "pio" / "timeline" / "firmware.elf"
