@@ -78,12 +78,19 @@ def ft_noise(
     """Sensor noise (n, 6): white noise at the stream rate plus a slow Ornstein-Uhlenbeck bias
     (thermal drift of the gauges) that starts from the offset the tare left
     (`unit.ft_bias_offset`, zero for a unit that has not been re-mounted)."""
-    white = rng.standard_normal((n, 6), dtype=np.float32) * unit.ft_noise.astype(np.float32)
+    white = rng.standard_normal((n, 6), dtype=np.float32)
+    white *= unit.ft_noise.astype(np.float32)
     seconds = int(np.ceil(n / rate_hz)) + 2
     a = np.exp(-1.0 / unit.ft_bias_tau_s)
     steps = rng.standard_normal((seconds, 6)) * unit.ft_bias_std * np.sqrt(1.0 - a * a)
     bias = np.zeros((seconds, 6))
     for i in range(1, seconds):
         bias[i] = a * bias[i - 1] + steps[i]
-    idx = (np.arange(n) // max(int(rate_hz), 1)).astype(np.int64)
-    return white + (bias + unit.ft_bias_offset)[idx]
+    # Each second's bias added to its rows in place (a broadcast, not a gather of n rows).
+    out = white.astype(np.float64)
+    offset = bias + unit.ft_bias_offset
+    per = max(int(rate_hz), 1)
+    whole = n // per
+    out[: whole * per].reshape(whole, per, 6)[...] += offset[:whole, None, :]
+    out[whole * per :] += offset[whole]
+    return out
