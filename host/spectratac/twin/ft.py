@@ -24,6 +24,7 @@ from spectratac.twin.unit import UnitParams
 F64 = NDArray[np.float64]
 
 AXES = vocab.FT_AXES
+_BLOCK = 16384  # rows per block of a long stream (16384 x 6 float64: 768 KiB)
 
 
 def wrench(
@@ -40,21 +41,28 @@ def wrench(
 ) -> F64:
     """Noise-free F/T reading (N, 6) for contact loads and deformation at N instants, in the
     F/T's axes: a sensor mounted with a tilt (`unit.mount_tilt_rad`) has its wrench rotated."""
-    fz = -normal
-    rx = (x + ux) * 1e-3
-    ry = (y + uy) * 1e-3
-    rz = (unit.stack.surface_z_mm - delta - unit.ft_origin_z_mm) * 1e-3
-    out = np.empty((np.shape(fx)[0], 6))
-    out[:, 0] = fx
-    out[:, 1] = fy
-    out[:, 2] = fz
-    out[:, 3] = ry * fz - rz * fy
-    out[:, 4] = rz * fx - rx * fz
-    out[:, 5] = rx * fy - ry * fx
-    if np.any(unit.mount_tilt_rad):
-        rot = mount_rotation(unit)
-        out[:, :3] = out[:, :3] @ rot.T
-        out[:, 3:] = out[:, 3:] @ rot.T
+    n = np.shape(fx)[0]
+    out = np.empty((n, 6))
+    rot = mount_rotation(unit) if np.any(unit.mount_tilt_rad) else None
+    surface, origin = unit.stack.surface_z_mm, unit.ft_origin_z_mm
+    # In cache-sized row blocks: the columns of a long (n, 6) stream, written one by one
+    # over the whole stream, would each sweep all of its memory.
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        fz = -normal[a:b]
+        rx = (x[a:b] + ux[a:b]) * 1e-3
+        ry = (y[a:b] + uy[a:b]) * 1e-3
+        rz = (surface - delta[a:b] - origin) * 1e-3
+        o = out[a:b]
+        o[:, 0] = fx[a:b]
+        o[:, 1] = fy[a:b]
+        o[:, 2] = fz
+        o[:, 3] = ry * fz - rz * fy[a:b]
+        o[:, 4] = rz * fx[a:b] - rx * fz
+        o[:, 5] = rx * fy[a:b] - ry * fx[a:b]
+        if rot is not None:
+            o[:, :3] = o[:, :3] @ rot.T
+            o[:, 3:] = o[:, 3:] @ rot.T
     return out
 
 
@@ -86,11 +94,17 @@ def ft_noise(
     bias = np.zeros((seconds, 6))
     for i in range(1, seconds):
         bias[i] = a * bias[i - 1] + steps[i]
-    # Each second's bias added to its rows in place (a broadcast, not a gather of n rows).
-    out = white.astype(np.float64)
+    # Each second's bias added to its rows (a broadcast, not a gather of n rows), a block of
+    # whole seconds at a time so that each block is still in cache when the bias lands.
+    out = np.empty((n, 6))
     offset = bias + unit.ft_bias_offset
     per = max(int(rate_hz), 1)
-    whole = n // per
-    out[: whole * per].reshape(whole, per, 6)[...] += offset[:whole, None, :]
-    out[whole * per :] += offset[whole]
+    secs = max(1, _BLOCK // per)
+    for s0 in range(0, -(-n // per), secs):
+        a, b = s0 * per, min((s0 + secs) * per, n)
+        block = out[a:b]
+        block[...] = white[a:b]
+        whole = (b - a) // per
+        block[: whole * per].reshape(whole, per, 6)[...] += offset[s0 : s0 + whole, None, :]
+        block[whole * per :] += offset[s0 + whole]
     return out
