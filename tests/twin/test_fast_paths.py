@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.twin import UnitParams, builtin_scenes
-from spectratac.twin.ft import ft_noise
+from spectratac.twin.ft import ft_noise, wrench
 from spectratac.twin.generate import _segment_sums
 from spectratac.twin.scene_model import SORTED_PATH_MIN, ContactState, Scene
 
@@ -102,3 +102,17 @@ def test_ft_noise_adds_each_seconds_bias_to_its_rows(n: int, rate: float) -> Non
         bias[i] = a * bias[i - 1] + steps[i]
     want = white + (bias + unit.ft_bias_offset)[np.arange(n) // int(rate)]
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("tilted", [False, True])
+def test_wrench_added_in_place_is_noise_plus_wrench(tilted: bool) -> None:
+    unit = UnitParams.from_seed(1)
+    if tilted:
+        unit = replace(unit, mount_tilt_rad=np.array([0.004, -0.006]))
+    n = 40_000  # more than one block
+    args = np.random.default_rng(2).normal(size=(8, n))
+    noise = np.random.default_rng(3).normal(size=(n, 6))
+    got = wrench(*args, unit=unit, add_to=noise.copy())
+    np.testing.assert_allclose(got, noise + wrench(*args, unit=unit), rtol=1e-15, atol=1e-15)
+    with pytest.raises(ValueError, match="add_to has shape"):
+        wrench(*args, unit=unit, add_to=np.zeros((n, 3)))

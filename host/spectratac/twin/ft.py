@@ -38,11 +38,16 @@ def wrench(
     uy: F64,
     *,
     unit: UnitParams,
+    add_to: F64 | None = None,
 ) -> F64:
     """Noise-free F/T reading (N, 6) for contact loads and deformation at N instants, in the
-    F/T's axes: a sensor mounted with a tilt (`unit.mount_tilt_rad`) has its wrench rotated."""
+    F/T's axes: a sensor mounted with a tilt (`unit.mount_tilt_rad`) has its wrench rotated.
+    With `add_to` (N, 6) the reading is added to it in place (a noise stream becomes the
+    sensor's output without a second stream-sized array) and `add_to` is returned."""
     n = np.shape(fx)[0]
-    out = np.empty((n, 6))
+    if add_to is not None and add_to.shape != (n, 6):
+        raise ValueError(f"add_to has shape {add_to.shape}, expected {(n, 6)}")
+    out = np.empty((n, 6)) if add_to is None else np.empty((min(n, _BLOCK), 6))
     rot = mount_rotation(unit) if np.any(unit.mount_tilt_rad) else None
     surface, origin = unit.stack.surface_z_mm, unit.ft_origin_z_mm
     # In cache-sized row blocks: the columns of a long (n, 6) stream, written one by one
@@ -53,7 +58,7 @@ def wrench(
         rx = (x[a:b] + ux[a:b]) * 1e-3
         ry = (y[a:b] + uy[a:b]) * 1e-3
         rz = (surface - delta[a:b] - origin) * 1e-3
-        o = out[a:b]
+        o = out[a:b] if add_to is None else out[: b - a]
         o[:, 0] = fx[a:b]
         o[:, 1] = fy[a:b]
         o[:, 2] = fz
@@ -63,7 +68,9 @@ def wrench(
         if rot is not None:
             o[:, :3] = o[:, :3] @ rot.T
             o[:, 3:] = o[:, 3:] @ rot.T
-    return out
+        if add_to is not None:
+            add_to[a:b] += o
+    return out if add_to is None else add_to
 
 
 def mount_rotation(unit: UnitParams) -> NDArray[np.float64]:
@@ -86,8 +93,14 @@ def ft_noise(
     """Sensor noise (n, 6): white noise at the stream rate plus a slow Ornstein-Uhlenbeck bias
     (thermal drift of the gauges) that starts from the offset the tare left
     (`unit.ft_bias_offset`, zero for a unit that has not been re-mounted)."""
-    white = rng.standard_normal((n, 6), dtype=np.float32)
-    white *= unit.ft_noise.astype(np.float32)
+    # White noise drawn block by block straight into the output (the generator's stream is
+    # the same as one draw of all n rows), then the bias on top.
+    out = np.empty((n, 6))
+    scale = unit.ft_noise.astype(np.float32)
+    for r0 in range(0, n, _BLOCK):
+        white = rng.standard_normal((min(_BLOCK, n - r0), 6), dtype=np.float32)
+        white *= scale
+        out[r0 : r0 + white.shape[0]] = white
     seconds = int(np.ceil(n / rate_hz)) + 2
     a = np.exp(-1.0 / unit.ft_bias_tau_s)
     steps = rng.standard_normal((seconds, 6)) * unit.ft_bias_std * np.sqrt(1.0 - a * a)
@@ -95,15 +108,13 @@ def ft_noise(
     for i in range(1, seconds):
         bias[i] = a * bias[i - 1] + steps[i]
     # Each second's bias added to its rows (a broadcast, not a gather of n rows), a block of
-    # whole seconds at a time so that each block is still in cache when the bias lands.
-    out = np.empty((n, 6))
+    # whole seconds at a time.
     offset = bias + unit.ft_bias_offset
     per = max(int(rate_hz), 1)
     secs = max(1, _BLOCK // per)
     for s0 in range(0, -(-n // per), secs):
         a, b = s0 * per, min((s0 + secs) * per, n)
         block = out[a:b]
-        block[...] = white[a:b]
         whole = (b - a) // per
         block[: whole * per].reshape(whole, per, 6)[...] += offset[s0 : s0 + whole, None, :]
         block[whole * per :] += offset[s0 + whole]

@@ -217,12 +217,10 @@ def generate_session(
     ft_t = np.arange(m) / float(ft_rate_hz)
     c = scene.contact(ft_t)
     ti = track.index(ft_t)
-    truth = wrench(
-        c.fx, c.fy, c.normal, c.x, c.y, track.delta[ti], track.ux[ti], track.uy[ti], unit=unit
-    )
-    ft = ft_noise(m, float(ft_rate_hz), unit, rng_ft)
-    ft += truth
-    del truth
+    ft = wrench(
+        c.fx, c.fy, c.normal, c.x, c.y, track.delta[ti], track.ux[ti], track.uy[ti],
+        unit=unit, add_to=ft_noise(m, float(ft_rate_hz), unit, rng_ft),
+    )  # fmt: skip
     lo = np.clip(np.ceil(t0 * ft_rate_hz - 1e-9).astype(np.int64), 0, m - 1)
     hi = np.clip(np.ceil(t1 * ft_rate_hz - 1e-9).astype(np.int64), 1, m)
     hi = np.maximum(hi, lo + 1)
