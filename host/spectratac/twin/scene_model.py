@@ -178,7 +178,8 @@ class Scene:
         self.env.validate()
 
     def contact(self, t: F64) -> ContactState:
-        """Evaluate the contact at times ``t`` (s, any shape), vectorised."""
+        """Evaluate the contact at times ``t`` (s, any shape), vectorised; a long ascending
+        stream (a 1 kHz F/T, the mechanics grid) goes press by press, to the same values."""
         t = np.asarray(t, dtype=np.float64)
         p = self.presses
         shape = t.shape
