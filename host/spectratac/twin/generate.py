@@ -217,17 +217,19 @@ def generate_session(
     ft_t = np.arange(m) / float(ft_rate_hz)
     c = scene.contact(ft_t)
     ti = track.index(ft_t)
-    truth = wrench(
-        c.fx, c.fy, c.normal, c.x, c.y, track.delta[ti], track.ux[ti], track.uy[ti], unit=unit
-    )
-    ft = truth + ft_noise(m, float(ft_rate_hz), unit, rng_ft)
+    ft = wrench(
+        c.fx, c.fy, c.normal, c.x, c.y, track.delta[ti], track.ux[ti], track.uy[ti],
+        unit=unit, add_to=ft_noise(m, float(ft_rate_hz), unit, rng_ft),
+    )  # fmt: skip
     lo = np.clip(np.ceil(t0 * ft_rate_hz - 1e-9).astype(np.int64), 0, m - 1)
     hi = np.clip(np.ceil(t1 * ft_rate_hz - 1e-9).astype(np.int64), 1, m)
     hi = np.maximum(hi, lo + 1)
-    counts_per = (hi - lo).astype(np.float64)[:, None]
-    ft_window = _segment_sums(ft, lo, hi) / counts_per
-    applied = np.stack([c.fx, c.fy, -c.normal], axis=-1)  # board axes, whatever the mounting
-    force = _segment_sums(applied, lo, hi) / counts_per
+    counts_per = (hi - lo).astype(np.float64)
+    ft_window = _segment_sums(ft, lo, hi) / counts_per[:, None]
+    force = np.empty((t0.shape[0], 3))  # applied load in board axes, whatever the mounting
+    for k, column in enumerate((c.fx, c.fy, c.normal)):
+        force[:, k] = _segment_sums(column, lo, hi) / counts_per
+    force[:, 2] *= -1.0
 
     cm = scene.contact(tmid)
     return Session(
@@ -252,7 +254,19 @@ def generate_session(
 
 
 def _segment_sums(values: F64, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> F64:
-    """Sums of values[lo_i:hi_i] along axis 0 (segments sorted, non-overlapping)."""
-    csum = np.zeros((values.shape[0] + 1, values.shape[1]))
+    """Sums of values[lo_i:hi_i] along axis 0 (segments sorted, lo_i < hi_i).
+
+    Disjoint segments (windows at least one F/T sample long) are summed one by one
+    (`np.add.reduceat`, one pass, no running total of the whole stream); segments that share
+    samples (an F/T slower than the windows) take differences of a running total.
+    """
+    if lo.shape[0] and bool(np.all(hi[:-1] <= lo[1:])):
+        # reduceat sums bounds[k]:bounds[k+1]; even k are the segments, odd k the gaps (or a
+        # single sample where a gap is empty), dropped. The last segment runs to the end.
+        bounds = np.empty(2 * lo.shape[0], np.int64)
+        bounds[0::2], bounds[1::2] = lo, hi
+        end = int(hi[-1])
+        return np.add.reduceat(values[:end], bounds[:-1], axis=0)[0::2]
+    csum = np.zeros((values.shape[0] + 1, *values.shape[1:]))
     np.cumsum(values, axis=0, out=csum[1:])
     return csum[hi] - csum[lo]

@@ -62,11 +62,12 @@ def transport(
     tilt = np.maximum(1.0 + unit.tilt_gain * along, 0.0)
     vol = (a * a + unit.patch_floor_mm**2) * delta
     rho = unit.reflect_colour[None, :] * (1.0 + unit.reflect_strain[None, :] * delta[:, None])
-    refl = (
-        (unit.reflect_gain * vol[:, None] * kl)[:, :, None, None]
-        * (ks * tilt)[:, None, :, None]
-        * rho[:, None, None, :]
-    )
+    m = delta.shape[0]
+    # Two (M, j, k, c) buffers worked in place: the full-size temporaries of the plain
+    # expression cost more (allocation, page faults) than its arithmetic. Each product is the
+    # plain expression's, operands in the same order up to commutation, so the values are too.
+    out = np.empty((m, 3, 3, 3))
+    tmp = np.empty((m, 3, 3, 3))
     # Shadow: distance from the (sheared) surface contact to each LED->sensor segment.
     px = (x + ux)[:, None, None]
     py = (y + uy)[:, None, None]
@@ -79,19 +80,25 @@ def transport(
     dy = py - ay - s * aby
     width = (a + unit.shadow_width_mm)[:, None, None]
     near = np.exp(-(dx * dx + dy * dy) / (2.0 * width * width))  # (M, j, k)
-    loss = (unit.shadow_strength[None, None, None, :] * delta[:, None, None, None]) * near[
-        ..., None
-    ]
-    shadow = np.maximum(1.0 - loss, 0.02)
+    strength = unit.shadow_strength[None, :] * delta[:, None]  # (M, c)
+    np.multiply(strength[:, None, None, :], near[..., None], out=out)  # loss
+    np.subtract(1.0, out, out=out)
+    np.maximum(out, 0.02, out=out)  # shadow
+    np.multiply(out, unit.direct[None], out=out)
     bulk = 1.0 + unit.bulk_gain[None, :] * (delta + unit.preload_mm)[:, None]  # (M, c)
-    steer = 1.0 + (
-        (
-            ux[:, None, None] * _steer_dir(unit)[None, :, :, 0]
-            + uy[:, None, None] * _steer_dir(unit)[None, :, :, 1]
-        )[..., None]
-        * unit.steer_gain[None, None, None, :]
+    steer_dir = _steer_dir(unit)
+    along_steer = (
+        ux[:, None, None] * steer_dir[None, :, :, 0] + uy[:, None, None] * steer_dir[None, :, :, 1]
     )
-    t = unit.direct[None] * shadow * np.maximum(steer, 0.0) * bulk[:, None, None, :] + refl
+    np.multiply(along_steer[..., None], unit.steer_gain[None, None, None, :], out=tmp)
+    np.add(tmp, 1.0, out=tmp)
+    np.maximum(tmp, 0.0, out=tmp)  # steer
+    out *= tmp
+    out *= bulk[:, None, None, :]
+    patch = (unit.reflect_gain * vol[:, None] * kl)[:, :, None] * (ks * tilt)[:, None, :]
+    np.multiply(patch[..., None], rho[:, None, None, :], out=tmp)  # reflection
+    out += tmp
+    t = out
     if temperature_c is not None:
         t *= (1.0 + unit.transport_temp_coeff * (temperature_c - REFERENCE_TEMP_C))[
             :, None, None, None
