@@ -76,7 +76,7 @@ from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
-from spectratac.train.fitting import augmented
+from spectratac.train.fitting import augmented, with_gain_inputs
 from spectratac.train.groups import (
     GUARD_ROWS,
     N_BLOCKS,
@@ -306,6 +306,7 @@ def finetune(
             "label": np.asarray(dataset.region).astype(np.int64),
             "contact": np.asarray(dataset.in_contact, bool),
         }
+        with_gain_inputs(data, spec, rt, u)
         net_rows = fit_rows
         if spec.augment != "none":
             data, net_rows = augmented(dataset, p, rt, data, u, rt.y_scale, fit_rows)

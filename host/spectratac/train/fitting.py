@@ -91,6 +91,7 @@ def train(
         "label": np.asarray(dataset.region).astype(np.int64),
         "contact": np.asarray(dataset.in_contact, bool),
     }
+    with_gain_inputs(data, spec, rt, u)
     net_rows = fit_rows
     if spec.augment != "none":
         data, net_rows = augmented(dataset, p, rt, data, u, y_scale, fit_rows)
@@ -140,6 +141,14 @@ def train(
     return Decoder(rt, p.layout, guard, meta)
 
 
+def with_gain_inputs(data: dict[str, Any], spec: TrainSpec, rt: Runtime, u: F64) -> None:
+    """With `spec.gain_jitter`, add what the loop needs to rescale a batch: the assembled
+    inputs "u" (float32: they are kept beside z) and "normalise" (u -> z)."""
+    if spec.gain_jitter > 0:
+        data["u"] = u.astype(np.float32)
+        data["normalise"] = rt.with_dtype(np.float64).normalised
+
+
 def augmented(
     dataset: Dataset,
     p: Plan,
@@ -158,21 +167,22 @@ def augmented(
     )
     names = list(dataset.target_names)
     y_full = np.asarray(dataset.targets, np.float64)[fit_rows]
-    extra: dict[str, list[Any]] = {k: [] for k in data}
+    extra: dict[str, list[Any]] = {k: [] for k in data if k != "normalise"}
     for turns, mirror in symmetry.transforms(p.spec.augment):
         y_t = symmetry.rotate_targets(y_full, names, turns, mirror)[:, p.reg_cols]
         ok = data["y_ok"][fit_rows] & np.all(np.isfinite(y_t), axis=1)
-        extra["z"].append(
-            rt.with_dtype(np.float64).normalised(
-                symmetry.permute_assembled(u[fit_rows], turns, mirror)
-            )
-        )
+        u_t = symmetry.permute_assembled(u[fit_rows], turns, mirror)
+        extra["z"].append(rt.with_dtype(np.float64).normalised(u_t))
+        if "u" in extra:
+            extra["u"].append(u_t.astype(np.float32))
         extra["y"].append(np.where(ok[:, None], y_t, 0.0) / y_scale)
         extra["y_ok"].append(ok)
         extra["label"].append(symmetry.transform_labels(data["label"][fit_rows], turns, mirror))
         extra["contact"].append(data["contact"][fit_rows])
     n = data["z"].shape[0]
-    out = {k: np.concatenate([data[k], *extra[k]]) for k in data}
+    out: dict[str, Any] = {k: np.concatenate([data[k], *extra[k]]) for k in extra}
+    if "normalise" in data:
+        out["normalise"] = data["normalise"]
     return out, np.concatenate([fit_rows, np.arange(n, out["z"].shape[0])])
 
 

@@ -58,6 +58,14 @@ class TrainSpec:
     (keep the epoch with the lowest validation loss), weight_average (decay of an
     exponential moving average of the weights over steps, e.g. 0.999; 0 = off):
     training-only regularisation, free at inference.
+    gain_jitter: g > 0 scales every training row's assembled inputs (current sample, lags,
+    moving averages and drift baseline alike, so baseline ratios stay consistent) by a factor
+    drawn uniformly from [1 - g, 1 + g] afresh each batch, teaching the network that a unit
+    whose optical gain drifts by up to g presses as hard as before (networks only).
+    skip: a bias-free linear path from the features to the outputs beside the network
+    (decode/networks.py), initialised by least squares and trained with it, so that forces
+    beyond the training range extrapolate linearly instead of saturating (networks only;
+    the on-device model image does not carry it).
     """
 
     features: str = "paper33"
@@ -86,6 +94,8 @@ class TrainSpec:
     weight_average: float = 0.0
     degree: int = 1
     ridge_alpha: float = 0.0
+    gain_jitter: float = 0.0
+    skip: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
@@ -133,6 +143,13 @@ class TrainSpec:
                     f"TrainSpec.model='ridge' decodes regression targets only; drop "
                     f"{extra or 'uncertainty'} or use a network model"
                 )
+        if not 0.0 <= self.gain_jitter < 1.0:
+            raise DecoderError(f"TrainSpec.gain_jitter={self.gain_jitter}: use 0 <= g < 1")
+        if self.model == "ridge" and (self.gain_jitter or self.skip):
+            raise DecoderError(
+                "TrainSpec.gain_jitter and skip apply to networks: model='ridge' is linear "
+                "already; use a network model or drop them"
+            )
         if not 0.0 <= self.weight_average < 1.0:
             raise DecoderError("TrainSpec.weight_average must lie in [0, 1)")
         if self.best_val and self.val_fraction == 0.0:
