@@ -95,6 +95,7 @@ def train(
     net_rows = fit_rows
     if spec.augment != "none":
         data, net_rows = augmented(dataset, p, rt, data, u, y_scale, fit_rows)
+    data = gain_view(data, rt)
     if spec.model == "ridge":  # closed form, NumPy only
         from spectratac.train.ridge import fit_ridge
 
@@ -142,11 +143,21 @@ def train(
 
 
 def with_gain_inputs(data: dict[str, Any], spec: TrainSpec, rt: Runtime, u: F64) -> None:
-    """With `spec.gain_jitter`, add what the loop needs to rescale a batch: the assembled
-    inputs "u" (float32: they are kept beside z) and "normalise" (u -> z)."""
+    """With `spec.gain_jitter`, add the assembled inputs "u" (float32), which `augmented`
+    extends with the symmetric copies; `gain_view` then turns them into the loop's view."""
     if spec.gain_jitter > 0:
         data["u"] = u.astype(np.float32)
-        data["normalise"] = rt.with_dtype(np.float64).normalised
+
+
+def gain_view(data: dict[str, Any], rt: Runtime) -> dict[str, Any]:
+    """`data` with its assembled inputs "u" replaced by their GainView (train/gain.py)."""
+    if "u" not in data:
+        return data
+    from spectratac.train.gain import GainView
+
+    out = {k: v for k, v in data.items() if k != "u"}
+    out["gain"] = GainView(rt.with_dtype(np.float64), data["u"])
+    return out
 
 
 def augmented(
@@ -167,7 +178,7 @@ def augmented(
     )
     names = list(dataset.target_names)
     y_full = np.asarray(dataset.targets, np.float64)[fit_rows]
-    extra: dict[str, list[Any]] = {k: [] for k in data if k != "normalise"}
+    extra: dict[str, list[Any]] = {k: [] for k in data}
     for turns, mirror in symmetry.transforms(p.spec.augment):
         y_t = symmetry.rotate_targets(y_full, names, turns, mirror)[:, p.reg_cols]
         ok = data["y_ok"][fit_rows] & np.all(np.isfinite(y_t), axis=1)
@@ -180,9 +191,7 @@ def augmented(
         extra["label"].append(symmetry.transform_labels(data["label"][fit_rows], turns, mirror))
         extra["contact"].append(data["contact"][fit_rows])
     n = data["z"].shape[0]
-    out: dict[str, Any] = {k: np.concatenate([data[k], *extra[k]]) for k in extra}
-    if "normalise" in data:
-        out["normalise"] = data["normalise"]
+    out = {k: np.concatenate([data[k], *extra[k]]) for k in data}
     return out, np.concatenate([fit_rows, np.arange(n, out["z"].shape[0])])
 
 

@@ -232,12 +232,11 @@ def gain_jittered(
 ) -> Any:
     """z-scored features (torch, float32) of `rows` with each row's assembled inputs scaled
     by one factor from [1 - g, 1 + g]: a gain drift scales the sample, its history and the
-    drift baseline alike. `data` carries the assembled inputs "u" and their "normalise"."""
+    drift baseline alike. `data["gain"]` is the rows' GainView (train/gain.py)."""
     import torch
 
     factor = rng.uniform(1.0 - g, 1.0 + g, size=(rows.size, 1))
-    z = data["normalise"](np.asarray(data["u"][rows], np.float64) * factor)
-    return torch.from_numpy(np.asarray(z, np.float32))
+    return torch.from_numpy(np.asarray(data["gain"].z(rows, factor), np.float32))
 
 
 def skip_init(data: dict[str, Any], rows: NDArray[np.intp], n_out: int) -> NDArray[np.float32]:
