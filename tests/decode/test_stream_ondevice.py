@@ -83,7 +83,7 @@ def test_estimates_of_another_model_are_ignored_beside_and_refused_instead(
 def test_a_decoder_no_image_carries_is_decoded_on_the_host_beside_a_device_model(
     sensor: Sensor,
 ) -> None:
-    """A linear skip (TrainSpec.skip) has no model image: beside a device's own model the
+    """A linear skip (a skip.weight array) has no model image: beside a device's own model the
     host decodes it, instead of failing on the image id it cannot have."""
     other, dec = tiny_decoder(seed=1), tiny_decoder(seed=0)
     n_out, n_feat = dec.runtime.weights["head.weight"].shape[0], dec.runtime.features.n_features

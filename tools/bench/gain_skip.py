@@ -71,7 +71,7 @@ def main() -> None:
     figures: list[benchlib.Figure] = []
 
     # (a) gain drift
-    base = TrainSpec.best(epochs=args.epochs, seed=args.seed)
+    base = TrainSpec.best(epochs=args.epochs, seed=args.seed, gain_jitter=0.0)
     plain = train(pop, base, progress=False)
     jit = train(pop, replace(base, gain_jitter=args.jitter), progress=False)
     rows = np.arange(test.n)
