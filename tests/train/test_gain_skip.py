@@ -105,3 +105,22 @@ def test_the_skip_extrapolates_beyond_the_training_forces(tmp_path) -> None:
     np.testing.assert_array_equal(
         loaded.predict(ds, heavy).targets, skip.predict(ds, heavy).targets
     )
+
+
+@pytest.mark.subprocess
+def test_the_cli_trains_with_a_skip_and_gain_jitter(twin_ds, tmp_path) -> None:
+    """`spectratac train --skip --gain-jitter 0.1`, run as a person runs it: the model file
+    holds the skip and records both options."""
+    import subprocess
+    import sys
+
+    data = twin_ds.save(tmp_path / "d.npz")
+    out = tmp_path / "m.stac"
+    args = ["train", str(data), "-o", str(out), "--epochs", "2", "--hidden", "16",
+            "--skip", "--gain-jitter", "0.1", "--no-progress", "--threads", "1"]  # fmt: skip
+    run = subprocess.run([sys.executable, "-m", "spectratac", *args], capture_output=True,
+                         text=True, timeout=900)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    dec = Decoder.load(out)
+    spec = TrainSpec.from_dict(dec.meta["spec"])
+    assert spec.skip and spec.gain_jitter == 0.1 and SKIP in dec.runtime.weights
