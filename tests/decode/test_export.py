@@ -32,6 +32,14 @@ VARIANTS = {
         "drift": "baseline",
         "targets": ("Fx", "Fy", "Fz", "region", "contact"),
     },
+    # a linear skip beside the network (TrainSpec.skip), trained under gain jitter
+    "resmlp-skip-gain-drift": {
+        "skip": True,
+        "gain_jitter": 0.15,
+        "context": 1,
+        "drift": "baseline",
+        "targets": ("Fx", "Fy", "Fz", "region", "contact"),
+    },
 }
 STREAM_HARNESS = Path(__file__).parent / "c" / "stream_harness.c"
 
@@ -68,7 +76,7 @@ def test_numpy_runtime_file_and_fused_path(decoders, twin_ds, tmp_path, name) ->
     np.testing.assert_allclose(dec.runtime.run(u), ref, **TOL)  # float32 vs float64
 
 
-@pytest.mark.parametrize("name", ["paper", "linear-raw-unc"])
+@pytest.mark.parametrize("name", ["paper", "linear-raw-unc", "resmlp-skip-gain-drift"])
 def test_onnx_matches_numpy(decoders, twin_ds, tmp_path, name) -> None:
     import onnx
     import onnxruntime as ort
@@ -85,10 +93,11 @@ def test_onnx_matches_numpy(decoders, twin_ds, tmp_path, name) -> None:
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
-def test_torchscript_matches_numpy(decoders, twin_ds, tmp_path) -> None:
+@pytest.mark.parametrize("name", ["resmlp-context-drift", "resmlp-skip-gain-drift"])
+def test_torchscript_matches_numpy(decoders, twin_ds, tmp_path, name) -> None:
     import torch
 
-    dec = decoders["resmlp-context-drift"]
+    dec = decoders[name]
     module = torch.jit.load(str(dec.export("torchscript", tmp_path / "m.pt")))
     u = assembled(dec, twin_ds)
     with torch.no_grad():

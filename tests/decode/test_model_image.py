@@ -179,3 +179,17 @@ def test_the_layout_definition_refuses_padding_and_wrong_sizes(
         (tmp_path / name).write_text(text, encoding="utf-8")
     with pytest.raises(backend.ModelImageDefinitionError, match=message):
         backend.load(tmp_path / "model_image.toml")
+
+
+@pytest.mark.train
+def test_a_linear_skip_is_refused_not_dropped() -> None:
+    """The image has no section for the skip: encoding it would run the network without it
+    on the device (other forces than the host's), so the export refuses and says why."""
+    from spectratac.train import TrainSpec, train
+
+    small = {"epochs": 1, "hidden": 8, "blocks": 1, "threads": 1, "targets": ("Fx", "Fz")}
+    skipped = train(dataset(200), TrainSpec.paper(skip=True, **small), progress=False)
+    with pytest.raises(mi.ModelImageError, match=r"linear skip .* model image"):
+        mi.encode(skipped)
+    plain = train(dataset(200), TrainSpec.paper(**small), progress=False)
+    assert mi.describe(mi.encode(plain))["n_inputs"] == 12

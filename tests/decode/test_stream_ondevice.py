@@ -13,6 +13,7 @@ import pytest
 from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder, DecoderConfigError, Estimate
 from spectratac.decode.export import model_image
+from spectratac.decode.networks import SKIP
 from spectratac.device import Sensor
 
 pytestmark = pytest.mark.subprocess  # one test checks in a fresh interpreter that torch stays out
@@ -77,6 +78,24 @@ def test_estimates_of_another_model_are_ignored_beside_and_refused_instead(
     sensor.configure(integration_ms=50, leds=WHITE, estimates="instead")
     with pytest.raises(DecoderConfigError, match="only the estimates of its own model"):
         next(dec.stream(sensor, check_config=False))
+
+
+def test_a_decoder_no_image_carries_is_decoded_on_the_host_beside_a_device_model(
+    sensor: Sensor,
+) -> None:
+    """A linear skip (a skip.weight array) has no model image: beside a device's own model the
+    host decodes it, instead of failing on the image id it cannot have."""
+    other, dec = tiny_decoder(seed=1), tiny_decoder(seed=0)
+    n_out, n_feat = dec.runtime.weights["head.weight"].shape[0], dec.runtime.features.n_features
+    dec.runtime.weights[SKIP] = np.full((n_out, n_feat), 0.01, np.float32)
+    with pytest.raises(model_image.ModelImageError, match="linear skip"):
+        dec.model_id()
+    sensor.upload_model(model_image.encode(other), other.model_id())
+    sensor.configure(integration_ms=50, leds=WHITE, estimates="beside")
+    sensor.start()
+    got = list(itertools.islice(dec.stream(sensor, check_config=False), 5))
+    sensor.stop()
+    assert len(got) == 5 and all(np.isfinite(e.targets).all() for e in got)
 
 
 def test_streaming_device_estimates_does_not_import_torch(tmp_path) -> None:

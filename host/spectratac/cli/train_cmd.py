@@ -3,7 +3,8 @@
 spectratac train data.npz [more.npz ...] -o model.stac [--recipe paper|best|auto]
     [--budget 5m] [--ray ADDRESS] [--workers N]
     [--features F] [--model M] [--degree D] [--targets Fz,region] [--context K] [--drift baseline]
-    [--augment rotate+mirror] [--uncertainty] [--epochs N] [--batch-size B]
+    [--augment rotate+mirror] [--uncertainty] [--gain-jitter G] [--skip]
+    [--epochs N] [--batch-size B]
     [--seed S] [--holdout blocked|random] [--holdout-sessions 3,4,7]
     [--finetune BASE.stac]
     [--export onnx,c,...] [--json]
@@ -73,6 +74,7 @@ SPEC_OPTIONS = {
     "degree": "degree",
     "seed": "seed",
     "threads": "threads",
+    "gain_jitter": "gain_jitter",
 }
 EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt", "c": ".h"}
 
@@ -98,6 +100,15 @@ def register(subparsers: Any) -> None:
         "--augment", choices=AUGMENTS, help="train on rotated (and mirrored) presses too"
     )
     p.add_argument("--uncertainty", action="store_true", help="calibrated per-target std")
+    p.add_argument(
+        "--gain-jitter", type=float, metavar="G",
+        help="scale each training row's inputs by a factor in [1-G, 1+G] (best: 0.15)",
+    )  # fmt: skip
+    p.add_argument(
+        "--skip", action="store_true",
+        help="a linear path beside the network: forces beyond the training range extrapolate "
+        "(not in the on-device model image)",
+    )  # fmt: skip
     p.add_argument("--loss", choices=LOSSES)
     p.add_argument("--epochs", type=int)
     p.add_argument("--batch-size", type=int)
@@ -256,6 +267,8 @@ def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) 
         changes["context_ema"] = tuple(float(v) for v in column_names(args.ema) or ())
     if args.uncertainty:
         changes["uncertainty"] = True
+    if args.skip:
+        changes["skip"] = True
     return changes
 
 

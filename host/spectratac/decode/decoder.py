@@ -297,13 +297,23 @@ class Decoder:
 
         return model_image.model_id(model_image.encode(self, weights=weights))
 
+    def _image_id(self, weights: str) -> int | None:
+        """`model_id`, or None for a decoder no model image can carry (a linear skip, a
+        polynomial ridge, other inputs): no device runs it, so the host decodes."""
+        from spectratac.decode.export.model_image import ModelImageError
+
+        try:
+            return self.model_id(weights)
+        except ModelImageError:
+            return None
+
     def _decoded_by(self, sensor: EstimateStream) -> bool:
         """True if `sensor` streams on-device estimates of this decoder."""
         mode = sensor.estimates
         if mode == "off":
             return False
         info = sensor.model_info()
-        if info.has_model and info.model_id == self.model_id(info.weight_format):
+        if info.has_model and info.model_id == self._image_id(info.weight_format):
             return True
         if mode == "instead":
             raise DecoderConfigError(

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from spectratac.decode.networks import LN_EPS, SQRT_2_OVER_PI
+from spectratac.decode.networks import LN_EPS, SKIP, SQRT_2_OVER_PI
 
 F32 = NDArray[np.float32]
 F64 = NDArray[np.float64]
@@ -43,7 +43,7 @@ def _lin(w: dict[str, Any], name: str, half: bool = False, norm: str | None = No
 
 
 def compile_single(rt: Any) -> Callable[[Any], F32]:
-    if rt.features.M.shape[0]:
+    if rt.features.M.shape[0] or SKIP in rt.weights:
         return _unfused(rt)
     f32 = np.float32
     fs, w, heads = rt.features, rt.weights, rt.heads
@@ -167,8 +167,9 @@ def compile_single(rt: Any) -> Callable[[Any], F32]:
 
 
 def _unfused(rt: Any) -> Callable[[Any], F32]:
-    """The batch path on one row, for polynomial features: their products cannot be folded
-    into the first layer (a polynomial ridge is one small matrix product anyway)."""
+    """The batch path on one row, for polynomial features (their products cannot be folded
+    into the first layer; a polynomial ridge is one small matrix product anyway) and for a
+    linear skip (a second path from the features the fused plan does not carry)."""
     rt32 = rt.with_dtype(np.float32)
     out = np.empty(rt.heads.n_out, np.float32)
 

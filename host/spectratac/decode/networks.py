@@ -8,6 +8,10 @@ outputs are [scaled targets, log-scales (uncertainty), class logits, contact log
 - resmlp: the paper's shared backbone: stem Linear(F, H) -> GELU, `blocks` pre-norm residual
           blocks h + W2 GELU(W1 LayerNorm(h)), a final LayerNorm, head
 
+Optional linear skip (weights hold "skip.weight", shape (O, F), no bias): the head's output
+plus skip.weight @ z, so that features beyond the training range move the outputs linearly
+instead of through the backbone, whose final LayerNorm bounds what the head sees.
+
 GELU is the tanh approximation in training and inference alike (exact GELU differs ~1e-3).
 Weight names equal the torch module's state_dict keys.
 
@@ -31,6 +35,7 @@ Arch = tuple[str, int, int]  # (kind, hidden, blocks)
 
 LN_EPS = 1e-5
 SQRT_2_OVER_PI = 0.7978845608028654
+SKIP = "skip.weight"  # the optional linear path from the features to the outputs
 
 
 def gelu_tanh(x: F64) -> F64:
@@ -62,7 +67,10 @@ def forward(arch: Arch, w: Weights, z: F64) -> F64:
             u = layer_norm(h, w[p + "norm.weight"].astype(dt), w[p + "norm.bias"].astype(dt))
             h = h + lin(p + "fc2", gelu_tanh(lin(p + "fc1", u)))
         h = layer_norm(h, w["norm.weight"].astype(dt), w["norm.bias"].astype(dt))
-    return lin("head", h)
+    out = lin("head", h)
+    if SKIP in w:
+        out = out + z @ w[SKIP].T.astype(dt)
+    return out
 
 
 def layer_shapes(arch: Arch, n_in: int, n_out: int) -> list[tuple[str, int, int]]:

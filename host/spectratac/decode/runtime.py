@@ -36,7 +36,14 @@ from numpy.typing import NDArray
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.feature_matrices import FeatureSet
 from spectratac.decode.heads import Heads, postprocess
-from spectratac.decode.networks import Arch, Weights, forward, layer_shapes, norm_names
+from spectratac.decode.networks import (
+    SKIP,
+    Arch,
+    Weights,
+    forward,
+    layer_shapes,
+    norm_names,
+)
 from spectratac.decode.scaling import Standardizer
 
 F64 = NDArray[np.float64]
@@ -197,6 +204,8 @@ class Runtime:
             want[f"w/{name}.weight"], want[f"w/{name}.bias"] = (o, i), (o,)
         for name in norm_names(self.arch):
             want[f"w/{name}.weight"] = want[f"w/{name}.bias"] = (self.arch[1],)
+        if SKIP in self.weights:
+            want[f"w/{SKIP}"] = (self.heads.n_out, f)
         have = {f"w/{k}": v for k, v in self.weights.items()}
         have.update({f"feat/{k}": v for k, v in self.features.to_arrays().items()})
         have.update(center=self.center, f_mean=self.scaler.mean, f_std=self.scaler.std,

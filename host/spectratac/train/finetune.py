@@ -76,7 +76,7 @@ from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderDataError
 from spectratac.decode.guard import Guard
 from spectratac.decode.runtime import Runtime
-from spectratac.train.fitting import augmented
+from spectratac.train.fitting import augmented, gain_view, with_gain_inputs
 from spectratac.train.groups import (
     GUARD_ROWS,
     N_BLOCKS,
@@ -306,9 +306,11 @@ def finetune(
             "label": np.asarray(dataset.region).astype(np.int64),
             "contact": np.asarray(dataset.in_contact, bool),
         }
+        with_gain_inputs(data, spec, rt, u)
         net_rows = fit_rows
         if spec.augment != "none":
             data, net_rows = augmented(dataset, p, rt, data, u, rt.y_scale, fit_rows)
+        data = gain_view(data, rt)
         run_spec = replace(spec, best_val=bool(val_rows.size))
         weights, hist, val_hist = fit_network(
             run_spec, p, data, net_rows, val_rows, progress, start=dict(rt.weights),

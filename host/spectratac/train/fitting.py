@@ -91,9 +91,11 @@ def train(
         "label": np.asarray(dataset.region).astype(np.int64),
         "contact": np.asarray(dataset.in_contact, bool),
     }
+    with_gain_inputs(data, spec, rt, u)
     net_rows = fit_rows
     if spec.augment != "none":
         data, net_rows = augmented(dataset, p, rt, data, u, y_scale, fit_rows)
+    data = gain_view(data, rt)
     if spec.model == "ridge":  # closed form, NumPy only
         from spectratac.train.ridge import fit_ridge
 
@@ -140,6 +142,24 @@ def train(
     return Decoder(rt, p.layout, guard, meta)
 
 
+def with_gain_inputs(data: dict[str, Any], spec: TrainSpec, rt: Runtime, u: F64) -> None:
+    """With `spec.gain_jitter`, add the assembled inputs "u" (float32), which `augmented`
+    extends with the symmetric copies; `gain_view` then turns them into the loop's view."""
+    if spec.gain_jitter > 0:
+        data["u"] = u.astype(np.float32)
+
+
+def gain_view(data: dict[str, Any], rt: Runtime) -> dict[str, Any]:
+    """`data` with its assembled inputs "u" replaced by their GainView (train/gain.py)."""
+    if "u" not in data:
+        return data
+    from spectratac.train.gain import GainView
+
+    out = {k: v for k, v in data.items() if k != "u"}
+    out["gain"] = GainView(rt.with_dtype(np.float64), data["u"])
+    return out
+
+
 def augmented(
     dataset: Dataset,
     p: Plan,
@@ -162,11 +182,10 @@ def augmented(
     for turns, mirror in symmetry.transforms(p.spec.augment):
         y_t = symmetry.rotate_targets(y_full, names, turns, mirror)[:, p.reg_cols]
         ok = data["y_ok"][fit_rows] & np.all(np.isfinite(y_t), axis=1)
-        extra["z"].append(
-            rt.with_dtype(np.float64).normalised(
-                symmetry.permute_assembled(u[fit_rows], turns, mirror)
-            )
-        )
+        u_t = symmetry.permute_assembled(u[fit_rows], turns, mirror)
+        extra["z"].append(rt.with_dtype(np.float64).normalised(u_t))
+        if "u" in extra:
+            extra["u"].append(u_t.astype(np.float32))
         extra["y"].append(np.where(ok[:, None], y_t, 0.0) / y_scale)
         extra["y_ok"].append(ok)
         extra["label"].append(symmetry.transform_labels(data["label"][fit_rows], turns, mirror))

@@ -58,6 +58,15 @@ class TrainSpec:
     (keep the epoch with the lowest validation loss), weight_average (decay of an
     exponential moving average of the weights over steps, e.g. 0.999; 0 = off):
     training-only regularisation, free at inference.
+    gain_jitter: g > 0 scales every training row's assembled inputs (current sample, lags,
+    moving averages and drift baseline alike, so baseline ratios stay consistent) by a factor
+    drawn uniformly from [1 - g, 1 + g] afresh each batch, teaching the network that a unit
+    whose optical gain drifts by up to g presses as hard as before (networks only: the
+    closed-form ridge has no batches, so model="ridge" sets it to 0 and records that).
+    skip: a bias-free linear path from the features to the outputs beside the network
+    (decode/networks.py), initialised by least squares and trained with it, so that forces
+    beyond the training range extrapolate linearly instead of saturating (networks only;
+    the on-device model image does not carry it).
     """
 
     features: str = "paper33"
@@ -86,6 +95,8 @@ class TrainSpec:
     weight_average: float = 0.0
     degree: int = 1
     ridge_alpha: float = 0.0
+    gain_jitter: float = 0.0
+    skip: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "targets", tuple(self.targets))
@@ -133,6 +144,15 @@ class TrainSpec:
                     f"TrainSpec.model='ridge' decodes regression targets only; drop "
                     f"{extra or 'uncertainty'} or use a network model"
                 )
+        if not 0.0 <= self.gain_jitter < 1.0:
+            raise DecoderError(f"TrainSpec.gain_jitter={self.gain_jitter}: use 0 <= g < 1")
+        if self.model == "ridge" and self.skip:
+            raise DecoderError(
+                "TrainSpec.skip is a linear path beside a network: model='ridge' is linear "
+                "already; use a network model or drop skip"
+            )
+        if self.model == "ridge":  # best() with model="ridge": the closed form has no batches
+            object.__setattr__(self, "gain_jitter", 0.0)
         if not 0.0 <= self.weight_average < 1.0:
             raise DecoderError("TrainSpec.weight_average must lie in [0, 1)")
         if self.best_val and self.val_fraction == 0.0:
@@ -153,8 +173,10 @@ class TrainSpec:
         and loss with temporal context (lags 1-8 and moving averages over 0.5, 2, 8 s for the
         elastomer's creep), drift compensation (differences and ratios to the no-contact
         baseline), a 2-block ResMLP (fewer FLOPs per sample than the paper's 3 blocks),
-        training on every press also rotated and mirrored (the sensor's symmetry), batch
-        256, weight decay 0.05, weight averaging and Fz weighted 2 in the loss. On a blocked
+        training on every press also rotated and mirrored (the sensor's symmetry) and under
+        a +-15 % gain (gain_jitter: on a new twin unit read at 0.85 and 1.15 times its gain
+        it halves the force MAE, tools/bench/gain_skip.py), batch 256, weight decay 0.05,
+        weight averaging and Fz weighted 2 in the loss. On a blocked
         split of the twin's 3000 s calibration session it cuts MAE by 29, 32 and 27 %
         (Fx, Fy, Fz; 3 seeds) against the paper's recipe (studies/README.md)."""
         best = {
@@ -167,6 +189,7 @@ class TrainSpec:
             "augment": "rotate+mirror",
             "weight_decay": 0.05,
             "loss_weights": (("Fz", 2.0),),
+            "gain_jitter": 0.15,
         }
         spec = {**best, **overrides}
         if "loss_weights" not in overrides:  # only for the targets asked for

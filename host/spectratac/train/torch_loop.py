@@ -31,6 +31,7 @@ from spectratac.train.spec import TrainSpec
 
 PAPER_LOSS_WEIGHTS = {"Fx": 1.0, "Fy": 1.0, "Fz": 0.5, "Tx": 0.1, "Ty": 0.1, "Tz": 0.2}
 HUBER_DELTA = 0.1  # in scaled target units
+SKIP_RIDGE = 1e-2  # the skip's start: L2 penalty per row on z-scored features
 Progress = bool | Callable[[int, float], None]
 
 
@@ -93,9 +94,13 @@ def fit_network(
     torch.manual_seed(spec.seed)
     torch.set_num_threads(spec.threads or share)
     gen = torch.Generator().manual_seed(spec.seed)
+    rng = np.random.default_rng(spec.seed)
     heads = p.heads
     sl = heads.slices()
-    net = Net(spec.arch, p.features.n_features, heads.n_out, spec.dropout)
+    net = Net(spec.arch, p.features.n_features, heads.n_out, spec.dropout, skip=spec.skip)
+    if spec.skip and start is None:
+        with torch.no_grad():
+            net.skip.weight.copy_(torch.from_numpy(skip_init(data, fit_rows, heads.n_out)))
     if start is not None:
         net.load_state_dict({k: torch.as_tensor(np.asarray(v)) for k, v in start.items()})
     for name, param in net.named_parameters():
@@ -190,6 +195,8 @@ def fit_network(
             for idx in torch.split(perm, sizes):
                 batch = unpack({k: v[idx] for k, v in tr.items()})
                 z = batch["z"]
+                if spec.gain_jitter > 0:  # the same rows seen by a unit of another gain
+                    z = gain_jittered(data, fit_rows[idx.numpy()], spec.gain_jitter, rng)
                 if spec.input_noise > 0:  # regularises against press-specific detail
                     z = z + spec.input_noise * torch.randn(z.shape, generator=gen)
                 loss = loss_of(net(z), batch)
@@ -218,6 +225,36 @@ def fit_network(
             bar.close()
     final = avg.module if avg is not None else net
     return (best if best is not None else numpy_weights(final)), history, val_history
+
+
+def gain_jittered(
+    data: dict[str, Any], rows: NDArray[np.intp], g: float, rng: np.random.Generator
+) -> Any:
+    """z-scored features (torch, float32) of `rows` with each row's assembled inputs scaled
+    by one factor from [1 - g, 1 + g]: a gain drift scales the sample, its history and the
+    drift baseline alike. `data["gain"]` is the rows' GainView (train/gain.py)."""
+    import torch
+
+    factor = rng.uniform(1.0 - g, 1.0 + g, size=(rows.size, 1))
+    return torch.from_numpy(np.asarray(data["gain"].z(rows, factor), np.float32))
+
+
+def skip_init(data: dict[str, Any], rows: NDArray[np.intp], n_out: int) -> NDArray[np.float32]:
+    """The linear skip's start (n_out, F): least squares of the scaled regression targets on
+    the z-scored features over the rows with valid targets; zero for the other outputs. The
+    network then learns the residual, and the skip keeps the linear trend it found."""
+    z = np.asarray(data["z"][rows], np.float64)
+    y = np.asarray(data["y"][rows], np.float64).reshape(rows.size, -1)
+    ok = np.asarray(data["y_ok"][rows], bool)
+    w = np.zeros((n_out, z.shape[1]), np.float32)
+    if ok.any():
+        zo, yo = z[ok], y[ok]
+        # ridge, not plain least squares: the features are nearly collinear (raw counts and
+        # their differences), and an unpenalised fit cancels huge weights against each other,
+        # which float32 inference cannot reproduce
+        gram = zo.T @ zo + SKIP_RIDGE * zo.shape[0] * np.eye(zo.shape[1])
+        w[: y.shape[1]] = np.linalg.solve(gram, zo.T @ yo).T
+    return w
 
 
 def numpy_weights(net: Any) -> dict[str, NDArray[np.float32]]:

@@ -19,6 +19,7 @@ import numpy as np
 from spectratac.decode.assemble import GATE, STUCK, TAU
 from spectratac.decode.export.c_template import TEMPLATE
 from spectratac.decode.guard import DARK_COUNTS
+from spectratac.decode.networks import SKIP
 
 
 def fmt_values(values: Iterable[float]) -> str:
@@ -79,6 +80,7 @@ def render(dec: Any) -> str:
         "STAC_HAS_CONTACT": int(heads.contact),
         "STAC_ARCH_LINEAR": int(kind == "linear"),
         "STAC_ARCH_MLP": int(kind == "mlp"),
+        "STAC_HAS_SKIP": int(SKIP in w),
         "STAC_SATURATION": int(guard.saturation) if guard.saturation else 0,
         "STAC_N_DARK": len(guard.dark_cols),
         "STAC_DARK_COUNTS": f"{DARK_COUNTS:.1f}",
@@ -132,6 +134,8 @@ def render(dec: Any) -> str:
             data.append(_array(cname, np.stack([w[f"blocks.{i}.{key}"] for i in range(blocks)])))
         data += [_array("stac_final_g", w["norm.weight"]), _array("stac_final_b", w["norm.bias"])]
     data += [_array("stac_head_w", w["head.weight"]), _array("stac_head_b", w["head.bias"])]
+    if SKIP in w:
+        data.append(_array("stac_skip_w", w[SKIP]))
     if heads.n_reg:
         data += [
             _array("stac_y_scale", rt.y_scale),

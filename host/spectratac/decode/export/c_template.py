@@ -149,6 +149,11 @@ static inline int stac_decode(const stac_real u[STAC_N_IN], stac_real out[STAC_N
     stac_layernorm(h, stac_final_g, stac_final_b, STAC_HIDDEN, n);
     stac_linear(&stac_head_w[0][0], stac_head_b, n, STAC_HIDDEN, STAC_N_OUT, raw);
 #endif
+#if STAC_HAS_SKIP
+    /* the linear skip: features straight to the outputs, so that they extrapolate */
+    for (int o = 0; o < STAC_N_OUT; ++o)
+        for (int f = 0; f < STAC_N_FEAT; ++f) raw[o] += stac_skip_w[o][f] * z[f];
+#endif
 
     int flags = 0;
 #if STAC_N_REG > 0

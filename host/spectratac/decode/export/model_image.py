@@ -67,7 +67,7 @@ from spectratac.decode.generated.model_image_layout import (
     WEIGHT_FORMATS,
 )
 from spectratac.decode.guard import DARK_COUNTS
-from spectratac.decode.networks import layer_shapes, norm_names
+from spectratac.decode.networks import SKIP, layer_shapes, norm_names
 from spectratac.hardware.generated import vocabulary as vocab
 
 if TYPE_CHECKING:  # only the type: Decoder.model_id imports this module
@@ -164,6 +164,12 @@ def check_runnable(dec: Decoder) -> None:
         )
     if kind not in ARCHS:
         raise ModelImageError(f"architecture {kind!r} has no interpreter on the device")
+    if SKIP in rt.weights:
+        raise ModelImageError(
+            "this decoder has a linear skip (TrainSpec.skip) and the model image "
+            "(hardware/definitions/model_image.toml) does not carry one: decode it on the "
+            "host, or export('c') for firmware you build, or train with skip=False"
+        )
     if rt.features.M.shape[0]:
         raise ModelImageError(
             f"{rt.features.M.shape[0]} polynomial (monomial) features: the device computes "

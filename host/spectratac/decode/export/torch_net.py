@@ -14,7 +14,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from spectratac.decode.networks import LN_EPS, Arch
+from spectratac.decode.networks import LN_EPS, SKIP, Arch
 from spectratac.decode.paper_features import EPS
 
 
@@ -32,12 +32,18 @@ class Block(nn.Module):
 
 
 class Net(nn.Module):
-    """linear | mlp | resmlp over z-scored features, one fused head."""
+    """linear | mlp | resmlp over z-scored features, one fused head; `skip` adds a bias-free
+    linear path from the features to the outputs (networks.SKIP)."""
 
-    def __init__(self, arch: Arch, n_in: int, n_out: int, dropout: float = 0.0) -> None:
+    def __init__(
+        self, arch: Arch, n_in: int, n_out: int, dropout: float = 0.0, skip: bool = False
+    ) -> None:
         super().__init__()
         kind, hidden, blocks = arch
         self.kind = kind
+        self.has_skip = skip
+        if skip:
+            self.skip = nn.Linear(n_in, n_out, bias=False)
         self.act = nn.GELU(approximate="tanh")
         if kind == "mlp":
             dims = [n_in] + [hidden] * blocks
@@ -52,15 +58,19 @@ class Net(nn.Module):
             self.head = nn.Linear(n_in, n_out)
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
+        x = z
         if self.kind == "mlp":
             for layer in self.layers:
-                z = self.act(layer(z))
+                x = self.act(layer(x))
         elif self.kind == "resmlp":
-            z = self.act(self.stem(z))
+            x = self.act(self.stem(x))
             for b in self.blocks:
-                z = b(z)
-            z = self.norm(z)
-        return self.head(z)
+                x = b(x)
+            x = self.norm(x)
+        out = self.head(x)
+        if self.has_skip:
+            out = out + self.skip(z)
+        return out
 
 
 class Exported(nn.Module):
@@ -86,7 +96,8 @@ class Exported(nn.Module):
         self.register_buffer("mon", torch.as_tensor(np.asarray(fs.M), dtype=torch.long))
         self.has_mon = fs.M.shape[0] > 0
         self.eps = EPS
-        self.net = Net(rt.arch, fs.n_features, rt.heads.n_out).to(dtype)
+        skip = SKIP in rt.weights
+        self.net = Net(rt.arch, fs.n_features, rt.heads.n_out, skip=skip).to(dtype)
         state = {k: torch.as_tensor(v, dtype=dtype) for k, v in rt.weights.items()}
         self.net.load_state_dict(state)
         self.net.requires_grad_(False)  # an inference graph: no autograd bookkeeping
