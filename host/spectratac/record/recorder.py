@@ -39,6 +39,7 @@ from spectratac.errors import SpectraTacError
 from spectratac.protocol import Frame
 from spectratac.protocol.generated import messages as m
 from spectratac.record.describe import config_summary, info_dict
+from spectratac.record.duration_cut import DurationCut
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
     CONFIG,
@@ -168,6 +169,9 @@ class Recorder:
         # frames as they arrive, and (new epoch, host time) where a reconnect began one
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
+        # a duration ends on the device clock: samples past it are not written (see DurationCut)
+        duration = self.options.duration_s
+        self._cut = DurationCut(duration) if duration is not None else None
         self._samples = 0
         self._ft_rows = 0
         self._labels = 0
@@ -400,9 +404,14 @@ class Recorder:
             batch = []
             writer.json(EPOCH, _epoch_event(item, "reconnect", host_time), host_time)
             self._unwrap = Unwrapper()  # the device clock may have restarted
+            if self._cut is not None:
+                self._cut.new_epoch()
         self._write_frames(writer, batch)
 
     def _write_frames(self, writer: RecordingWriter, batch: list[tuple[Frame, float]]) -> None:
+        if self._cut is not None and batch:
+            kept = {id(f) for f in self._cut.keep([f for f, _ in batch])}
+            batch = [(f, t) for f, t in batch if id(f) in kept]
         if batch:
             if self.ground_truth is not None:
                 rows = self._truth(self.ground_truth, [f for f, _ in batch])

@@ -78,10 +78,16 @@ class SimTransport:
         except ModelStoreError as exc:
             self.world.release()
             raise DeviceError(str(exc)) from None
-        # The device and its twin are built: the world's clock may start (its first read).
-        epoch = self.world.epoch if self.world.paced else None
         self.ground_truth = SceneTruth(self.world.scene, self._describe())
-        self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
+        on_start = self._clock_started if self.world.paced else None
+        self.runner = DeviceRunner(self.device, opts.speed, on_start).start()
+
+    def _clock_started(self, now: float) -> float:
+        """The device's first stream started at host time `now` (its runner's thread): the
+        world's scene clock starts (unless another device's stream started it); its epoch."""
+        epoch = self.world.start_clock(now)
+        self.ground_truth.description["epoch"] = epoch
+        return epoch
 
     def _describe(self) -> dict[str, Any]:
         """The session message's "sim" block: what this device plays."""
@@ -92,7 +98,7 @@ class SimTransport:
             "speed": world.speed,
             "params": dict(opts.scene_params),
             "absent": list(opts.absent),
-            "epoch": world.epoch if world.paced else None,
+            "epoch": world.epoch,  # host time of scene 0 once a stream started (paced)
             "duration_s": world.scene.duration_s,
             "presses": len(world.scene.presses),
         }
