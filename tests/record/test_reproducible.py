@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from spectratac.dataset.build import build_datasets
 from spectratac.dataset.frames import recorded_samples
 from spectratac.record import RecordOptions, record_url

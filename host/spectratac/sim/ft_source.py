@@ -6,8 +6,9 @@ The F/T clock reads sensor = offset + (1 + drift) * scene seconds; sample k is t
 that clock reads k / rate, i.e. at scene time (k / rate - offset) / (1 + drift). Samples
 are computed ahead in blocks (one vectorised twin call per block) and released when their
 scene time has come, so a sender wakes often but pays for the twin rarely. Scene time starts
-with the world's first optical stream (`SimWorld.start_clock`); until then no sample is due. The first block
-is computed when the source is made, so a server is ready to answer before it is handed out.
+with the world's first optical stream (`SimWorld.start_clock`); until then no sample is due.
+The first block is computed when the source is made, so a server is ready to answer before it
+is handed out.
 
 >>> from spectratac.sim.url import parse_sim_url
 >>> from spectratac.sim.world import SimWorld
