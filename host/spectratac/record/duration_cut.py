@@ -14,6 +14,8 @@ as `Recorder.sensor_s` does.
 >>> cut = DurationCut(0.1)
 >>> [f.message.sample_seq for f in cut.keep([sample(k, 1000 + 50_000 * k) for k in range(4)])]
 [0, 1]
+>>> cut.reached, cut.kept
+(True, 2)
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class DurationCut:
         self._last_end_us = 0
         self._unwrap = Unwrapper()
         self.reached = False
+        self.kept = 0  # SAMPLE frames kept
 
     def new_epoch(self) -> None:
         """A reconnect: the device clock may restart; the sensor time so far is kept."""
@@ -56,6 +59,7 @@ class DurationCut:
                     self.reached = True
                 else:
                     self._last_end_us = t_end
+                    self.kept += 1
             if self.reached and isinstance(msg, (m.Sample, m.Estimate)):
                 continue
             kept.append(frame)

@@ -297,6 +297,10 @@ class Recorder:
         if self.ft is not None:
             self.ft.start()
         self.sensor.start()
+        if self.labeler is not None and self.ground_truth is not None:
+            # a simulated scene's clock starts with the stream: its label events' host times
+            # are known from now on
+            self.labeler = LabelQueue(self.ground_truth.label_events())
         writer.flush()
         return config_id
 
@@ -364,6 +368,8 @@ class Recorder:
             self.sensor.remove_listener(self._on_frame)
             self.sensor.remove_epoch_listener(self._on_epoch)
             self._move_frames(writer)
+            if self._cut is not None and self._cut.reached:
+                self._samples = self._cut.kept  # the samples past the duration are not in it
             if self.labeler is not None:
                 self._write_labels(writer, self.labeler.due(self._scene_now))
                 self._write_labels(writer, self.labeler.started(self._scene_now))

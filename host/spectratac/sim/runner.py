@@ -77,6 +77,22 @@ class DeviceRunner:
         except BaseException as exc:  # surfaced to the transport as a disconnect
             self.error = exc
 
+    def _step_held(self) -> list[bytes]:
+        """Step at the current device time, keeping what the device sends; those bytes."""
+        dev = self.device
+        held: list[bytes] = []
+
+        def keep(data: bytes, _t: int) -> bool:
+            held.append(data)
+            return True
+
+        sink, dev.on_tx = dev.on_tx, keep
+        try:
+            dev.step(dev.now_us)
+        finally:
+            dev.on_tx = sink
+        return held
+
     def _loop(self) -> None:
         dev = self.device
         fast = self.speed == MAX
@@ -95,12 +111,20 @@ class DeviceRunner:
                 # Answer at once, stamped with the current time: a TIME_SYNC reply stamped
                 # with the last step's time would skew every clock fit built on it.
                 paced_now = dev0 + int((arrived - wall0) * 1e6 * rate)
-                dev.step(dev.now_us if fast or not started else paced_now)
-                if not started and dev.streaming:
-                    started = True
-                    wall0, dev0 = arrived, dev.now_us
-                    if not fast and self.on_clock_start is not None:
-                        wall0, dev0 = self.on_clock_start(arrived), 0
+                if started:
+                    dev.step(dev.now_us if fast else paced_now)
+                else:
+                    # output held back until the clock has started: a host that sees its
+                    # START acknowledged finds the scene's epoch set
+                    replies = self._step_held()
+                    if dev.streaming:
+                        started = True
+                        wall0, dev0 = arrived, dev.now_us
+                        if not fast and self.on_clock_start is not None:
+                            wall0, dev0 = self.on_clock_start(arrived), 0
+                    for reply in replies:
+                        if dev.on_tx is not None:
+                            dev.on_tx(reply, dev.now_us)
             if not started:
                 with self._wake:
                     if not self._inbound and not self._stop:

@@ -79,6 +79,7 @@ class SimTransport:
             self.world.release()
             raise DeviceError(str(exc)) from None
         self.ground_truth = SceneTruth(self.world.scene, self._describe())
+        self.world.count_optical(+1)
         on_start = self._clock_started if self.world.paced else None
         self.runner = DeviceRunner(self.device, opts.speed, on_start).start()
 
@@ -157,6 +158,7 @@ class SimTransport:
         if self.faults is not None:
             self.faults.close()
         self.runner.stop()
+        self.world.count_optical(-1)
         self.world.release()
 
 

@@ -3,8 +3,9 @@ sim:// URL shares, so that the optical sensor and a simulated reference F/T sens
 on the same scene and seed see the same contact at the same moment.
 
 Scene time runs at `speed` times the host's monotonic clock from the world's epoch: the
-moment a host first starts a stream from one of its optical devices (its first START), not
-the moment the world was made or a device was opened. Until then scene time stays at 0, so
+moment a host first starts a stream from one of its optical devices (its first START), or,
+in a world without one, the moment its simulated F/T is first read; not the moment the world
+was made or a device was opened. Until then scene time stays at 0, so
 a recording is a function of its URL and options only: however long the host took to open
 and configure, its first integration window starts at scene time 0 and every later one on
 the same grid, and a simulated F/T sensor's samples fall on its own clock's grid in scene
@@ -62,6 +63,7 @@ class SimWorld:
         self._epoch: float | None = None  # set by the first stream that starts
         self._epoch_lock = threading.Lock()
         self._users = 0
+        self.optical = 0  # optical devices open on this world (their START starts the clock)
         self._ft_rig: TwinRig | None = None
 
     @property
@@ -69,6 +71,11 @@ class SimWorld:
         """Host monotonic time of scene time 0, or None while no stream has started."""
         with self._epoch_lock:
             return self._epoch
+
+    def count_optical(self, change: int) -> None:
+        """An optical device opened (+1) or closed (-1) on this world."""
+        with self._epoch_lock:
+            self.optical += change
 
     def start_clock(self, now: float) -> float:
         """Start scene time at host monotonic time `now` unless a stream already started it
@@ -126,4 +133,4 @@ class SimWorld:
         if epoch is None:
             return 0.0  # the scene waits at its start for the first stream
         t = time.monotonic() if now is None else now
-        return max(0.0, (t - epoch) * float(self.speed))
+        return (t - epoch) * float(self.speed)
