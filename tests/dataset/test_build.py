@@ -80,8 +80,12 @@ def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) ->
     TIME_SYNC at the current paced time, so what remains is the host's scheduling latency of
     the exchanges (sub-ms, more on a loaded machine): the bound is a few ms. The exact check
     of the chain is test_a_synthetic_twin_recording_builds_to_the_twin_dataset."""
-    sim = read_recording(tour_mcap).truth
-    truth = sim["epoch"] + tour.device_time_us / 1e6 / sim["speed"]
+    rec = read_recording(tour_mcap)
+    sim = rec.truth
+    # the scene's epoch (its first START, after the session message) from its label events
+    scene = rebuild_scene(sim)
+    epoch = rec.labels[0]["t_start"] - scene.presses.start[0] / sim["speed"]
+    truth = epoch + tour.device_time_us / 1e6 / sim["speed"]
     err = tour.t_end - truth
     assert abs(np.median(err)) < 3e-3 and np.ptp(err) < 2e-3, (np.median(err), np.ptp(err))
     assert np.all(tour.t_end > tour.t_start) and np.all(np.diff(tour.t_start) > 0)
