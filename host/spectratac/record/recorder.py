@@ -170,8 +170,9 @@ class Recorder:
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
         # a duration ends on the device clock: samples past it are not written (see DurationCut)
-        duration = self.options.duration_s
-        self._cut = DurationCut(duration) if duration is not None else None
+        # a scene's end cuts like a duration: both end on the device (scene) clock
+        ends = [d for d in (self.options.duration_s, self.scene_end_s) if d is not None]
+        self._cut = DurationCut(min(ends)) if ends else None
         self._samples = 0
         self._ft_rows = 0
         self._labels = 0

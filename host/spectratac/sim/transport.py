@@ -29,7 +29,7 @@ from spectratac.sim.ground_truth import SceneTruth
 from spectratac.sim.model_store import ModelStoreError, store_path
 from spectratac.sim.named_scenes import scene_settings
 from spectratac.sim.runner import MAX, DeviceRunner
-from spectratac.sim.url import parse_sim_url
+from spectratac.sim.url import SimOptions, parse_sim_url
 from spectratac.sim.world import SimWorld
 
 HIGH_WATER = 256 * 1024  # bytes the host has not read yet before the device waits / drops
@@ -102,6 +102,9 @@ class SimTransport:
             "epoch": world.epoch,  # host time of scene 0 once a stream started (paced)
             "duration_s": world.scene.duration_s,
             "presses": len(world.scene.presses),
+            # a paired simulated F/T's clock against this device's (scene) clock: the dataset
+            # averages it over each window exactly, as the scene defines them
+            "ft_clock": _ft_clock(opts) if opts.scene_params.get("ft") else None,
         }
 
     def _on_tx(self, data: bytes, _t: int) -> bool:
@@ -160,6 +163,16 @@ class SimTransport:
         self.runner.stop()
         self.world.count_optical(-1)
         self.world.release()
+
+
+def _ft_clock(opts: SimOptions) -> dict[str, float] | None:
+    """F/T sensor time = offset + (1 + drift) x device time, for a paced world's F/T."""
+    from spectratac.sim.ft_source import FTParams
+
+    if opts.speed == MAX:
+        return None
+    params = FTParams.from_sim(opts)
+    return {"offset_s": params.offset, "drift": params.drift}
 
 
 def open_sim_transport(url: str, baudrate: int) -> SimTransport:
