@@ -80,8 +80,12 @@ def test_device_windows_sit_on_the_host_clock(tour: Dataset, tour_mcap: Path) ->
     TIME_SYNC at the current paced time, so what remains is the host's scheduling latency of
     the exchanges (sub-ms, more on a loaded machine): the bound is a few ms. The exact check
     of the chain is test_a_synthetic_twin_recording_builds_to_the_twin_dataset."""
-    sim = read_recording(tour_mcap).truth
-    truth = sim["epoch"] + tour.device_time_us / 1e6 / sim["speed"]
+    rec = read_recording(tour_mcap)
+    sim = rec.truth
+    # the scene's epoch (its first START, after the session message) from its label events
+    scene = rebuild_scene(sim)
+    epoch = rec.labels[0]["t_start"] - scene.presses.start[0] / sim["speed"]
+    truth = epoch + tour.device_time_us / 1e6 / sim["speed"]
     err = tour.t_end - truth
     assert abs(np.median(err)) < 3e-3 and np.ptp(err) < 2e-3, (np.median(err), np.ptp(err))
     assert np.all(tour.t_end > tour.t_start) and np.all(np.diff(tour.t_start) > 0)
@@ -173,7 +177,7 @@ def test_metadata_names_unit_versions_configuration(
     [session] = meta["sessions"]
     assert session["scene"] == "tour" and session["ft_url"] == session["url"]
     assert session["n"] == tour.n and session["lost"] == 0 and not session["truncated"]
-    assert session["clock"]["scale"] == 10.0 and session["ft_clock"]["method"] == "envelope"
+    assert session["clock"]["scale"] == 10.0 and session["ft_clock"]["method"] == "declared"
     assert (
         np.all(np.diff(tour.sequence.astype(int)) == 1)
         and tour.ft_count[tour.target_valid].min() > 10
@@ -220,14 +224,20 @@ def test_lost_ft_samples_invalidate_exactly_the_windows_with_gaps(tmp_path: Path
     rec = read_recording(path)
     [ds] = session_datasets(rec)
     assert 0.05 < ds.target_valid.mean() < 0.95  # bursts of >= 3 losses are common at 20 %
-    t, _ = ft_host_times(rec.ft, 10.0)  # type: ignore[arg-type]
+    # the simulated F/T declares its clock against the device's: gaps judged on that clock
+    clock = ds.meta["sessions"][0]["ft_clock"]
+    assert rec.ft is not None and clock["method"] == "declared"
+    t = (rec.ft["sensor_time"] - clock["offset_s"]) / (1 + clock["drift"])
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    t0, t1 = samples["t_start_us"] / 1e6, samples["t_end_us"] / 1e6
     period = np.median(np.diff(t))
     big = np.flatnonzero(np.diff(t) > 3 * period)  # gaps wider than the default max gap
-    for i in np.flatnonzero(~ds.target_valid & (ds.t_start > t[0]) & (ds.t_end < t[-1])):
-        near = big[(t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i])]
+    for i in np.flatnonzero(~ds.target_valid & (t0 > t[0]) & (t1 < t[-1])):
+        near = big[(t[big + 1] > t0[i]) & (t[big] < t1[i])]
         assert len(near), "a window flagged invalid must straddle a real gap"
     for i in np.flatnonzero(ds.target_valid):
-        assert not np.any((t[big + 1] > ds.t_start[i]) & (t[big] < ds.t_end[i]))
+        assert not np.any((t[big + 1] > t0[i]) & (t[big] < t1[i]))
+    t, _ = ft_host_times(rec.ft, 10.0)
     # a generous --max-gap-ms accepts the same windows: averages over what remains
     # (inside the F/T's span: on a loaded host its last rows may arrive after the recording
     # stopped, which leaves the last windows uncovered, not gapped)

@@ -155,16 +155,22 @@ def test_frame_listener_sees_raw_frames_and_a_failing_one_is_dropped() -> None:
 def test_time_sync_replies_are_stamped_when_answered() -> None:
     # In a paced world device time is (host - epoch) * speed, so every exchange's device
     # stamps must fall inside its own host send/receive bracket (an answer stamped with the
-    # time of the device's previous step would fall before host_sent).
+    # time of the device's previous step would fall before host_sent). The clock runs from
+    # the first START (scene time waits at 0 before it).
     from spectratac.sim.world import SimWorld
 
     url = "sim://?scene=idle&seed=7&speed=1"
     with Sensor.open(url) as sensor:
         world = SimWorld.join(parse_sim_url(url))
         try:
+            before = sensor.sync_clock(2)
+            sensor.start()
             sync = sensor.sync_clock(8)
         finally:
             world.release()
+    assert all(ex.device_rx_us == ex.device_tx_us == 0 for ex in before.exchanges)
+    epoch = world.epoch
+    assert epoch is not None
     for ex in sync.exchanges:
-        assert ex.host_sent - 1e-4 <= world.epoch + ex.device_rx_us / 1e6
-        assert world.epoch + ex.device_tx_us / 1e6 <= ex.host_received + 1e-4
+        assert ex.host_sent - 1e-4 <= epoch + ex.device_rx_us / 1e6
+        assert epoch + ex.device_tx_us / 1e6 <= ex.host_received + 1e-4

@@ -50,6 +50,8 @@ def test_optical_and_ft_share_one_world() -> None:
     with Sensor.open(url) as sensor, open_ft(url) as ft:
         (key,) = set(SimWorld._registry) - before  # one world for both devices
         world = SimWorld._registry[key]
+        assert len(ft.read(100, timeout=0.3)) == 0, "no scene time before the optical START"
+        sensor.start()  # starts the world's scene clock: the F/T's samples follow
         rows = ft.read(100, timeout=5.0)
         assert world._users == 2
         # the F/T's scene time (from its own clock) matches the world's clock at arrival
@@ -88,8 +90,8 @@ def test_the_twins_first_build_is_not_charged_to_the_open_timeout(
 def test_a_scripted_scene_starts_when_its_devices_are_ready_not_when_built(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """The scene's clock starts once the devices are built, not while a loaded machine is
-    still building the F/T twin: otherwise at speed 4 the first scripted presses are over
+    """The scene's clock starts with the first stream, not while a loaded machine is still
+    building the F/T twin: otherwise at speed 4 the first scripted presses are over
     before the host reads a sample (the live session's flaky Snake commands)."""
     from spectratac.device import Sensor
     from spectratac.sim import world as world_module
@@ -107,6 +109,7 @@ def test_a_scripted_scene_starts_when_its_devices_are_ready_not_when_built(
     with Sensor.open(url) as sensor, open_ft(url) as ft:
         (key,) = set(SimWorld._registry) - before
         scene_s = SimWorld._registry[key].scene_time()
-        # both opens and the handshakes only: far less than the build's delay x speed
-        assert scene_s < delay_s * speed, f"the scene ran {scene_s:.1f} s before the host read"
+        # the scene waits at its start for the first stream, however slow the build was
+        assert scene_s == 0.0, f"the scene ran {scene_s:.1f} s before the host started it"
+        sensor.start()
         assert sensor.info is not None and len(ft.read(10, timeout=30.0)) == 10

@@ -77,8 +77,10 @@ def test_scene_labels_match_the_scene(tour_session: tuple[RecordingSummary, Reco
         assert e["scene_start"] == pytest.approx(p.start[i]) and e["scene_end"] == pytest.approx(
             p.end[i]
         )
-        epoch, speed = rec.truth["epoch"], 10.0
+        # host times from the scene's epoch (its first START, after the session message)
+        epoch, speed = rec.labels[0]["t_start"] - p.start[0] / 10.0, 10.0
         assert e["t_start"] == pytest.approx(epoch + p.start[i] / speed)
+    assert rec.epochs[0]["host_time"] <= epoch
     assert [e["region"] for e in rec.labels[:9]] == list(vocab.REGIONS)  # the tour's order
 
 

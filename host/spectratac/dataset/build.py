@@ -42,7 +42,7 @@ from spectratac.dataset.schema import (
     concat,
     split_by_config,
 )
-from spectratac.fusion import ClockFitError
+from spectratac.fusion import ClockFitError, window_average
 from spectratac.record.reader import Recording, read_recording
 
 
@@ -103,6 +103,10 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     samples, windows = _timed_samples(rec, scale, device_clock=link.clock_scale is None)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
+    declared = rec.truth.get("ft_clock") if opts.ft is None else None
+    if declared and rec.ft is not None and len(rec.ft) >= 2:
+        gap = None if max_gap is None else max_gap * scale  # host s to device s
+        targets, valid, count, ft_clock = _declared_ft_targets(rec.ft, samples, declared, gap)
     valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
@@ -201,6 +205,23 @@ def _timed_samples(rec: Recording, scale: float, device_clock: bool) -> tuple[np
         clock,
     )
     return np.concatenate([s for _, s, _ in parts]), windows
+
+
+def _declared_ft_targets(
+    ft: np.ndarray, samples: np.ndarray, clock: dict[str, float], max_gap_s: float | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    """Targets of a simulated F/T whose clock the recording declares against the device's
+    (F/T time = offset + (1 + drift) x device time): averaged over each window on the device
+    clock, so they depend on the scene alone, not on how the host clocks were fitted."""
+    t_device = (ft["sensor_time"] - clock["offset_s"]) / (1.0 + clock["drift"])
+    mean, valid, count = window_average(
+        t_device,
+        ft["wrench"],
+        samples["t_start_us"] / 1e6,
+        samples["t_end_us"] / 1e6,
+        max_gap_s=max_gap_s,
+    )
+    return mean, valid, count, {"method": "declared", **clock}
 
 
 def _session_meta(

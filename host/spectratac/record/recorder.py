@@ -39,6 +39,7 @@ from spectratac.errors import SpectraTacError
 from spectratac.protocol import Frame
 from spectratac.protocol.generated import messages as m
 from spectratac.record.describe import config_summary, info_dict
+from spectratac.record.duration_cut import DurationCut
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
     CONFIG,
@@ -168,6 +169,10 @@ class Recorder:
         # frames as they arrive, and (new epoch, host time) where a reconnect began one
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
+        # a duration ends on the device clock: samples past it are not written (see DurationCut)
+        # a scene's end cuts like a duration: both end on the device (scene) clock
+        ends = [d for d in (self.options.duration_s, self.scene_end_s) if d is not None]
+        self._cut = DurationCut(min(ends)) if ends else None
         self._samples = 0
         self._ft_rows = 0
         self._labels = 0
@@ -293,6 +298,10 @@ class Recorder:
         if self.ft is not None:
             self.ft.start()
         self.sensor.start()
+        if self.labeler is not None and self.ground_truth is not None:
+            # a simulated scene's clock starts with the stream: its label events' host times
+            # are known from now on
+            self.labeler = LabelQueue(self.ground_truth.label_events())
         writer.flush()
         return config_id
 
@@ -360,6 +369,8 @@ class Recorder:
             self.sensor.remove_listener(self._on_frame)
             self.sensor.remove_epoch_listener(self._on_epoch)
             self._move_frames(writer)
+            if self._cut is not None and self._cut.reached:
+                self._samples = self._cut.kept  # the samples past the duration are not in it
             if self.labeler is not None:
                 self._write_labels(writer, self.labeler.due(self._scene_now))
                 self._write_labels(writer, self.labeler.started(self._scene_now))
@@ -400,9 +411,14 @@ class Recorder:
             batch = []
             writer.json(EPOCH, _epoch_event(item, "reconnect", host_time), host_time)
             self._unwrap = Unwrapper()  # the device clock may have restarted
+            if self._cut is not None:
+                self._cut.new_epoch()
         self._write_frames(writer, batch)
 
     def _write_frames(self, writer: RecordingWriter, batch: list[tuple[Frame, float]]) -> None:
+        if self._cut is not None and batch:
+            kept = {id(f) for f in self._cut.keep([f for f, _ in batch])}
+            batch = [(f, t) for f, t in batch if id(f) in kept]
         if batch:
             if self.ground_truth is not None:
                 rows = self._truth(self.ground_truth, [f for f, _ in batch])

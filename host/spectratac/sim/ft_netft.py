@@ -148,6 +148,8 @@ class NetFTServer:
 
     def _emit(self) -> None:
         batch = self.source.pop_due()
+        if self._remaining == 1 and self.source.waiting:
+            batch = self.source.rest_sample()  # a probe before the scene's clock started
         n = len(batch.k)
         if n == 0 or self._client is None:
             return

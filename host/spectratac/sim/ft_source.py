@@ -5,14 +5,18 @@ sampled on the F/T's own crystal clock, with occasional losses.
 The F/T clock reads sensor = offset + (1 + drift) * scene seconds; sample k is taken when
 that clock reads k / rate, i.e. at scene time (k / rate - offset) / (1 + drift). Samples
 are computed ahead in blocks (one vectorised twin call per block) and released when their
-scene time has come, so a sender wakes often but pays for the twin rarely. The first block
-is computed when the source is made, so a server is ready to answer before it is handed out.
+scene time has come, so a sender wakes often but pays for the twin rarely. Scene time starts
+with the world's first optical stream (`SimWorld.start_clock`), or when the F/T is first read in
+a world without an optical device; until then no sample is due.
+The first block is computed when the source is made, so a server is ready to answer before it
+is handed out.
 
 >>> from spectratac.sim.url import parse_sim_url
 >>> from spectratac.sim.world import SimWorld
 >>> world = SimWorld.join(parse_sim_url("sim://?scene=press&seed=1&speed=10"))
 >>> src = FTSource(world, FTParams(rate=1000.0, loss=0.0, offset=0.05, drift=1e-4))
->>> batch = src.pop_due(world.epoch + 0.02)  # 0.2 scene s after the epoch
+>>> epoch = world.start_clock(__import__("time").monotonic())  # as an optical START does
+>>> batch = src.pop_due(epoch + 0.02)  # 0.2 scene s after the epoch
 >>> bool(len(batch.k) > 0), batch.wrench.shape[1], float(batch.sensor_time[0]) >= 0.05
 (True, 6, True)
 >>> world.release()
@@ -113,12 +117,18 @@ class FTSource:
 
     def next_due_host(self) -> float:
         """Host monotonic time at which the next sample is due."""
+        epoch = self._epoch(time.monotonic())
+        if epoch is None:  # scene time waits at 0 for the first optical stream: look again
+            return time.monotonic() + 0.01
         t_scene = float(self.scene_of_k(self._k_next))
-        return self.world.epoch + t_scene / self._speed
+        return epoch + t_scene / self._speed
 
     def pop_due(self, now: float | None = None) -> FTBatch:
-        """Every sample whose time has come by host time `now` (default: now), in order."""
+        """Every sample whose time has come by host time `now` (default: now), in order.
+        None has come before an optical stream started the scene clock."""
         t = time.monotonic() if now is None else now
+        if self._epoch(t) is None:
+            return _empty()
         k_due = math.floor(self.sensor_of(self.world.scene_time(t)) * self.params.rate)
         parts: list[FTBatch] = []
         while self._k_next <= k_due:
@@ -132,6 +142,25 @@ class FTSource:
         if not parts:
             return _empty()
         return parts[0] if len(parts) == 1 else _concat(parts)
+
+    @property
+    def waiting(self) -> bool:
+        """True while the scene clock waits for an optical stream (no sample is due)."""
+        return self.world.epoch is None and self.world.optical > 0
+
+    def rest_sample(self) -> FTBatch:
+        """The sample of the sensor clock's tick at scene 0 (the scene at rest), for a probe
+        answered while the scene waits; it precedes every sample `pop_due` will release."""
+        k = math.floor(self.sensor_of(0.0) * self.params.rate)
+        return self._compute(k, 1)
+
+    def _epoch(self, now: float) -> float | None:
+        """The world's epoch; an F/T alone in its world (no optical device) starts the scene
+        clock itself when first read, one beside an optical device waits for its START."""
+        epoch = self.world.epoch
+        if epoch is None and self.world.optical == 0:
+            epoch = self.world.start_clock(now)
+        return epoch
 
     def _compute(self, k0: int, n: int) -> FTBatch:
         k = np.arange(k0, k0 + n, dtype=np.int64)

@@ -4,13 +4,22 @@ One thread owns the device (the native core is not thread-safe): it feeds bytes 
 the host, steps the core when it wants to wake, and hands frames to a sink. With
 speed="max" device time jumps straight to the next wake-up while the device streams, so
 samples come as fast as the host can take them; the sink may block (back-pressure) and
-nothing is lost. While idle, time runs at the wall clock's rate even at speed="max".
+nothing is lost. While idle after a stream, time runs at the wall clock's rate even at
+speed="max".
+
+Device time is scene time, and it stays at 0 until the host first starts a stream: opening,
+GET_INFO, CONFIGURE and TIME_SYNC before it are answered at device time 0. The first START is
+taken at device time 0, so the first integration window starts at scene time 0 and every
+later one on the same grid, whatever the host's open delay: a recording depends on its URL
+and options only (host times aside). A paced runner asks `on_clock_start(host time)` for the
+epoch at that moment (its world's clock, started by the first stream of any of its devices).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 
 from spectratac.sim.device import SimDevice
 
@@ -22,15 +31,19 @@ RUN_STEPS = 32
 
 class DeviceRunner:
     def __init__(
-        self, device: SimDevice, speed: float | str = 1.0, epoch: float | None = None
+        self,
+        device: SimDevice,
+        speed: float | str = 1.0,
+        on_clock_start: Callable[[float], float] | None = None,
     ) -> None:
-        """`epoch`: host monotonic time at which device time was 0 (a shared world's clock;
-        paced runs only). By default device time starts at 0 now."""
+        """`on_clock_start(host monotonic time)`: the host time at which device time was 0,
+        asked when the first stream starts (a shared world's clock; paced runs only). By
+        default device time 0 is the moment of that first START."""
         if speed != MAX and (not isinstance(speed, (int, float)) or speed <= 0):
             raise ValueError(f"speed={speed!r}: give a positive number or 'max'")
         self.device = device
         self.speed = speed
-        self.epoch = epoch
+        self.on_clock_start = on_clock_start
         self._inbound = bytearray()
         self._wake = threading.Condition()
         self._stop = False
@@ -64,13 +77,28 @@ class DeviceRunner:
         except BaseException as exc:  # surfaced to the transport as a disconnect
             self.error = exc
 
+    def _step_held(self) -> list[bytes]:
+        """Step at the current device time, keeping what the device sends; those bytes."""
+        dev = self.device
+        held: list[bytes] = []
+
+        def keep(data: bytes, _t: int) -> bool:
+            held.append(data)
+            return True
+
+        sink, dev.on_tx = dev.on_tx, keep
+        try:
+            dev.step(dev.now_us)
+        finally:
+            dev.on_tx = sink
+        return held
+
     def _loop(self) -> None:
         dev = self.device
         fast = self.speed == MAX
         rate = 1.0 if fast else float(self.speed)  # device µs per wall µs when paced
         wall0, dev0 = time.monotonic(), dev.now_us
-        if self.epoch is not None and not fast:
-            wall0, dev0 = self.epoch, 0
+        started = False  # device (scene) time holds at its start until the first START
         while True:
             with self._wake:
                 if self._stop:
@@ -78,11 +106,30 @@ class DeviceRunner:
                 data = bytes(self._inbound)
                 self._inbound.clear()
             if data:
+                arrived = time.monotonic()
                 dev.feed(data)
                 # Answer at once, stamped with the current time: a TIME_SYNC reply stamped
                 # with the last step's time would skew every clock fit built on it.
-                paced_now = dev0 + int((time.monotonic() - wall0) * 1e6 * rate)
-                dev.step(dev.now_us if fast else paced_now)
+                paced_now = dev0 + int((arrived - wall0) * 1e6 * rate)
+                if started:
+                    dev.step(dev.now_us if fast else paced_now)
+                else:
+                    # output held back until the clock has started: a host that sees its
+                    # START acknowledged finds the scene's epoch set
+                    replies = self._step_held()
+                    if dev.streaming:
+                        started = True
+                        wall0, dev0 = arrived, dev.now_us
+                        if not fast and self.on_clock_start is not None:
+                            wall0, dev0 = self.on_clock_start(arrived), 0
+                    for reply in replies:
+                        if dev.on_tx is not None:
+                            dev.on_tx(reply, dev.now_us)
+            if not started:
+                with self._wake:
+                    if not self._inbound and not self._stop:
+                        self._wake.wait(0.05)
+                continue
             if fast and dev.streaming:
                 dev.run(RUN_STEPS)  # step(next_wake_us()) RUN_STEPS times, inside the library
                 wall0, dev0 = time.monotonic(), dev.now_us  # paced time resumes from here

@@ -29,7 +29,7 @@ from spectratac.sim.ground_truth import SceneTruth
 from spectratac.sim.model_store import ModelStoreError, store_path
 from spectratac.sim.named_scenes import scene_settings
 from spectratac.sim.runner import MAX, DeviceRunner
-from spectratac.sim.url import parse_sim_url
+from spectratac.sim.url import SimOptions, parse_sim_url
 from spectratac.sim.world import SimWorld
 
 HIGH_WATER = 256 * 1024  # bytes the host has not read yet before the device waits / drops
@@ -78,10 +78,17 @@ class SimTransport:
         except ModelStoreError as exc:
             self.world.release()
             raise DeviceError(str(exc)) from None
-        # The device and its twin are built: the world's clock may start (its first read).
-        epoch = self.world.epoch if self.world.paced else None
         self.ground_truth = SceneTruth(self.world.scene, self._describe())
-        self.runner = DeviceRunner(self.device, opts.speed, epoch).start()
+        self.world.count_optical(+1)
+        on_start = self._clock_started if self.world.paced else None
+        self.runner = DeviceRunner(self.device, opts.speed, on_start).start()
+
+    def _clock_started(self, now: float) -> float:
+        """The device's first stream started at host time `now` (its runner's thread): the
+        world's scene clock starts (unless another device's stream started it); its epoch."""
+        epoch = self.world.start_clock(now)
+        self.ground_truth.description["epoch"] = epoch
+        return epoch
 
     def _describe(self) -> dict[str, Any]:
         """The session message's "sim" block: what this device plays."""
@@ -92,9 +99,12 @@ class SimTransport:
             "speed": world.speed,
             "params": dict(opts.scene_params),
             "absent": list(opts.absent),
-            "epoch": world.epoch if world.paced else None,
+            "epoch": world.epoch,  # host time of scene 0 once a stream started (paced)
             "duration_s": world.scene.duration_s,
             "presses": len(world.scene.presses),
+            # a paired simulated F/T's clock against this device's (scene) clock: the dataset
+            # averages it over each window exactly, as the scene defines them
+            "ft_clock": _ft_clock(opts) if opts.scene_params.get("ft") else None,
         }
 
     def _on_tx(self, data: bytes, _t: int) -> bool:
@@ -151,7 +161,18 @@ class SimTransport:
         if self.faults is not None:
             self.faults.close()
         self.runner.stop()
+        self.world.count_optical(-1)
         self.world.release()
+
+
+def _ft_clock(opts: SimOptions) -> dict[str, float] | None:
+    """F/T sensor time = offset + (1 + drift) x device time, for a paced world's F/T."""
+    from spectratac.sim.ft_source import FTParams
+
+    if opts.speed == MAX:
+        return None
+    params = FTParams.from_sim(opts)
+    return {"offset_s": params.offset, "drift": params.drift}
 
 
 def open_sim_transport(url: str, baudrate: int) -> SimTransport:

@@ -3,10 +3,14 @@ sim:// URL shares, so that the optical sensor and a simulated reference F/T sens
 on the same scene and seed see the same contact at the same moment.
 
 Scene time runs at `speed` times the host's monotonic clock from the world's epoch: the
-moment its first device is ready to answer a host, not the moment the world was made. What
-takes long to build (each device's twin, and for a URL with ``ft=`` the F/T twin with its
-first evaluation) is built before the clock starts, so a loaded machine that builds slowly
-does not let a scripted scene run ahead of the host that opens it. Worlds are shared within
+moment a host first starts a stream from one of its optical devices (its first START), or,
+in a world without one, the moment its simulated F/T is first read; not the moment the world
+was made or a device was opened. Until then scene time stays at 0, so
+a recording is a function of its URL and options only: however long the host took to open
+and configure, its first integration window starts at scene time 0 and every later one on
+the same grid, and a simulated F/T sensor's samples fall on its own clock's grid in scene
+time. What takes long to build (each device's twin, and for a URL with ``ft=`` the F/T twin
+with its first evaluation) is built before any stream can start. Worlds are shared within
 one process by key (scene, seed, speed, scene parameters) and dropped when the last device
 releases them.
 
@@ -56,18 +60,29 @@ class SimWorld:
         self.scene = scene
         self.seed = seed
         self.speed = speed
-        self._epoch: float | None = None  # started by the first device that is ready
+        self._epoch: float | None = None  # set by the first stream that starts
         self._epoch_lock = threading.Lock()
         self._users = 0
+        self.optical = 0  # optical devices open on this world (their START starts the clock)
         self._ft_rig: TwinRig | None = None
 
     @property
-    def epoch(self) -> float:
-        """Host monotonic time of scene time 0: started on the first read, which devices
-        make once they are built and about to serve."""
+    def epoch(self) -> float | None:
+        """Host monotonic time of scene time 0, or None while no stream has started."""
+        with self._epoch_lock:
+            return self._epoch
+
+    def count_optical(self, change: int) -> None:
+        """An optical device opened (+1) or closed (-1) on this world."""
+        with self._epoch_lock:
+            self.optical += change
+
+    def start_clock(self, now: float) -> float:
+        """Start scene time at host monotonic time `now` unless a stream already started it
+        (the first stream wins: every device of the world shares its clock); the epoch."""
         with self._epoch_lock:
             if self._epoch is None:
-                self._epoch = time.monotonic()
+                self._epoch = now
             return self._epoch
 
     @classmethod
@@ -110,8 +125,12 @@ class SimWorld:
         return self.speed != MAX
 
     def scene_time(self, now: float | None = None) -> float:
-        """Scene seconds at host monotonic time `now` (default: now). Paced worlds only."""
+        """Scene seconds at host monotonic time `now` (default: now); 0 until the clock
+        starts. Paced worlds only."""
         if not self.paced:
             raise ValueError("speed=max has no wall-clock scene time; give a numeric speed")
+        epoch = self.epoch
+        if epoch is None:
+            return 0.0  # the scene waits at its start for the first stream
         t = time.monotonic() if now is None else now
-        return (t - self.epoch) * float(self.speed)
+        return (t - epoch) * float(self.speed)
