@@ -124,3 +124,23 @@ def test_the_cli_trains_with_a_skip_and_gain_jitter(twin_ds, tmp_path) -> None:
     dec = Decoder.load(out)
     spec = TrainSpec.from_dict(dec.meta["spec"])
     assert spec.skip and spec.gain_jitter == 0.1 and SKIP in dec.runtime.weights
+
+
+def test_the_guard_covers_the_gains_the_network_was_trained_on(twin_ds) -> None:
+    """A unit read at 0.9 or 1.1 times the training gain is what gain_jitter=0.15 trained
+    the network for: the guard's input checks (range and distance) do not flag it for that
+    alone, where a plain model's flag every row; a gain far beyond the jitter still is."""
+    small = {**SMALL, "epochs": 1, "drift": "baseline"}
+    plain = train(twin_ds, TrainSpec.paper(**small), progress=False)
+    jit = train(twin_ds, TrainSpec.paper(**small, gain_jitter=0.15), progress=False)
+    x = np.asarray(twin_ds.inputs, np.float64)  # the current sample's inputs: the guard's
+    assert x.shape[1] == jit.layout.base
+
+    def flagged(dec: Decoder, gain: float) -> float:
+        return float(np.mean(dec.guard.check(gain * x)))
+
+    assert flagged(jit, 1.0) < 0.01 and flagged(plain, 1.0) < 0.01  # its own rows
+    for gain in (0.9, 1.1):
+        assert flagged(plain, gain) > 0.5, gain
+        assert flagged(jit, gain) < 0.01, gain
+    assert flagged(jit, 1.6) > 0.9

@@ -8,6 +8,9 @@ exceeds DIST_MARGIN x the DIST_QUANTILE of the training rows' distances, or when
 target lies outside its training range widened the same way, or at the
 edge of it: within EDGE of the span from the training extreme that lies away from zero (a
 network saturates there, so a load beyond the training range reads as one at its edge).
+A decoder trained under a gain (`TrainSpec.gain_jitter` g) was taught to read inputs scaled
+by 1 - g ... 1 + g: its guard is fitted on the training inputs at those gains too, so a unit
+whose optical gain differs by less than g is not flagged for that alone (`Guard.fit`'s gain).
 
 Bounds: inputs are clipped to INPUT_SPANS spans around their training range before decoding
 (an input of 1e30 overflows float32 features to NaN) and targets to one span beyond their
@@ -58,8 +61,21 @@ class Guard:
 
     @classmethod
     def fit(
-        cls, x: F64, y: F64, saturation: float | None = None, dark_cols: list[int] | None = None
+        cls,
+        x: F64,
+        y: F64,
+        saturation: float | None = None,
+        dark_cols: list[int] | None = None,
+        gain: float = 0.0,
     ) -> Guard:
+        """The guard of training inputs x (N, B) and targets y (N, R); with `gain` g > 0
+        the inputs' range and distance model also cover x scaled by 1 - g and 1 + g.
+
+        >>> x, y = np.array([[10.0, 20.0], [20.0, 10.0], [15.0, 15.0]]), np.zeros((3, 1))
+        >>> [bool(Guard.fit(x, y, gain=g).check(1.12 * x[:1])[0]) for g in (0.0, 0.15)]
+        [True, False]
+        """
+
         def rng(a: F64) -> tuple[F64, F64]:
             if a.shape[0] == 0:
                 return np.full(a.shape[1], -np.inf), np.full(a.shape[1], np.inf)
@@ -68,6 +84,10 @@ class Guard:
             return lo - MARGIN * span, hi + MARGIN * span
 
         x = np.asarray(x, np.float64)
+        if not 0.0 <= gain < 1.0:
+            raise ValueError(f"guard gain {gain}: use 0 <= gain < 1 (TrainSpec.gain_jitter)")
+        if gain > 0:  # the network was trained on these scalings: they are in distribution
+            x = np.concatenate([(1.0 - gain) * x, x, (1.0 + gain) * x])
         in_lo, in_hi = rng(x)
         t_lo, t_hi = rng(np.asarray(y, np.float64))
         g = cls(in_lo, in_hi, t_lo, t_hi, saturation, list(dark_cols or []))

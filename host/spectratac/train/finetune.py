@@ -343,7 +343,11 @@ def finetune(
         refit, out_rt, history, val_history, n_augmented = runs[kept]
     y_fit = y_all[fit_rows][tv[fit_rows]]
     new_guard = Guard.fit(
-        u[fit_rows, : p.layout.base], y_fit, base.guard.saturation, base.guard.dark_cols
+        u[fit_rows, : p.layout.base],
+        y_fit,
+        base.guard.saturation,
+        base.guard.dark_cols,
+        gain=spec.gain_jitter,
     )
     guard = Guard(
         np.minimum(base.guard.in_lo, new_guard.in_lo),

@@ -114,7 +114,8 @@ def train(
         if is_st
         else []
     )
-    guard = Guard.fit(u[fit_rows, :base], y_fit, SATURATION if is_st else None, dark)
+    guard = Guard.fit(u[fit_rows, :base], y_fit, SATURATION if is_st else None, dark,
+                      gain=spec.gain_jitter)  # fmt: skip
     meta = {
         "spec": spec.to_dict(),
         "features": {"kind": spec.features, "names": p.features.names},
