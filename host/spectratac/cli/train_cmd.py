@@ -360,9 +360,8 @@ def _human(s: dict[str, Any]) -> str:
         )
         for t, v in fwd["mean_mae"].items():
             lines.append(f"    {t:<8} {v:.4g} / {fwd['worst_mae'].get(t, float('nan')):.4g}")
-    if s.get("expected_mae"):
-        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["expected_mae"].items())
-        lines.append(f"  expect on a new session: MAE {cells} ({s['expected_source']})")
+    if s.get("expected_text"):
+        lines.append("  " + s["expected_text"].replace("\n", "\n  "))
     if s["warning"]:
         lines.append(f"  WARNING: {s['warning']}")
     if s["class_accuracy"] is not None:
