@@ -61,6 +61,16 @@ def test_forward_chaining_reports_later_sessions_and_the_worst_group() -> None:
     assert expected["Fz"] > check.heldout_mae["Fz"]
 
 
+def test_the_worst_held_out_session_is_a_session() -> None:
+    """Held out were whole sessions: the worst group reported is one of them (it was a time
+    block or a press of the held-out session, labelled as a session)."""
+    ds = drifting()
+    check = fit(ds, RIDGE, progress=False).check
+    assert check.heldout_groups == "session" and check.n_heldout == 200  # one session of six
+    assert check.heldout_worst_group in set(np.asarray(ds.session).tolist())
+    assert check.heldout_worst == pytest.approx(check.heldout_mae)  # the only one held out
+
+
 def test_train_prints_what_to_expect_on_a_new_session(tmp_path, capsys) -> None:
     data = drifting().save(tmp_path / "d.npz")
     args = ["train", str(data), "--model", "ridge", "--features", "generic", "--targets", "Fz",

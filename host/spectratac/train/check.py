@@ -57,7 +57,7 @@ from spectratac.dataset.schema import Dataset
 from spectratac.decode.assemble import session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.hardware.generated.vocabulary import AXIS_UNITS
-from spectratac.train.groups import Split, row_groups, val_split
+from spectratac.train.groups import Split, press_units, row_groups, val_split
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import rows_of
 
@@ -209,11 +209,19 @@ def held_out_check(
 def worst_group(
     model: Decoder, dataset: Dataset, held: Rows, kind: str
 ) -> tuple[dict[str, float], int | None]:
-    """MAE of the held-out group (session, press or block) with the largest mean error."""
+    """MAE of the held-out group with the largest mean error, the groups being of the `kind`
+    held out: sessions, presses (a press and the idle rows after it), else time blocks."""
     if held.size == 0:
         return {}, None
-    groups = row_groups(dataset.session, dataset.press, dataset.t_end, held)
-    ids = np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
+    ses = np.asarray(dataset.session, np.int64)
+    press = np.asarray(dataset.press, np.int64)
+    if kind == "session":  # whole sessions, even when the rows hold only one (then: its MAE)
+        ids = ses[held]
+    elif kind == "press" or (kind == "auto" and np.any(press[held] >= 0)):
+        ids = press_units(np.asarray(dataset.t_end), ses, press)[held]
+    else:
+        groups = row_groups(ses, press, dataset.t_end, held)
+        ids = np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
     best: tuple[float, dict[str, float], int | None] = (-1.0, {}, None)
     for g in np.unique(ids):
         mae = decoder_mae(model, dataset, held[ids == g])
