@@ -13,7 +13,11 @@ figure within 1.3x of the next sessions' error. Same arguments, same figures (`-
 seeds every session's conditions, presses and noise).
 
     PYTHONPATH=host python tools/bench/heldout_forward.py [--units 0-7] [--session-s 120]
-        [--train 6] [--next 2] [--seed 0] [--model ridge|paper] [--json]
+        [--train 6] [--next 2] [--seed 0] [--model ridge|paper] [--variants] [--json]
+
+`--variants` also scores other summaries of the forward folds (all folds, the last, recent
+ones weighted, a linear trend extrapolated to the sessions scored, folds scored one and two
+sessions ahead), each trained like the printed one.
 """
 
 from __future__ import annotations
@@ -21,13 +25,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 from benchlib import Figure, parser, report
 from spectratac.dataset import Dataset, concat
 from spectratac.sim.named_scenes import named_scene
 from spectratac.sim.twin_dataset import from_twin_session, population
-from spectratac.train import TrainSpec, fit
+from spectratac.train import TrainSpec, fit, train
 from spectratac.train.metrics import decoder_mae
 from spectratac.twin.generate import generate_session
 from spectratac.twin.session import SessionConditions
@@ -79,6 +84,7 @@ def unit_figures(unit: int, args: argparse.Namespace, spec: TrainSpec) -> list[F
     reps.meta["unit_id"] = ds.meta["unit_id"]  # the same unit, named as `population` names it
     rep = decoder_mae(trained.decoder, reps, np.arange(reps.n))
     rr = trained.check.heldout_mae
+    alt = variants(ds, spec, args) if args.variants else {}
     out = []
     for t in FORCES:
         extra = {
@@ -89,10 +95,41 @@ def unit_figures(unit: int, args: argparse.Namespace, spec: TrainSpec) -> list[F
             "replicate": rep[t],
             "replicate_ratio": rep[t] / truth[t],
             "forward_sessions": trained.check.forward.per_session if trained.check.forward else {},
+            "variants": {name: v[t] / truth[t] for name, v in alt.items()},
         }
         out.append(Figure(f"unit {unit} {t} printed figure ({args.model})", expected[t], "N MAE",
                           f"unit {unit} {t} MAE on the next {args.next} sessions", truth[t],
                           expected[t] / truth[t], extra))  # fmt: skip
+    return out
+
+
+def variants(ds: Dataset, spec: TrainSpec, args: argparse.Namespace) -> dict[str, dict[str, float]]:
+    """Other figures forward chaining could print, from every fold the training sessions
+    allow (a model trained on sessions < k, scored on session k and, where trained on, k + 1):
+    {variant: {force: MAE}}, beside the printed mean of the last three folds."""
+    ses = np.asarray(ds.session, np.int64)
+    ks = list(range(2, args.train))
+    one, two = {}, {}
+    for k in ks:
+        dec = train(ds, spec, rows=np.flatnonzero(ses < k), progress=False)
+        one[k] = decoder_mae(dec, ds, np.flatnonzero(ses == k))
+        if k + 1 < args.train:
+            two[k] = decoder_mae(dec, ds, np.flatnonzero(ses == k + 1))
+    horizon = args.train + (args.next - 1) / 2  # the middle of the sessions scored
+    halving = np.array([0.5 ** (ks[-1] - k) for k in ks])
+    out: dict[str, dict[str, float]] = {}
+    for t in FORCES:
+        e = np.array([one[k][t] for k in ks])
+        slope, icpt = np.polyfit(ks, e, 1)
+        for name, v in (
+            ("all folds", e.mean()),
+            ("last fold", e[-1]),
+            ("recent folds weighted (halving)", halving @ e / halving.sum()),
+            ("linear trend over time, extrapolated", slope * horizon + icpt),
+            ("folds scored 1 and 2 sessions ahead", np.mean([one[k][t] for k in two] +
+                                                            [two[k][t] for k in two])),
+        ):  # fmt: skip
+            out.setdefault(name, {})[t] = float(v)
     return out
 
 
@@ -104,18 +141,22 @@ def summary(figures: list[Figure], args: argparse.Namespace) -> list[Figure]:
     """The share of ratios within the target, for the printed, round-robin and replicate
     figures, with the range and geometric mean of each."""
     out = []
-    for what, get in (
+    kinds: list[tuple[str, Callable[[Figure], float]]] = [
         ("printed figure", lambda f: f.ratio),
         ("round-robin figure", lambda f: f.extra["round_robin_ratio"]),
         ("replicate of the next sessions", lambda f: f.extra["replicate_ratio"]),
-    ):
+    ]
+    for name in figures[0].extra["variants"]:
+        kinds.append((f"variant: {name}", lambda f, n=name: f.extra["variants"][n]))
+    for what, get in kinds:
         r = np.array([get(f) for f in figures])
         share = float(np.mean([within(v) for v in r]))
         config = {k: v for k, v in vars(args).items() if k != "json"}
         out.append(Figure(f"share within {TARGET}x: {what}", share, "of ratios",
                           "target: all", 1.0, share,
                           {"n": int(r.size), "min": float(r.min()), "max": float(r.max()),
-                           "geomean": float(np.exp(np.mean(np.log(r)))), "met": share == 1.0,
+                           "geomean": float(np.exp(np.mean(np.log(np.maximum(r, 1e-9))))),
+                           "met": share == 1.0,
                            "config": config}))  # fmt: skip
     return out
 
@@ -143,6 +184,7 @@ def main() -> None:
     p.add_argument("--model", choices=("ridge", "paper"), default="ridge")
     p.add_argument("--epochs", type=int, default=10, help="--model paper")
     p.add_argument("--seed", type=int, default=0, help="seeds sessions' conditions")
+    p.add_argument("--variants", action="store_true", help="also score other fold summaries")
     args = p.parse_args()
     spec = (
         TrainSpec(model="ridge", targets=FORCES)
