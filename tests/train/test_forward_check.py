@@ -42,14 +42,17 @@ def drifting(n_sessions: int = 6, n: int = 200, seed: int = 0) -> Dataset:
 def test_forward_chaining_reports_later_sessions_and_the_worst_group() -> None:
     ds = drifting()
     check = fit(ds, RIDGE, progress=False).check
-    assert check.forward is not None and check.forward.sessions == [3, 4, 5]
+    assert check.forward is not None and check.forward.sessions == [2, 3, 4, 5]
     fwd = check.forward.mean_mae["Fz"]
     # the round-robin figure interpolates across the ageing; forward chaining does not
     assert fwd > 1.3 * check.heldout_mae["Fz"], (fwd, check.heldout_mae)
     assert check.forward.worst_mae["Fz"] >= fwd
+    # each later session weighs twice the one before it: drift grows with time
+    folds = [check.forward.per_session[str(s)]["Fz"] for s in (2, 3, 4, 5)]
+    assert fwd == pytest.approx(np.dot([1, 2, 4, 8], folds) / 15)
     assert check.heldout_worst["Fz"] >= check.heldout_mae["Fz"] - 1e-12
     expected, source = check.expected()
-    assert expected == check.forward.mean_mae and "forward check over 3 sessions" in source
+    assert expected == check.forward.mean_mae and "forward check over 4 sessions" in source
     # it predicts the next, unseen session: train on all six, score the seventh
     later = drifting(n_sessions=7)
     nxt = later.arrays["session"] == 6
@@ -79,14 +82,14 @@ def test_train_prints_what_to_expect_on_a_new_session(tmp_path, capsys) -> None:
     out = capsys.readouterr().out
     assert "expect on your next session: Fz ~" in out and "forward in time" in out, out
     said = " ".join(out.split())  # the sentence is wrapped to the terminal's width
-    assert "forward check over 3 sessions in session number order" in said, out
+    assert "forward check over 4 sessions in session number order" in said, out
     assert "worst, session 5: Fz" in said, out
     assert "worst held-out session" in out
     assert main([*args[:-3], "-o", str(tmp_path / "n.stac"), "--json", "--no-progress"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["expected_mae"]["Fz"] == rep["forward"]["mean_mae"]["Fz"]
     assert rep["expected_text"].startswith("expect on your next session: Fz ~")
-    assert rep["forward"]["sessions"] == [3, 4, 5]
+    assert rep["forward"]["sessions"] == [2, 3, 4, 5]
 
 
 def test_one_session_has_no_forward_figure() -> None:
@@ -160,7 +163,7 @@ def test_sessions_numbered_out_of_time_order_are_chained_by_their_start_times() 
                            for s in range(6)]  # fmt: skip
     check = fit(ds, RIDGE, progress=False).check
     assert check.forward is not None and check.forward.ordered_by == "recording"
-    assert check.forward.sessions == [1, 4, 2]  # days 3, 4, 5
+    assert check.forward.sessions == [5, 1, 4, 2]  # days 2, 3, 4, 5
     assert "in recording order" in " ".join(check.expected_text().split())
     in_order = fit(drifting(), RIDGE, progress=False).check
     assert check.forward.mean_mae["Fz"] == pytest.approx(in_order.forward.mean_mae["Fz"])

@@ -355,7 +355,7 @@ def _human(s: dict[str, Any]) -> str:
     if fwd:
         lines.append(
             f"  forward in time (trained on earlier sessions, scored on sessions "
-            f"{', '.join(map(str, fwd['sessions']))}): mean / worst (session "
+            f"{', '.join(map(str, fwd['sessions']))}): recent-weighted mean / worst (session "
             f"{fwd['worst_session']})"
         )
         for t, v in fwd["mean_mae"].items():
