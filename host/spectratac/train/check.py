@@ -29,9 +29,10 @@ ageing and room, other presses) 72. With 30-s sessions (7 presses, seed 0) every
 misses about a quarter or more (printed 18 of 24, 0.57-1.60; last 3 folds 17; round-robin
 13), and so does the replicate (19 of 24, 0.74-1.54): a 7-press session's MAE depends on
 which presses it holds by more than 1.3x, which no figure computed before the session can
-know. A network (`--model paper --epochs 5`, units 0-3, seed 0, measured with the plain
-mean of the last 3 folds) was under-predicted more: 8 of 12 within, 0.62-1.47, its
-replicates 12 of 12.
+know. A network (`--model paper --epochs 5`, units 0-3, seed 0) is under-predicted more:
+9 of 12 within (0.65-1.28, geometric mean 0.89; the plain mean of the last 3 folds 8 of
+12, the round-robin figure 5), its replicates 12 of 12: the next sessions cost the
+network more than its forward folds did (its Fx and Fy on two units).
 
 A decoder whose error on whole held-out groups (sessions, presses, time blocks) is many times
 its error on its training rows has learnt what is particular to the training groups: session
