@@ -355,14 +355,13 @@ def _human(s: dict[str, Any]) -> str:
     if fwd:
         lines.append(
             f"  forward in time (trained on earlier sessions, scored on sessions "
-            f"{', '.join(map(str, fwd['sessions']))}): mean / worst (session "
+            f"{', '.join(map(str, fwd['sessions']))}): recent-weighted mean / worst (session "
             f"{fwd['worst_session']})"
         )
         for t, v in fwd["mean_mae"].items():
             lines.append(f"    {t:<8} {v:.4g} / {fwd['worst_mae'].get(t, float('nan')):.4g}")
-    if s.get("expected_mae"):
-        cells = "  ".join(f"{t} {v:.4g}" for t, v in s["expected_mae"].items())
-        lines.append(f"  expect on a new session: MAE {cells} ({s['expected_source']})")
+    if s.get("expected_text"):
+        lines.append("  " + s["expected_text"].replace("\n", "\n  "))
     if s["warning"]:
         lines.append(f"  WARNING: {s['warning']}")
     if s["class_accuracy"] is not None:

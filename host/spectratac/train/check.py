@@ -9,13 +9,30 @@ held-out group is reported beside the mean.
 
 Groups dealt round-robin interpolate across a drifting sensor: on real recordings the
 figure was 3-5x lower than the error later measured on new sessions. With sessions in time
-order (at least MIN_FORWARD_SESSIONS), forward chaining trains on the earlier sessions and
-scores each of the last FORWARD_SESSIONS; their mean is the figure to expect on a new
-session (`HeldOutCheck.expected`), the worst beside it. Measured with
-tools/bench/heldout_forward.py (ridge, twin units 0-2, 6 sessions of 30 s trained, the next
-2 scored): printed figure / next sessions' error 1.17 / 0.92 / 0.58, 1.31 / 1.02 / 1.19 and
-1.26 / 0.95 / 1.38 (Fx / Fy / Fz); the round-robin figure 1.13 / 0.89 / 0.53, 1.12 / 1.15 /
-0.98 and 1.11 / 1.00 / 1.56: with 8 sessions the re-mounting of each one dominates.
+order (at least MIN_FORWARD_SESSIONS; ordered by their `started_unix` when every session
+records it, else by session number), forward chaining trains on the earlier sessions and
+scores each of the last FORWARD_SESSIONS; their mean, each session weighing half the one
+after it (`recent_weighted`: drift grows with time), is the figure to expect on the next
+session (`HeldOutCheck.expected`, printed by `expected_text`), the worst beside it.
+
+How well it predicts: `python tools/bench/heldout_forward.py [--seed N] [--variants]`
+(2026-11-27; ridge, twin units 0-7, each with its own ageing rates and a re-mounting per
+session, trained on its first 6 sessions and scored on the next 2; one ratio printed figure
+/ next sessions' error per unit and force, 24 per seed). With 120-s sessions (28 presses
+each), over seeds 0-2, ratios within 1.3x: the recent-weighted mean of the last 4 folds (the
+printed figure) 72 of 72 (0.78-1.19); their plain mean 71 (0.76-1.23); the plain mean of
+the last 3 folds (the figure before) 70 (0.76-1.22: one unit's Fy under-predicted twice);
+the last fold alone 70; folds scored one and two sessions ahead 71; a linear trend of the
+fold errors extrapolated to the sessions scored 60 (0.67-1.37: noisy); the round-robin
+figure 66 (0.60-1.31); the same decoder on a replicate of the next sessions (same mounting,
+ageing and room, other presses) 72. With 30-s sessions (7 presses, seed 0) every summary
+misses about a quarter or more (printed 18 of 24, 0.57-1.60; last 3 folds 17; round-robin
+13), and so does the replicate (19 of 24, 0.74-1.54): a 7-press session's MAE depends on
+which presses it holds by more than 1.3x, which no figure computed before the session can
+know. A network (`--model paper --epochs 5`, units 0-3, seed 0) is under-predicted more:
+9 of 12 within (0.65-1.28, geometric mean 0.89; the plain mean of the last 3 folds 8 of
+12, the round-robin figure 5), its replicates 12 of 12: the next sessions cost the
+network more than its forward folds did (its Fx and Fy on two units).
 
 A decoder whose error on whole held-out groups (sessions, presses, time blocks) is many times
 its error on its training rows has learnt what is particular to the training groups: session
@@ -35,6 +52,7 @@ the ridge baselines on the drifting skin stay at 1.0-1.2. A ratio above 2 is no 
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
@@ -45,14 +63,15 @@ from numpy.typing import NDArray
 from spectratac.dataset.schema import Dataset
 from spectratac.decode.assemble import session_order
 from spectratac.decode.decoder import Decoder
-from spectratac.train.groups import Split, row_groups, val_split
+from spectratac.hardware.generated.vocabulary import AXIS_UNITS
+from spectratac.train.groups import Split, press_units, row_groups, val_split
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import rows_of
 
 GAP_WARN = 2.0
 HELDOUT_FRACTION = 0.2  # groups held out by the check model
 MIN_FORWARD_SESSIONS = 3  # forward chaining needs sessions before the ones it scores
-FORWARD_SESSIONS = 3  # the last sessions scored by forward chaining (one model each)
+FORWARD_SESSIONS = 4  # the last sessions scored by forward chaining (one model each)
 Rows = NDArray[np.intp]
 
 
@@ -90,32 +109,68 @@ class HeldOutCheck:
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["expected_mae"], d["expected_source"] = self.expected()
+        d["expected_text"] = self.expected_text()
         return d
 
     def expected(self) -> tuple[dict[str, float], str]:
-        """The MAE to expect on a new session and where it comes from: with sessions in time
-        order, forward chaining's mean over the later sessions (round-robin groups
+        """The MAE to expect on the next session and where it comes from: with sessions in
+        time order, forward chaining's mean over the later sessions (round-robin groups
         interpolate across drift and promise too little; the worst session is reported
         beside it), else the held-out groups' mean."""
         if self.forward is not None:
-            return dict(self.forward.mean_mae), (
-                f"forward chaining: mean over the last {len(self.forward.sessions)} sessions, "
-                "each scored by a model trained on the sessions before it"
+            fwd = self.forward
+            return dict(fwd.mean_mae), (
+                f"forward check over {len(fwd.sessions)} sessions in {fwd.ordered_by} order, "
+                "each scored by a model trained on the sessions before it, recent ones "
+                "weighted more"
             )
-        return dict(self.heldout_mae), f"held-out {plural(self.heldout_groups)}"
+        return dict(self.heldout_mae), f"mean over held-out {plural(self.heldout_groups)}"
+
+    def expected_text(self) -> str:
+        """The sentence `spectratac train` prints: the error to expect on the next session,
+        what the figure is, and the worst session beside it.
+
+        >>> fwd = ForwardCheck([3, 4], {"3": {"Fz": 0.4}, "4": {"Fz": 0.6}}, {"Fz": 0.5},
+        ...                    {"Fz": 0.6}, 4, "recording")
+        >>> HeldOutCheck.of({"Fz": 0.3}, {"Fz": 0.35}, "session", "s", 9).expected_text()
+        'expect on a new session: Fz ~0.35 N (mean over held-out sessions)'
+        >>> c = replace(HeldOutCheck.of({"Fz": 0.3}, {"Fz": 0.35}, "session", "s", 9), forward=fwd)
+        >>> print(c.expected_text())
+        expect on your next session: Fz ~0.5 N (forward check over 2 sessions in recording
+          order, each scored by a model trained on the sessions before it, recent ones
+          weighted more; worst, session 4: Fz 0.6 N)
+        """
+        mae, source = self.expected()
+        cells = "  ".join(f"{t} ~{v:.3g}{_unit(t)}" for t, v in mae.items())
+        if self.forward is None:
+            return f"expect on a new session: {cells} ({source})"
+        worst = "  ".join(f"{t} {v:.3g}{_unit(t)}" for t, v in self.forward.worst_mae.items())
+        text = (
+            f"expect on your next session: {cells} ({source}; worst, session "
+            f"{self.forward.worst_session}: {worst})"
+        )
+        return textwrap.fill(text, 86, subsequent_indent="  ")
+
+
+def _unit(target: str) -> str:
+    """' N' or ' N·m' after a force or torque target, nothing after other targets."""
+    unit = AXIS_UNITS.get(target)
+    return f" {unit}" if unit else ""
 
 
 @dataclass(frozen=True)
 class ForwardCheck:
     """Forward chaining: for each of the last sessions (`sessions`, in time order), a model
-    trained on every session before it scored on it; `per_session` MAE, their mean and the
-    worst session's."""
+    trained on every session before it scored on it; `per_session` MAE, their mean
+    (`recent_weighted`) and the worst session's; `ordered_by` says how the time order was
+    known ("recording": the sessions' start times, "session number": their ids)."""
 
     sessions: list[int]
     per_session: dict[str, dict[str, float]]
     mean_mae: dict[str, float]
     worst_mae: dict[str, float]
     worst_session: int
+    ordered_by: str = "session number"
 
 
 def held_out_check(
@@ -162,11 +217,19 @@ def held_out_check(
 def worst_group(
     model: Decoder, dataset: Dataset, held: Rows, kind: str
 ) -> tuple[dict[str, float], int | None]:
-    """MAE of the held-out group (session, press or block) with the largest mean error."""
+    """MAE of the held-out group with the largest mean error, the groups being of the `kind`
+    held out: sessions, presses (a press and the idle rows after it), else time blocks."""
     if held.size == 0:
         return {}, None
-    groups = row_groups(dataset.session, dataset.press, dataset.t_end, held)
-    ids = np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
+    ses = np.asarray(dataset.session, np.int64)
+    press = np.asarray(dataset.press, np.int64)
+    if kind == "session":  # whole sessions, even when the rows hold only one (then: its MAE)
+        ids = ses[held]
+    elif kind == "press" or (kind == "auto" and np.any(press[held] >= 0)):
+        ids = press_units(np.asarray(dataset.t_end), ses, press)[held]
+    else:
+        groups = row_groups(ses, press, dataset.t_end, held)
+        ids = np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
     best: tuple[float, dict[str, float], int | None] = (-1.0, {}, None)
     for g in np.unique(ids):
         mae = decoder_mae(model, dataset, held[ids == g])
@@ -180,23 +243,68 @@ def worst_group(
 def forward_check(
     dataset: Dataset, rows: Rows, trainer: Callable[[Rows], Decoder]
 ) -> ForwardCheck | None:
-    """Forward chaining over the sessions of `rows` in time order (session ids number them
-    in recording order): for each of the last FORWARD_SESSIONS sessions, a model trained
-    on all earlier sessions is scored on it. None with fewer than MIN_FORWARD_SESSIONS
+    """Forward chaining over the sessions of `rows` in time order (`time_order`): for each
+    of the last FORWARD_SESSIONS sessions, a model trained on the rows of all earlier
+    sessions, and on no other, is scored on it. None with fewer than MIN_FORWARD_SESSIONS
     sessions (no earlier data to train on)."""
+    rows = np.asarray(rows)
     ses = np.asarray(dataset.session, np.int64)[rows]
-    ids = [int(v) for v in np.unique(ses)]
+    ids, ordered_by = time_order(dataset, np.unique(ses))
     if len(ids) < MIN_FORWARD_SESSIONS:
         return None
-    later = ids[-min(FORWARD_SESSIONS, len(ids) - 1) :]
+    place = np.argsort(ids)  # the j-th smallest session id was recorded place[j]-th
+    when = place[np.searchsorted(np.sort(ids), ses)]  # each row's session's place in time
     per: dict[str, dict[str, float]] = {}
-    for s in later:
-        model = trainer(rows[ses < s])
-        per[str(s)] = decoder_mae(model, dataset, rows[ses == s])
+    for k in range(len(ids) - min(FORWARD_SESSIONS, len(ids) - 1), len(ids)):
+        model = trainer(rows[when < k])
+        per[str(ids[k])] = decoder_mae(model, dataset, rows[when == k])
     targets = list(next(iter(per.values())))
-    mean = {t: float(np.nanmean([p[t] for p in per.values()])) for t in targets}
+    mean = {t: recent_weighted([p[t] for p in per.values()]) for t in targets}
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
-    return ForwardCheck([int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s))
+    return ForwardCheck(
+        [int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s), ordered_by
+    )
+
+
+def recent_weighted(errors: list[float]) -> float:
+    """Mean of per-session errors in time order, each weighing half the one after it: the
+    drift grows with time, so the latest folds are the nearest to the next session.
+
+    >>> recent_weighted([1.0, 2.0, 4.0]), recent_weighted([3.0, float("nan")])
+    (3.0, 3.0)
+    """
+    e = np.asarray(errors, np.float64)
+    w = 0.5 ** np.arange(e.size - 1, -1, -1.0)
+    ok = np.isfinite(e)
+    return float(w[ok] @ e[ok] / w[ok].sum()) if ok.any() else float("nan")
+
+
+def time_order(dataset: Dataset, ids: NDArray[np.int64]) -> tuple[list[int], str]:
+    """Session ids in the order they were recorded, and how that is known: by the sessions'
+    `started_unix` (dataset metadata, from the recordings) when every one of them has it, as
+    `spectratac dataset build` may number recordings in the order its files were given;
+    else by session number (datasets without start times number them in recording order).
+
+    >>> from spectratac.dataset import Dataset
+    >>> ds = Dataset.generic(np.zeros((3, 1)), np.zeros((3, 1)), ["a"], ["Fz"])
+    >>> ds.meta["sessions"] = [{"started_unix": 30.0}, {"started_unix": 10.0},
+    ...                        {"started_unix": 20.0}]
+    >>> time_order(ds, np.array([0, 1, 2]))
+    ([1, 2, 0], 'recording')
+    >>> ds.meta["sessions"][2] = {}
+    >>> time_order(ds, np.array([0, 1, 2]))
+    ([0, 1, 2], 'session number')
+    """
+    ids = sorted(int(i) for i in ids)
+    meta = dataset.meta.get("sessions") or []
+    starts = [
+        meta[i].get("started_unix") if 0 <= i < len(meta) and isinstance(meta[i], dict) else None
+        for i in ids
+    ]
+    if ids and all(isinstance(v, (int, float)) and math.isfinite(v) for v in starts):
+        order = sorted(range(len(ids)), key=lambda j: (float(starts[j]), ids[j]))
+        return [ids[j] for j in order], "recording"
+    return ids, "session number"
 
 
 def heldout_groups(dataset: Dataset, rows: Rows | None) -> tuple[Rows, Rows, str]:
