@@ -613,7 +613,8 @@ static void base_search(const stac_model_t *m, stac_model_state_t *st, const flo
         st->still = 0u;
     } else if (rel_dev(cur, st->low, B) < m->base_gate) {
         ++st->still;
-        for (uint32_t i = 0; i < B; ++i) st->low[i] += (x[i] - st->low[i]) / (double)(st->still + 1u);
+        for (uint32_t i = 0; i < B; ++i) /* the mean of the still stretch */
+            st->low[i] += (x[i] - st->low[i]) / (double)(st->still + 1u);
         st->low_score = press_score(m, st->low, B);
     }
     if (st->armed && st->still >= REST_STILL) {
@@ -651,7 +652,8 @@ static void baseline(const stac_model_t *m, stac_model_state_t *st, const float 
     const double rel = rel_dev(cur, st->base, B);
     st->out_of_gate = rel < m->base_gate ? 0u : st->out_of_gate + 1u;
     if (st->out_of_gate == 0u || st->out_of_gate > m->base_stuck)
-        for (uint32_t i = 0; i < B; ++i) st->base[i] += ((double)cur[i] - st->base[i]) / m->base_tau;
+        for (uint32_t i = 0; i < B; ++i)
+            st->base[i] += ((double)cur[i] - st->base[i]) / m->base_tau;
 }
 
 /* assemble.Assembler.push after the latest sample of every step is known: history, lags,

@@ -295,7 +295,8 @@ static inline void stac_rest_search(stac_assembler *a, const stac_state_real *cu
         }
     } else if (stac_rel_dev(cur, a->low) < STAC_BASE_GATE) {
         ++a->still;
-        for (int i = 0; i < STAC_N_BASE; ++i) a->low[i] += (x[i] - a->low[i]) / (double)(a->still + 1);
+        for (int i = 0; i < STAC_N_BASE; ++i) /* the mean of the still stretch */
+            a->low[i] += (x[i] - a->low[i]) / (double)(a->still + 1);
         a->low_score = stac_press_score(a->low);
     }
     if (a->armed && a->still >= STAC_REST_STILL) { /* the low is rest */
