@@ -283,6 +283,14 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
     case STAC_MSG_MODEL_COMMIT:
     case STAC_MSG_MODEL_CLEAR: handle_model(app, &h, payload, plen); break;
     case STAC_MSG_GET_MODEL: send_model_info(app); break;
+    case STAC_MSG_TARE: /* the model's baseline takes the next sample as its zero */
+        if (stac_store_model(&app->store) == NULL) {
+            send_nack(app, &h, STAC_NO_MODEL, NO_FIELD);
+        } else {
+            stac_model_tare(&app->est);
+            send_ack(app, &h);
+        }
+        break;
     default:
         /* A host-to-device type in the generated table that this firmware does not serve. */
         send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);

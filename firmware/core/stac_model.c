@@ -15,6 +15,12 @@
 #define LN_EPS 1e-5f       /* networks.LN_EPS */
 #define GELU_K 0.7978845608028654f
 #define STATUS_BAD 0x0Fu   /* guard.STATUS_BAD: saturated, bus fault, stale, absent */
+/* The search for rest (decode/assemble.py: JOIN, DROP, STILL, HOLD; a test compares them), in
+ * press-score units (log counts along the press direction). */
+#define REST_JOIN 0.06 /* a first sample this far above the model's rest is pressed */
+#define REST_DROP 0.04 /* a fall (or rise) of the score this large: contact ending (starting) */
+#define REST_STILL 2u  /* samples still after coming down that make the low rest */
+#define REST_HOLD 20u  /* samples still, never having come down: this skin stands in */
 #define PER_SENSOR STAC_DECODED_CHANNELS /* of the wire's R G B C IR, the decoder uses R G B C */
 _Static_assert(STAC_MODEL_CHANNELS == STAC_SENSORS * PER_SENSOR, "a step: every sensor's R G B C");
 _Static_assert(STAC_MODEL_N_TARGETS == STAC_FT_AXES, "the image maps every F/T axis of the vocabulary");
@@ -231,7 +237,22 @@ uint16_t stac_model_open_crc(stac_model_t *m, const uint8_t *image, uint32_t siz
     m->in_hi = (const float *)(const void *)section(&r, STAC_MODEL_SEC_IN_HI, 4u * m->n_base);
     m->dark_cols =
         (const uint16_t *)(const void *)section(&r, STAC_MODEL_SEC_DARK_COLS, 2u * m->n_dark);
+    const uint32_t n_rest = (flags & STAC_MODEL_FLAG_REST) != 0u ? m->n_base : 0u;
+    if (n_rest != 0u && !m->drift) return fail(m); /* a rest signature serves the baseline */
+    const uint8_t *rest = section(&r, STAC_MODEL_SEC_REST, 8u * n_rest);
+    const uint8_t *press = section(&r, STAC_MODEL_SEC_PRESS, 8u * n_rest);
     if (!r.ok) return fail(m);
+    if (n_rest != 0u) { /* f64 sections are only 4-byte aligned: read byte-wise (rdf64) */
+        m->rest = rest;
+        m->press = press;
+        double score = 0.0;
+        for (uint32_t i = 0; i < n_rest; ++i) {
+            const double v = rdf64(rest + 8u * i), d = rdf64(press + 8u * i);
+            if (!isfinite(v) || !isfinite(d)) return fail(m);
+            score += d * log(v > 1.0 ? v : 1.0);
+        }
+        m->rest_score = score;
+    }
     for (uint16_t l = 0, row = 0; l < nl; ++l) {
         stac_model_layer_t *L = &m->layers[l];
         L->n_in = dims[l][0];
@@ -516,7 +537,123 @@ static void heads(const stac_model_t *m, stac_model_state_t *st) {
 
 void stac_model_reset(const stac_model_t *m, stac_model_state_t *st) {
     (void)m;
+    const uint8_t tare = st->tare; /* a tare asked for before the stream starts */
     memset(st, 0, sizeof *st);
+    st->tare = tare;
+}
+
+void stac_model_tare(stac_model_state_t *st) { st->tare = 1u; }
+
+/* ------------------------------------------------------------------ drift baseline */
+
+/* press . log(max(x, 1)) (rest_signature.log_counts): how far a sample is pressed. */
+static double press_score(const stac_model_t *m, const double *x, uint32_t n) {
+    double s = 0.0;
+    for (uint32_t i = 0; i < n; ++i)
+        s += rdf64(m->press + 8u * i) * log(x[i] > 1.0 ? x[i] : 1.0);
+    return s;
+}
+
+/* RMS deviation of `cur` from `base` relative to |base| plus a floor (_Baseline._rel). */
+static double rel_dev(const float *cur, const double *base, uint32_t n) {
+    double sum_abs = 0.0, dev2 = 0.0;
+    for (uint32_t i = 0; i < n; ++i) sum_abs += fabs(base[i]);
+    const double floor_ = 1e-6 + 0.01 * sum_abs / (double)n;
+    for (uint32_t i = 0; i < n; ++i) {
+        const double dev = ((double)cur[i] - base[i]) / (fabs(base[i]) + floor_);
+        dev2 += dev * dev;
+    }
+    return sqrt(dev2 / (double)n);
+}
+
+static void base_start(stac_model_state_t *st, const double *value, uint32_t n) {
+    memcpy(st->base, value, n * sizeof(double));
+    st->out_of_gate = 0u;
+}
+
+/* The first sample: rest at once without a signature (as models before it) or when the skin
+ * is not pressed; else the model's rest stands in while the search follows the skin down. */
+static void base_first(const stac_model_t *m, stac_model_state_t *st, const float *cur) {
+    const uint32_t B = m->n_base;
+    for (uint32_t i = 0; i < B; ++i) st->low[i] = (double)cur[i];
+    base_start(st, st->low, B);
+    if (m->rest == NULL) return; /* rest is never known to be seen */
+    const double s = press_score(m, st->low, B);
+    if (s <= m->rest_score + REST_JOIN) {
+        st->rest_seen = 1u;
+        return;
+    }
+    st->searching = st->on_rest = 1u;
+    for (uint32_t i = 0; i < B; ++i) st->base[i] = rdf64(m->rest + 8u * i);
+    st->low_score = s;
+}
+
+static void base_found(stac_model_state_t *st, uint32_t n) {
+    base_start(st, st->low, n);
+    st->searching = 0u;
+    st->rest_seen = 1u;
+}
+
+/* One step of the search for rest (_Baseline._search). */
+static void base_search(const stac_model_t *m, stac_model_state_t *st, const float *cur) {
+    const uint32_t B = m->n_base;
+    double x[STAC_MODEL_MAX_BASE];
+    for (uint32_t i = 0; i < B; ++i) x[i] = (double)cur[i];
+    const double s = press_score(m, x, B);
+    if (s < st->low_score - REST_DROP) { /* came down: what was above was contact */
+        memcpy(st->low, x, B * sizeof(double));
+        st->low_score = s;
+        st->armed = 1u;
+        st->still = 0u;
+    } else if (s > st->low_score + REST_DROP) { /* pressed (again) from the low */
+        if (st->armed) {
+            base_found(st, B);
+            return;
+        }
+        st->still = 0u;
+    } else if (rel_dev(cur, st->low, B) < m->base_gate) {
+        ++st->still;
+        for (uint32_t i = 0; i < B; ++i) /* the mean of the still stretch */
+            st->low[i] += (x[i] - st->low[i]) / (double)(st->still + 1u);
+        st->low_score = press_score(m, st->low, B);
+    }
+    if (st->armed && st->still >= REST_STILL) {
+        base_found(st, B);
+    } else if (st->still >= REST_HOLD && st->on_rest) {
+        st->on_rest = 0u; /* this skin, still for a while: better than another's rest */
+        memcpy(st->base, st->low, B * sizeof(double));
+    } else if (!st->on_rest) {
+        memcpy(st->base, st->low, B * sizeof(double));
+    }
+}
+
+/* The baseline as it was before the sample into `dst`, then its update (_Baseline.step). */
+static void baseline(const stac_model_t *m, stac_model_state_t *st, const float *cur, float *dst) {
+    const uint32_t B = m->n_base;
+    if (st->tare) { /* the user says the skin is at rest: this sample is the zero */
+        st->tare = st->searching = 0u;
+        st->rest_seen = st->base_ready = 1u;
+        for (uint32_t i = 0; i < B; ++i) st->low[i] = (double)cur[i];
+        base_start(st, st->low, B);
+        memcpy(dst, cur, B * sizeof(float));
+        return;
+    }
+    if (!st->base_ready) {
+        base_first(m, st, cur);
+        st->base_ready = 1u;
+        for (uint32_t i = 0; i < B; ++i) dst[i] = (float)st->base[i];
+        return;
+    }
+    for (uint32_t i = 0; i < B; ++i) dst[i] = (float)st->base[i];
+    if (st->searching) {
+        base_search(m, st, cur);
+        return;
+    }
+    const double rel = rel_dev(cur, st->base, B);
+    st->out_of_gate = rel < m->base_gate ? 0u : st->out_of_gate + 1u;
+    if (st->out_of_gate == 0u || st->out_of_gate > m->base_stuck)
+        for (uint32_t i = 0; i < B; ++i)
+            st->base[i] += ((double)cur[i] - st->base[i]) / m->base_tau;
 }
 
 /* assemble.Assembler.push after the latest sample of every step is known: history, lags,
@@ -547,32 +684,7 @@ static void assemble(const stac_model_t *m, stac_model_state_t *st) {
             st->ema[e][i] += m->ema_alpha[e] * ((double)cur[i] - st->ema[e][i]);
         }
     }
-    if (m->drift) {
-        float *dst = st->u + m->n_in - B;
-        if (!st->base_ready) {
-            for (uint32_t i = 0; i < B; ++i) {
-                st->base[i] = (double)cur[i];
-                dst[i] = cur[i];
-            }
-            st->base_ready = 1u;
-            return;
-        }
-        double sum_abs = 0.0, dev2 = 0.0;
-        for (uint32_t i = 0; i < B; ++i) {
-            dst[i] = (float)st->base[i];
-            sum_abs += fabs(st->base[i]);
-        }
-        const double floor_ = 1e-6 + 0.01 * sum_abs / (double)B;
-        for (uint32_t i = 0; i < B; ++i) {
-            const double dev = ((double)cur[i] - st->base[i]) / (fabs(st->base[i]) + floor_);
-            dev2 += dev * dev;
-        }
-        const double rel = sqrt(dev2 / (double)B);
-        st->out_of_gate = rel < m->base_gate ? 0u : st->out_of_gate + 1u;
-        if (st->out_of_gate == 0u || st->out_of_gate > m->base_stuck)
-            for (uint32_t i = 0; i < B; ++i)
-                st->base[i] += ((double)cur[i] - st->base[i]) / m->base_tau;
-    }
+    if (m->drift) baseline(m, st, cur, st->u + m->n_in - B);
 }
 
 /* ------------------------------------------------------------------ one sample */
@@ -604,6 +716,7 @@ int stac_model_push(const stac_model_t *m, stac_model_state_t *st, uint8_t led_s
     heads(m, st);
 
     uint8_t flags = st->n_assembled < m->hist ? (uint8_t)STAC_EST_WARMUP : 0u;
+    if (m->drift && !st->rest_seen) flags |= STAC_EST_NO_REST;
     for (uint32_t i = 0; i < m->n_out; ++i)
         if (!isfinite(st->out[i])) { /* damaged weights or overflow: no estimate */
             no_estimate(out, (uint8_t)(flags | STAC_EST_INVALID));

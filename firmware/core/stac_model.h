@@ -10,6 +10,13 @@
  * the caller owns (one per session). Every loop is bounded by the compile-time limits below,
  * which stac_model_open enforces and MODEL_INFO reports.
  *
+ * Drift baseline: with a rest signature in the image (flag rest) the baseline first makes sure
+ * it starts from rest, exactly as decode/assemble._Baseline does: a stream that starts on a
+ * pressed skin follows the skin down to its first release before the baseline adapts, and
+ * every estimate until then carries EST_NO_REST. The device cannot know whether it is the
+ * unit the model was trained on, so it runs the search as the host does for another or an
+ * unknown unit (a skin still for HOLD samples stands in for the model's rest).
+ *
  * Arithmetic: float32 throughout the network (the Python reference's runtime dtype); the
  * moving averages and the baseline are recursive sums over hundreds of samples and are kept
  * in double exactly as decode/assemble.py keeps them (float32 state drifts by more than the
@@ -61,6 +68,8 @@ typedef struct {
     double contact_force;  /* |F| above it is contact (models without a contact head) */
     double base_tau, base_gate; /* baseline time constant (samples) and no-contact gate */
     uint32_t base_stuck;        /* samples out of the gate before the baseline follows */
+    const uint8_t *rest, *press; /* rest signature (flag rest): n_base f64 each; NULL without */
+    double rest_score;          /* press . log(rest): the model's rest on the press axis */
     double ema_alpha[STAC_MODEL_MAX_EMAS];
     const uint16_t *lags;
     const float *center, *f_mean, *f_std;
@@ -83,6 +92,11 @@ typedef struct {
     double base[STAC_MODEL_MAX_BASE];
     uint32_t out_of_gate;
     uint8_t ema_ready, base_ready;
+    /* the search for rest (decode/assemble._Baseline; images with a rest signature) */
+    double low[STAC_MODEL_MAX_BASE]; /* the lowest (least pressed) stretch seen so far */
+    double low_score;                /* its press score */
+    uint32_t still;                  /* samples still at the low */
+    uint8_t searching, armed, on_rest, rest_seen, tare;
     /* scratch: assembled vector, features, hidden activations, all head outputs */
     float u[STAC_MODEL_MAX_INPUTS];
     float z[STAC_MODEL_MAX_FEATURES];
@@ -112,6 +126,11 @@ uint16_t stac_model_open_crc(stac_model_t *m, const uint8_t *image, uint32_t siz
 
 /* Start a new session: context, moving averages and baseline forgotten. */
 void stac_model_reset(const stac_model_t *m, stac_model_state_t *st);
+
+/* Make the next assembled sample the drift baseline's zero (the skin is at rest now): the
+ * TARE command, as Decoder.tare() on the host. A tare asked for before a stream starts
+ * survives the reset at its START (as the host's tare() before stream()). */
+void stac_model_tare(stac_model_state_t *st);
 
 /* Feed one sample (the LED step that lit it, counts[sensor][R G B C IR], SENSOR_* status).
  * Returns 1 when `out` holds an estimate, 0 (state unchanged apart from the step's latest

@@ -145,3 +145,35 @@ def test_dataset_info_never_prints_the_files_control_characters(
     out = capsys.readouterr().out
     assert "\x1b" not in out and "\x07" not in out and "\x9b" not in out
     assert "\\x1b]0;owned" in out  # shown, escaped
+
+
+def flag_encrypted(path: Path, member: str) -> None:
+    """Set the "encrypted" bit (general purpose flag bit 0) of `member` in both of its zip
+    headers, as a flipped byte in a damaged file can."""
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as z:
+        info = z.getinfo(member)
+    local = info.header_offset
+    raw[local + 6] |= 0x01  # local file header: flags at offset 6
+    central = raw.find(b"PK\x01\x02")
+    while central >= 0:  # the central directory entry of the same member
+        name_len = int.from_bytes(raw[central + 28 : central + 30], "little")
+        if bytes(raw[central + 46 : central + 46 + name_len]) == member.encode():
+            raw[central + 8] |= 0x01  # central directory header: flags at offset 8
+            break
+        central = raw.find(b"PK\x01\x02", central + 4)
+    path.write_bytes(bytes(raw))
+
+
+@pytest.mark.parametrize("member", ["meta.npy", "inputs.npy"])
+def test_a_member_flagged_encrypted_is_a_dataset_error_that_says_what_to_do(
+    tmp_path: Path, member: str
+) -> None:
+    path = Dataset.generic(np.ones((3, 2)), np.zeros((3, 1)), ["a", "b"], ["Fz"]).save(
+        tmp_path / "d.npz"
+    )
+    flag_encrypted(path, member)
+    with zipfile.ZipFile(path) as z:
+        assert z.getinfo(member).flag_bits & 0x1  # the damage took
+    with pytest.raises(DatasetError, match=rf"{member}.*encrypted.*(build|save) it again"):
+        Dataset.load(path)

@@ -200,3 +200,58 @@ def test_c_live_assembly_matches_python(
 def test_unknown_format_is_refused(decoders, tmp_path) -> None:
     with pytest.raises(DecoderError, match="onnx, numpy, torchscript, c"):
         decoders["paper"].export("tflite", tmp_path / "m")
+
+
+TARE_STEP = -100  # stream_harness.c: a row that calls stac_tare
+
+
+def joined_mid_press(ds) -> tuple[np.ndarray, np.ndarray, int]:
+    """Steps and inputs of the first session from its first firm press on (the stream
+    joins under load), and the row of the first release after it."""
+    rows = np.flatnonzero(ds.session == ds.session[0])
+    rows = rows[np.argsort(ds.t_end[rows], kind="stable")]
+    fz = -ds.targets[rows, ds.target_names.index("Fz")]
+    start = int(np.flatnonzero(fz > 2.0)[0])  # deep in a press
+    release = start + int(np.flatnonzero(~ds.in_contact[rows[start:]])[0])
+    rows = rows[start:]
+    return ds.step[rows].astype(np.int64), ds.inputs[rows].astype(np.float64), release - start
+
+
+@pytest.mark.parametrize("name", ["resmlp-context-drift", "mlp-dilated-ema-drift"])
+def test_c_baseline_searches_for_rest_like_python_when_joined_mid_press(
+    decoders, twin_ds, tmp_path, name
+) -> None:
+    """A session joined under load: the C assembler never takes the pressed skin as its zero
+    and says so (STAC_FLAG_NO_REST) on exactly the rows where the Python baseline has not
+    yet seen rest, with the same outputs; stac_tare zeroes it where Decoder.tare() does."""
+    from spectratac.decode.assemble import Assembler
+
+    dec = decoders[name]
+    assert dec.layout.rest and dec.layout.press  # the model carries its rest signature
+    header = dec.export("c", tmp_path / "stac_decoder.h")
+    step, x, release = joined_mid_press(twin_ds)
+    n = release + 400
+    step, x = step[:n], x[:n]
+    tare_at = release + 200  # well after rest was found: the tare still re-zeroes
+    asm = Assembler(dec.layout)
+    u = np.full((n, dec.layout.size), np.nan)
+    seen = np.zeros(n, bool)
+    for i in range(n):
+        if i == tare_at:
+            asm.tare()
+        v, ok = asm.push(int(step[i]), x[i])
+        u[i] = v if ok else np.nan
+        seen[i] = asm.rest_seen
+    assert not seen[0] and seen[-1]  # joined pressed, found rest after the release
+    b = dec.layout.base
+    assert not np.allclose(u[0, -b:], x[0])  # the pressed skin is not the zero
+    np.testing.assert_allclose(u[tare_at, -b:], x[tare_at])  # the tare's sample is
+    rows = np.column_stack([step, x])
+    rows = np.insert(rows, tare_at, [TARE_STEP] + [0.0] * x.shape[1], axis=0)
+    valid = np.isfinite(u).all(axis=1)
+    for real, sanitize in (("float", True), ("double", False)):
+        got = run_c(header, rows, real, sanitize, tmp_path, STREAM_HARNESS)
+        flags = got[:, 0].astype(int)
+        assert len(got) == n
+        np.testing.assert_array_equal((flags[valid] & 4) > 0, ~seen[valid])
+        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **TOL)

@@ -10,6 +10,7 @@ import pytest
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.conformance import CHECKS, MODEL_CHECKS
+from spectratac.protocol.generated import messages as m
 
 from .conftest import Served
 
@@ -37,7 +38,7 @@ def test_info_says_cycle_counts_are_not_measured(capsys: pytest.CaptureFixture[s
     assert main(["info", SIM]) == ExitCode.OK
     out = capsys.readouterr().out
     assert "cycle counts     not measured (the device has no cycle counter)" in out
-    assert "protocol 1.2" in out
+    assert f"protocol 1.{m.PROTOCOL_MINOR}" in out
 
 
 def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:

@@ -210,3 +210,70 @@ def test_mutated_headers_and_tables_never_crash(models, checker, tmp_path) -> No
         assert "runtime error" not in result.stderr and "Sanitizer" not in result.stderr
         outcomes.add(result.returncode)
     assert outcomes == {0, 2}  # some mutations are harmless (padding), most are refused
+
+
+def joined_mid_press(ds) -> tuple[harness.Session, int]:
+    """Session 0 from its first firm press on (the stream joins under load), and the row of
+    the first release after it."""
+    session = harness.session_of(ds)
+    rows = np.flatnonzero(ds.session == np.unique(ds.session)[0])
+    rows = rows[np.argsort(ds.t_end[rows], kind="stable")]
+    fz = -ds.targets[rows, ds.target_names.index("Fz")]
+    start = int(np.flatnonzero(fz > 2.0)[0])
+    release = start + int(np.flatnonzero(~ds.in_contact[rows[start:]])[0])
+    n = len(rows) - start
+    return (
+        harness.Session(session.counts[start:], session.status[start:], session.step[start:]),
+        release - start if release - start < n else n,
+    )
+
+
+def host_live(dec: Decoder, session: harness.Session, tare_at: int) -> tuple[np.ndarray, ...]:
+    """The host's live path (Assembler as Decoder.stream runs it for another unit) with
+    Decoder.tare() before row `tare_at`: assembled vectors and rest seen, per row."""
+    from spectratac.decode.assemble import Assembler
+
+    asm = Assembler(dec.layout)
+    x, n = session.raw12, len(session.step)
+    u = np.full((n, dec.layout.size), np.nan)
+    seen = np.zeros(n, bool)
+    for i in range(n):
+        if i == tare_at:
+            asm.tare()
+        v, ok = asm.push(int(session.step[i]), x[i])
+        u[i] = v if ok else np.nan
+        seen[i] = asm.rest_seen
+    return u, seen
+
+
+@pytest.mark.parametrize("weights", ["f32", "i8"])
+def test_device_baseline_searches_for_rest_when_joined_mid_press(
+    models, checker, tmp_path, weights
+) -> None:
+    """A stream that starts on a pressed skin: the device never takes it as its zero, flags
+    EST_NO_REST on exactly the estimates where the host's baseline has not seen rest, gives
+    the host's outputs, and TARE (stac_model_tare) zeroes it where Decoder.tare() does."""
+    dec, _ = models["best"]
+    assert dec.layout.drift and dec.layout.rest  # the image carries the rest signature
+    assert mi.describe(mi.encode(dec))["sections"]["rest"] == 8 * dec.layout.base
+    session, release = joined_mid_press(twin(3))
+    n = min(len(session.step), release + 300)
+    session = session.head(n)
+    tare_at = release + 150
+    u, seen = host_live(dec, session, tare_at)
+    assert not seen[0] and seen[release + 100]  # joined pressed; rest found after the release
+    b = dec.layout.base
+    assert not np.allclose(u[0, -b:], session.raw12[0])  # the pressed skin is not the zero
+    taring = harness.Session(
+        np.insert(session.counts, tare_at, 0, axis=0),
+        np.insert(session.status, tare_at, 0, axis=0),
+        np.insert(session.step, tare_at, harness.TARE_STEP),
+    )
+    got = run(checker, mi.encode(dec, weights), taring, tmp_path)
+    assert len(got) == n
+    no_rest = (got["flags"] & harness.EST_NO_REST) > 0
+    np.testing.assert_array_equal(no_rest, ~seen)
+    out = mi.as_stored(dec, weights).runtime.run(u)  # the host's outputs, its own vectors
+    diff = np.abs(got["out"][:, : dec.heads.n_out].astype(np.float64) - out)
+    scale = np.max(np.abs(out), axis=0)
+    assert np.all(diff <= REL_TOL * (1.0 + scale)), diff.max(axis=0)

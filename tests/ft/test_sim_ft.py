@@ -1,5 +1,5 @@
-"""sim:// F/T sensors: selected with ft=, refused without wall-clock scene time, stopped on
-close, and reading the same world as the simulated optical sensor."""
+"""sim:// F/T sensors: selected with ft=, stopped on close, reading the same world as the
+simulated optical sensor; at speed=max paced by that sensor's samples (refused alone)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from spectratac.ft import FTURLError, open_ft
 from spectratac.sim.world import SimWorld
 
 
-def test_speed_max_and_missing_kind_are_refused() -> None:
+def test_speed_max_alone_and_missing_kind_are_refused() -> None:
     before = set(SimWorld._registry)
-    with pytest.raises(FTURLError, match="speed=max has none"):
-        open_ft("sim://?scene=press&speed=max&ft=netft")
+    with pytest.raises(FTURLError, match=r"speed=max is paced by the simulated optical .* open"):
+        open_ft("sim://?scene=press&speed=max&ft=netft")  # no optical sensor to pace it
     with pytest.raises(FTURLError, match="ft=netft or ft=bota"):
         open_ft("sim://?scene=press&speed=10")
     with pytest.raises(FTURLError, match="ft_loss"):
@@ -113,3 +113,59 @@ def test_a_scripted_scene_starts_when_its_devices_are_ready_not_when_built(
         assert scene_s == 0.0, f"the scene ran {scene_s:.1f} s before the host started it"
         sensor.start()
         assert sensor.info is not None and len(ft.read(10, timeout=30.0)) == 10
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_speed_max_ft_follows_the_optical_sensors_samples(kind: str) -> None:
+    """At speed=max the F/T runs on the device's scene clock: it releases a sample once the
+    optical sensor has sent the frames of its scene time (never ahead of it), its wrench is
+    the scene's at that time, and none is lost."""
+    from spectratac.device import Sensor
+
+    url = f"sim://?scene=press&seed=2&speed=max&ft={kind}&ft_loss=0"
+    before = set(SimWorld._registry)
+    with Sensor.open(url) as sensor, open_ft(url, timeout=5.0) as ft:
+        (key,) = set(SimWorld._registry) - before
+        world = SimWorld._registry[key]
+        sensor.start()
+        rows, optical = [], []
+        while sum(len(r) for r in rows) < 4000:
+            rows.append(ft.read(500, timeout=10.0))
+            optical.append(sensor.read(10_000, timeout=0.0))
+            reached = world.reached
+            assert reached is not None
+            t_ft = (rows[-1]["sensor_time"][-1] - 0.05) / (1 + 1e-4)
+            assert t_ft <= reached  # the device's samples set the pace
+        sensor.stop()
+        assert ft.stats.lost == 0
+        scene = world.scene
+    got = np.concatenate(rows)
+    t_scene = (got["sensor_time"] - 0.05) / (1 + 1e-4)
+    assert np.all(np.diff(t_scene) > 0) and t_scene[-1] > 3.9  # 4 s of the scene, in order
+    assert np.median(np.abs(got["wrench"][:, 2] + scene.contact(t_scene).normal)) < 0.1
+    assert np.ptp(scene.contact(t_scene).normal) > 0.5  # a press, not just rest
+    assert len(np.concatenate(optical)) > 0
+    assert set(SimWorld._registry) == before
+
+
+def test_speed_max_recording_with_ft_builds_an_aligned_dataset(tmp_path) -> None:
+    """record + dataset build at speed=max with a simulated F/T (before: refused): the F/T
+    targets are the scene's load over each window (the declared F/T clock), whatever the
+    host's timing."""
+    from spectratac.dataset.build import session_datasets
+    from spectratac.record import RecordOptions, record_url
+    from spectratac.record.reader import read_recording
+    from spectratac.sim.named_scenes import make_scene
+
+    path = tmp_path / "s.mcap"
+    record_url("sim://?scene=press&seed=2&speed=max&ft=bota", path, RecordOptions(samples=120))
+    [ds] = session_datasets(read_recording(path))
+    assert ds.meta["sessions"][0]["ft_clock"]["method"] == "declared"
+    fz = ds.targets[:, list(ds.target_names).index("Fz")]
+    ok = np.asarray(ds.target_valid, bool).reshape(len(fz), -1).all(axis=1)
+    assert ok.mean() > 0.95
+    scene = make_scene("press", seed="2")
+    mid = (ds.arrays["device_time_us"] / 1e6) - 0.025  # each 50 ms window's middle
+    truth = -scene.contact(mid).normal
+    assert np.ptp(truth) > 0.5
+    assert np.median(np.abs(fz[ok] - truth[ok])) < 0.15

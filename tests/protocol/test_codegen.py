@@ -259,22 +259,36 @@ def test_the_1_0_subset_keeps_the_released_1_0_hash(codegen: dict[str, ModuleTyp
     assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[0]
 
 
-def test_the_1_1_subset_keeps_the_released_1_1_hash(codegen: dict[str, ModuleType]) -> None:
-    """The 1.2 fields (STATUS cycle counts, MODEL_INFO.image_crc) removed, the definition
-    hashes as the released 1.1 did: 1.2 only appended fields."""
+def subset(definition: ModuleType, minor: int):
+    """The current definition with every addition after 1.`minor` removed (fields and
+    messages by their `since`, the 1.3 flag EST_NO_REST)."""
     import dataclasses
 
+    d = definition.load(Path(__file__).resolve().parents[2] / DEFINITIONS / "messages.toml")
+    later_flags = {"EST_NO_REST"} if minor < 3 else set()
+    return dataclasses.replace(
+        d,
+        protocol=d.protocol | {"minor": minor},
+        flags={
+            name: (doc, tuple(v for v in values if v.name not in later_flags))
+            for name, (doc, values) in d.flags.items()
+        },
+        messages=tuple(
+            dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since <= minor))
+            for msg in d.messages
+            if msg.since <= minor
+        ),
+    )
+
+
+@pytest.mark.parametrize("minor", [1, 2])
+def test_older_subsets_keep_their_released_hashes(
+    codegen: dict[str, ModuleType], minor: int
+) -> None:
+    """The later additions removed (1.2: STATUS cycle counts, MODEL_INFO.image_crc; 1.3: TARE
+    and EST_NO_REST), the definition hashes as the released 1.`minor` did: later minors only
+    appended fields, messages and flag bits."""
     from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
 
     definition = codegen["definition"]
-    d = definition.load(Path(__file__).resolve().parents[2] / DEFINITIONS / "messages.toml")
-    old = dataclasses.replace(
-        d,
-        protocol=d.protocol | {"minor": 1},
-        messages=tuple(
-            dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since <= 1))
-            for msg in d.messages
-            if msg.since <= 1
-        ),
-    )
-    assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[1]
+    assert definition.wire_hash(subset(definition, minor)) == RELEASED_DEFINITION_HASHES[minor]

@@ -193,3 +193,16 @@ def test_the_verb_is_listed_in_help(capsys: pytest.CaptureFixture[str]) -> None:
     assert "export" in capsys.readouterr().out
     assert main(["export"]) == 2
     assert "rosbag" in capsys.readouterr().out
+
+
+def test_help_says_where_estimates_come_from_without_a_model(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # The exporter writes the recording's own estimates (an on-device model's, a live clip's)
+    # when no --model is given: the help must not promise estimates only "with --model".
+    with pytest.raises(SystemExit):
+        main(["export", "rosbag", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "and, with --model, the decoded estimates" not in text
+    assert "the estimates the recording holds" in text
+    assert "--model STAC decode the samples with this model instead" in text

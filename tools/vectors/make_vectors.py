@@ -37,6 +37,7 @@ def mono(colour: int, duty: int) -> tuple[tuple[int, int, int], ...]:
 V1_0 = (1, 0)  # the vectors written for protocol 1.0 stay 1.0 frames: a 1.1 receiver reads them
 V1_1 = (1, 1)
 V1_2 = (1, 2)
+V1_3 = (1, 3)
 
 
 def meaning(msg: Message, seq: int, version: tuple[int, int]) -> dict[str, Any]:
@@ -335,7 +336,7 @@ def build() -> list[dict[str, Any]]:
             "A 1.0 SAMPLE with an empty payload and a good CRC: malformed, not a zero sample.",
         ),
     ]
-    return vectors + build_1_1(info, sample) + build_1_2(status)
+    return vectors + build_1_1(info, sample) + build_1_2(status) + build_1_3()
 
 
 def nack(rejected: type[Message], seq: int, error: m.Error, field_index: int = 255) -> m.Nack:
@@ -574,6 +575,31 @@ def build_1_2(status: m.Status) -> list[dict[str, Any]]:
             41,
             "An uploaded float32 model: crc is the transfer's residue, image_crc the image's own.",
             V1_2,
+        ),
+    ]
+
+
+def build_1_3() -> list[dict[str, Any]]:
+    """1.3: TARE, and the EST_NO_REST flag of an estimate made before the baseline saw rest."""
+    return [
+        valid("tare", m.Tare(), 42, "Zero the model's drift baseline on the next sample.", V1_3),
+        valid(
+            "estimate_no_rest",
+            m.Estimate(
+                sample_seq=7,
+                t_end_us=350_000,
+                config_id=1,
+                model_id=0x5EC7_A7AC,
+                flags=m.EstimateFlags.EST_CONTACT | m.EstimateFlags.EST_NO_REST,
+                force=(0.25, -0.5, -3.75),
+                torque=(0.0, 0.0, 0.0),
+                region=5,
+                region_prob=0.875,
+                decode_us=1200,
+            ),
+            43,
+            "Joined under load: a contact estimate before the drift baseline has seen rest.",
+            V1_3,
         ),
     ]
 

@@ -973,6 +973,7 @@ int stac_payload_size(uint8_t type) {
     case STAC_MSG_MODEL_COMMIT: return (int)STAC_MODEL_COMMIT_SIZE;
     case STAC_MSG_MODEL_CLEAR: return (int)STAC_MODEL_CLEAR_SIZE;
     case STAC_MSG_GET_MODEL: return (int)STAC_GET_MODEL_SIZE;
+    case STAC_MSG_TARE: return (int)STAC_TARE_SIZE;
     case STAC_MSG_INFO: return (int)STAC_INFO_SIZE;
     case STAC_MSG_ACK: return (int)STAC_ACK_SIZE;
     case STAC_MSG_NACK: return (int)STAC_NACK_SIZE;
@@ -988,7 +989,7 @@ int stac_payload_size(uint8_t type) {
 }
 
 int stac_payload_min_size(uint8_t type, uint8_t minor) {
-    const uint8_t v = minor < 2u ? minor : (uint8_t)2u;
+    const uint8_t v = minor < 3u ? minor : (uint8_t)3u;
     switch (type) {
     case STAC_MSG_GET_INFO: return 0;
     case STAC_MSG_CONFIGURE: return 153;
@@ -1003,19 +1004,20 @@ int stac_payload_min_size(uint8_t type, uint8_t minor) {
     case STAC_MSG_MODEL_COMMIT: return 4;
     case STAC_MSG_MODEL_CLEAR: return 0;
     case STAC_MSG_GET_MODEL: return 0;
+    case STAC_MSG_TARE: return 0;
     case STAC_MSG_INFO: return 70;
     case STAC_MSG_ACK: return 5;
     case STAC_MSG_NACK: return 6;
     case STAC_MSG_SAMPLE: return 48;
     case STAC_MSG_STATUS: {
-        static const int k[] = {60, 60, 80};
+        static const int k[] = {60, 60, 80, 80};
         return k[v];
     }
     case STAC_MSG_TIME_SYNC_REPLY: return 20;
     case STAC_MSG_LOG: return 69;
     case STAC_MSG_CONFIG: return 155;
     case STAC_MSG_MODEL_INFO: {
-        static const int k[] = {25, 25, 29};
+        static const int k[] = {25, 25, 29, 29};
         return k[v];
     }
     case STAC_MSG_ESTIMATE: return 46;

@@ -12,8 +12,8 @@ extern "C" {
 #endif
 
 #define STAC_PROTOCOL_MAJOR 1u
-#define STAC_PROTOCOL_MINOR 2u
-#define STAC_DEFINITION_HASH 0xA89272E6u
+#define STAC_PROTOCOL_MINOR 3u
+#define STAC_DEFINITION_HASH 0xCBF8E72Au
 #define STAC_MAX_PAYLOAD 240u
 #define STAC_HEADER_SIZE 5u
 #define STAC_CRC_SIZE 4u
@@ -105,6 +105,7 @@ typedef enum stac_log_level {
 #define STAC_EST_INVALID (1u << 1) /* No usable estimate: the LED step is unknown to the model or the network's output is not finite; force, torque and region_prob are NaN, region is 0. */
 #define STAC_EST_OOD (1u << 2) /* Do not trust the numbers: an input is saturated or dark, a sensor's status is bad (bus fault, stale, absent), or inputs or outputs lie outside the ranges seen in training (the host decoder's guard flags the same). */
 #define STAC_EST_WARMUP (1u << 3) /* The model's temporal context or no-contact baseline is not yet filled (first samples after START or CONFIGURE). */
+#define STAC_EST_NO_REST (1u << 4) /* The model's drift baseline has not yet seen the skin at rest (it searches for rest before it adapts, so a stream that starts under load reads offset forces until the first release; TARE zeroes it at once). Protocol 1.3. */
 
 /* Message type ids. */
 #define STAC_MSG_GET_INFO 0x01u
@@ -120,6 +121,7 @@ typedef enum stac_log_level {
 #define STAC_MSG_MODEL_COMMIT 0x0Bu
 #define STAC_MSG_MODEL_CLEAR 0x0Cu
 #define STAC_MSG_GET_MODEL 0x0Du
+#define STAC_MSG_TARE 0x0Eu
 #define STAC_MSG_INFO 0x81u
 #define STAC_MSG_ACK 0x82u
 #define STAC_MSG_NACK 0x83u
@@ -220,6 +222,9 @@ void stac_model_commit_unpack(stac_model_commit_t *m, const uint8_t *in, size_t 
 
 /* GET_MODEL (host to device): Ask for MODEL_INFO (protocol 1.1). */
 #define STAC_GET_MODEL_SIZE 0u
+
+/* TARE (host to device): Zero the model's drift baseline on the next sample: the skin is at rest now (protocol 1.3; the bias button of an F/T sensor's software). Answered by ACK, or NACK NO_MODEL without a usable model. */
+#define STAC_TARE_SIZE 0u
 
 /* INFO (device to host): Identity, versions and limits of the device. Sent in answer to GET_INFO. Its first two fields keep their place in every major version so that any host can name a mismatch. */
 #define STAC_INFO_SIZE 70u

@@ -8,7 +8,7 @@
 #define STAC_MODEL_IMAGE_H
 
 #define STAC_MODEL_MAGIC 0x494D5453u /* "STMI" little-endian */
-#define STAC_MODEL_VERSION 1u
+#define STAC_MODEL_VERSION 2u
 #define STAC_MODEL_HEADER_SIZE 96u
 #define STAC_MODEL_ALIGN 4u /* every section starts at a multiple of it */
 #define STAC_MODEL_ENTRY_SIZE 8u /* one section table entry */
@@ -68,7 +68,9 @@
 /* the regression head also gives a standard deviation per target */
 #define STAC_MODEL_FLAG_UNCERTAINTY 0x01u
 #define STAC_MODEL_FLAG_CONTACT 0x02u /* a contact head follows the other outputs */
-#define STAC_MODEL_FLAGS_DEFINED 0x03u /* any other bit: refused */
+/* the baseline searches for rest first: sections rest and press (decode.rest_signature) */
+#define STAC_MODEL_FLAG_REST 0x04u
+#define STAC_MODEL_FLAGS_DEFINED 0x07u /* any other bit: refused */
 
 /* header.target_map: the regression index of each of these, or TARGET_ABSENT */
 #define STAC_MODEL_N_TARGETS 6u /* Fx Fy Fz Tx Ty Tz */
@@ -101,6 +103,8 @@ enum {
     STAC_MODEL_SEC_IN_LO, /* float */
     STAC_MODEL_SEC_IN_HI, /* float */
     STAC_MODEL_SEC_DARK_COLS, /* uint16_t */
+    STAC_MODEL_SEC_REST, /* double */
+    STAC_MODEL_SEC_PRESS, /* double */
     STAC_MODEL_N_SECTIONS
 };
 

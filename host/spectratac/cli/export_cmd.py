@@ -2,6 +2,9 @@
 
 spectratac export rosbag s.mcap -o s_bag [--model m.stac] [--storage sqlite3|mcap] [--json]
 
+Estimates: decoded with --model, else the estimates the recording holds (an on-device model's,
+or the live page's in a clip), else none.
+
 Topics, stamps and frames: `spectratac.ros2.export`. An existing non-empty DIR is refused
 (exit code 3) unless --force; a truncated recording exports its readable part with a warning.
 """
@@ -28,14 +31,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "rosbag",
         help="write a recording as a ROS 2 bag (no ROS needed)",
         description="Write the reference F/T (geometry_msgs/msg/WrenchStamped), the raw "
-        "counts (std_msgs/msg/UInt16MultiArray per LED step) and, with --model, the decoded "
-        "estimates (WrenchStamped) of a recording as a ROS 2 bag that `ros2 bag play` "
-        "replays. Stamps: Unix time from the dataset builder's clock fits; frame "
-        "spectratac_board.",
+        "counts (std_msgs/msg/UInt16MultiArray per LED step) and the estimates "
+        "(WrenchStamped) of a recording as a ROS 2 bag that `ros2 bag play` replays. "
+        "Estimates: decoded with --model, else the estimates the recording holds (an "
+        "on-device model's, or the live page's in a clip), else none. Stamps: Unix time from "
+        "the dataset builder's clock fits; frame spectratac_board.",
     )
     r.add_argument("recording", help="a recording (.mcap) made by spectratac record")
     add_output(r, required=True, help="the bag folder to write")
-    r.add_argument("--model", metavar="STAC", help="decode the samples into estimate messages")
+    r.add_argument(
+        "--model",
+        metavar="STAC",
+        help="decode the samples with this model instead of using the recording's own estimates",
+    )
     r.add_argument(
         "--storage",
         choices=("sqlite3", "mcap"),

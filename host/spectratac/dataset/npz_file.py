@@ -4,8 +4,10 @@
 header reaches Python's tokenizer and parser (`SyntaxError`, `tokenize.TokenError`), a
 zip member may use a compression zipfile lacks (`NotImplementedError`), and a text array
 may hold code points no string can (NumPy then raises `SystemError` when an element is
-read). `read_npz` turns all of them into `NpzDamageError` with the reason, so each reader
-(datasets, column files, model files) raises its own typed error from one place.
+read), and a flipped bit can flag a member encrypted (zipfile then raises `RuntimeError`
+asking for a password; NumPy never writes encrypted archives). `read_npz` turns all of them
+into `NpzDamageError` with the reason, so each reader (datasets, column files, model files)
+raises its own typed error from one place.
 
 >>> import io
 >>> buf = io.BytesIO()
@@ -56,6 +58,11 @@ def read_npz(source: str | Path | io.BytesIO) -> dict[str, NDArray[Any]]:
             arrays = {k: np.asarray(z[k]) for k in z.files}
     except DAMAGE as exc:
         raise NpzDamageError(str(exc) or type(exc).__name__) from exc
+    except RuntimeError as exc:  # zipfile's only RuntimeError here: a member flagged encrypted
+        raise NpzDamageError(
+            f"{exc}: NumPy archives are never encrypted, so the file is damaged; build or "
+            f"save it again from its source"
+        ) from exc
     for name, a in arrays.items():
         # UCS-4 text beyond U+10FFFF cannot become a str: NumPy fails later, on first use
         if a.dtype.kind == "U" and a.size and _max_code_point(a) > MAX_CODE_POINT:

@@ -51,6 +51,8 @@ class Decoder:
     unit_policy: UnitPolicy = field(default="warn", compare=False)
     # running streams' assemblers (tare reaches them); not copied by dataclasses.replace
     _streams: set[Assembler] = field(default_factory=set, init=False, repr=False, compare=False)
+    # sensors streaming this decoder's on-device estimates (tare sends them TARE)
+    _devices: list[Any] = field(default_factory=list, init=False, repr=False, compare=False)
     _tare_next: bool = field(default=False, init=False, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
@@ -238,12 +240,16 @@ class Decoder:
         >>> dec = Decoder.untrained(ds)
         >>> dec.tare()  # the next sample of each stream() becomes the zero
 
-        Called before any stream runs, it zeroes the next stream on its first sample.
+        Called before any stream runs, it zeroes the next stream on its first sample. A
+        stream of the device's own estimates of this decoder is tared on the device (TARE,
+        protocol 1.3: `Sensor.tare`).
         """
-        streams = list(self._streams)
+        streams, devices = list(self._streams), list(self._devices)
         for asm in streams:
             asm.tare()
-        self._tare_next = not streams
+        for sensor in devices:
+            sensor.tare()
+        self._tare_next = not streams and not devices
 
     def stream(self, sensor: SampleStream, check_config: bool = True) -> Iterator[Estimate]:
         """Estimates of a live, streaming sensor (a `spectratac.device.SampleStream` such as
@@ -325,11 +331,21 @@ class Decoder:
 
     def _device_estimates(self, sensor: EstimateStream, check_config: bool) -> Iterator[Estimate]:
         config_id = None
-        for row in sensor.iter_estimates():
-            if check_config and row.config_id != config_id:
-                self.check_config(sensor.get_config(), "the sensor")
-            config_id = row.config_id
-            yield Estimate.from_device(row, self.target_names)
+        tare = getattr(sensor, "tare", None)  # a device of protocol 1.3 (Sensor.tare)
+        if self._tare_next and tare is not None:
+            tare()
+            self._tare_next = False
+        if tare is not None:
+            self._devices.append(sensor)
+        try:
+            for row in sensor.iter_estimates():
+                if check_config and row.config_id != config_id:
+                    self.check_config(sensor.get_config(), "the sensor")
+                config_id = row.config_id
+                yield Estimate.from_device(row, self.target_names)
+        finally:
+            if tare is not None:
+                self._devices.remove(sensor)
 
     def _one(
         self,

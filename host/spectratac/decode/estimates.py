@@ -127,16 +127,16 @@ class Estimate:
     @classmethod
     def from_device(cls, row: Any, target_names: tuple[str, ...]) -> Estimate:
         """An ESTIMATE the device decoded (an EstimateRow of Sensor.iter_estimates) in host
-        terms: region 0 becomes -1, contact and out-of-distribution come from EST_* flags,
-        the contact probability and the uncertainty are not sent (NaN, None).
+        terms: region 0 becomes -1, contact, out-of-distribution and no rest yet come from
+        EST_* flags, the contact probability and the uncertainty are not sent (NaN, None).
 
         >>> from types import SimpleNamespace
         >>> nan = float("nan")
         >>> row = SimpleNamespace(host_time=2.5, flags=0b101, force=(nan, nan, 1.5),
         ...                       torque=(nan, nan, nan), region=0, region_prob=nan)
         >>> e = Estimate.from_device(row, ("Fz",))
-        >>> e.targets.tolist(), e.region, e.contact, e.ood, e.invalid
-        ([1.5], -1, True, True, False)
+        >>> e.targets.tolist(), e.region, e.contact, e.ood, e.invalid, e.no_rest
+        ([1.5], -1, True, True, False, False)
         """
         flags = int(row.flags)
         force = np.asarray(row.force, dtype=np.float64)
@@ -154,4 +154,5 @@ class Estimate:
             bool(flags & EstimateFlags.EST_OOD),
             bool(flags & EstimateFlags.EST_INVALID),
             np.array([by_name.get(n, np.nan) for n in target_names], dtype=np.float64),
+            no_rest=bool(flags & EstimateFlags.EST_NO_REST),
         )

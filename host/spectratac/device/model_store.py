@@ -110,6 +110,20 @@ def read_info(sensor: Sensor) -> ModelInfo:
     return ModelInfo.from_message(sensor.link.request(m.GetModel(), m.ModelInfo))
 
 
+def tare(sensor: Sensor) -> None:
+    """TARE (protocol 1.3): the device's model takes its next sample as the baseline's zero.
+    Raises MissingCapabilityError, saying what to do, for a device older than 1.3."""
+    require(sensor, m.Capabilities.CAP_ESTIMATE, "tare its model (TARE)")
+    if sensor.info.protocol_minor < m.Tare.SINCE:
+        raise MissingCapabilityError(
+            f"{sensor.url} cannot tare its model: TARE is protocol 1.{m.Tare.SINCE}, the device "
+            f"speaks {sensor.info.protocol_major}.{sensor.info.protocol_minor}; flash a newer "
+            f"firmware, or decode on the host (estimates='off') and tare the host's decoder",
+            "TARE",
+        )
+    sensor.link.command(m.Tare())
+
+
 def clear(sensor: Sensor) -> None:
     require(sensor, m.Capabilities.CAP_MODEL_UPLOAD, "erase its model (MODEL_CLEAR)")
     sensor.link.command(m.ModelClear(), timeout=max(sensor.timeout, FLASH_TIMEOUT))

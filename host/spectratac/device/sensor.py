@@ -331,6 +331,11 @@ class Sensor:
         model_store.upload(self, image, model_id, progress)
         return self.model_info()
 
+    def tare(self) -> None:
+        """Zero the on-device model's drift baseline on its next sample (TARE, protocol 1.3):
+        call it while nothing touches the skin. MissingCapabilityError for an older device."""
+        model_store.tare(self)
+
     def clear_model(self) -> None:
         """Erase the uploaded model; a built-in one, if the firmware has one, takes over."""
         model_store.clear(self)

@@ -37,6 +37,7 @@ from spectratac.sim.ft_source import FTSource
 SINC_CLOCK_HZ = 51200.0
 TEMPERATURE_C = 31.5
 PATIENCE_S = 0.5  # how long a write waits for a host that has been reading
+PATIENCE_MAX_S = 5.0  # at speed=max: the device waits for us, so a slow host loses nothing
 
 
 class BotaServer:
@@ -59,6 +60,7 @@ class BotaServer:
             tmp.symlink_to(self.path)
             tmp.replace(link)
         self.running = True  # the sensor boots streaming
+        source.streaming(True)
         self.sent = 0
         self.dropped = 0  # frames lost on purpose (loss) or because nobody read them
         self.corrupted = 0
@@ -73,6 +75,7 @@ class BotaServer:
         return f"bota://{self.link or self.path}"
 
     def stop(self) -> None:
+        self.source.streaming(False)
         self._stop.set()
         self._thread.join(timeout=2.0)
         os.close(self._fd)
@@ -119,9 +122,11 @@ class BotaServer:
     def _mode(self, letter: str) -> None:
         if letter == "C":
             self.running = False
+            self.source.streaming(False)
         elif letter == "R":
             self.source.skip()  # streaming resumes with the next sample
             self.running = True
+            self.source.streaming(True)
         else:
             self._write(f"r,1,{letter},0".encode())
             return
@@ -172,7 +177,11 @@ class BotaServer:
         that is briefly descheduled should not see losses a real sensor would not cause.
         A host that stops reading loses what does not fit, like behind a real adapter."""
         view = memoryview(data)
-        deadline = time.monotonic() + (PATIENCE_S if self._host_reading else 0.0)
+        # at speed=max the device waits for us, so the host is given time to read it all
+        patience = PATIENCE_S if self._host_reading else 0.0
+        if not self.source.world.paced:
+            patience = PATIENCE_MAX_S
+        deadline = time.monotonic() + patience
         while view:
             try:
                 view = view[os.write(self._fd, view) :]

@@ -97,6 +97,7 @@ class NetFTServer:
         return f'<?xml version="1.0"?><netft>{body}</netft>'.encode()
 
     def stop(self) -> None:
+        self.source.streaming(False)
         self._stop.set()
         self._http.shutdown()
         for t in self._threads:
@@ -137,10 +138,12 @@ class NetFTServer:
                 self.source.skip()  # a new stream starts with the next sample
                 self._client = client
                 self._remaining = count if count else -1
+                self.source.streaming(not count)  # speed=max: a stream until stopped paces
                 self._per_packet = BUFFERED_RECORDS if command == rdt.CMD_START_BUFFERED else 1
                 self._rdt_seq = 0
             elif command == rdt.CMD_STOP:
                 self._remaining = 0
+                self.source.streaming(False)
             elif command == rdt.CMD_SET_SOFTWARE_BIAS:
                 self._bias = self._bias + self._last
             else:

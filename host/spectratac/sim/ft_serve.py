@@ -56,7 +56,8 @@ def start_server(
     port: int | None = None,
     link: Path | None = None,
 ) -> NetFTServer | BotaServer:
-    """Start the simulated sensor `kind` of `world` (FTURLError for speed=max)."""
+    """Start the simulated sensor `kind` of `world` (FTURLError for speed=max without the
+    world's optical sensor open: it sets the pace)."""
     source = FTSource(world, FTParams.from_sim(opts), stream=KINDS.index(kind))
     if kind == "netft":
         if port is None:

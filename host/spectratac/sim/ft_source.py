@@ -7,7 +7,10 @@ that clock reads k / rate, i.e. at scene time (k / rate - offset) / (1 + drift).
 are computed ahead in blocks (one vectorised twin call per block) and released when their
 scene time has come, so a sender wakes often but pays for the twin rarely. Scene time starts
 with the world's first optical stream (`SimWorld.start_clock`), or when the F/T is first read in
-a world without an optical device; until then no sample is due.
+a world without an optical device; until then no sample is due. At speed=max the scene clock
+is the optical device's (`SimWorld.reached`): a sample is due once the device has sent the
+frames of its scene time, so the F/T is paced by the device's samples (and the device waits
+for an F/T that lags, `SimWorld.wait_for_ft`); such an F/T needs the world's optical device.
 The first block is computed when the source is made, so a server is ready to answer before it
 is handed out.
 
@@ -36,6 +39,9 @@ from spectratac.sim.url import SimOptions
 from spectratac.sim.world import SimWorld
 
 F64 = NDArray[np.float64]
+#: speed=max: how often (host s) a server looks for samples the device's progress made due.
+UNPACED_POLL_S = 0.002
+UNPACED_SPEED = 100.0
 
 
 @dataclass(frozen=True)
@@ -81,19 +87,22 @@ class FTBatch:
 
 
 class FTSource:
-    """Releases a simulated F/T sensor's samples as scene time passes (paced worlds only)."""
+    """Releases a simulated F/T sensor's samples as scene time passes."""
 
     def __init__(self, world: SimWorld, params: FTParams, stream: int = 0) -> None:
-        if not world.paced:
+        if not world.paced and world.optical == 0:
             raise FTURLError(
-                "a simulated F/T sensor needs scene time that follows the wall clock: "
-                "speed=max has none; give a numeric speed (e.g. speed=10)"
+                "a simulated F/T at speed=max is paced by the simulated optical sensor of the "
+                "same URL, and none is open: open it first (record, live and decode take both "
+                "from one sim:// URL), or give a numeric speed (e.g. speed=10) to serve the "
+                "F/T alone"
             )
         params.validate()
         self.world = world
         self.params = params
         self._rng = np.random.default_rng([world.seed, 0xF7, stream])
-        self._speed = float(world.speed)
+        # speed=max: blocks as if at 100x (the device races ahead; larger blocks, fewer calls)
+        self._speed = float(world.speed) if world.paced else UNPACED_SPEED
         self._k_next = 0
         self.skip()
         self._block_n = max(16, int(params.rate * self._speed * 0.02))  # ~20 ms of samples
@@ -103,9 +112,19 @@ class FTSource:
         # sensor, so it counted against the host's open timeout (issue 25).
         self._block: FTBatch | None = self._compute(self._k_next, self._block_n)
 
+    def streaming(self, on: bool) -> None:
+        """The server starts (or stops) sending: at speed=max the optical device then waits
+        for this source while it lags (SimWorld.wait_for_ft)."""
+        if not self.world.paced:
+            self.world.ft_streaming(id(self), on)
+
     def skip(self) -> None:
         """Forget samples not yet taken: the next one is the next tick of the sensor clock
-        (a stream starts now; nothing is computed for the time nobody listened)."""
+        (a stream starts now; nothing is computed for the time nobody listened). At
+        speed=max scene time moves only with the device, so nothing is skipped: a stream
+        started after the device's has its samples from where the source left off."""
+        if not self.world.paced and self._k_next:
+            return
         self._k_next = math.floor(self.sensor_of(self.world.scene_time()) * self.params.rate) + 1
 
     def sensor_of(self, scene_time: float) -> float:
@@ -116,7 +135,10 @@ class FTSource:
         return (np.asarray(k) / p.rate - p.offset) / (1.0 + p.drift)
 
     def next_due_host(self) -> float:
-        """Host monotonic time at which the next sample is due."""
+        """Host monotonic time at which the next sample is due (speed=max: look again soon,
+        the device's samples set the pace)."""
+        if not self.world.paced:
+            return time.monotonic() + UNPACED_POLL_S
         epoch = self._epoch(time.monotonic())
         if epoch is None:  # scene time waits at 0 for the first optical stream: look again
             return time.monotonic() + 0.01
@@ -127,9 +149,10 @@ class FTSource:
         """Every sample whose time has come by host time `now` (default: now), in order.
         None has come before an optical stream started the scene clock."""
         t = time.monotonic() if now is None else now
-        if self._epoch(t) is None:
+        scene_now = self._scene_now(t)
+        if scene_now is None:
             return _empty()
-        k_due = math.floor(self.sensor_of(self.world.scene_time(t)) * self.params.rate)
+        k_due = math.floor(self.sensor_of(scene_now) * self.params.rate)
         parts: list[FTBatch] = []
         while self._k_next <= k_due:
             block = self._block
@@ -139,6 +162,8 @@ class FTSource:
             i1 = min(len(block.k), k_due - int(block.k[0]) + 1)
             parts.append(_slice(block, i0, i1))
             self._k_next = int(block.k[0]) + i1
+        if not self.world.paced:  # the optical device may run this far ahead of us
+            self.world.ft_released(id(self), float(self.scene_of_k(self._k_next - 1)))
         if not parts:
             return _empty()
         return parts[0] if len(parts) == 1 else _concat(parts)
@@ -146,6 +171,8 @@ class FTSource:
     @property
     def waiting(self) -> bool:
         """True while the scene clock waits for an optical stream (no sample is due)."""
+        if not self.world.paced:
+            return self.world.reached is None
         return self.world.epoch is None and self.world.optical > 0
 
     def rest_sample(self) -> FTBatch:
@@ -153,6 +180,12 @@ class FTSource:
         answered while the scene waits; it precedes every sample `pop_due` will release."""
         k = math.floor(self.sensor_of(0.0) * self.params.rate)
         return self._compute(k, 1)
+
+    def _scene_now(self, now: float) -> float | None:
+        """Scene seconds at host time `now`, None before the scene clock started."""
+        if not self.world.paced:
+            return self.world.reached
+        return None if self._epoch(now) is None else self.world.scene_time(now)
 
     def _epoch(self, now: float) -> float | None:
         """The world's epoch; an F/T alone in its world (no optical device) starts the scene

@@ -53,6 +53,7 @@ class SimTransport:
         self._out = bytearray()
         self._cond = threading.Condition()
         self._closed = False
+        self._closing = threading.Event()  # ends a wait for a lagging simulated F/T
         self._cable_out = False  # unplugged by a fault: reads drain, then report the loss
         self._blocking = opts.speed == MAX
         self.faults: FaultLayer | None = None
@@ -107,7 +108,10 @@ class SimTransport:
             "ft_clock": _ft_clock(opts) if opts.scene_params.get("ft") else None,
         }
 
-    def _on_tx(self, data: bytes, _t: int) -> bool:
+    def _on_tx(self, data: bytes, t_us: int) -> bool:
+        if self._blocking and self.device.streaming:  # speed=max: the world's scene clock
+            self.world.wait_for_ft(t_us / 1e6, self._closing)  # a lagging F/T catches up
+            self.world.advance(t_us / 1e6)
         with self._cond:
             while self._blocking and len(self._out) > HIGH_WATER and not self._closed:
                 self._cond.wait(0.1)  # back-pressure: speed=max never loses a frame
@@ -153,6 +157,7 @@ class SimTransport:
             self.runner.write(data)
 
     def close(self) -> None:
+        self._closing.set()
         with self._cond:
             if self._closed:
                 return
@@ -166,11 +171,10 @@ class SimTransport:
 
 
 def _ft_clock(opts: SimOptions) -> dict[str, float] | None:
-    """F/T sensor time = offset + (1 + drift) x device time, for a paced world's F/T."""
+    """F/T sensor time = offset + (1 + drift) x device time (paced or at speed=max, the F/T
+    runs on the scene clock)."""
     from spectratac.sim.ft_source import FTParams
 
-    if opts.speed == MAX:
-        return None
     params = FTParams.from_sim(opts)
     return {"offset_s": params.offset, "drift": params.drift}
 

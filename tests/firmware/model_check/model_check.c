@@ -26,6 +26,10 @@ int mc_run(const uint8_t *image, uint32_t size) {
     uint8_t in[MC_IN_SIZE];
     mc_record_t rec;
     while (mc_read(in, MC_IN_SIZE) == MC_IN_SIZE) {
+        if (in[0] == MC_TARE_STEP) {
+            stac_model_tare(&g_state);
+            continue;
+        }
         uint16_t counts[3][5];
         for (unsigned s = 0; s < 3u; ++s)
             for (unsigned c = 0; c < 5u; ++c) {

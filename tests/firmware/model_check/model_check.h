@@ -4,7 +4,8 @@
  * Cortex-M4F under QEMU (model_check_qemu.c: semihosting, SysTick cycle stamps).
  *
  * Input: records of MC_IN_SIZE bytes: led_step u8, sensor_status u8[3], counts u16[3][5]
- * (little-endian). Output: one MC_OUT_SIZE record per input (see mc_record_t), then one
+ * (little-endian); a record whose led_step is MC_TARE_STEP calls stac_model_tare (the TARE
+ * command) and gives no output. Output: one MC_OUT_SIZE record per input (see mc_record_t), then one
  * trailer record (ret = MC_TRAILER) holding the reference timings. */
 #ifndef MODEL_CHECK_H
 #define MODEL_CHECK_H
@@ -13,6 +14,7 @@
 
 #define MC_IN_SIZE 34u
 #define MC_TRAILER (-2)
+#define MC_TARE_STEP 0xFEu /* an input record that tares instead of a sample */
 #define MC_REF_LEN 1024u     /* multiply-adds of the reference dot product */
 #define MC_CALIB_ITERS 4096u /* iterations of the two-instruction calibration loop */
 

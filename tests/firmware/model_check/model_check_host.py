@@ -39,7 +39,8 @@ MC_CALIB_ITERS = 4096  # iterations of the two-instruction calibration loop
 IMAGE_ADDR = 0x08080000  # the F405's second half-megabyte: beyond the F411 image's flash
 IMAGE_REGION = 0x80000
 IN_NAME, OUT_NAME = "model_check.in", "model_check.out"
-EST_CONTACT, EST_INVALID, EST_OOD, EST_WARMUP = 1, 2, 4, 8
+EST_CONTACT, EST_INVALID, EST_OOD, EST_WARMUP, EST_NO_REST = 1, 2, 4, 8, 16
+TARE_STEP = 0xFE  # model_check.h MC_TARE_STEP: an input record that tares, no output
 RUN_TIMEOUT_S = 900
 
 

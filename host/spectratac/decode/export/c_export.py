@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.decode.assemble import GATE, STUCK, TAU
+from spectratac.decode.assemble import DROP, GATE, HOLD, JOIN, STILL, STUCK, TAU
 from spectratac.decode.export.c_template import TEMPLATE
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import SKIP
+from spectratac.decode.rest_signature import log_counts
 
 
 def fmt_values(values: Iterable[float]) -> str:
@@ -63,6 +64,7 @@ def render(dec: Any) -> str:
     kind, hidden, blocks = rt.arch
     lay = dec.layout
     n_lin, n_rat = fs.L.shape[0], fs.P.shape[0]
+    rest = bool(lay.drift and len(lay.rest) == lay.base and len(lay.press) == lay.base)
     defines = {
         "STAC_N_IN": rt.n_inputs,
         "STAC_N_BASE": dec.layout.base,
@@ -94,6 +96,12 @@ def render(dec: Any) -> str:
         "STAC_BASE_TAU": repr(float(TAU)),
         "STAC_BASE_GATE": repr(float(GATE)),
         "STAC_BASE_STUCK": f"{int(STUCK)}L",
+        # the search for rest before the baseline adapts (a layout with a rest signature)
+        "STAC_HAS_REST": int(rest),
+        "STAC_REST_JOIN": repr(float(JOIN)),
+        "STAC_REST_DROP": repr(float(DROP)),
+        "STAC_REST_STILL": f"{int(STILL)}L",
+        "STAC_REST_HOLD": f"{int(HOLD)}L",
     }
     data = [_array("stac_center", rt.center)]
     if n_lin:
@@ -161,6 +169,14 @@ def render(dec: Any) -> str:
     if lay.emas:
         alpha = fmt_values(1.0 / np.asarray(lay.emas, dtype=np.float64))
         data.append(f"static const double stac_ema_alpha[{len(lay.emas)}] = {{{alpha}}};")
+    if rest:  # double, as the host's search computes (decode/rest_signature.py)
+        press = np.asarray(lay.press, np.float64)
+        score = float(np.dot(press, log_counts(np.asarray(lay.rest, np.float64))))
+        data += [
+            f"static const double stac_rest[{lay.base}] = {{{fmt_values(lay.rest)}}};",
+            f"static const double stac_press[{lay.base}] = {{{fmt_values(press)}}};",
+            f"#define STAC_REST_SCORE {score!r}",
+        ]
     banner = (
         f"decoder {dec.meta.get('spec', {}).get('model', '?')} on features "
         f"{fs.kind}; unit {dec.unit_id}; config {json.dumps(dec.config)}"

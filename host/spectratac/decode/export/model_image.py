@@ -1,7 +1,8 @@
 """Model images: a whole decoder as the bytes the firmware's interpreter runs (stac_model.c).
 
 An image carries everything `Decoder` computes for a live sample: the assembly (LED steps,
-context lags, moving averages, drift baseline with TAU/GATE/STUCK), the feature rows as
+context lags, moving averages, drift baseline with TAU/GATE/STUCK and, from format 2, the
+rest signature its search for rest needs: sections rest and press, flag rest), the feature rows as
 sparse rows, the normalisation, the network (linear, mlp, resmlp) with float32, float16 or
 int8 (per-output-row scale) weights, the heads and the out-of-distribution guard.
 
@@ -53,6 +54,7 @@ from spectratac.decode.generated.model_image_layout import (
     CRC,
     ENTRY,
     FLAG_CONTACT,
+    FLAG_REST,
     FLAG_UNCERTAINTY,
     HEADER,
     HEADER_FIELDS,
@@ -259,7 +261,17 @@ def _sections(dec: Decoder, weights: str) -> dict[str, bytes]:
     s["t_lo"], s["t_hi"] = _target_bounds(guard.t_lo, guard.t_hi)
     s["in_lo"], s["in_hi"] = _count_bounds(guard.in_lo, guard.in_hi)
     s["dark_cols"] = np.asarray(guard.dark_cols, "<u2").tobytes()
+    rest = has_rest(dec)
+    s["rest"] = np.asarray(lay.rest if rest else (), "<f8").tobytes()
+    s["press"] = np.asarray(lay.press if rest else (), "<f8").tobytes()
     return s
+
+
+def has_rest(dec: Decoder) -> bool:
+    """True when the image carries the rest signature: a drift baseline that searches for
+    rest before it adapts (decode/assemble._Baseline), on the device as on the host."""
+    lay = dec.layout
+    return bool(lay.drift and len(lay.rest) == lay.base and len(lay.press) == lay.base)
 
 
 def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_BYTES) -> bytes:
@@ -305,7 +317,8 @@ def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_
             "n_emas": len(lay.emas),
             "drift": int(lay.drift),
             "flags": (FLAG_UNCERTAINTY if heads.uncertainty else 0)
-            | (FLAG_CONTACT if heads.contact else 0),
+            | (FLAG_CONTACT if heads.contact else 0)
+            | (FLAG_REST if has_rest(dec) else 0),
             "n_inputs": rt.n_inputs,
             "n_features": rt.features.n_features,
             "n_linear": n_linear,

@@ -5,7 +5,7 @@ the header, a table of one (offset, length) entry per section, the sections (eac
 multiple of ALIGN bytes), then the CRC-32C of everything before it.
 
 >>> HEADER.size == HEADER_SIZE, OFFSETS["n_sections"], SECTIONS[0], N_SECTIONS
-(True, 50, 'lags', 25)
+(True, 50, 'lags', 27)
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import struct
 from spectratac.hardware.generated.vocabulary import FT_AXES
 
 MAGIC = b"STMI"
-VERSION = 1
+VERSION = 2
 HEADER_SIZE = 96
 ALIGN = 4  # every section starts at a multiple of it
 
@@ -103,7 +103,10 @@ ARCHS = ("linear", "mlp", "resmlp")
 
 FLAG_UNCERTAINTY = 0x01  # the regression head also gives a standard deviation per target
 FLAG_CONTACT = 0x02  # a contact head follows the other outputs
-FLAGS_DEFINED = 0x03  # any other bit: refused
+FLAG_REST = (
+    0x04  # the baseline searches for rest first: sections rest and press (decode.rest_signature)
+)
+FLAGS_DEFINED = 0x07  # any other bit: refused
 
 #: header.target_map: the regression index of each of these (the vocabulary's F/T axes),
 #: or TARGET_ABSENT.
@@ -137,8 +140,10 @@ SECTIONS = (
     "in_lo",
     "in_hi",
     "dark_cols",
+    "rest",
+    "press",
 )
-N_SECTIONS = 25
+N_SECTIONS = 27
 
 #: Compile-time limits of the firmware's interpreter.
 LIMITS = {
