@@ -118,6 +118,10 @@ class BotaServer:
 
     def _mode(self, letter: str) -> None:
         if letter == "C":
+            if self.running and self.source.world.epoch is not None:
+                # what came due before the command is sent, however late this thread runs: a
+                # recording's end is then the scene's, not the scheduler's
+                self._emit()
             self.running = False
         elif letter == "R":
             self.source.skip()  # streaming resumes with the next sample
