@@ -7,7 +7,8 @@ then the communication setup "c,<temperature compensation>,1 (calibrated),0 (bin
 code>" and, with sinc=, the filter setup "f,<sinc>,0,0,1"; start() sends 'R' (run: binary
 frames follow) and returns once the sensor has acknowledged it, so a stream started next
 (the optical sensor's, in a recording) starts after the F/T's, whatever the scheduler does;
-stop() sends 'C'. configure=0 skips all commands and parses a sensor that
+stop() sends 'C', and its acknowledgement, which follows the last frame, sets
+`stream_stopped`. configure=0 skips all commands and parses a sensor that
 already streams. Frames are parsed by spectratac.ft.botaframe (resynchronises after damage,
 counts CRC errors).
 
@@ -130,6 +131,8 @@ class BotaSensor(FTSensor):
         sensor._held = []
         sensor._t0_us = None
         sensor._after_ack = b""
+        sensor._text_tail = b""
+        sensor.confirms_stop = configure
         sensor.temperature_c = float("nan")
         try:
             if configure:
@@ -151,6 +154,7 @@ class BotaSensor(FTSensor):
     _held: list[tuple[np.ndarray, float]]
     _t0_us: int | None
     _after_ack: bytes
+    _text_tail: bytes  # the last bytes read, for an acknowledgement split across reads
     temperature_c: float
 
     # ------------------------------------------------------------------ commands
@@ -216,6 +220,10 @@ class BotaSensor(FTSensor):
                 return np.empty(0, dtype=FT_RECORD)
             data = self._read_fd()
         now = time.monotonic()
+        if not self._streaming:  # stopping: the acknowledgement ends the stream
+            seen = self._text_tail + data
+            self._stop_seen = self._stop_seen or ack("C") in seen
+            self._text_tail = seen[-len(ack("C")) :]
         frames = self._parser.feed(data)
         self.stats.crc_errors = self._parser.crc_errors
         self.stats.bad_frames = self._parser.lost_sync
