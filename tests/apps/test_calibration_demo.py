@@ -60,7 +60,7 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
                          timeout=1800)  # fmt: skip
     assert run.returncode == 0, run.stderr
     line = assert_estimate_first(run.stderr, "the demo")
-    assert "record 4 s" in line and "dataset" in line and "train + evaluate" in line
+    assert "record 1 s" in line and "dataset" in line and "train + evaluate" in line
     assert run.stderr.index("estimating how long") < run.stderr.index(line)
     stages = [s for s in run.stdout.splitlines() if s.startswith(("[1/4]", "[2/4]", "[3/4]"))]
     assert all("(estimated " in s for s in stages[:3]), stages
@@ -69,7 +69,7 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
     json_run = subprocess.run([*args, "-o", str(tmp_path / "b"), "--json"], capture_output=True,
                               text=True, timeout=1800)  # fmt: skip
     summary = json.loads(json_run.stdout)
-    assert summary["estimate"]["parts_s"]["record"] == 4.0
+    assert summary["estimate"]["parts_s"]["record"] == 1.0  # 60 scene s at DEMO_SPEED
     assert "%|" not in json_run.stdout and json_run.stderr == ""
 
 
