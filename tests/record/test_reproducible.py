@@ -107,3 +107,19 @@ def test_the_same_recording_at_any_pace(tmp_path: Path) -> None:
     assert a.n == b.n == 400
     for name in sorted(set(a.arrays) - {"t_start", "t_end"}):
         np.testing.assert_array_equal(a.arrays[name], b.arrays[name], err_msg=name)
+
+
+def test_a_late_recorder_reports_the_sensor_time_its_file_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A recorder whose loop runs late (a loaded host: it looks at the duration only every
+    0.5 s) receives seconds of samples past the duration before the device obeys STOP. The
+    file ends at the duration; the summary's sensor_s says so (it said 11 s for 3 s)."""
+    from spectratac.record.recorder import Recorder
+
+    monkeypatch.setattr(Recorder, "_next_wait", lambda self: 0.5)
+    url = "sim://?scene=tour&seed=1&speed=10"
+    summary = record_url(url, tmp_path / "s.mcap", RecordOptions(duration_s=1.0))
+    rec = read_recording(tmp_path / "s.mcap")
+    span = _samples(rec)["t_end_us"].max() / 1e6
+    assert summary.sensor_s <= span + 0.05 and 1.0 <= summary.sensor_s < 1.1, summary.sensor_s

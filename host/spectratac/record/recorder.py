@@ -257,9 +257,17 @@ class Recorder:
             error=error,
             sensor_stats=st.as_dict(),
             ft_stats=self.ft.stats.as_dict() if self.ft is not None else None,
-            sensor_s=self.sensor_s,
+            sensor_s=self._recorded_sensor_s(),
             ft_simulated_loss=_simulated_loss(self.ft),
         )
+
+    def _recorded_sensor_s(self) -> float:
+        """Seconds of the sensor's clock the file holds: at most the duration once it was
+        reached (samples that came before the device obeyed STOP, many on a loaded host at a
+        high speed, are counted as they arrive but not written)."""
+        if self._cut is not None and self._cut.reached:
+            return min(self.sensor_s, self._cut.limit_us / 1e6)
+        return self.sensor_s
 
     @property
     def sensor_s(self) -> float:
