@@ -50,16 +50,6 @@ def loss_weights(spec: TrainSpec, targets: tuple[str, ...]) -> list[float]:
     return [given.get(t, w) for t, w in zip(targets, own, strict=True)]
 
 
-def class_weight(spec: TrainSpec, target: str) -> float:
-    """Weight of a class head's loss ("region": cross-entropy, "contact": BCE), 1 unless
-    spec.loss_weights names it.
-
-    >>> class_weight(TrainSpec.paper(loss_weights=(("region", 3.0),)), "region")
-    3.0
-    """
-    return dict(spec.loss_weights).get(target, 1.0)
-
-
 def batch_sizes(n: int, batch_size: int) -> list[int]:
     """Sizes of the ceil(n / batch_size) batches of one epoch, as equal as possible: a short
     remainder batch would make one noisy optimiser step per epoch (measured with a 1-row
@@ -149,7 +139,6 @@ def fit_network(
     w = torch.tensor(loss_weights(spec, heads.regression), dtype=torch.float32)
     ce = torch.nn.CrossEntropyLoss(ignore_index=-100, reduction="sum")
     bce = torch.nn.BCEWithLogitsLoss()
-    w_region, w_contact = class_weight(spec, "region"), class_weight(spec, "contact")
 
     def loss_of(out: torch.Tensor, b: dict[str, torch.Tensor]) -> torch.Tensor:
         total = out.new_zeros(())
@@ -169,10 +158,9 @@ def fit_network(
                 total = total + (nll * m).sum() / denom
         if heads.n_classes:
             lab = b["label"]
-            n_lab = max(int((lab >= 0).sum()), 1)
-            total = total + w_region * ce(out[:, sl["classes"]], lab) / n_lab
+            total = total + ce(out[:, sl["classes"]], lab) / max(int((lab >= 0).sum()), 1)
         if heads.contact:
-            total = total + w_contact * bce(out[:, sl["contact"]][:, 0], b["contact"])
+            total = total + bce(out[:, sl["contact"]][:, 0], b["contact"])
         return total
 
     n = tr["packed"].shape[0]
