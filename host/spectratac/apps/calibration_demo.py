@@ -10,8 +10,9 @@
    history, so it is a reference the decoders beat, not a floor), with the Fig. 3 panels
    written to a folder. Each blocked-split gain of the best decoder over the recipe is
    shown with its spread over GAIN_BLOCKS consecutive blocks of the held-out rows (one
-   blocked split of one session is a small sample), and the table says so when the best
-   decoder's region accuracy is below the recipe's.
+   blocked split of one session is a small sample), and so is the difference of their region
+   accuracies (a handful of held-out presses: one near a region boundary moves it by
+   points); the table says so when the best decoder's region accuracy is below the recipe's.
 
 Every figure it prints is measured in this run. Torch is imported only in step 3. The demo
 names the simulated devices by URL only: it never imports the twin or the simulator.
