@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +64,7 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
                          timeout=1800)  # fmt: skip
     assert run.returncode == 0, run.stderr
     line = assert_estimate_first(run.stderr, "the demo")
-    assert "record 4 s" in line and "dataset" in line and "train + evaluate" in line
+    assert "record 1 s" in line and "dataset" in line and "train + evaluate" in line
     assert run.stderr.index("estimating how long") < run.stderr.index(line)
     stages = [s for s in run.stdout.splitlines() if s.startswith(("[1/4]", "[2/4]", "[3/4]"))]
     assert all("(estimated " in s for s in stages[:3]), stages
@@ -69,7 +73,7 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
     json_run = subprocess.run([*args, "-o", str(tmp_path / "b"), "--json"], capture_output=True,
                               text=True, timeout=1800)  # fmt: skip
     summary = json.loads(json_run.stdout)
-    assert summary["estimate"]["parts_s"]["record"] == 4.0
+    assert summary["estimate"]["parts_s"]["record"] == 1.0  # 60 scene s at DEMO_SPEED
     assert "%|" not in json_run.stdout and json_run.stderr == ""
 
 
@@ -97,13 +101,19 @@ def test_the_table_is_the_same_on_every_run_with_the_spread_beside_each_gain(
         results = _train_and_evaluate(opts, twin_session, say=lambda _: None)
         tables.append(results_table(results))
     assert tables[0] == tables[1]
-    rows = {line.split()[0]: line for line in tables[0][2:8]}
+    rows = {line.split()[0]: line for line in tables[0][2:9]}
     for c in vocab.FT_AXES:
         gain = rows[c].split()[6]
         assert "±" in gain and gain.endswith("%"), rows[c]
         spread = results["gain_blocks"][c]
         assert spread["n"] == GAIN_BLOCKS and np.isfinite(spread["sd"]) and spread["sd"] >= 0
     assert f"over {GAIN_BLOCKS} consecutive blocks" in "\n".join(tables[0])
+    # the region accuracies' difference carries its spread too: one press of a blocked
+    # split moves it by points (issue 22: 98.0 % against 92.4 % in one run)
+    region = results["gain_blocks"]["region"]
+    assert region["n"] == GAIN_BLOCKS and np.isfinite(region["sd"])
+    assert rows["region"].split()[-1] == f"{region['mean']:+.0f}±{region['sd']:.0f}pt"
+    assert "region: best's accuracy minus the recipe's, in percentage points" in tables[0]
 
 
 def test_the_table_says_why_when_best_loses_on_region_accuracy() -> None:
@@ -121,21 +131,37 @@ def test_the_table_says_why_when_best_loses_on_region_accuracy() -> None:
     assert not [line for line in results_table(res) if line.startswith("note:")]
 
 
+@contextlib.contextmanager
+def busy_loops(n: int) -> Iterator[None]:
+    """`n` processes spinning on a core each (a user's laptop is never idle)."""
+    loops = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
+    try:
+        yield
+    finally:
+        for p in loops:
+            p.kill()
+            p.wait()
+
+
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_two_demo_runs_give_the_same_table(tmp_path: Path) -> None:
     """Issue 22: the paced recording depended on host timing (the scene clock started with
-    the device's open, samples on another phase each run). Now the scene starts with the stream
-    and the recording ends on the scene clock: two runs record, train and score the same."""
+    the device's open, samples on another phase each run; the simulated F/T began when its
+    thread got to 'R' and ended when it got to 'C'). Now the recording is a function of the
+    scene: two runs at the demo's pace, one of them beside two busy loops, record, train and
+    score the same."""
     tables, samples = [], []
-    for run in ("a", "b"):
+    for run, busy in (("a", 0), ("b", 2)):
         opts = DemoOptions(
-            out=tmp_path / run, scene_s=60, speed=15, epochs=2, floor=OracleFloor(20),
-            progress=False,
-        )  # fmt: skip
-        summary = run_demo(opts, say=lambda _line: None)
+            out=tmp_path / run, scene_s=60, epochs=2, floor=OracleFloor(20), progress=False
+        )
+        with busy_loops(busy):
+            summary = run_demo(opts, say=lambda _line: None)
+        assert summary["recording"]["lost"] == 0
         tables.append(results_table(summary["results"]))
         samples.append(Dataset.load(tmp_path / run / "data.npz"))
     assert tables[0] == tables[1]
     a, b = samples
-    np.testing.assert_array_equal(a.device_time_us, b.device_time_us)
-    np.testing.assert_array_equal(a.inputs, b.inputs)
+    for name in sorted(set(a.arrays) - {"t_start", "t_end"}):  # all but the host's times
+        np.testing.assert_array_equal(a.arrays[name], b.arrays[name], err_msg=name)

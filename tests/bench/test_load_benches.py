@@ -36,4 +36,6 @@ def test_demo_bench_json(run_bench) -> None:
     figures = run_bench("demo.py", "--duration", "20", "--epochs", "1")
     quiet = figures["make demo, quiet"]
     assert quiet["reference_value"] == 120.0 and quiet["value"] > 0
-    assert {"record_s", "dataset_s", "train_evaluate_s", "total_s"} <= set(quiet["extra"])
+    assert {"record_s", "dataset_s", "train_evaluate_s", "total_s", "estimate_s", "cpu_s"} <= set(
+        quiet["extra"]
+    )

@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_duration(p, None, "scene length (default 600: the calibration; --live: 10)")
     add_renamed(p, "--scene-seconds", "duration", "--duration", type=float)
     add_renamed(p, "--seconds", "duration", "--duration", type=float)
-    p.add_argument("--speed", default=None, help="time scale (default 15; --live: 1 or 'max')")
+    p.add_argument("--speed", default=None, help="time scale (default 60; --live: 1 or 'max')")
     p.add_argument("--epochs", type=int, default=40, help="training epochs per decoder")
     p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")
     p.add_argument("--live", action="store_true", help="only stream live (the first demo)")
@@ -46,7 +46,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         args.seed = 3 if args.seed is None else args.seed
         args.duration = args.duration or 10.0
         return _demo(args)
-    from spectratac.apps.calibration_demo import DemoOptions, run_demo
+    from spectratac.apps.calibration_demo import DEMO_SPEED, DemoOptions, run_demo
     from spectratac.cli.eta import announce
     from spectratac.studies.cost_model import demo_estimate
     from spectratac.studies.oracle_floor import OracleFloor
@@ -56,7 +56,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         print("estimating how long the demo takes on this machine…", file=sys.stderr, flush=True)
     estimate = demo_estimate(
         args.duration or 600.0,
-        float(args.speed or 15.0),
+        float(args.speed or DEMO_SPEED),
         args.epochs,
         args.oracle_samples,
         seed=0 if args.seed is None else args.seed,
@@ -66,7 +66,7 @@ def _dispatch(args: argparse.Namespace) -> int:
     opts = DemoOptions(
         out=args.output,
         scene_s=args.duration or 600.0,
-        speed=float(args.speed or 15.0),
+        speed=float(args.speed or DEMO_SPEED),
         seed=0 if args.seed is None else args.seed,
         epochs=args.epochs,
         floor=OracleFloor(args.oracle_samples) if args.oracle_samples > 0 else None,

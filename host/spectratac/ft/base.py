@@ -50,6 +50,12 @@ class FTSensor(ABC):
         self._streaming = False
         self._thread: threading.Thread | None = None  # started by the first start()
         self._on_close: list[Callable[[], object]] = []  # run after the driver closed (sim)
+        #: set once the sensor has confirmed a stop(): every record it sent before stopping is
+        #: in the queue. Only drivers whose protocol acknowledges a stop set it
+        #: (`confirms_stop`); for the others a reader waits for the link to go quiet.
+        self.stream_stopped = threading.Event()
+        self.confirms_stop = False
+        self._stop_seen = False  # the driver's _poll saw the acknowledgement
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -114,6 +120,7 @@ class FTSensor(ABC):
             if not self._streaming or self._closed:
                 return
             self._streaming = False
+        self.stream_stopped.clear()
         self._send_stop()
 
     def read(self, n: int, timeout: float | None = None) -> np.ndarray:
@@ -179,6 +186,9 @@ class FTSensor(ABC):
                 return
             if len(batch):
                 self._push(batch)
+            if self._stop_seen:  # after the records that came before the acknowledgement
+                self._stop_seen = False
+                self.stream_stopped.set()
 
     def _push(self, batch: np.ndarray) -> None:
         self.stats.received += len(batch)

@@ -5,7 +5,10 @@ Opening follows the vendor's serial procedure: send 'C' (configuration mode, the
 stops streaming and answers "r,0,C,0"; retried every 0.5 s, FTTimeoutError after `timeout`),
 then the communication setup "c,<temperature compensation>,1 (calibrated),0 (binary),<baud
 code>" and, with sinc=, the filter setup "f,<sinc>,0,0,1"; start() sends 'R' (run: binary
-frames follow), stop() sends 'C'. configure=0 skips all commands and parses a sensor that
+frames follow) and returns once the sensor has acknowledged it, so a stream started next
+(the optical sensor's, in a recording) starts after the F/T's, whatever the scheduler does;
+stop() sends 'C', and its acknowledgement, which follows the last frame, sets
+`stream_stopped`. configure=0 skips all commands and parses a sensor that
 already streams. Frames are parsed by spectratac.ft.botaframe (resynchronises after damage,
 counts CRC errors).
 
@@ -127,6 +130,9 @@ class BotaSensor(FTSensor):
         sensor._configure = configure
         sensor._held = []
         sensor._t0_us = None
+        sensor._after_ack = b""
+        sensor._text_tail = b""
+        sensor.confirms_stop = configure
         sensor.temperature_c = float("nan")
         try:
             if configure:
@@ -147,11 +153,14 @@ class BotaSensor(FTSensor):
     _configure: bool
     _held: list[tuple[np.ndarray, float]]
     _t0_us: int | None
+    _after_ack: bytes
+    _text_tail: bytes  # the last bytes read, for an acknowledgement split across reads
     temperature_c: float
 
     # ------------------------------------------------------------------ commands
-    def _command(self, command: str, timeout: float, retry: float | None = None) -> None:
-        """Send a text command and wait for its acknowledgement (before streaming only)."""
+    def _command(self, command: str, timeout: float, retry: float | None = None) -> bytes:
+        """Send a text command and wait for its acknowledgement (while no reader thread runs);
+        returns the bytes read after the acknowledgement (frames, once streaming)."""
         want = ack(command)
         deadline = time.monotonic() + timeout
         seen = b""
@@ -172,7 +181,7 @@ class BotaSensor(FTSensor):
                 chunk = self._read_fd()
                 seen = (seen + chunk)[-4096:]
                 if want in seen:
-                    return
+                    return seen[seen.rindex(want) + len(want) :]
 
     def _read_fd(self) -> bytes:
         try:
@@ -186,8 +195,14 @@ class BotaSensor(FTSensor):
         return data
 
     def _send_start(self) -> None:
-        if self._configure:
-            os.write(self._fd, b"R")  # its "r,0,R,0" reply is skipped by the frame parser
+        if not self._configure:
+            return
+        if self._thread is not None:  # a restart: the reader owns the port and skips the reply
+            os.write(self._fd, b"R")
+            return
+        # the first start: wait for "r,0,R,0" (no reader competes for the port yet); frames
+        # read with it go to the parser first
+        self._after_ack = self._command("R", self.timeout)
 
     def _send_stop(self) -> None:
         if self._configure:
@@ -198,11 +213,17 @@ class BotaSensor(FTSensor):
 
     # ------------------------------------------------------------------ receiving
     def _poll(self, timeout: float) -> np.ndarray:
-        readable, _, _ = select.select([self._fd], [], [], timeout)
-        if not readable:
-            return np.empty(0, dtype=FT_RECORD)
-        data = self._read_fd()
+        data, self._after_ack = self._after_ack, b""
+        if not data:
+            readable, _, _ = select.select([self._fd], [], [], timeout)
+            if not readable:
+                return np.empty(0, dtype=FT_RECORD)
+            data = self._read_fd()
         now = time.monotonic()
+        if not self._streaming:  # stopping: the acknowledgement ends the stream
+            seen = self._text_tail + data
+            self._stop_seen = self._stop_seen or ack("C") in seen
+            self._text_tail = seen[-len(ack("C")) :]
         frames = self._parser.feed(data)
         self.stats.crc_errors = self._parser.crc_errors
         self.stats.bad_frames = self._parser.lost_sync

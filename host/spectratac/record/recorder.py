@@ -257,9 +257,17 @@ class Recorder:
             error=error,
             sensor_stats=st.as_dict(),
             ft_stats=self.ft.stats.as_dict() if self.ft is not None else None,
-            sensor_s=self.sensor_s,
+            sensor_s=self._recorded_sensor_s(),
             ft_simulated_loss=_simulated_loss(self.ft),
         )
+
+    def _recorded_sensor_s(self) -> float:
+        """Seconds of the sensor's clock the file holds: at most the duration once it was
+        reached (samples that came before the device obeyed STOP, many on a loaded host at a
+        high speed, are counted as they arrive but not written)."""
+        if self._cut is not None and self._cut.reached:
+            return min(self.sensor_s, self._cut.limit_us / 1e6)
+        return self.sensor_s
 
     @property
     def sensor_s(self) -> float:
@@ -458,16 +466,26 @@ class Recorder:
                 self._ft_window.append((time.monotonic(), self._ft_rows))
 
     def _drain_ft(
-        self, writer: RecordingWriter, quiet_s: float = 0.2, limit_s: float = 2.0
+        self,
+        writer: RecordingWriter,
+        quiet_s: float = 0.2,
+        limit_s: float = 2.0,
+        confirm_s: float = 10.0,
     ) -> None:
         """After the F/T sensor was told to stop: write what is still in flight until the
-        link is quiet for `quiet_s` (at most `limit_s`). Its driver counts a gap when the
+        sensor confirms the stop (drivers that can, `confirms_stop`: then the file ends where
+        the sensor's stream did, however late its data came; at most `confirm_s`), else until
+        the link is quiet for `quiet_s` (at most `limit_s`). Its driver counts a gap when the
         rows after it arrive, so rows left unread would be losses the file does not show."""
         if self.ft is None:
             return
-        end = time.monotonic() + limit_s
+        confirms = bool(getattr(self.ft, "confirms_stop", False))
+        end = time.monotonic() + (confirm_s if confirms else limit_s)
         quiet_since = time.monotonic()
-        while (now := time.monotonic()) < end and now - quiet_since < quiet_s:
+        while (now := time.monotonic()) < end and (confirms or now - quiet_since < quiet_s):
+            if confirms and self.ft.stream_stopped.is_set():
+                self._move_ft(writer)  # the rows before the acknowledgement are all queued
+                return
             before = self._ft_rows
             self._move_ft(writer)
             if self._ft_rows != before:

@@ -36,8 +36,12 @@ from spectratac.sim.ft_source import FTSource
 
 SINC_CLOCK_HZ = 51200.0
 TEMPERATURE_C = 31.5
-PATIENCE_S = 0.5  # how long a write waits for a host that has been reading
-PATIENCE_MAX_S = 5.0  # at speed=max: the device waits for us, so a slow host loses nothing
+#: How long a write waits for a host that has been reading. A host's reader thread on a loaded
+#: machine (load 50, two busy loops) stalls for over 0.5 s; frames dropped then made a
+#: recording depend on the scheduler, so only a host that stopped reading loses frames.
+PATIENCE_S = 10.0
+#: At speed=max, even before the host has read: the device waits for us, so nothing is lost.
+PATIENCE_MAX_S = 5.0
 
 
 class BotaServer:
@@ -121,6 +125,10 @@ class BotaServer:
 
     def _mode(self, letter: str) -> None:
         if letter == "C":
+            if self.running and self.source.world.epoch is not None:
+                # what came due before the command is sent, however late this thread runs: a
+                # recording's end is then the scene's, not the scheduler's
+                self._emit()
             self.running = False
             self.source.streaming(False)
         elif letter == "R":
@@ -180,7 +188,7 @@ class BotaServer:
         # at speed=max the device waits for us, so the host is given time to read it all
         patience = PATIENCE_S if self._host_reading else 0.0
         if not self.source.world.paced:
-            patience = PATIENCE_MAX_S
+            patience = max(patience, PATIENCE_MAX_S)
         deadline = time.monotonic() + patience
         while view:
             try:

@@ -107,10 +107,16 @@ class DeviceRunner:
                 self._inbound.clear()
             if data:
                 arrived = time.monotonic()
+                paced_now = dev0 + int((arrived - wall0) * 1e6 * rate)
+                if started and not fast:
+                    # a loaded host ran this thread late: first end the integration windows
+                    # due by now at their own wake times, as the loop below would have, so a
+                    # command (the recorder's TIME_SYNC) never stretches a window in flight
+                    while (wake := dev.next_wake_us()) <= paced_now:
+                        dev.step(wake)
                 dev.feed(data)
                 # Answer at once, stamped with the current time: a TIME_SYNC reply stamped
                 # with the last step's time would skew every clock fit built on it.
-                paced_now = dev0 + int((arrived - wall0) * 1e6 * rate)
                 if started:
                     dev.step(dev.now_us if fast else paced_now)
                 else:
