@@ -6,7 +6,7 @@ softmax cross-entropy on the class logits), a hand-written backward pass and Ada
 float32, batches sliced from one shuffle per epoch. It is what a competent hand-written
 trainer costs on this machine (its matrix products go to NumPy's BLAS under the thread
 policy), so `torch training time / this time` is the training loop's overhead.
-`tests/bench/test_training_reference.py` checks its gradients against torch's autograd.
+`tests/bench/test_training_bench.py` checks its gradients against torch's autograd.
 """
 
 from __future__ import annotations

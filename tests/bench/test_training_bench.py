@@ -1,6 +1,7 @@
-"""The NumPy reference of the training benchmark (tools/bench/numpy_resmlp.py) computes what
-torch computes for the paper network: the same loss, gradients and AdamW steps, so that the
-benchmark's ratio compares the same work."""
+"""The training benchmark (tools/bench/training.py): its NumPy reference (numpy_resmlp.py)
+computes what torch computes for the paper network (the same loss, gradients and AdamW
+steps, so that the ratio compares the same work), and its figures come out end to end on a
+small scale (no timing asserted)."""
 
 from __future__ import annotations
 
@@ -67,3 +68,23 @@ def test_adamw_steps_match_torch() -> None:
         opt.step()
     for name, p in net.named_parameters():
         np.testing.assert_allclose(ref.w[name], p.detach().numpy(), rtol=1e-5, atol=1e-6)
+
+
+def test_training_bench_json_for_the_recipes_and_the_paper_run(run_bench) -> None:
+    figures = run_bench(
+        "training.py", "--nets", "paper,best", "--epochs", "1", "--rounds", "1", "--busy", "1",
+        "--paper-rows", "2000", "--paper-epochs", "2",
+    )  # fmt: skip
+    for net in ("paper", "best"):
+        quiet, loaded = (
+            figures[f"{net} recipe training, quiet"],
+            figures[f"{net} recipe training, 1 busy loops"],
+        )
+        assert loaded["reference_value"] == quiet["value"] > 0
+        assert quiet["extra"]["cpu_s"] > 0 and loaded["extra"]["target_ratio"] == 0.4
+    best = figures["best recipe training, quiet"]["extra"]
+    assert best["batch"] == 256 and best["rows"] == 12_000
+    paper = figures["paper recipe, 2000 rows x 2 epochs"]
+    assert paper["reference_name"].startswith("NumPy reference")
+    assert paper["ratio"] == pytest.approx(paper["value"] / paper["reference_value"])
+    assert paper["extra"]["cpu_s"] > 0 and paper["extra"]["reference_cpu_s"] > 0
