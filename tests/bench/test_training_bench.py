@@ -70,6 +70,7 @@ def test_adamw_steps_match_torch() -> None:
         np.testing.assert_allclose(ref.w[name], p.detach().numpy(), rtol=1e-5, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_training_bench_json_for_the_recipes_and_the_paper_run(run_bench) -> None:
     figures = run_bench(
         "training.py", "--nets", "paper,best", "--epochs", "1", "--rounds", "1", "--busy", "1",
