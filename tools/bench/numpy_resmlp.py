@@ -4,12 +4,19 @@ The same ResMLP (stem Linear -> GELU, pre-norm residual blocks, final LayerNorm,
 spectratac.decode.networks), the same loss shape (weighted L1 on the regression outputs plus
 softmax cross-entropy on the class logits), a hand-written backward pass and AdamW, in
 float32, batches sliced from one shuffle per epoch. It is what a competent hand-written
-trainer costs on this machine (its matrix products go to NumPy's BLAS under the thread
-policy), so `torch training time / this time` is the training loop's overhead.
+trainer costs on this machine, so `torch training time / this time` is the training loop's
+overhead. `python numpy_resmlp.py ROWS FEATURES TARGETS CLASSES EPOCHS BATCH` times it in a
+process of its own with one BLAS thread: NumPy's OpenBLAS threads spin while they wait, and
+beside other work two of them took 14x the CPU time of one (measured 2026-11-27, load 23).
 `tests/bench/test_training_bench.py` checks its gradients against torch's autograd.
 """
 
 from __future__ import annotations
+
+import json
+import os
+import sys
+import time
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,7 +29,7 @@ EPS_LN = np.float32(1e-5)
 
 def gelu(x: F32) -> tuple[F32, F32]:
     """tanh GELU and its derivative."""
-    t = np.tanh(K * (x + C * x**3))
+    t = np.tanh(K * (x + C * (x * x * x)))
     y = 0.5 * x * (1 + t)
     d = 0.5 * (1 + t) + 0.5 * x * (1 - t * t) * K * (1 + 3 * C * x * x)
     return y, d
@@ -162,3 +169,22 @@ def train_epochs(
             total += loss * min(batch, z.shape[0] - s)
         history.append(total / z.shape[0])
     return history
+
+
+def main(argv: list[str]) -> None:
+    """Time `epochs` epochs on random rows of the given shape; print wall and CPU s per epoch."""
+    rows, features, targets, classes, epochs, batch = map(int, argv)
+    rng = np.random.default_rng(0)
+    z = rng.standard_normal((rows, features)).astype(np.float32)
+    y = rng.standard_normal((rows, targets)).astype(np.float32)
+    label = rng.integers(-1, classes, rows)
+    net = ResMLP(features, 128, 3, targets + classes)
+    t0, c0 = time.perf_counter(), time.process_time()
+    train_epochs(net, z, y, label, epochs, batch)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    blas = os.environ.get("OPENBLAS_NUM_THREADS")
+    print(json.dumps({"wall_s": wall / epochs, "cpu_s": cpu / epochs, "blas_threads": blas}))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

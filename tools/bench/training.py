@@ -16,12 +16,17 @@ processes, and the paper recipe on a large dataset beside a NumPy reference, in 
 2. With --paper-rows N: TrainSpec.paper() (30 epochs, or --paper-epochs) on N rows of a twin
    calibration session, wall and CPU time (target for 266 000 rows x 30 epochs: <= 120 s on
    2 cores), beside the same network's training in plain NumPy (numpy_resmlp.py: forward,
-   backward and AdamW by hand, same batch) for --ref-epochs epochs on rows of the same
-   shape, once before and once after, scaled to the same number of epochs.
+   backward and AdamW by hand, same batch; one BLAS thread, in its own process) for
+   --ref-epochs epochs on rows of the same shape, once before and once after, scaled to the
+   same number of epochs. CPU times are reported beside wall times: on a shared machine the
+   wall time says as much about the other jobs as about the loop.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -31,7 +36,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
 
 import benchlib
-import numpy as np
 
 NETS = ("mlp", "paper", "best")
 
@@ -109,18 +113,19 @@ def reference_epoch(
     shape: tuple[int, int, int, int], batch: int, epochs: int
 ) -> tuple[float, float]:
     """(wall s, CPU s) per epoch of the NumPy reference on rows of the given shape
-    (rows, features, regression targets, classes)."""
-    import numpy_resmlp
-
-    n, f, r, k = shape
-    rng = np.random.default_rng(0)
-    z = rng.standard_normal((n, f)).astype(np.float32)
-    y = rng.standard_normal((n, r)).astype(np.float32)
-    label = rng.integers(-1, k, n)
-    net = numpy_resmlp.ResMLP(f, 128, 3, r + k)
-    t0, c0 = time.perf_counter(), time.process_time()
-    numpy_resmlp.train_epochs(net, z, y, label, epochs, batch)
-    return (time.perf_counter() - t0) / epochs, (time.process_time() - c0) / epochs
+    (rows, features, regression targets, classes), in a process of its own with one BLAS
+    thread (numpy_resmlp.py says why)."""
+    env = {
+        **os.environ,
+        **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")},
+    }
+    script = Path(__file__).resolve().parent / "numpy_resmlp.py"
+    args = [str(v) for v in (*shape, epochs, batch)]
+    out = subprocess.run(
+        [sys.executable, str(script), *args], env=env, capture_output=True, text=True, check=True
+    ).stdout
+    r = json.loads(out.splitlines()[-1])
+    return r["wall_s"], r["cpu_s"]
 
 
 def paper_run(rows: int, epochs: int, ref_epochs: int) -> benchlib.Figure:
