@@ -49,6 +49,15 @@ class GainView:
         self.mon = fs.M
         self.mean, self.std = rt.scaler.mean, rt.scaler.std
 
+    def parts(
+        self, rows: NDArray[np.intp]
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32] | None, NDArray[np.float32] | None]:
+        """The per-row parts (linear, ratio numerator, ratio denominator) of `rows`, for a
+        loop that applies the gains itself (train/torch_loop.py: GainJitter)."""
+        num = None if self.num is None else self.num[rows]
+        den = None if self.den is None else self.den[rows]
+        return self.lin[rows], num, den
+
     def z(self, rows: NDArray[np.intp], factor: F64) -> F64:
         """z-scored features (len(rows), F) of u[rows] * factor (factor: (len(rows), 1))."""
         g = np.asarray(factor, np.float64)
