@@ -5,6 +5,7 @@ checks that an estimate is said before any work shows progress (issue 26)."""
 from __future__ import annotations
 
 import re
+import subprocess
 
 import pyte
 
@@ -30,3 +31,17 @@ def assert_estimate_first(stderr: str, what: str) -> str:
     assert ETA.search(stderr[found.end() :]), f"no bar with the time left after:\n{stderr}"
     assert found.group(0) in screen(stderr), "the estimate line is not left on the screen"
     return found.group(0)
+
+
+def run_in_terminal(argv: list[str], timeout: float) -> subprocess.CompletedProcess[str]:
+    """Run a verb and keep its output as a terminal receives it: bytes decoded without
+    universal newlines, so a progress bar's carriage returns redraw in place in `screen`
+    (text=True would turn each redraw into a line, and a bar that redraws for longer on a
+    busy machine would scroll the estimate off the screen)."""
+    run = subprocess.run(argv, capture_output=True, timeout=timeout)
+    return subprocess.CompletedProcess(
+        run.args,
+        run.returncode,
+        run.stdout.decode(errors="replace"),
+        run.stderr.decode(errors="replace"),
+    )

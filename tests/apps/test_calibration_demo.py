@@ -56,12 +56,11 @@ def test_demo_says_how_long_before_it_starts(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    from tests.terminal import assert_estimate_first
+    from tests.terminal import assert_estimate_first, run_in_terminal
 
     args = [sys.executable, "-m", "spectratac", "demo", "--duration", "60", "--epochs", "2",
             "--oracle-samples", "20"]  # fmt: skip
-    run = subprocess.run([*args, "-o", str(tmp_path / "a")], capture_output=True, text=True,
-                         timeout=1800)  # fmt: skip
+    run = run_in_terminal([*args, "-o", str(tmp_path / "a")], timeout=1800)
     assert run.returncode == 0, run.stderr
     line = assert_estimate_first(run.stderr, "the demo")
     assert "record 1 s" in line and "dataset" in line and "train + evaluate" in line

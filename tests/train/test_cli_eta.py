@@ -11,15 +11,13 @@ from pathlib import Path
 
 import pytest
 
-from tests.terminal import assert_estimate_first
+from tests.terminal import assert_estimate_first, run_in_terminal, screen
 
 pytestmark = [pytest.mark.train, pytest.mark.subprocess]
 
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
-    run = subprocess.run(
-        [sys.executable, "-m", "spectratac", *args], capture_output=True, text=True, timeout=900
-    )
+    run = run_in_terminal([sys.executable, "-m", "spectratac", *args], timeout=900)
     assert run.returncode == 0, run.stderr
     return run
 
@@ -46,3 +44,16 @@ def test_the_auto_recipe_says_its_budget_then_runs_it_down(data: Path, tmp_path:
     line = assert_estimate_first(run.stderr, "train")
     assert "search + final refit (--budget) 30 s" in line
     assert "searching:" in run.stderr
+
+
+def test_a_bar_that_redraws_long_leaves_the_estimate_on_screen() -> None:
+    """On a busy machine the search outlasts its estimate and its bar redraws hundreds of
+    times at 99 %; on a terminal that is one line, so the estimate stays in view (captured
+    with text=True each redraw became a line and scrolled it off: 1,300 lines seen)."""
+    bar = "searching:  99%|#########9| [00:40<00:00]\r"
+    script = (
+        "import sys; print('train: estimated 30 s', file=sys.stderr); "
+        f"sys.stderr.write({bar!r} * 1500)"
+    )
+    run = run_in_terminal([sys.executable, "-c", script], timeout=60)
+    assert "train: estimated 30 s" in screen(run.stderr)

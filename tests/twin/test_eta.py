@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.terminal import assert_estimate_first
+from tests.terminal import assert_estimate_first, run_in_terminal
 
 pytestmark = pytest.mark.subprocess
 
@@ -19,9 +19,7 @@ REPORT = ["twin", "report", "--duration", "60", "--epochs", "3", "--oracle-sampl
 
 
 def spectratac(*args: str) -> subprocess.CompletedProcess[str]:
-    run = subprocess.run(
-        [sys.executable, "-m", "spectratac", *args], capture_output=True, text=True, timeout=900
-    )
+    run = run_in_terminal([sys.executable, "-m", "spectratac", *args], timeout=900)
     assert run.returncode in (0, 1), run.stderr
     return run
 
