@@ -9,6 +9,7 @@ import ctypes
 import doctest
 import os
 import subprocess
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import ModuleType
 
@@ -55,6 +56,26 @@ def test_a_newer_input_rebuilds(native_build: ModuleType, tmp_path: Path) -> Non
     older = source.stat().st_mtime - 10
     os.utime(first, (older, older))  # as if the source had been edited after the build
     assert native_build.build("vector-check", tmp_path).stat().st_mtime > older
+
+
+def test_builds_of_one_output_at_once_compile_it_once(
+    native_build: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """pytest-xdist workers (or a test beside `make demo`) build the same library together:
+    one compiles, the others wait and take its output; nobody fails on a shared partial file."""
+    compiles = []
+    real_run = subprocess.run
+
+    def counting_run(cmd, *args, **kwargs):  # type: ignore[no-untyped-def]
+        compiles.append(cmd)
+        return real_run(cmd, *args, **kwargs)
+
+    monkeypatch.setattr(subprocess, "run", counting_run)
+    with ThreadPoolExecutor(4) as pool:
+        built = list(pool.map(lambda _: native_build.build("vector-check", tmp_path), range(4)))
+    assert built == [tmp_path / "vector_check"] * 4 and len(compiles) == 1, compiles
+    assert built[0].read_bytes()[:4] == b"\x7fELF"  # whole, not a half-written file
+    assert [p.name for p in tmp_path.iterdir() if "partial" in p.name] == []
 
 
 def test_platformio_builds_the_same_simulator_library(sim_library: Path) -> None:
