@@ -9,6 +9,7 @@ import ctypes
 import doctest
 import os
 import subprocess
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import ModuleType
@@ -86,3 +87,24 @@ def test_platformio_builds_the_same_simulator_library(sim_library: Path) -> None
     assert exported(from_pio) == exported(sim_library) == set(native_abi.SIGNATURES)
     lib = native_abi.declare(ctypes.CDLL(str(from_pio)))
     assert lib.stac_sim_abi_version() == native_abi.ABI_VERSION
+
+
+def test_pio_runs_of_one_checkout_take_turns(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two pio runs at once (pytest-xdist workers) would compile into the same build/pio
+    objects: tools/platformio/pio.py lets one in at a time."""
+    meetings: list[str] = []
+    both = threading.Barrier(2, timeout=5.0)
+
+    def fake_pio(*_args: object, **_kwargs: object) -> subprocess.CompletedProcess[str]:
+        try:  # a second run inside pio at the same time passes the barrier
+            both.wait()
+            meetings.append("together")
+        except threading.BrokenBarrierError:
+            meetings.append("alone")
+        return subprocess.CompletedProcess([], 0, "", "")
+
+    monkeypatch.setattr(pio.subprocess, "run", fake_pio)
+    with ThreadPoolExecutor(2) as pool:
+        done = list(pool.map(lambda _: pio.run(["run", "-e", "native"]), range(2)))
+    assert [d.returncode for d in done] == [0, 0]
+    assert "together" not in meetings, meetings
