@@ -14,12 +14,15 @@ from typing import Any
 import pytest
 from spectratac import threads
 
+from tests import processes
+
 REPO = Path(__file__).resolve().parents[1]
 # The test process trains beside the processes it starts: it follows the thread policy too,
 # before any test imports torch.
 threads.apply()
 
 Figures = dict[str, dict[str, Any]]
+BENCH_TIMEOUT_S = 600  # generous: a bench script's own runs take seconds to a few minutes
 
 # Fixture -> the markers (pyproject.toml) of every test that uses it, directly or not.
 FIXTURE_MARKERS: dict[str, tuple[str, ...]] = {
@@ -51,14 +54,61 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
     """run_bench("ft.py", "--records", "2000") -> --json figures of tools/bench/ft.py by name."""
 
     def run(script: str, *args: str) -> Figures:
-        out = subprocess.run(
-            [sys.executable, f"tools/bench/{script}", *args, "--json"],
-            cwd=repo,
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=600,
-        ).stdout
+        cmd = [sys.executable, f"tools/bench/{script}", *args, "--json"]
+        # Its own session: on a timeout or a failure, the bench's servers and busy loops go
+        # with it (subprocess.run would kill the script alone and orphan them).
+        proc = subprocess.Popen(
+            cmd, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            start_new_session=True,
+        )  # fmt: skip
+        try:
+            out, err = proc.communicate(timeout=BENCH_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            raise AssertionError(
+                f"{script} {' '.join(args)} ran over {BENCH_TIMEOUT_S} s (stopped, with "
+                f"every process it started)"
+            ) from None
+        finally:
+            processes.kill_group(proc.pid)
+            proc.wait()
+        if proc.returncode != 0:
+            raise subprocess.CalledProcessError(proc.returncode, cmd, out, err)
         return {f["name"]: f for f in map(json.loads, out.splitlines())}
 
     return run
+
+
+# Processes still running when a test process ends: killed, and named in the terminal summary
+# so that the test that left them can be found. An xdist worker reaps its own after its session
+# fixtures are torn down and tells the controller; the controller (or a serial run) reaps at
+# unconfigure, once its workers are gone.
+LEFT_BEHIND = "left_behind_processes"
+_left_behind: list[str] = []
+
+
+def _reap() -> list[str]:
+    left = processes.descendants()
+    processes.kill_all(left)
+    return [f"pid {pid}: {cmd}" for pid, cmd in left.items()]
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    if hasattr(session.config, "workeroutput"):
+        session.config.workeroutput[LEFT_BEHIND] = _reap()
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: object) -> None:  # xdist's hook, on the controller
+    _left_behind.extend(getattr(node, "workeroutput", {}).get(LEFT_BEHIND, []))
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    if hasattr(config, "workeroutput"):
+        return
+    _left_behind.extend(_reap())
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    if _left_behind and reporter is not None:
+        reporter.write_sep("=", "processes left running by the tests (killed)", red=True)
+        for line in _left_behind:
+            reporter.write_line(line)
