@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 from spectratac import threads
 
-from tests import processes
+from tests import processes, xdist_plan
 
 REPO = Path(__file__).resolve().parents[1]
 # The test process trains beside the processes it starts: it follows the thread policy too,
@@ -37,11 +37,14 @@ FIXTURE_MARKERS: dict[str, tuple[str, ...]] = {
 }
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the xdist_group marks
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     for item in items:
         for fixture in getattr(item, "fixturenames", ()):
             for marker in FIXTURE_MARKERS.get(fixture, ()):
                 item.add_marker(marker)
+    if config.getoption("dist", "no") == "loadgroup":  # make test: see tests/xdist_plan.py
+        xdist_plan.plan(items)
 
 
 @pytest.fixture(scope="session")
