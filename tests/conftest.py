@@ -5,9 +5,10 @@ QEMU get that marker here, so `make test-fast` leaves them out without each test
 from __future__ import annotations
 
 import json
+import resource
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +81,31 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
 
     return run
 
+
+# CPU seconds each test used (this process and the children it waited for, setup to teardown),
+# as the property cpu_s of the test's report (in --junitxml output): on a loaded machine a
+# test's wall time says more about its neighbours than about the test.
+def _cpu_seconds() -> float:
+    own, children = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    item.stash[CPU_AT_SETUP] = _cpu_seconds()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]) -> Iterator[None]:
+    if call.when == "teardown" and CPU_AT_SETUP in item.stash:
+        item.user_properties.append(("cpu_s", round(_cpu_seconds() - item.stash[CPU_AT_SETUP], 3)))
+    yield
+
+
+CPU_AT_SETUP = pytest.StashKey[float]()
 
 # Processes still running when a test process ends: killed, and named in the terminal summary
 # so that the test that left them can be found. An xdist worker reaps its own after its session
