@@ -15,7 +15,7 @@ from tests.run_once import made_once, run_folder
 def test_workers_asking_at_once_make_the_input_once(
     tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setenv("PYTEST_XDIST_WORKER", "gw1")  # as a worker sees it
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # this run's own basetemp
     makes = []
     inside = threading.Lock()
 
@@ -25,16 +25,16 @@ def test_workers_asking_at_once_make_the_input_once(
         (folder / "model.stac").write_bytes(b"trained")
         inside.release()
 
-    name = f"thing-{tmp_path_factory.getbasetemp().name}"  # this run's own, even serially
     with ThreadPoolExecutor(4) as pool:
-        folders = list(pool.map(lambda _: made_once(tmp_path_factory, name, make), range(4)))
+        folders = list(pool.map(lambda _: made_once(tmp_path_factory, "thing", make), range(4)))
     assert len(makes) == 1 and set(folders) == {makes[0]}
-    assert folders[0].parent == tmp_path_factory.getbasetemp().parent  # shared by the workers
     assert (folders[0] / "model.stac").read_bytes() == b"trained"
 
 
-def test_a_serial_run_keeps_its_inputs_in_its_own_basetemp(
+def test_workers_share_the_parent_of_their_basetemps(
     tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    monkeypatch.setenv("PYTEST_XDIST_WORKER", "gw1")  # as a worker sees it
+    assert run_folder(tmp_path_factory) == tmp_path_factory.getbasetemp().parent
+    monkeypatch.delenv("PYTEST_XDIST_WORKER")
     assert run_folder(tmp_path_factory) == tmp_path_factory.getbasetemp()
