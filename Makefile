@@ -23,10 +23,10 @@ $(STAMP): pyproject.toml requirements/lock.txt
 demo: $(STAMP)
 	$(BIN)/spectratac demo --force
 
-# The suite on every core (pytest-xdist): a worker per core, one module (or xdist_group) per
+# The suite on every core (pytest-xdist): a worker per core, one test module per
 # unit of work, costliest first (tests/xdist_plan.py).
 # Serially, or with other pytest options: make test PYTEST_ARGS="-n 0".
-XDIST       := -n auto --dist loadgroup --no-loadscope-reorder
+XDIST       := -n auto --dist loadfile --no-loadscope-reorder
 PYTEST_ARGS ?=
 test: $(STAMP)
 	$(BIN)/python -m pytest $(XDIST) $(PYTEST_ARGS)

@@ -5,6 +5,7 @@ QEMU get that marker here, so `make test-fast` leaves them out without each test
 from __future__ import annotations
 
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -38,14 +39,13 @@ FIXTURE_MARKERS: dict[str, tuple[str, ...]] = {
 }
 
 
-@pytest.hookimpl(tryfirst=True)  # before xdist reads the xdist_group marks
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     for item in items:
         for fixture in getattr(item, "fixturenames", ()):
             for marker in FIXTURE_MARKERS.get(fixture, ()):
                 item.add_marker(marker)
-    if config.getoption("dist", "no") == "loadgroup":  # make test: see tests/xdist_plan.py
-        xdist_plan.plan(items)
+    if os.environ.get("PYTEST_XDIST_WORKER"):  # make test: the order units go out in
+        xdist_plan.order(items)
 
 
 @pytest.fixture(scope="session")

@@ -1,5 +1,4 @@
-"""tests/xdist_plan.py: under `make test` every module is one unit of work unless its tests
-name a group, and the costliest modules are handed out first."""
+"""tests/xdist_plan.py: under `make test` the costliest modules are handed out first."""
 
 from __future__ import annotations
 
@@ -22,16 +21,16 @@ class Item:
         self.marks.append(mark.mark)
 
 
-def test_modules_become_units_and_the_costliest_go_first() -> None:
+def test_the_costliest_modules_go_first() -> None:
     items = [
         Item("tests/a/test_quick.py::test_1"),
         Item("tests/a/test_quick.py::test_2"),
         Item("tests/b/test_demo.py::test_runs", pytest.mark.slow),
         Item("tests/b/test_demo.py::test_table"),
-        Item("tests/c/test_shared.py::test_x", pytest.mark.xdist_group("together")),
+        Item("tests/c/test_shared.py::test_x"),
         Item("tests/c/test_serve.py::test_y", pytest.mark.subprocess),
     ]
-    xdist_plan.plan(items)  # type: ignore[arg-type]
+    xdist_plan.order(items)  # type: ignore[arg-type]
     assert [i.nodeid for i in items] == [
         "tests/b/test_demo.py::test_runs",
         "tests/b/test_demo.py::test_table",
@@ -40,6 +39,3 @@ def test_modules_become_units_and_the_costliest_go_first() -> None:
         "tests/a/test_quick.py::test_2",
         "tests/c/test_shared.py::test_x",
     ]
-    groups = {i.nodeid: i.get_closest_marker("xdist_group").args[0] for i in items}
-    assert groups["tests/a/test_quick.py::test_2"] == "tests/a/test_quick.py"
-    assert groups["tests/c/test_shared.py::test_x"] == "together"  # an explicit group stays
