@@ -15,25 +15,13 @@ from spectratac.studies.oracle_floor import OracleFloor
 pytestmark = pytest.mark.train
 
 
-def short_demo_options(out: Path) -> DemoOptions:
-    """The demo on a 60 s scene at 15x, two epochs: every stage, in a fraction of the time."""
-    return DemoOptions(
-        out=out, scene_s=60, speed=15, epochs=2, floor=OracleFloor(20), progress=False
-    )
-
-
-@pytest.fixture(scope="module")
-def short_demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict, list[str]]:
-    """One run of the short demo (its folder, summary and what it said), read by the two tests
-    below; they share an xdist worker, so the run is made once."""
-    out, said = tmp_path_factory.mktemp("demo"), []
-    return out, run_demo(short_demo_options(out), say=said.append), said
-
-
 @pytest.mark.slow
-@pytest.mark.xdist_group("short_demo")
-def test_demo_records_builds_trains_and_reports(short_demo: tuple[Path, dict, list[str]]) -> None:
-    tmp_path, summary, said = short_demo
+def test_demo_records_builds_trains_and_reports(tmp_path: Path) -> None:
+    said: list[str] = []
+    opts = DemoOptions(
+        out=tmp_path, scene_s=60, speed=15, epochs=2, floor=OracleFloor(20), progress=False
+    )
+    summary = run_demo(opts, say=said.append)
     json.dumps(summary)  # JSON-ready
     rec = summary["recording"]
     assert rec["samples"] > 600 and rec["lost"] == 0 and rec["stopped_by"] == "scene_end"
@@ -134,17 +122,19 @@ def test_the_table_says_why_when_best_loses_on_region_accuracy() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("short_demo")
-def test_two_demo_runs_give_the_same_table(
-    short_demo: tuple[Path, dict, list[str]], tmp_path: Path
-) -> None:
+def test_two_demo_runs_give_the_same_table(tmp_path: Path) -> None:
     """Issue 22: the paced recording depended on host timing (the scene clock started with
     the device's open, samples on another phase each run). Now the scene starts with the stream
     and the recording ends on the scene clock: two runs record, train and score the same."""
-    first_out, first, _ = short_demo  # the first run, shared with the test above
-    second = run_demo(short_demo_options(tmp_path), say=lambda _line: None)
-    tables = [results_table(first["results"]), results_table(second["results"])]
-    samples = [Dataset.load(first_out / "data.npz"), Dataset.load(tmp_path / "data.npz")]
+    tables, samples = [], []
+    for run in ("a", "b"):
+        opts = DemoOptions(
+            out=tmp_path / run, scene_s=60, speed=15, epochs=2, floor=OracleFloor(20),
+            progress=False,
+        )  # fmt: skip
+        summary = run_demo(opts, say=lambda _line: None)
+        tables.append(results_table(summary["results"]))
+        samples.append(Dataset.load(tmp_path / run / "data.npz"))
     assert tables[0] == tables[1]
     a, b = samples
     np.testing.assert_array_equal(a.device_time_us, b.device_time_us)
