@@ -82,7 +82,7 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
     return run
 
 
-# CPU seconds each test used (this process and the children it waited for, setup to teardown),
+# CPU seconds each test used (this process and the children it waited for, setup and call),
 # as the property cpu_s of the test's report (in --junitxml output): on a loaded machine a
 # test's wall time says more about its neighbours than about the test.
 def _cpu_seconds() -> float:
@@ -100,7 +100,7 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]) -> Iterator[None]:
-    if call.when == "teardown" and CPU_AT_SETUP in item.stash:
+    if call.when == "call" and CPU_AT_SETUP in item.stash:
         item.user_properties.append(("cpu_s", round(_cpu_seconds() - item.stash[CPU_AT_SETUP], 3)))
     yield
 
