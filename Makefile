@@ -23,14 +23,19 @@ $(STAMP): pyproject.toml requirements/lock.txt
 demo: $(STAMP)
 	$(BIN)/spectratac demo --force
 
+# The suite on every core (pytest-xdist): a worker per core, one test module per
+# unit of work, costliest first (tests/xdist_plan.py).
+# Serially, or with other pytest options: make test PYTEST_ARGS="-n 0".
+XDIST       := -n auto --dist loadfile --no-loadscope-reorder
+PYTEST_ARGS ?=
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(XDIST) $(PYTEST_ARGS)
 
 # The inner loop: everything but training, processes, firmware builds, QEMU, KiCad and the
 # fuzz suite (markers in pyproject.toml; tests/conftest.py applies most of them).
 FAST := not (train or subprocess or qemu or firmware or kicad or slow or fuzz)
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -m "$(FAST)"
+	$(BIN)/python -m pytest $(XDIST) -m "$(FAST)" $(PYTEST_ARGS)
 
 lint: $(STAMP)
 	$(BIN)/ruff check host tools tests

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from spectratac.hardware.generated import vocabulary as vocab
 
+from tests.run_once import made_once
+
 #: The scripted scene the pipeline tests play: a press below the threshold (0.6 N) on
 #: "up" must not command; the centre is neutral.
 ORDER = ("up", "right", "down", "left", "centre", "up", "left", "5", "down", "right")
@@ -29,9 +31,8 @@ def training_scene():
     return scripted_presses(regions, forces)
 
 
-@pytest.fixture(scope="session")
-def press_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Path of a .stac decoding Fx, Fy, Fz, region and contact (seconds to train)."""
+def train_press_model(folder: Path) -> None:
+    """Train the press decoder into folder/presses.stac."""
     from spectratac.sim.twin_dataset import from_twin_session
     from spectratac.train import TrainSpec, train
     from spectratac.twin import generate_session
@@ -40,4 +41,11 @@ def press_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     ds = from_twin_session(generate_session(scene, seed=0), scene)
     spec = TrainSpec.paper(targets=("Fx", "Fy", "Fz", "region", "contact"), epochs=60,
                            hidden=64, blocks=2, threads=1, context=2, drift="baseline")  # fmt: skip
-    return train(ds, spec, progress=False).save(tmp_path_factory.mktemp("model") / "presses.stac")
+    train(ds, spec, progress=False).save(folder / "presses.stac")
+
+
+@pytest.fixture(scope="session")
+def press_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Path of a .stac decoding Fx, Fy, Fz, region and contact (seconds to train), trained
+    once per run: xdist workers share it (read-only; tests write under their own tmp_path)."""
+    return made_once(tmp_path_factory, "press-model", train_press_model) / "presses.stac"

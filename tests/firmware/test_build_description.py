@@ -9,6 +9,8 @@ import ctypes
 import doctest
 import os
 import subprocess
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import ModuleType
 
@@ -57,6 +59,26 @@ def test_a_newer_input_rebuilds(native_build: ModuleType, tmp_path: Path) -> Non
     assert native_build.build("vector-check", tmp_path).stat().st_mtime > older
 
 
+def test_builds_of_one_output_at_once_compile_it_once(
+    native_build: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """pytest-xdist workers (or a test beside `make demo`) build the same library together:
+    one compiles, the others wait and take its output; nobody fails on a shared partial file."""
+    compiles = []
+    real_run = subprocess.run
+
+    def counting_run(cmd, *args, **kwargs):  # type: ignore[no-untyped-def]
+        compiles.append(cmd)
+        return real_run(cmd, *args, **kwargs)
+
+    monkeypatch.setattr(subprocess, "run", counting_run)
+    with ThreadPoolExecutor(4) as pool:
+        built = list(pool.map(lambda _: native_build.build("vector-check", tmp_path), range(4)))
+    assert built == [tmp_path / "vector_check"] * 4 and len(compiles) == 1, compiles
+    assert built[0].read_bytes()[:4] == b"\x7fELF"  # whole, not a half-written file
+    assert [p.name for p in tmp_path.iterdir() if "partial" in p.name] == []
+
+
 def test_platformio_builds_the_same_simulator_library(sim_library: Path) -> None:
     need("gcc", "build-essential")
     result = pio.run(["run", "-e", "simlib"], timeout=BUILD_TIMEOUT_S)
@@ -65,3 +87,24 @@ def test_platformio_builds_the_same_simulator_library(sim_library: Path) -> None
     assert exported(from_pio) == exported(sim_library) == set(native_abi.SIGNATURES)
     lib = native_abi.declare(ctypes.CDLL(str(from_pio)))
     assert lib.stac_sim_abi_version() == native_abi.ABI_VERSION
+
+
+def test_pio_runs_of_one_checkout_take_turns(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two pio runs at once (pytest-xdist workers) would compile into the same build/pio
+    objects: tools/platformio/pio.py lets one in at a time."""
+    meetings: list[str] = []
+    both = threading.Barrier(2, timeout=5.0)
+
+    def fake_pio(*_args: object, **_kwargs: object) -> subprocess.CompletedProcess[str]:
+        try:  # a second run inside pio at the same time passes the barrier
+            both.wait()
+            meetings.append("together")
+        except threading.BrokenBarrierError:
+            meetings.append("alone")
+        return subprocess.CompletedProcess([], 0, "", "")
+
+    monkeypatch.setattr(pio.subprocess, "run", fake_pio)
+    with ThreadPoolExecutor(2) as pool:
+        done = list(pool.map(lambda _: pio.run(["run", "-e", "native"]), range(2)))
+    assert [d.returncode for d in done] == [0, 0]
+    assert "together" not in meetings, meetings

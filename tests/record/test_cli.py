@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import signal
 import socket
@@ -9,6 +10,7 @@ import subprocess
 import sys
 import time
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +25,17 @@ TOUR_FT = "sim://?scene=tour&seed=1&speed=10&ft=bota"
 
 def spectratac(*args: str) -> list[str]:
     return [sys.executable, "-m", "spectratac", *args]
+
+
+@contextlib.contextmanager
+def stopped_at_exit(proc: subprocess.Popen[str]) -> Iterator[None]:
+    """A 20-minute recording must not outlive a test that fails before it stops it."""
+    try:
+        yield
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate(timeout=30)
 
 
 def wait_for_frames(path: Path, proc: subprocess.Popen[str], n: int) -> Recording:
@@ -135,9 +148,10 @@ def test_sigint_stops_cleanly(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
     )
-    wait_for_frames(out, proc, 50)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
+    with stopped_at_exit(proc):
+        wait_for_frames(out, proc, 50)
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 0, stderr
     assert "stopped by interrupt" in stdout and "F/T samples" in stdout
     assert "recording" in stderr  # the live progress display
@@ -156,9 +170,10 @@ def test_sigkill_keeps_the_flushed_prefix(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
     )
-    seen = wait_for_frames(out, proc, 300)
-    proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=30)
+    with stopped_at_exit(proc):
+        seen = wait_for_frames(out, proc, 300)
+        proc.send_signal(signal.SIGKILL)
+        proc.communicate(timeout=30)
     assert proc.returncode == -signal.SIGKILL
     with pytest.warns(TruncatedRecordingWarning, match="readable prefix"):
         rec = read_recording(out)

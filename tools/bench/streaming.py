@@ -158,7 +158,13 @@ def serve_many(n: int) -> list[tuple[subprocess.Popen[str], str]]:
             text=True,
         )
         procs.append(p)
-    return [(p, json.loads(p.stdout.readline())["url"]) for p in procs]  # type: ignore[union-attr]
+    try:
+        return [(p, json.loads(p.stdout.readline())["url"]) for p in procs]  # type: ignore[union-attr]
+    except BaseException:  # one did not start: stop them all, none outlives the bench
+        for p in procs:
+            p.kill()
+            p.wait()
+        raise
 
 
 def _cpu_percent(seconds: float) -> float:

@@ -14,12 +14,15 @@ Standard library only: setup.py imports it before any dependency is installed.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
 import glob
 import os
 import shutil
 import subprocess
 import sys
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
@@ -152,22 +155,40 @@ def build(name: str, out: Path = DEFAULT_OUT) -> Path:
     chosen = target(name)
     output = out / chosen.output
     inputs = [*chosen.sources, *chosen.headers(), DESCRIPTION, Path(__file__)]
-    if output.exists() and all(p.stat().st_mtime <= output.stat().st_mtime for p in inputs):
-        return output
-    cc = shutil.which(chosen.compiler) if chosen.compiler else compiler()
-    if cc is None:
-        raise RuntimeError(
-            f"no {chosen.compiler or 'C compiler'} found for target {name!r} (Debian: apt install "
-            f"{'clang libclang-rt-14-dev' if chosen.compiler == 'clang' else 'build-essential'})"
-        )
     out.mkdir(parents=True, exist_ok=True)
-    partial = output.with_name(output.name + ".partial")
-    cmd = chosen.command(cc, partial)
-    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        raise RuntimeError(f"compile failed: {' '.join(cmd)}\n{done.stdout}{done.stderr}")
-    partial.replace(output)
-    return output
+    # Several processes (pytest-xdist workers, a test beside `make demo`) may want the same
+    # output at once: one compiles while the others wait, then find it up to date.
+    with _exclusive(output.with_name(output.name + ".lock")):
+        if output.exists() and all(p.stat().st_mtime <= output.stat().st_mtime for p in inputs):
+            return output
+        cc = shutil.which(chosen.compiler) if chosen.compiler else compiler()
+        if cc is None:
+            apt = "clang libclang-rt-14-dev" if chosen.compiler == "clang" else "build-essential"
+            raise RuntimeError(
+                f"no {chosen.compiler or 'C compiler'} found for target {name!r} (Debian: apt "
+                f"install {apt})"
+            )
+        # A private partial file, renamed into place: a process that loaded the old library
+        # keeps its copy, and no reader ever sees a half-written one.
+        partial = output.with_name(f"{output.name}.{os.getpid()}.partial")
+        cmd = chosen.command(cc, partial)
+        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if done.returncode != 0:
+            partial.unlink(missing_ok=True)
+            raise RuntimeError(f"compile failed: {' '.join(cmd)}\n{done.stdout}{done.stderr}")
+        partial.replace(output)
+        return output
+
+
+@contextlib.contextmanager
+def _exclusive(lock: Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on file `lock` (created if missing) for the block."""
+    with open(lock, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def main() -> int:
