@@ -75,12 +75,15 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
         time.sleep(warmup)
         for log in (session.latency, session.echo, session.pipeline):
             log.clear()
+        session.stages.clear()
+        server.hub.stages.clear()
         time.sleep(seconds)
         time.sleep(1.2)  # the page sends its latencies once a second
         return {
             "browser": session.latency.summary(),
             "echo": session.echo.summary(),
             "pipeline": session.pipeline.summary(),
+            "stages": {**session.stages.summary(), **server.hub.stages.summary()},
             "estimates": session.estimates,
         }
     finally:
@@ -119,6 +122,7 @@ def main() -> None:
                         "estimates_received": b["n"],
                         "echoes": e["n"],
                         "server_part_ms": m["pipeline"][f"{q}_ms"],
+                        "stages_ms": {k: v[f"{q}_ms"] for k, v in m["stages"].items()},
                         "sample_period_ms": SAMPLE_PERIOD_MS,
                         "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
                         "max_ms": b["max_ms"],

@@ -32,7 +32,7 @@ import numpy as np
 from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
 from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
-from spectratac.apps.live.latency import LatencyLog
+from spectratac.apps.live.latency import LatencyLog, Stages
 from spectratac.apps.live.messages import estimate_message, raw_config
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
@@ -79,6 +79,9 @@ class LiveSession:
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
+        # frame arrival -> the worker took the sample / its estimate was ready (the parts of
+        # `pipeline`; the server's `Hub.stages` times the rest of the way)
+        self.stages = Stages(("taken", "decoded"))
         self.scale: float | None = 1.0  # device s per host s: the link's, once open
         self.sensor: DeviceStream | None = None
         self.ft: Any = None
@@ -253,11 +256,16 @@ class LiveSession:
         """(sample, its estimate or None without a model), as they arrive."""
         if self.decoder is None:
             for sample in self.sensor:
+                self.stages.add("taken", (time.monotonic() - sample.host_time) * 1e3)
                 yield sample, None
             return
         tap = SampleTap(self.sensor)
         for est in self.decoder.stream(tap):
-            yield tap.last, est
+            sample = tap.last
+            now = time.monotonic()
+            self.stages.add("taken", (tap.taken_at - sample.host_time) * 1e3)
+            self.stages.add("decoded", (now - sample.host_time) * 1e3)
+            yield sample, est
 
     def _decode(self, publish: Publish) -> None:
         sensor_clock = LiveClock(self.scale, background=True)
