@@ -201,7 +201,10 @@ class LiveSession:
                 "reconnects": s.reconnects,
             }
         if self.ft is not None:
-            out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost}
+            # a simulated sensor loses samples on purpose (ft_loss): the page says so
+            simulated = self.ft.info.extra.get("simulated_loss")
+            out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost,
+                         "simulated_loss": simulated}  # fmt: skip
         if self.tracker is not None and self.decoder is not None:
             out["mae"] = self.tracker.mae()
             out["mae_contact"] = self.tracker.mae_contact()

@@ -392,12 +392,18 @@ function showLink() {
     ["buffer overflows", link.overflows ?? "—", link.overflows > 0],
     ["reconnects", link.reconnects ?? "—", link.reconnects > 0],
   ];
-  if (s.ft) rows.push(["F/T samples", s.ft.received], ["F/T lost", s.ft.lost, s.ft.lost > 0]);
+  if (s.ft) {
+    rows.push(["F/T samples", s.ft.received]);
+    // a simulated F/T sensor drops samples on purpose (its ft_loss): not a fault of the link
+    const sim = s.ft.simulated_loss;
+    if (sim === null || sim === undefined) rows.push(["F/T lost", s.ft.lost, s.ft.lost > 0]);
+    else rows.push(["F/T lost on purpose (simulated)", s.ft.lost, false, `the simulated sensor drops samples with probability ft_loss=${sim}`]);
+  }
   const lat = stac.latency;
   rows.push(["to browser p50 / p99", `${fmt(percentile(lat, 0.5), 1)} / ${fmt(percentile(lat, 0.99), 1)} ms`]);
   rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`]);
   if (s.error) rows.push(["error", s.error, true]);
-  $("link").innerHTML = rows.map(([k, v, bad]) => `<dt>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
+  $("link").innerHTML = rows.map(([k, v, bad, why]) => `<dt${why ? ` title="${why}"` : ""}>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
 }
 setInterval(showLink, 500);
 
