@@ -10,6 +10,9 @@ None keeps the device clocks as they are (sim at speed=max, where they run ahead
 host: both are scene time already). A fit costs 10-30 ms; with `background=True` (the live
 session) it runs on a worker thread and the new model replaces the old when it is ready, so
 the decoding thread never waits a whole fit (the p99 latency to the page doubled otherwise).
+Every background fit of the process runs on one long-lived thread (`_Fitter`), handed over
+with a queue put: a thread started per fit made the decoding thread wait for the new
+thread's first time slice, ~90 ms per refit on a machine at load 30.
 
 >>> clock = LiveClock(scale=1.0)
 >>> t = np.arange(0.0, 3.0, 0.05)
@@ -22,8 +25,11 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import logging
+import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,6 +48,40 @@ MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only
 NEAR_S = 0.25
 
 
+log = logging.getLogger("spectratac.apps.live")
+
+
+class _Fitter:
+    """The one thread of the process that runs background clock fits, in turn. Started with
+    the first background clock (before its session decodes), never per fit."""
+
+    _lock = threading.Lock()
+    _jobs: queue.SimpleQueue[Callable[[], None]] | None = None
+
+    @classmethod
+    def start(cls) -> None:
+        with cls._lock:
+            if cls._jobs is None:
+                cls._jobs = queue.SimpleQueue()
+                threading.Thread(target=cls._run, args=(cls._jobs,),
+                                 name="spectratac-live-clock", daemon=True).start()  # fmt: skip
+
+    @classmethod
+    def submit(cls, job: Callable[[], None]) -> None:
+        cls.start()  # started already by the clock's constructor: only a put here
+        assert cls._jobs is not None
+        cls._jobs.put(job)
+
+    @staticmethod
+    def _run(jobs: queue.SimpleQueue[Callable[[], None]]) -> None:
+        while True:
+            job = jobs.get()
+            try:
+                job()
+            except Exception:  # a failed fit keeps the previous model; the next may land
+                log.exception("a live clock fit failed")
+
+
 class LiveClock:
     """A device clock mapped onto the host clock, refitted as pairs arrive."""
 
@@ -57,7 +97,10 @@ class LiveClock:
         self.window_s = window_s
         self.refit_s = refit_s
         self.background = background
-        self._fitting: threading.Thread | None = None
+        self._idle = threading.Event()  # no background fit in progress
+        self._idle.set()
+        if background:
+            _Fitter.start()
         self._device: collections.deque[F64] = collections.deque()
         self._host: collections.deque[F64] = collections.deque()
         self._model: ClockModel | None = None
@@ -81,7 +124,7 @@ class LiveClock:
         now = time.monotonic()
         if self._device[-1][-1] - self._device[0][0] < MIN_FIT_S:
             return
-        if self._fitting is not None and self._fitting.is_alive():
+        if not self._idle.is_set():
             return  # one fit at a time; the next is due once it has landed
         if now >= self._refit_at or self._model is None:
             self._refit_at = now + self.refit_s
@@ -89,10 +132,14 @@ class LiveClock:
             if not self.background:
                 self._refit(device, host)
                 return
-            self._fitting = threading.Thread(
-                target=self._refit, args=(device, host), name="spectratac-live-clock", daemon=True
-            )
-            self._fitting.start()
+            self._idle.clear()
+            _Fitter.submit(lambda: self._background_refit(device, host))
+
+    def _background_refit(self, device: F64, host: F64) -> None:
+        try:
+            self._refit(device, host)
+        finally:
+            self._idle.set()
 
     def _refit(self, device: F64, host: F64) -> None:
         # fewer than two distinct times: the lowest offset seen serves meanwhile
@@ -101,8 +148,7 @@ class LiveClock:
 
     def wait(self, timeout: float | None = None) -> None:
         """Until a background fit in progress has landed."""
-        if self._fitting is not None:
-            self._fitting.join(timeout)
+        self._idle.wait(timeout)
 
     def to_host(self, device_s: ArrayLike) -> F64:
         d = np.asarray(device_s, dtype=np.float64)
