@@ -17,6 +17,13 @@ Messages cross from the session's worker thread into the event loop with
 loses its oldest messages, never the sensor's. A joining client's queue gets the meta and
 the latest estimate and joins the fan-out in one step on the event loop, so it sees every
 estimate once, in order.
+
+Latency: `Hub.stages` times every estimate from its publication to the event loop and to
+the socket, and keeps the page's own work per batch of estimates and per redraw (the page
+reports them with its latencies); the session times the stages before (`LiveSession.stages`),
+and `tools/bench/live.py` reports them all. While serving, the process runs with
+`tuning.serving()` (a short GIL switch interval, start-up objects frozen out of the
+collector's reach).
 """
 
 from __future__ import annotations
