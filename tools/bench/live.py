@@ -9,7 +9,11 @@ estimate on receipt against the frame's arrival time (same system clock); the fi
 p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
 at the same time on the same socket: half the round trip of a bare WebSocket echo (the
 server pings the page every 250 ms). Also reported: the part spent before the message
-leaves the server (decoding included), and whether p99 stays under one sample period.
+leaves the server (decoding included), and whether p99 stays under one sample period; and,
+per quantile, each stage of the way (`stages_ms` in --json): frame read -> taken by the
+decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the event
+loop (`loop`) -> handed to the socket (`sent`); the page's own work per batch of estimates
+(`page_handle`) and per redraw (`page_redraw`), as the page measures them.
 
 Without --model, a small decoder is trained first on twin presses (a few seconds). With
 --busy N the same measurement runs again beside N busy-loop processes (a new server and page),
