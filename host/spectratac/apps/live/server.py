@@ -71,7 +71,7 @@ class Hub:
     """The set of connected pages; `publish` is safe to call from any thread, everything
     else runs on the event loop. `stages` times an estimate's way through the server
     (published -> fanned out on the loop -> handed to the socket) and the page's own work
-    per message and per redraw, as the page reports it."""
+    per batch of estimates and per redraw, as the page reports it."""
 
     def __init__(self) -> None:
         self.loop: asyncio.AbstractEventLoop | None = None
