@@ -279,6 +279,10 @@ class LiveSession:
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
+        # the reference is worked out after an estimate is published (it reads the F/T
+        # reader's queue, under its lock, and averages windows: off the page's path); the
+        # windows it completes are older estimates', so they go with the next message
+        carried = {} if tracker is None else self._scores(tracker, [])
         for seq, (sample, est) in enumerate(self._samples()):
             if self._stop.is_set():
                 return
@@ -290,8 +294,7 @@ class LiveSession:
             t_last = t_plot
             msg = estimate_message(seq, est, sample, t_plot,
                                    (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
-            if tracker is not None:
-                self._reference(tracker, sensor_clock, seq, est, sample, t0, msg)
+            msg.update(carried)
             if est is not None:
                 with self._lock:
                     update = self.snake.feed(est, t_end)
@@ -304,6 +307,9 @@ class LiveSession:
             now = time.monotonic()
             self.pipeline.add([(now - sample.host_time) * 1e3])
             self.history.add_row(seq, self._row(msg, sample))
+            if tracker is not None:
+                refs = self._reference(tracker, sensor_clock, seq, est, sample, t0)
+                carried = self._scores(tracker, refs)
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())
@@ -316,8 +322,8 @@ class LiveSession:
         est: Any,
         sample: Any,
         t0: float,
-        msg: dict[str, Any],
-    ) -> None:
+    ) -> list[list[float]]:
+        """Take the F/T rows that came, add this sample's window; the windows now ready."""
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
@@ -332,10 +338,14 @@ class LiveSession:
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)
             refs.append([key, round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
-        msg["refs"] = refs
-        if est is not None:
-            msg["mae"] = tracker.mae()
-            msg["mae_contact"] = tracker.mae_contact()
+        return refs
+
+    def _scores(self, tracker: ReferenceTracker, refs: list[list[float]]) -> dict[str, Any]:
+        """What an estimate message carries of the reference: the windows ready since the
+        last message, and with a model the running MAE over every window so far."""
+        if self.decoder is None:
+            return {"refs": refs}
+        return {"refs": refs, "mae": tracker.mae(), "mae_contact": tracker.mae_contact()}
 
     @staticmethod
     def _row(msg: dict[str, Any], sample: Any) -> dict[str, Any]:
