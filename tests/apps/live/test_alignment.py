@@ -45,28 +45,30 @@ def test_times_map_while_a_background_fit_is_running() -> None:
     assert abs(float(clock.to_host(1.5)) - (50.0 + 1.5 * (1 + 2e-4))) < 5e-4
 
 
-def test_background_fits_are_handed_to_one_thread_never_started_by_add(monkeypatch) -> None:
+def test_background_fits_are_handed_to_the_clocks_thread_never_started_by_add(
+    monkeypatch,
+) -> None:
     # a thread started per refit made the decoding thread wait for the new thread's first
     # time slice: ~90 ms per refit on a loaded machine, in the estimate's way to the page
     device, host = _pairs(6.0)
-    first = LiveClock(1.0, refit_s=0.0, background=True)  # starts the fitter if need be
-    second = LiveClock(1.0, refit_s=0.0, background=True)
+    background = LiveClock(1.0, refit_s=0.0, background=True)  # its thread starts here
     sync = LiveClock(1.0, refit_s=0.0)
 
     def no_start(self: threading.Thread) -> None:
         raise AssertionError(f"add() started a thread ({self.name}) on the decoding thread")
 
-    monkeypatch.setattr(threading.Thread, "start", no_start)
-    for lo in range(0, device.size, 50):
-        for clock in (first, second, sync):
-            clock.add(device[lo : lo + 50], host[lo : lo + 50])
-        first.wait(60)
-        second.wait(60)
+    with monkeypatch.context() as m:
+        m.setattr(threading.Thread, "start", no_start)
+        for lo in range(0, device.size, 50):
+            for clock in (background, sync):
+                clock.add(device[lo : lo + 50], host[lo : lo + 50])
+            background.wait(60)
     probe = np.array([0.0, 3.0, 6.0])
-    for clock in (first, second):
-        assert np.allclose(clock.to_host(probe), sync.to_host(probe), atol=1e-9)
-    fitters = [t for t in threading.enumerate() if t.name == "spectratac-live-clock"]
-    assert len(fitters) == 1
+    assert np.allclose(background.to_host(probe), sync.to_host(probe), atol=1e-9)
+    thread = background._fitter._thread  # type: ignore[union-attr]
+    background.close()
+    thread.join(60)
+    assert not thread.is_alive(), "close() leaves no thread behind"
 
 
 @settings(max_examples=40, deadline=None)

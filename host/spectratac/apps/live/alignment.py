@@ -10,9 +10,9 @@ None keeps the device clocks as they are (sim at speed=max, where they run ahead
 host: both are scene time already). A fit costs 10-30 ms; with `background=True` (the live
 session) it runs on a worker thread and the new model replaces the old when it is ready, so
 the decoding thread never waits a whole fit (the p99 latency to the page doubled otherwise).
-Every background fit of the process runs on one long-lived thread (`_Fitter`), handed over
-with a queue put: a thread started per fit made the decoding thread wait for the new
-thread's first time slice, ~90 ms per refit on a machine at load 30.
+Each background clock fits on a thread of its own started with it (`_Fitter`), handed each
+fit with a queue put: a thread started per fit made the decoding thread wait for the new
+thread's first time slice, ~90 ms per refit on a machine at load 30. `close()` ends it.
 
 >>> clock = LiveClock(scale=1.0)
 >>> t = np.arange(0.0, 3.0, 0.05)
@@ -52,30 +52,25 @@ log = logging.getLogger("spectratac.apps.live")
 
 
 class _Fitter:
-    """The one thread of the process that runs background clock fits, in turn. Started with
-    the first background clock (before its session decodes), never per fit."""
+    """A clock's fitting thread, started with the clock (before its session decodes) and
+    handed each fit by a queue put, never started per fit. One per clock: the F/T clock's
+    fits (thousands of pairs) do not hold up the sensor clock's."""
 
-    _lock = threading.Lock()
-    _jobs: queue.SimpleQueue[Callable[[], None]] | None = None
+    def __init__(self) -> None:
+        self._jobs: queue.SimpleQueue[Callable[[], None] | None] = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name="spectratac-live-clock",
+                                        daemon=True)  # fmt: skip
+        self._thread.start()
 
-    @classmethod
-    def start(cls) -> None:
-        with cls._lock:
-            if cls._jobs is None:
-                cls._jobs = queue.SimpleQueue()
-                threading.Thread(target=cls._run, args=(cls._jobs,),
-                                 name="spectratac-live-clock", daemon=True).start()  # fmt: skip
+    def submit(self, job: Callable[[], None]) -> None:
+        self._jobs.put(job)
 
-    @classmethod
-    def submit(cls, job: Callable[[], None]) -> None:
-        cls.start()  # started already by the clock's constructor: only a put here
-        assert cls._jobs is not None
-        cls._jobs.put(job)
+    def close(self) -> None:
+        """End the thread once the fit in hand (if any) has landed."""
+        self._jobs.put(None)
 
-    @staticmethod
-    def _run(jobs: queue.SimpleQueue[Callable[[], None]]) -> None:
-        while True:
-            job = jobs.get()
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
             try:
                 job()
             except Exception:  # a failed fit keeps the previous model; the next may land
@@ -99,8 +94,7 @@ class LiveClock:
         self.background = background
         self._idle = threading.Event()  # no background fit in progress
         self._idle.set()
-        if background:
-            _Fitter.start()
+        self._fitter = _Fitter() if background else None
         self._device: collections.deque[F64] = collections.deque()
         self._host: collections.deque[F64] = collections.deque()
         self._model: ClockModel | None = None
@@ -132,8 +126,9 @@ class LiveClock:
             if not self.background:
                 self._refit(device, host)
                 return
+            assert self._fitter is not None
             self._idle.clear()
-            _Fitter.submit(lambda: self._background_refit(device, host))
+            self._fitter.submit(lambda: self._background_refit(device, host))
 
     def _background_refit(self, device: F64, host: F64) -> None:
         try:
@@ -149,6 +144,12 @@ class LiveClock:
     def wait(self, timeout: float | None = None) -> None:
         """Until a background fit in progress has landed."""
         self._idle.wait(timeout)
+
+    def close(self) -> None:
+        """End the background fitting thread (idempotent; the model stays usable)."""
+        if self._fitter is not None:
+            self._fitter.close()
+            self._fitter = None
 
     def to_host(self, device_s: ArrayLike) -> F64:
         d = np.asarray(device_s, dtype=np.float64)

@@ -276,13 +276,27 @@ class LiveSession:
         if self.ft is not None:
             tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S, background=True))
             self.tracker = tracker
-        t0: float | None = None
-        t_last = -np.inf
-        next_stats = time.monotonic() + STATS_EVERY_S
         # the reference is worked out after an estimate is published (it reads the F/T
         # reader's queue, under its lock, and averages windows: off the page's path); the
         # windows it completes are older estimates', so they go with the next message
         carried = {} if tracker is None else self._scores(tracker, [])
+        try:
+            self._stream(publish, sensor_clock, tracker, carried)
+        finally:
+            sensor_clock.close()
+            if tracker is not None:
+                tracker.clock.close()
+
+    def _stream(
+        self,
+        publish: Publish,
+        sensor_clock: LiveClock,
+        tracker: ReferenceTracker | None,
+        carried: dict[str, Any],
+    ) -> None:
+        t0: float | None = None
+        t_last = -np.inf
+        next_stats = time.monotonic() + STATS_EVERY_S
         for seq, (sample, est) in enumerate(self._samples()):
             if self._stop.is_set():
                 return
