@@ -195,3 +195,30 @@ def test_parser_drops_non_finite_and_out_of_range_values() -> None:
     assert unbounded.implausible == 2
     with pytest.raises(ValueError, match="six positive"):
         botaframe.FrameParser(limits=[1, 2, 3])
+
+
+def test_joining_record_batches_keeps_every_row_in_order() -> None:
+    # the F/T queue's join copies batches into one array instead of np.concatenate, which
+    # promoted the structured dtype field by field per batch (the live page's F/T read)
+    from spectratac.ft.base import _join
+    from spectratac.ft.records import FT_RECORD
+
+    @settings(max_examples=60, deadline=None)
+    @given(st.lists(st.integers(0, 40), max_size=12), st.integers(0, 2**32 - 1))
+    def check(sizes: list[int], seed: int) -> None:
+        rng = np.random.default_rng(seed)
+        batches = []
+        for n in sizes:
+            b = np.zeros(n, dtype=FT_RECORD)
+            for name in FT_RECORD.names:
+                b[name] = rng.normal(size=b[name].shape)
+            batches.append(b[1:] if n and rng.random() < 0.3 else b)  # slices too
+        joined = _join(batches)
+        assert joined.dtype == FT_RECORD
+        want = np.concatenate(batches) if batches else np.empty(0, dtype=FT_RECORD)
+        assert joined.tobytes() == want.tobytes()
+        if batches and len(joined):
+            joined["wrench"][0] += 1.0  # a new array: the queue's batches stay as they were
+            assert joined.tobytes() != want.tobytes()
+
+    check()

@@ -9,7 +9,11 @@ estimate on receipt against the frame's arrival time (same system clock); the fi
 p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
 at the same time on the same socket: half the round trip of a bare WebSocket echo (the
 server pings the page every 250 ms). Also reported: the part spent before the message
-leaves the server (decoding included), and whether p99 stays under one sample period.
+leaves the server (decoding included), and whether p99 stays under one sample period; and,
+per quantile, each stage of the way (`stages_ms` in --json): frame read -> taken by the
+decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the event
+loop (`loop`) -> handed to the socket (`sent`); the page's own work per batch of estimates
+(`page_handle`) and per redraw (`page_redraw`), as the page measures them.
 
 Without --model, a small decoder is trained first on twin presses (a few seconds). With
 --busy N the same measurement runs again beside N busy-loop processes (a new server and page),
@@ -75,12 +79,15 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
         time.sleep(warmup)
         for log in (session.latency, session.echo, session.pipeline):
             log.clear()
+        session.stages.clear()
+        server.hub.stages.clear()
         time.sleep(seconds)
         time.sleep(1.2)  # the page sends its latencies once a second
         return {
             "browser": session.latency.summary(),
             "echo": session.echo.summary(),
             "pipeline": session.pipeline.summary(),
+            "stages": {**session.stages.summary(), **server.hub.stages.summary()},
             "estimates": session.estimates,
         }
     finally:
@@ -119,6 +126,7 @@ def main() -> None:
                         "estimates_received": b["n"],
                         "echoes": e["n"],
                         "server_part_ms": m["pipeline"][f"{q}_ms"],
+                        "stages_ms": {k: v[f"{q}_ms"] for k, v in m["stages"].items()},
                         "sample_period_ms": SAMPLE_PERIOD_MS,
                         "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
                         "max_ms": b["max_ms"],

@@ -10,6 +10,7 @@ Shared by every verb that decodes live (`spectratac decode`, `live`, `snake`).
 from __future__ import annotations
 
 import contextlib
+import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
@@ -62,15 +63,18 @@ def open_for_decoder(
 
 class SampleTap:
     """A sensor as `Decoder.stream` sees it, keeping the sample behind each estimate in
-    `last` (the raw counts, the device clock) while the decoder consumes it."""
+    `last` (the raw counts, the device clock) while the decoder consumes it, and when the
+    consumer took it in `taken_at` (host monotonic s: the wait before decoding ends there)."""
 
     def __init__(self, sensor: SampleStream) -> None:
         self.sensor = sensor
         self.last: Sample | None = None
+        self.taken_at = 0.0
 
     def __iter__(self) -> Iterator[Sample]:
         for sample in self.sensor:
             self.last = sample
+            self.taken_at = time.monotonic()
             yield sample
 
     def get_config(self) -> m.Config:

@@ -197,10 +197,16 @@ class FTSensor(ABC):
 
 
 def _join(batches: list[Sequence[np.void]]) -> np.ndarray:
-    """FT_RECORD batches (or slices of them) as one array."""
-    if not batches:
-        return np.empty(0, dtype=FT_RECORD)
-    return np.concatenate(cast("list[np.ndarray]", batches))
+    """FT_RECORD batches (or slices of them) as one new array. Copied into one preallocated
+    array: np.concatenate promotes the structured dtype field by field for every batch
+    (~0.1 ms each), and a reader of the live page joins a few dozen batches per sample."""
+    arrays = cast("list[np.ndarray]", batches)
+    out = np.empty(sum(len(a) for a in arrays), dtype=FT_RECORD)
+    at = 0
+    for a in arrays:
+        out[at : at + len(a)] = a
+        at += len(a)
+    return out
 
 
 def _example_csv() -> str:

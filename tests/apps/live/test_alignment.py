@@ -4,6 +4,8 @@ running MAE is kept overall and over the windows in contact."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -41,6 +43,32 @@ def test_times_map_while_a_background_fit_is_running() -> None:
     assert np.all(np.isfinite(clock.to_host(device[:5])))
     clock.wait()
     assert abs(float(clock.to_host(1.5)) - (50.0 + 1.5 * (1 + 2e-4))) < 5e-4
+
+
+def test_background_fits_are_handed_to_the_clocks_thread_never_started_by_add(
+    monkeypatch,
+) -> None:
+    # a thread started per refit made the decoding thread wait for the new thread's first
+    # time slice: ~90 ms per refit on a loaded machine, in the estimate's way to the page
+    device, host = _pairs(6.0)
+    background = LiveClock(1.0, refit_s=0.0, background=True)  # its thread starts here
+    sync = LiveClock(1.0, refit_s=0.0)
+
+    def no_start(self: threading.Thread) -> None:
+        raise AssertionError(f"add() started a thread ({self.name}) on the decoding thread")
+
+    with monkeypatch.context() as m:
+        m.setattr(threading.Thread, "start", no_start)
+        for lo in range(0, device.size, 50):
+            for clock in (background, sync):
+                clock.add(device[lo : lo + 50], host[lo : lo + 50])
+            background.wait(60)
+    probe = np.array([0.0, 3.0, 6.0])
+    assert np.allclose(background.to_host(probe), sync.to_host(probe), atol=1e-9)
+    thread = background._fitter._thread  # type: ignore[union-attr]
+    background.close()
+    thread.join(60)
+    assert not thread.is_alive(), "close() leaves no thread behind"
 
 
 @settings(max_examples=40, deadline=None)

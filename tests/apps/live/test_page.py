@@ -340,8 +340,47 @@ def test_page_without_a_model_shows_raw_counts_and_the_reference(tmp_path) -> No
             assert js(driver, "stac.plots.S1.u.data[5].filter(v => v !== null).length") > 10  # IR
             assert "no model" in driver.find_element("id", "source").text
             check_link_panel_in_view(driver)
+            check_simulated_ft_loss_named(driver)
             driver.execute_script("window.scrollTo(0, 0)")
             driver.save_screenshot(str(SHOTS / "live-no-model.png"))
             assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+            server.stop()  # nothing else arrives: the page gets only the burst below
+            check_a_burst_is_stamped_at_once_and_handled_in_one_frame(driver)
         finally:
             server.stop()
+
+
+def check_simulated_ft_loss_named(driver) -> None:
+    """The simulated F/T sensor loses samples on purpose (ft_loss, 0.001 by default): the link
+    panel says so, as a row a person reads, and does not flag it as the link's fault."""
+    wait_for(driver, "document.getElementById('link').textContent.includes('F/T samples')")
+    rows = js(
+        driver,
+        "[...document.querySelectorAll('#link dt')].map(dt => [dt.textContent, "
+        "dt.nextElementSibling.textContent, dt.nextElementSibling.className, dt.title])",
+    )
+    lost = [r for r in rows if r[0].startswith("F/T lost")]
+    assert len(lost) == 1 and lost[0][0] == "F/T lost on purpose (simulated)", rows
+    assert lost[0][1].isdigit() and lost[0][2] == "", rows  # a count, not flagged as a fault
+    assert "ft_loss=0.001" in lost[0][3], rows  # the hover says how often
+    assert "F/T lost on purpose (simulated)" in driver.find_element("id", "link").text
+
+
+def check_a_burst_is_stamped_at_once_and_handled_in_one_frame(driver) -> None:
+    """Estimates that reach the page together (after the machine stalled the browser) are
+    each stamped as their message is handed over and handled once, at the next frame: no
+    estimate's stamp waits for the work of the ones before it."""
+    wait_for(driver, "stac.pending.length === 0")
+    before = js(driver, "[stac.received, stac.batches]")
+    burst = js(driver, """(() => {
+        const n = stac.latency.length, last = stac.last;
+        for (let k = 1; k <= 3; k++) {
+          const msg = {...last, seq: last.seq + k, t: last.t + 0.05 * k,
+                       arrival_ms: performance.timeOrigin + performance.now()};
+          socket.onmessage({data: JSON.stringify(msg)});
+        }
+        return [stac.latency.length - n, stac.pending.length, stac.received];
+      })()""")  # fmt: skip
+    assert burst == [3, 3, before[0]], burst  # stamped; nothing handled within their task
+    wait_for(driver, f"stac.received === {before[0] + 3}")
+    assert js(driver, "[stac.batches, stac.pending.length]") == [before[1] + 1, 0]

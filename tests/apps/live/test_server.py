@@ -6,15 +6,17 @@ once, in order. A fast stand-in session (`FakeSession`) publishes numbered estim
 from __future__ import annotations
 
 import contextlib
+import gc
 import json
 import re
 import socket
+import sys
 import threading
 import time
 from collections.abc import Iterator
 
 import pytest
-from spectratac.apps.live import inbound
+from spectratac.apps.live import inbound, tuning
 from spectratac.apps.live.server import MAX_BODY_BYTES, MAX_MESSAGE_BYTES, LiveServer, bind
 from wsproto.events import CloseConnection
 
@@ -325,3 +327,41 @@ def test_pages_joining_mid_stream_see_each_estimate_once_in_order() -> None:
                 page.close()
     finally:
         server.stop()
+
+
+# ---------------------------------------------------------------------- issue 26: the tail
+def test_serving_shortens_the_gil_switch_and_freezes_start_up_objects_then_restores() -> None:
+    # each estimate crosses three threads; a woken thread waited up to CPython's 5 ms for the
+    # GIL at each crossing, and a full collection walked every start-up object with it held
+    before = sys.getswitchinterval()
+    server = LiveServer(FakeSession(), bind(0)).start()  # type: ignore[arg-type]
+    try:
+        assert sys.getswitchinterval() == tuning.SWITCH_INTERVAL_S < before
+        assert gc.get_freeze_count() > 10_000  # the modules, the app, the session
+    finally:
+        server.stop()
+    assert sys.getswitchinterval() == before and gc.get_freeze_count() == 0
+
+
+def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kept(served) -> None:
+    server, _ = served
+    client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
+    try:
+        got = 0
+        while got < 20:
+            got += client.recv_json()["type"] == "estimate"
+        client.send_json({"type": "latency", "values": [4.0], "handle": [0.5, 0.7],
+                          "redraw": [2.0]})  # fmt: skip
+        deadline = time.monotonic() + 30
+        while server.hub.stages.summary()["page_redraw"]["n"] == 0:
+            assert time.monotonic() < deadline, "the page's redraw times were not kept"
+            time.sleep(0.02)
+    finally:
+        client.close()
+    stages = server.hub.stages.summary()
+    assert stages["loop"]["n"] >= 20 and stages["sent"]["n"] >= 19
+    assert stages["page_handle"]["n"] == 2 and stages["page_redraw"]["max_ms"] == 2.0
+    for bad in ('{"type": "latency", "values": [], "handle": 3}',
+                '{"type": "latency", "values": [], "redraw": [NaN]}'):  # fmt: skip
+        with pytest.raises(inbound.BadMessage):
+            inbound.parse(bad)

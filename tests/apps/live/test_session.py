@@ -245,3 +245,58 @@ def test_a_clip_name_taken_meanwhile_is_never_overwritten(tmp_path) -> None:
     assert [(tmp_path / n).read_text() for n in ("clip.csv", "clip-2.csv", "clip-3.csv")] == [
         "first", "second", "third"
     ]  # fmt: skip
+
+
+@pytest.mark.slow
+def test_an_estimate_is_published_before_the_worker_waits_on_the_ft_queue(press_model) -> None:
+    """The reference reads the F/T reader's queue (under the lock its thread takes for every
+    batch) and averages windows; an estimate no longer waits for that: each one decoded is
+    published before the worker touches the F/T queue, and the windows the reference then
+    completes (older estimates') go with the next message."""
+    url = PRESSES_URL + "&speed=4&ft=bota"
+    decoder = Decoder.load(press_model)
+    session = LiveSession(decoder, url)
+    decoded = 0
+    stream = decoder.stream
+
+    def counting(*args, **kwargs):
+        nonlocal decoded
+        for est in stream(*args, **kwargs):
+            decoded += 1
+            yield est
+
+    decoder.stream = counting  # type: ignore[method-assign]
+    published: list[int] = []
+    seen: list[tuple[int, int]] = []  # (decoded, published) whenever the F/T queue is read
+    held, release = threading.Event(), threading.Event()
+
+    def publish(msg: dict) -> None:
+        if msg["type"] == "estimate":
+            published.append(msg["seq"])
+
+    session.start(publish)
+    read_available = session.ft.read_available
+
+    def watched():
+        seen.append((decoded, len(published)))
+        if len(published) >= 20 and not held.is_set():
+            held.set()  # the F/T reader holds its lock for a while: the worker waits here
+            release.wait(60)
+        return read_available()
+
+    session.ft.read_available = watched
+    try:
+        assert held.wait(300), "no 20 estimates within 300 s"
+        time.sleep(0.2)  # whatever the worker could still publish while it waits
+        waiting_at = (decoded, len(published))
+        release.set()
+        deadline = time.monotonic() + 300
+        while len(published) < waiting_at[1] + 20:
+            assert time.monotonic() < deadline, "the worker did not go on after the F/T wait"
+            time.sleep(0.05)
+    finally:
+        release.set()
+        session.stop()
+    assert seen and all(d == p for d, p in seen), seen[:5]
+    assert waiting_at[0] == waiting_at[1]  # nothing decoded sat unpublished during the wait
+    assert published == list(range(len(published)))

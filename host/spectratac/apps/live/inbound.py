@@ -3,6 +3,8 @@
 Every WebSocket message is one of::
 
     {"type": "latency", "values": [ms, ...]}   # receipt latencies, at most MAX_LATENCY_VALUES
+                                               # (optional "handle", "redraw": the page's own
+                                               # work per batch of estimates and per redraw, ms)
     {"type": "pong", "id": n}                  # echo of the server's ping n
     {"type": "snake_restart"}
     {"type": "tare"}                           # zero the drift baseline (nothing touches the skin)
@@ -45,6 +47,8 @@ class BadMessage(SpectraTacError):
 @dataclass(frozen=True)
 class Latency:
     values: tuple[float, ...]
+    handle: tuple[float, ...] = ()
+    redraw: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -78,7 +82,11 @@ def parse(text: str) -> ClientMessage:
         raise BadMessage(f"a message is a JSON object with a type, not {type(msg).__name__}")
     kind = msg.get("type")
     if kind == "latency":
-        return Latency(_latencies(msg.get("values")))
+        return Latency(
+            _latencies(msg.get("values")),
+            _latencies(msg.get("handle", []), "handle"),
+            _latencies(msg.get("redraw", []), "redraw"),
+        )
     if kind == "pong":
         return Pong(_ping_id(msg.get("id")))
     if kind == "snake_restart":
@@ -111,12 +119,12 @@ def _number(v: Any) -> float | None:
     return f if math.isfinite(f) and abs(f) <= MAX_LATENCY_MS else None
 
 
-def _latencies(values: Any) -> tuple[float, ...]:
+def _latencies(values: Any, key: str = "values") -> tuple[float, ...]:
     if not isinstance(values, list):
-        raise BadMessage('latency: "values" must be a list of milliseconds')
+        raise BadMessage(f'latency: "{key}" must be a list of milliseconds')
     if len(values) > MAX_LATENCY_VALUES:
         raise BadMessage(
-            f"latency: {len(values)} values in one message: send at most {MAX_LATENCY_VALUES}",
+            f"latency: {len(values)} {key} in one message: send at most {MAX_LATENCY_VALUES}",
             "too_large",
         )
     out = []

@@ -9,6 +9,14 @@ reference: what the WebSocket alone costs on this machine, measured at the same 
 >>> log.add([float(v) for v in range(1, 101)])
 >>> log.summary()
 {'n': 100, 'p50_ms': 50.5, 'p99_ms': 99.01, 'max_ms': 100.0}
+
+`Stages` keeps one log per stage of an estimate's way to the page, so that a slow tail can
+be traced to the stage it comes from (`tools/bench/live.py` reports them):
+
+>>> stages = Stages(("loop", "sent"))
+>>> stages.add("loop", 2.0)
+>>> stages.summary()["loop"]["n"], stages.summary()["sent"]["n"]
+(1, 0)
 """
 
 from __future__ import annotations
@@ -51,3 +59,20 @@ class LatencyLog:
             "p99_ms": round(float(p99), 3),
             "max_ms": round(float(v.max()), 3),
         }
+
+
+class Stages:
+    """Named `LatencyLog`s, one per stage; `add` is safe from any thread."""
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.logs = {name: LatencyLog() for name in names}
+
+    def add(self, name: str, *values_ms: float) -> None:
+        self.logs[name].add(list(values_ms))
+
+    def clear(self) -> None:
+        for log in self.logs.values():
+            log.clear()
+
+    def summary(self) -> dict[str, dict[str, Any]]:
+        return {name: log.summary() for name, log in self.logs.items()}

@@ -9,7 +9,7 @@
      "step": 0, "counts": [15 counts: s0 R G B C IR, s1 ..., s2 ...],
      "saturated": [15 bools], "dark": [3 bools: each sensor's Clear below the dark level],
      "status": [3 SENSOR_* bit sets: saturated 1, bus fault 2, stale 4, absent 8],
-     "refs": [[seq, t, Fx, Fy, Fz, Tx, Ty, Tz], ...],          reference windows now ready
+     "refs": [[seq, t, Fx, Fy, Fz, Tx, Ty, Tz], ...],   windows ready since the last message
      "mae": {"Fx": 0.12, ...}, "mae_contact": {"Fx": 0.3, ...},  overall, in contact
      "snake": {...} or absent}
 

@@ -17,6 +17,13 @@ Messages cross from the session's worker thread into the event loop with
 loses its oldest messages, never the sensor's. A joining client's queue gets the meta and
 the latest estimate and joins the fan-out in one step on the event loop, so it sees every
 estimate once, in order.
+
+Latency: `Hub.stages` times every estimate from its publication to the event loop and to
+the socket, and keeps the page's own work per batch of estimates and per redraw (the page
+reports them with its latencies); the session times the stages before (`LiveSession.stages`),
+and `tools/bench/live.py` reports them all. While serving, the process runs with
+`tuning.serving()` (a short GIL switch interval, start-up objects frozen out of the
+collector's reach).
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import uvicorn
-from spectratac.apps.live import inbound
+from spectratac.apps.live import inbound, tuning
 from spectratac.apps.live.guard import (
     TOKEN_HEADER,
     TOKEN_PLACEHOLDER,
@@ -41,6 +48,7 @@ from spectratac.apps.live.guard import (
     refusal,
     token_matches,
 )
+from spectratac.apps.live.latency import Stages
 from spectratac.apps.live.session import LiveSession
 from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
@@ -61,43 +69,53 @@ INLINE_BYTES = 4096  # longer messages are parsed off the event loop
 
 class Hub:
     """The set of connected pages; `publish` is safe to call from any thread, everything
-    else runs on the event loop."""
+    else runs on the event loop. `stages` times an estimate's way through the server
+    (published -> fanned out on the loop -> handed to the socket) and the page's own work
+    per batch of estimates and per redraw, as the page reports it."""
 
     def __init__(self) -> None:
         self.loop: asyncio.AbstractEventLoop | None = None
-        self.clients: set[asyncio.Queue[str]] = set()
+        self.clients: set[asyncio.Queue[Item]] = set()
         self.pings: dict[int, float] = {}
         self.last: str | None = None  # the latest estimate fanned out, for joining pages
+        self.stages = Stages(("loop", "sent", "page_handle", "page_redraw"))
 
     def publish(self, msg: dict[str, Any]) -> None:
         loop = self.loop
         if loop is None or loop.is_closed():
             return
         text = json.dumps(msg, separators=(",", ":"))
+        estimate = msg.get("type") == "estimate"
         with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
-            loop.call_soon_threadsafe(self._fan_out, text, msg.get("type") == "estimate")
+            loop.call_soon_threadsafe(self._fan_out, text, time.monotonic() if estimate else None)
 
-    def join(self, meta: dict[str, Any]) -> asyncio.Queue[str]:
+    def join(self, meta: dict[str, Any]) -> asyncio.Queue[Item]:
         """A new client's queue, holding `meta` and the latest estimate, added to the
         fan-out in the same step: no estimate can fall between or arrive twice."""
-        queue: asyncio.Queue[str] = asyncio.Queue(QUEUE)
-        queue.put_nowait(json.dumps(meta, separators=(",", ":")))
+        queue: asyncio.Queue[Item] = asyncio.Queue(QUEUE)
+        queue.put_nowait((json.dumps(meta, separators=(",", ":")), None))
         if self.last is not None:
-            queue.put_nowait(self.last)
+            queue.put_nowait((self.last, None))
         self.clients.add(queue)
         return queue
 
-    def _fan_out(self, text: str, estimate: bool = False) -> None:
-        if estimate:
+    def _fan_out(self, text: str, published: float | None = None) -> None:
+        """Runs on the loop; `published` (monotonic s) marks an estimate, timed to the page."""
+        if published is not None:
             self.last = text
+            self.stages.add("loop", (time.monotonic() - published) * 1e3)
         for q in self.clients:
-            _put(q, text)
+            _put(q, (text, published))
 
 
-def _put(queue: asyncio.Queue[str], text: str) -> None:
+#: A client queue's entry: the message's text, and when an estimate was published (else None).
+Item = tuple[str, float | None]
+
+
+def _put(queue: asyncio.Queue[Item], item: Item) -> None:
     if queue.full():
         queue.get_nowait()
-    queue.put_nowait(text)
+    queue.put_nowait(item)
 
 
 def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guard:
@@ -149,13 +167,13 @@ def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guar
             return
         await websocket.accept()
         queue = hub.join(session.meta())
-        sender = asyncio.create_task(_send(websocket, queue))
+        sender = asyncio.create_task(_send(websocket, queue, hub.stages))
         try:
             while True:
                 text = await websocket.receive_text()
                 reply = await _receive(session, hub, text, control=given is not None)
                 if reply is not None:
-                    _put(queue, json.dumps(reply))
+                    _put(queue, (json.dumps(reply), None))
         except (WebSocketDisconnect, RuntimeError):
             pass
         finally:
@@ -205,6 +223,8 @@ async def _receive(
         return {"type": "refused", "code": "bad_token", "message": why}
     if isinstance(msg, inbound.Latency):
         session.latency.add(list(msg.values))
+        hub.stages.add("page_handle", *msg.handle)
+        hub.stages.add("page_redraw", *msg.redraw)
     elif isinstance(msg, inbound.Pong):
         sent = hub.pings.pop(msg.id, None)
         if sent is not None:
@@ -216,10 +236,13 @@ async def _receive(
     return None
 
 
-async def _send(websocket: WebSocket, queue: asyncio.Queue[str]) -> None:
+async def _send(websocket: WebSocket, queue: asyncio.Queue[Item], stages: Stages) -> None:
     with contextlib.suppress(WebSocketDisconnect, RuntimeError):
         while True:
-            await websocket.send_text(await queue.get())
+            text, published = await queue.get()
+            await websocket.send_text(text)
+            if published is not None:
+                stages.add("sent", (time.monotonic() - published) * 1e3)
 
 
 async def _ping(hub: Hub) -> None:
@@ -264,11 +287,13 @@ class LiveServer:
                                 log_level="warning", lifespan="on")  # fmt: skip
         self.server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
+        self._tuning = contextlib.ExitStack()
 
     def run(self) -> None:
         self.session.start(self.hub.publish)
         try:
-            self.server.run(sockets=[self.sock])
+            with tuning.serving():
+                self.server.run(sockets=[self.sock])
         finally:
             self.session.stop()
         if self.session.error:
@@ -276,12 +301,14 @@ class LiveServer:
 
     def start(self, timeout: float = 30.0) -> LiveServer:
         self.session.start(self.hub.publish)
+        self._tuning.enter_context(tuning.serving())
         self._thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]},
                                         name="spectratac-live-server", daemon=True)  # fmt: skip
         self._thread.start()
         deadline = time.monotonic() + timeout
         while not self.server.started:
             if not self._thread.is_alive() or time.monotonic() > deadline:
+                self._tuning.close()
                 raise SpectraTacError(f"the live server did not start within {timeout:g} s")
             time.sleep(0.02)
         return self
@@ -292,3 +319,4 @@ class LiveServer:
             self._thread.join(timeout=10.0)
         self.session.stop()
         self.sock.close()
+        self._tuning.close()

@@ -32,7 +32,7 @@ import numpy as np
 from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
 from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
-from spectratac.apps.live.latency import LatencyLog
+from spectratac.apps.live.latency import LatencyLog, Stages
 from spectratac.apps.live.messages import estimate_message, raw_config
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
@@ -79,6 +79,9 @@ class LiveSession:
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
+        # frame arrival -> the worker took the sample / its estimate was ready (the parts of
+        # `pipeline`; the server's `Hub.stages` times the rest of the way)
+        self.stages = Stages(("taken", "decoded"))
         self.scale: float | None = 1.0  # device s per host s: the link's, once open
         self.sensor: DeviceStream | None = None
         self.ft: Any = None
@@ -198,7 +201,10 @@ class LiveSession:
                 "reconnects": s.reconnects,
             }
         if self.ft is not None:
-            out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost}
+            # a simulated sensor loses samples on purpose (ft_loss): the page says so
+            simulated = self.ft.info.extra.get("simulated_loss")
+            out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost,
+                         "simulated_loss": simulated}  # fmt: skip
         if self.tracker is not None and self.decoder is not None:
             out["mae"] = self.tracker.mae()
             out["mae_contact"] = self.tracker.mae_contact()
@@ -253,11 +259,16 @@ class LiveSession:
         """(sample, its estimate or None without a model), as they arrive."""
         if self.decoder is None:
             for sample in self.sensor:
+                self.stages.add("taken", (time.monotonic() - sample.host_time) * 1e3)
                 yield sample, None
             return
         tap = SampleTap(self.sensor)
         for est in self.decoder.stream(tap):
-            yield tap.last, est
+            sample = tap.last
+            now = time.monotonic()
+            self.stages.add("taken", (tap.taken_at - sample.host_time) * 1e3)
+            self.stages.add("decoded", (now - sample.host_time) * 1e3)
+            yield sample, est
 
     def _decode(self, publish: Publish) -> None:
         sensor_clock = LiveClock(self.scale, background=True)
@@ -265,6 +276,24 @@ class LiveSession:
         if self.ft is not None:
             tracker = ReferenceTracker(LiveClock(self.scale, window_s=FT_WINDOW_S, background=True))
             self.tracker = tracker
+        # the reference is worked out after an estimate is published (it reads the F/T
+        # reader's queue, under its lock, and averages windows: off the page's path); the
+        # windows it completes are older estimates', so they go with the next message
+        carried = {} if tracker is None else self._scores(tracker, [])
+        try:
+            self._stream(publish, sensor_clock, tracker, carried)
+        finally:
+            sensor_clock.close()
+            if tracker is not None:
+                tracker.clock.close()
+
+    def _stream(
+        self,
+        publish: Publish,
+        sensor_clock: LiveClock,
+        tracker: ReferenceTracker | None,
+        carried: dict[str, Any],
+    ) -> None:
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
@@ -279,8 +308,7 @@ class LiveSession:
             t_last = t_plot
             msg = estimate_message(seq, est, sample, t_plot,
                                    (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
-            if tracker is not None:
-                self._reference(tracker, sensor_clock, seq, est, sample, t0, msg)
+            msg.update(carried)
             if est is not None:
                 with self._lock:
                     update = self.snake.feed(est, t_end)
@@ -293,6 +321,9 @@ class LiveSession:
             now = time.monotonic()
             self.pipeline.add([(now - sample.host_time) * 1e3])
             self.history.add_row(seq, self._row(msg, sample))
+            if tracker is not None:
+                refs = self._reference(tracker, sensor_clock, seq, est, sample, t0)
+                carried = self._scores(tracker, refs)
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())
@@ -305,8 +336,8 @@ class LiveSession:
         est: Any,
         sample: Any,
         t0: float,
-        msg: dict[str, Any],
-    ) -> None:
+    ) -> list[list[float]]:
+        """Take the F/T rows that came, add this sample's window; the windows now ready."""
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
@@ -321,10 +352,14 @@ class LiveSession:
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)
             refs.append([key, round(t - t0, 4), *(round(float(v), 5) for v in wrench)])
-        msg["refs"] = refs
-        if est is not None:
-            msg["mae"] = tracker.mae()
-            msg["mae_contact"] = tracker.mae_contact()
+        return refs
+
+    def _scores(self, tracker: ReferenceTracker, refs: list[list[float]]) -> dict[str, Any]:
+        """What an estimate message carries of the reference: the windows ready since the
+        last message, and with a model the running MAE over every window so far."""
+        if self.decoder is None:
+            return {"refs": refs}
+        return {"refs": refs, "mae": tracker.mae(), "mae_contact": tracker.mae_contact()}
 
     @staticmethod
     def _row(msg: dict[str, Any], sample: Any) -> dict[str, Any]:

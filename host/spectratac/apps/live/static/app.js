@@ -20,7 +20,7 @@ const REF = css.getPropertyValue("--ref").trim();
 const stac = {  // the page's state; window.stac for tests and for a look from the console
   meta: null, received: 0, paused: false, windowS: 20, autoscale: true, follow: true, view: null, countsFit: false,
   xs: [], seqs: [], steps: [], pred: AXES.map(() => []), ref: AXES.map(() => []), counts: [],
-  rawStep: null, rawSteps: [], latency: [], latencyBatch: [], arrivals: [], raw: {}, last: null,
+  rawStep: null, rawSteps: [], latency: [], latencyBatch: [], handleBatch: [], redrawBatch: [], pending: [], lastSeq: -1, batches: 0, arrivals: [], raw: {}, last: null,
   snake: null, snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
   stats: null, yRanges: {}, duplicates: 0, refused: [],
 };
@@ -284,9 +284,12 @@ function rawColumns(cols) {  // with several LED steps, one step's samples (the 
   return [cols[0], ...cols.slice(1).map((a) => a.map((v, i) => (keep[i] ? v : null)))];
 }
 function redraw() {
+  handlePending();
   if (stac.dirty && stac.xs.length) {
+    const t0 = performance.now();
     stac.dirty = false;
     applyScales(true);
+    stac.redrawBatch.push(performance.now() - t0);  // the main thread's time the messages wait
   }
   requestAnimationFrame(redraw);
 }
@@ -389,12 +392,18 @@ function showLink() {
     ["buffer overflows", link.overflows ?? "—", link.overflows > 0],
     ["reconnects", link.reconnects ?? "—", link.reconnects > 0],
   ];
-  if (s.ft) rows.push(["F/T samples", s.ft.received], ["F/T lost", s.ft.lost, s.ft.lost > 0]);
+  if (s.ft) {
+    rows.push(["F/T samples", s.ft.received]);
+    // a simulated F/T sensor drops samples on purpose (its ft_loss): not a fault of the link
+    const sim = s.ft.simulated_loss;
+    if (sim === null || sim === undefined) rows.push(["F/T lost", s.ft.lost, s.ft.lost > 0]);
+    else rows.push(["F/T lost on purpose (simulated)", s.ft.lost, false, `the simulated sensor drops samples with probability ft_loss=${sim}`]);
+  }
   const lat = stac.latency;
   rows.push(["to browser p50 / p99", `${fmt(percentile(lat, 0.5), 1)} / ${fmt(percentile(lat, 0.99), 1)} ms`]);
   rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`]);
   if (s.error) rows.push(["error", s.error, true]);
-  $("link").innerHTML = rows.map(([k, v, bad]) => `<dt>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
+  $("link").innerHTML = rows.map(([k, v, bad, why]) => `<dt${why ? ` title="${why}"` : ""}>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
 }
 setInterval(showLink, 500);
 
@@ -469,14 +478,31 @@ function showMAE(msg) {  // running MAE overall and during contact (reference |F
   $("mae").innerHTML = `<thead><tr><th>running MAE (N, N·m)</th>${AXES.map((a) => `<th>${a}</th>`).join("")}</tr></thead><tbody>` +
     maeRow("overall", msg.mae, 3, 4) + maeRow(contact, msg.mae_contact || {}, 3, 4) + "</tbody>";
 }
-function onEstimate(msg) {
-  // an estimate seen already (or older than the newest) would break the increasing order
-  if (stac.seqs.length && msg.seq <= stac.seqs[stac.seqs.length - 1]) { stac.duplicates += 1; return; }
-  const arrived = performance.timeOrigin + performance.now();
+// An estimate is stamped the moment its message is handed to the page and queued; the work
+// it causes (plot data, the face, Snake) runs for everything queued at the next animation
+// frame, which draws it anyway: a burst that arrives after the machine stalled the browser
+// is stamped at once and handled in one go, not one message's work after another's.
+function noteArrival(msg, arrived) {
+  if (msg.seq <= stac.lastSeq) return;  // a repeat: onEstimate counts it, nothing to time
+  stac.lastSeq = msg.seq;
   const lat = arrived - msg.arrival_ms;
   stac.latency.push(lat); stac.latencyBatch.push(lat);
   if (stac.latency.length > 2000) stac.latency.splice(0, stac.latency.length - 2000);
   stac.arrivals.push(performance.now());
+}
+function handlePending() {
+  const batch = stac.pending;
+  if (!batch.length) return;
+  stac.pending = [];
+  stac.batches += 1;
+  const t0 = performance.now();
+  for (const msg of batch) onEstimate(msg);
+  stac.handleBatch.push(performance.now() - t0);
+}
+setInterval(handlePending, 250);  // no animation frames in a hidden tab: keep up anyway
+function onEstimate(msg) {
+  // an estimate seen already (or older than the newest) would break the increasing order
+  if (stac.seqs.length && msg.seq <= stac.seqs[stac.seqs.length - 1]) { stac.duplicates += 1; return; }
   stac.received += 1;
   stac.last = msg;
   stac.xs.push(msg.t);
@@ -539,20 +565,26 @@ function connect() {
   socket.onopen = () => { $("conn").textContent = "live"; $("conn").className = "badge on"; };
   socket.onclose = () => { $("conn").textContent = "offline"; $("conn").className = "badge off"; setTimeout(connect, 1000); };
   socket.onmessage = (ev) => {
+    const arrived = performance.timeOrigin + performance.now();
     const msg = JSON.parse(ev.data);
     switch (msg.type) {
-      case "estimate": onEstimate(msg); break;
+      case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
       case "ping": send({ type: "pong", id: msg.id }); break;
       case "stats": stac.stats = msg; break;
-      case "meta": onMeta(msg); break;
-      case "snake": showSnake(msg.snake); break;
+      case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
+      case "snake": handlePending(); showSnake(msg.snake); break;
       case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
       case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
     }
   };
 }
 setInterval(() => {
-  if (stac.latencyBatch.length) { send({ type: "latency", values: stac.latencyBatch }); stac.latencyBatch = []; }
+  if (stac.latencyBatch.length) {
+    // at most the server's limit per list: a tab the browser throttled may have piled up more
+    const cut = (a) => a.slice(-4096);
+    send({ type: "latency", values: cut(stac.latencyBatch), handle: cut(stac.handleBatch), redraw: cut(stac.redrawBatch) });
+    stac.latencyBatch = []; stac.handleBatch = []; stac.redrawBatch = [];
+  }
 }, 1000);
 
 connect();
