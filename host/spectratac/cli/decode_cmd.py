@@ -60,22 +60,33 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-class SensorClock:
-    """Seconds of the sensor's clock from host seconds between estimates: times the link's
-    clock scale (a simulated device at speed=10 runs ten sensor seconds per host second). A
-    device clock not tied to the host's (speed=max) counts sample periods instead."""
+class SensorSpan:
+    """Seconds of the sensor's clock the estimates so far cover: from the first window's start
+    to the last window's end, summed over connection epochs (a reconnect may restart the
+    device clock). Counted on the device's timestamps, never on host arrival times: a loaded
+    host receives samples late and in bursts, so host seconds times the link's clock scale
+    stopped `--duration` a few samples early or late.
 
-    def __init__(self, sensor: Any) -> None:
-        self.scale = sensor.link_info.clock_scale
-        cfg = sensor.get_config()
-        self.period_s = cfg.integration_ms / 1000.0
-        self.samples = 0
+    >>> span = SensorSpan(0.05)
+    >>> [span.covered(t, 0) for t in (1_050_000, 1_100_000, 1_150_000)]
+    [0.05, 0.1, 0.15]
+    >>> span.covered(50_000, 1)  # a new epoch: its first window adds on
+    0.2
+    """
 
-    def elapsed(self, host_s: float) -> float:
-        self.samples += 1
-        if self.scale is None:
-            return (self.samples - 1) * self.period_s
-        return host_s * self.scale
+    def __init__(self, period_s: float) -> None:
+        self.period_us = round(period_s * 1e6)
+        self._done_us = 0  # span of closed epochs
+        self._epoch: int | None = None
+        self._first_us = 0  # this epoch's first window end
+        self._span_us = 0
+
+    def covered(self, device_time_us: int, epoch: int) -> float:
+        if epoch != self._epoch:
+            self._done_us = self._span_us
+            self._epoch, self._first_us = epoch, device_time_us
+        self._span_us = self._done_us + device_time_us - self._first_us + self.period_us
+        return self._span_us / 1e6
 
 
 def _cells(e: Any, t0: float) -> list[Any]:
@@ -127,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         if settings is not None:
             sensor.configure(**settings)
         writer = RowWriter(COLUMNS, args.format, width=8)
-        clock = SensorClock(sensor)
+        span = SensorSpan(sensor.get_config().integration_ms / 1000.0)
         sensor.start()
         try:
             first: float | None = None  # host time of the first sample: t_s counts from it
@@ -140,7 +151,8 @@ def run(args: argparse.Namespace) -> int:
                 counts["contact"] += int(e.contact)
                 counts["no_rest"] += int(e.no_rest)
                 if (args.count and counts["estimates"] >= args.count) or (
-                    args.duration and clock.elapsed(e.time - first) >= args.duration
+                    args.duration
+                    and span.covered(e.device_time_us, e.epoch) >= args.duration - 1e-9
                 ):
                     break
         except BrokenPipeError:

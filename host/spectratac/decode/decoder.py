@@ -375,6 +375,8 @@ class Decoder:
                 False,
                 True,
                 np.full(heads.n_reg, np.nan),
+                device_time_us=int(sample.device_time_us),
+                epoch=int(sample.epoch),
             )
         tg = self.guard.bound_targets(out[None, s["targets"]])[0]
         force = np.array([tg[i] if i >= 0 else np.nan for i in fi])
@@ -409,6 +411,8 @@ class Decoder:
             tg.copy(),
             std,
             no_rest,
+            device_time_us=int(sample.device_time_us),
+            epoch=int(sample.epoch),
         )
 
     # ------------------------------------------------------------------ files

@@ -123,6 +123,10 @@ class Estimate:
     targets: F64  # (T,) every regression target, in target_names order
     std: F64 | None = None
     no_rest: bool = False  # the drift baseline has not yet seen the skin at rest (see tare)
+    # the sample's window end on the sensor's own clock (µs, unwrapped) and its connection
+    # epoch: what a duration on the sensor's clock counts, whatever the host's scheduling
+    device_time_us: int = 0
+    epoch: int = 0
 
     @classmethod
     def from_device(cls, row: Any, target_names: tuple[str, ...]) -> Estimate:
@@ -133,7 +137,8 @@ class Estimate:
         >>> from types import SimpleNamespace
         >>> nan = float("nan")
         >>> row = SimpleNamespace(host_time=2.5, flags=0b101, force=(nan, nan, 1.5),
-        ...                       torque=(nan, nan, nan), region=0, region_prob=nan)
+        ...                       torque=(nan, nan, nan), region=0, region_prob=nan,
+        ...                       device_time_us=50_000, epoch=0)
         >>> e = Estimate.from_device(row, ("Fz",))
         >>> e.targets.tolist(), e.region, e.contact, e.ood, e.invalid, e.no_rest
         ([1.5], -1, True, True, False, False)
@@ -155,4 +160,6 @@ class Estimate:
             bool(flags & EstimateFlags.EST_INVALID),
             np.array([by_name.get(n, np.nan) for n in target_names], dtype=np.float64),
             no_rest=bool(flags & EstimateFlags.EST_NO_REST),
+            device_time_us=int(row.device_time_us),
+            epoch=int(row.epoch),
         )
