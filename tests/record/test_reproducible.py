@@ -123,3 +123,27 @@ def test_a_late_recorder_reports_the_sensor_time_its_file_holds(
     rec = read_recording(tmp_path / "s.mcap")
     span = _samples(rec)["t_end_us"].max() / 1e6
     assert summary.sensor_s <= span + 0.05 and 1.0 <= summary.sensor_s < 1.1, summary.sensor_s
+
+
+@pytest.mark.parametrize("speed", ["10", "max"])
+def test_a_sample_count_is_cut_on_the_device_too(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, speed: str
+) -> None:
+    """`samples=N` holds exactly N samples, the same in every recording: the recorder looks at
+    its count between polls, so a late loop (a loaded host; here it looks every 0.3 s) kept
+    whatever had arrived by then (the tests' tour fixture held 503 to 505 of its 500)."""
+    from spectratac.record.recorder import Recorder
+
+    url = f"sim://?scene=tour&seed=1&speed={speed}&ft=bota"
+    paths = [tmp_path / "quick.mcap", tmp_path / "late.mcap"]
+    quick = record_url(url, paths[0], RecordOptions(samples=40))
+    monkeypatch.setattr(Recorder, "_next_wait", lambda self: 0.3)
+    late = record_url(url, paths[1], RecordOptions(samples=40))
+    a, b = (_samples(read_recording(p)) for p in paths)
+    assert len(a) == len(b) == quick.samples == late.samples == 40, (len(a), len(b))
+    for name in ("t_start_us", "t_end_us", "sequence", "counts"):
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert late.sensor_s == pytest.approx((a["t_end_us"][-1] - a["t_start_us"][0]) / 1e6)
+    (xa,), (xb,) = (build_datasets([p]) for p in paths)
+    for name in sorted(set(xa.arrays) - {"t_start", "t_end"}):
+        np.testing.assert_array_equal(xa.arrays[name], xb.arrays[name], err_msg=name)

@@ -170,9 +170,15 @@ class Recorder:
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
         # a duration ends on the device clock: samples past it are not written (see DurationCut)
-        # a scene's end cuts like a duration: both end on the device (scene) clock
+        # a scene's end cuts like a duration: both end on the device (scene) clock; a sample
+        # count cuts at exactly that many samples
         ends = [d for d in (self.options.duration_s, self.scene_end_s) if d is not None]
-        self._cut = DurationCut(min(ends)) if ends else None
+        count = self.options.samples
+        self._cut = (
+            DurationCut(min(ends) if ends else None, samples=count)
+            if ends or count is not None
+            else None
+        )
         self._samples = 0
         self._ft_rows = 0
         self._labels = 0
@@ -263,10 +269,11 @@ class Recorder:
 
     def _recorded_sensor_s(self) -> float:
         """Seconds of the sensor's clock the file holds: at most the duration once it was
-        reached (samples that came before the device obeyed STOP, many on a loaded host at a
-        high speed, are counted as they arrive but not written)."""
+        reached, or what the counted samples cover (samples that came before the device obeyed
+        STOP, many on a loaded host at a high speed, are counted as they arrive but not
+        written)."""
         if self._cut is not None and self._cut.reached:
-            return min(self.sensor_s, self._cut.limit_us / 1e6)
+            return min(self.sensor_s, self._cut.limit_us / 1e6, self._cut.kept_s)
         return self.sensor_s
 
     @property
