@@ -24,6 +24,7 @@ from spectratac.protocol.framing import decode_frame, encode_frame
 from spectratac.protocol.generated import messages as m
 from spectratac.record import (
     GuidedProtocol,
+    Recording,
     RecordOptions,
     TruncatedRecordingWarning,
     read_recording,
@@ -46,24 +47,29 @@ def tour(tour_mcap: Path) -> Dataset:
     return ds
 
 
-def scene_windows(ds: Dataset, speed: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
-    """Integration windows in scene time (= the simulated device clock)."""
-    t1 = ds.device_time_us / 1e6
-    return t1 - (ds.t_end - ds.t_start) * speed, t1
+def scene_windows(ds: Dataset, rec: Recording) -> tuple[np.ndarray, np.ndarray]:
+    """Integration windows in scene time: the simulated device's own window timestamps, row for
+    row. (They were the host-clock windows times the speed: a loaded host's arrival jitter moves
+    the fitted drift, which stretched every window and moved presses' edges across them.)"""
+    samples = recorded_samples(rec.frames, rec.frame_host_times)
+    np.testing.assert_array_equal(samples["t_end_us"], ds.device_time_us)
+    return samples["t_start_us"] / 1e6, samples["t_end_us"] / 1e6
 
 
-def window_truth(ds: Dataset, scene_name_seed: dict) -> tuple[np.ndarray, np.ndarray]:
+def window_truth(ds: Dataset, rec: Recording) -> tuple[np.ndarray, np.ndarray]:
     """Mean normal load over each window, and the region at its centre."""
-    scene = rebuild_scene(scene_name_seed)
-    t0, t1 = scene_windows(ds)
+    scene = rebuild_scene(rec.truth)
+    t0, t1 = scene_windows(ds, rec)
     sub = t0[:, None] + (t1 - t0)[:, None] * (np.arange(16) + 0.5) / 16
     normal = scene.contact(sub).normal.mean(axis=1)
     return normal, scene.contact((t0 + t1) / 2).region
 
 
 def test_targets_follow_the_scene(tour: Dataset, tour_mcap: Path) -> None:
+    rec = read_recording(tour_mcap)
     sim = tour.meta["sessions"][0]
-    normal, _ = window_truth(tour, {"scene": sim["scene"], "seed": sim["seed"]})
+    assert (rec.truth["scene"], rec.truth["seed"]) == (sim["scene"], sim["seed"])
+    normal, _ = window_truth(tour, rec)
     ok = tour.target_valid
     assert ok.mean() > 0.95
     fz = tour.targets[ok, 2]
@@ -139,12 +145,11 @@ def test_the_guided_threshold_is_the_scene_labels_threshold() -> None:
 
 def test_labels_and_presses_match_the_scene(tour: Dataset, tour_mcap: Path) -> None:
     rec = read_recording(tour_mcap)
-    sim = rec.truth
-    _, region = window_truth(tour, sim)
+    _, region = window_truth(tour, rec)
     np.testing.assert_array_equal(tour.region, region)
     assert set(np.unique(tour.region)) == {-1, *vocab.REGIONS}
     events = {e["index"]: e for e in rec.labels}
-    t0, t1 = scene_windows(tour)
+    t0, t1 = scene_windows(tour, rec)
     t_mid = (t0 + t1) / 2
     for p in np.unique(tour.press[tour.press >= 0]):
         rows = tour.press == p
@@ -191,18 +196,19 @@ def test_an_ft_dropout_leaves_nan_targets_never_interpolated(
 ) -> None:
     rec = read_recording(tour_mcap)
     assert rec.ft is not None
-    # The gap is cut on the F/T's own clock, not by arrival: on a loaded host rows arrive in
-    # late bursts, so an arrival-time cut left rows sampled inside the gap. Sensor seconds
-    # -> host seconds at speed 10; the offset is the arrivals' lower envelope (a row never
-    # arrives before it is sampled).
-    sampled = rec.ft["sensor_time"] / 10.0
-    sampled = sampled + np.min(rec.ft["host_time"] - sampled)
+    # The gap and the windows are both judged on the device (scene) clock, where the builder
+    # averages a simulated F/T (its clock is declared against the device's). Judged on host
+    # times (F/T arrivals against the windows' fitted host times) the cut moved with the host's
+    # scheduling: on a loaded host rows arrive late and in bursts.
+    clock = rec.truth["ft_clock"]
+    sampled = (rec.ft["sensor_time"] - clock["offset_s"]) / (1 + clock["drift"])
     g0 = sampled[0] + 0.4 * np.ptp(sampled)
-    g1 = g0 + 0.3  # host seconds without F/T: 3 scene seconds at speed 10
+    g1 = g0 + 3.0  # scene seconds without F/T
     cut = dataclasses.replace(rec, ft=rec.ft[(sampled < g0) | (sampled >= g1)])
     [ds] = session_datasets(cut)
-    inside = (ds.t_start > g0 + 0.03) & (ds.t_end < g1 - 0.03)
-    outside = (ds.t_end < g0 - 0.03) | (ds.t_start > g1 + 0.03)
+    t0, t1 = scene_windows(ds, rec)
+    inside = (t0 > g0 + 0.3) & (t1 < g1 - 0.3)
+    outside = (t1 < g0 - 0.3) | (t0 > g1 + 0.3)
     assert inside.sum() > 30
     assert not ds.target_valid[inside].any() and np.isnan(ds.targets[inside]).all()
     assert ds.target_valid[outside].mean() == tour.target_valid[outside].mean()
