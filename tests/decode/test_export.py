@@ -14,6 +14,11 @@ pytestmark = [pytest.mark.train, pytest.mark.subprocess]
 
 HARNESS = Path(__file__).parent / "c" / "harness.c"
 TOL = {"rtol": 1e-5, "atol": 1e-5}
+#: A stream decoded by the C header built with `float`: assembly runs in single precision
+#: sample after sample (the drift baseline's running average, the log ratios), so its error
+#: grows with the stream past TOL (1.3e-5 seen on one output of 17,970 on a 1,200-row session);
+#: the `double` build is held to TOL.
+STREAM_TOL = {"float": {"rtol": 1e-4, "atol": 1e-4}, "double": TOL}
 VARIANTS = {
     "paper": {},
     "mlp-contact": {"model": "mlp", "targets": ("Fz", "contact")},
@@ -192,7 +197,7 @@ def test_c_live_assembly_matches_python(
         got = run_c(header, rows, real, sanitize, tmp_path, STREAM_HARNESS)
         flags = got[:, 0].astype(int)
         assert (flags[~valid] == 1).all() and (flags[valid] & 1 == 0).all()
-        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **TOL)
+        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **STREAM_TOL[real])
         np.testing.assert_array_equal((flags[valid] & 2) > 0, est.ood)
     assert (~valid).sum() == 3 + dec.layout.steps - 1  # the faults and the first steps
 
@@ -254,4 +259,4 @@ def test_c_baseline_searches_for_rest_like_python_when_joined_mid_press(
         flags = got[:, 0].astype(int)
         assert len(got) == n
         np.testing.assert_array_equal((flags[valid] & 4) > 0, ~seen[valid])
-        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **TOL)
+        np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **STREAM_TOL[real])

@@ -79,7 +79,18 @@ def assert_aligned(ds: Dataset, rec_path: Path, bag: FTBag, ft_rows: np.ndarray)
     # the windows: targets are the true averages, up to the optical clock fit's own error
     assert ds.target_valid.mean() > 0.9
     lag, residual = alignment_lag(ds, rec_path, bag)
-    assert residual < 1e-3, f"targets differ from the truth by {residual:.4f} N at best"
+    # The optical windows sit on the host clock as well as its TIME_SYNC exchanges allow: within
+    # 0.75x the shortest round trip (sub-ms on a quiet host, over 10 ms beside busy loops), and
+    # the sine's mean slope (4 N/s) turns that into N; a fixed 1 mN judged the scheduler.
+    rtt = min(
+        (e["host_received"] - e["host_sent"]) - (e["device_tx_us"] - e["device_rx_us"]) / 1e6
+        for e in rec.time_sync
+    )
+    bound = 1e-3 + 4.0 * 0.75 * rtt
+    assert residual < bound, (
+        f"targets differ from the truth by {residual:.4f} N at best, more than the optical "
+        f"clock's exchanges explain ({bound:.4f} N: shortest round trip {rtt * 1e3:.2f} ms)"
+    )
     assert abs(lag) <= 10e-3, f"targets fit the truth {lag * 1e3:.2f} ms off at best"
 
 

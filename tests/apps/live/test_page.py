@@ -176,7 +176,10 @@ def check_raw_counts(driver) -> None:
     assert raw["full_scale"] == veml3328.FULL_SCALE and raw["dark_counts"] == DARK_COUNTS
     labels = js(driver, "['S0', 'S1', 'S2'].map(k => stac.plots[k].u.series.map(s => s.label))")
     assert labels == [["time (s)", "R", "G", "B", "C", "IR"]] * 3
-    wait_for(driver, "stac.plots.S2.u.data[0].length > 10")
+    # every plot drawn with its counts before reading one: plots are only drawn once in view,
+    # and S1 could still be on its first, empty draw when S2 was not (a JS error seen in CI)
+    drawn = "stac.plots[k].u.data.every(a => a && a.length > 10)"
+    wait_for(driver, f"['S0', 'S1', 'S2'].every(k => stac.plots[k].u.data.length === 6 && {drawn})")
     last = js(driver, "[stac.plots.S1.u.data.slice(1).map(a => a[a.length - 1]), stac.last.counts]")
     # what sensor 1's plot ends on is sensor 1's counts of a sample the page received
     assert all(isinstance(v, int) and v > 0 for v in last[0])
