@@ -6,11 +6,15 @@ not mocks of the suite: the suite talks to them exactly as it talks to a board.
 
 from __future__ import annotations
 
+import time
+
+import numpy as np
 import pytest
-from spectratac.conformance import CHECKS, MODEL_CHECKS, run_suite
+from spectratac.conformance import CHECKS, MODEL_CHECKS, run_check, run_suite
 from spectratac.conformance import checks as c
 from spectratac.conformance import model_checks as mc
-from spectratac.sim.faults import CONFORMANCE_FAULTS
+from spectratac.device import Sensor
+from spectratac.sim.faults import CONFORMANCE_FAULTS, LATE_STOP_US
 
 pytestmark = pytest.mark.slow  # each suite run streams ~5 s of real time
 
@@ -70,3 +74,21 @@ def test_a_wrong_definition_hash_fails_the_handshake_and_stops_the_suite() -> No
     the handshake row fails and no other check can run, so none is reported."""
     failed, rows = _failed("sim://?scene=idle&fault=wrong_hash")
     assert (failed, rows) == ([NAME_OF[c.handshake]], 1)
+
+
+@pytest.mark.parametrize(("fault", "passes"), [("none", True), ("late_stop", False)])
+def test_stop_really_stops_judges_a_late_host_by_the_device(
+    fault: str, passes: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A host that runs each read later than a late_stop device streams on (a loaded
+    machine) still catches the late samples, and does not blame a healthy device."""
+    with Sensor.open(f"sim://?scene=idle&fault={fault}") as s:
+        read = s.read
+
+        def late_read(n: int, timeout: float | None = None) -> np.ndarray:
+            time.sleep(LATE_STOP_US / 1e6 * 1.5)  # descheduled: the device runs on meanwhile
+            return read(n, timeout)
+
+        monkeypatch.setattr(s, "read", late_read)
+        outcome = run_check(s, c.stop_stops)
+    assert outcome.passed is passes, outcome.detail

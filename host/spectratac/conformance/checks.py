@@ -20,7 +20,10 @@ from typing import TypeVar
 import numpy as np
 
 from spectratac.device import Sensor
+from spectratac.device.errors import DeviceTimeoutError
+from spectratac.protocol import Frame
 from spectratac.protocol.generated import messages as m
+from spectratac.protocol.schema import Message
 from spectratac.protocol.versions import expected_definition_hash
 
 WHITE = [[[500, 500, 500]] * 3]
@@ -251,17 +254,71 @@ def garbage_recovery(s: Sensor) -> Outcome:
     )
 
 
+#: how long the device's own clock must run on after STOP's ACK for "stop really stops"
+STOP_WATCH_US = 10 * 50_000  # ten integration times
+#: bound on the host time that takes: generous, as a loaded host answers slowly (no verdict)
+STOP_WATCH_BOUND_S = 30.0
+
+
 def stop_stops(s: Sensor) -> Outcome:
+    """SPEC section 7.4: after the ACK of STOP no SAMPLE follows. Judged on the order of the
+    frames on the link and on the device's clock, never on host time: every SAMPLE between
+    the ACK and a TIME_SYNC_REPLY stamped ten integration times after the last sample before
+    the ACK is late, however slowly a loaded host read them."""
+    wire: list[Message] = []
+
+    def keep(frame: Frame, _host_time: float) -> None:
+        wire.append(frame.message)  # on the reader thread, in the order frames arrived
+
     s.configure(integration_ms=50, leds=WHITE)
-    s.start()
-    s.read(3, timeout=2)
-    s.stop()
-    s.read(10_000, timeout=0.15)  # frames already on the wire before the ACK
-    late = s.read(10_000, timeout=0.5)
+    s.read(10_000, timeout=0)  # discard an earlier stream's samples
+    s.link.add_listener(keep)
+    try:
+        s.start()
+        s.read(3, timeout=STOP_WATCH_BOUND_S)
+        s.stop()
+        ack = max(i for i, msg in enumerate(wire) if _acks(msg, m.Stop.TYPE_ID))
+        before = [msg for msg in wire[:ack] if isinstance(msg, m.Sample)]
+        if not before:
+            return Outcome(False, "no SAMPLE arrived before STOP was acknowledged")
+        reply = _await_device_time(s, before[-1].t_end_us + STOP_WATCH_US)
+    finally:
+        s.link.remove_listener(keep)
+    end = next(i for i, msg in enumerate(wire) if msg is reply)
+    late = [msg for msg in wire[ack:end] if isinstance(msg, m.Sample)]
     return Outcome(
-        len(late) == 0,
-        f"{len(late)} samples after STOP was acknowledged (waited 10 integration times)",
+        not late,
+        f"{len(late)} samples after STOP was acknowledged (watched "
+        f"{STOP_WATCH_US // 1000} ms of device time)",
     )
+
+
+def _acks(msg: Message, type_id: int) -> bool:
+    return isinstance(msg, m.Ack) and msg.acked_type == type_id
+
+
+def _await_device_time(s: Sensor, until_us: int) -> m.TimeSyncReply:
+    """The first TIME_SYNC_REPLY stamped at or after device time `until_us` (u32, wrapping);
+    every frame the device sent before it has arrived when it does (the link keeps order)."""
+    started = time.monotonic()
+    for exchange in itertools.count():
+        reply = s.link.request(
+            m.TimeSyncRequest(exchange_id=exchange, host_time_ns=0),
+            m.TimeSyncReply,
+            timeout=STOP_WATCH_BOUND_S,
+            attempts=1,
+        )
+        if (reply.device_tx_us - until_us) & 0xFFFF_FFFF < 1 << 31:  # at or past it
+            return reply
+        waited = time.monotonic() - started
+        if waited > STOP_WATCH_BOUND_S:
+            raise DeviceTimeoutError(
+                f"the device clock did not reach {until_us} µs within {waited:.0f} s of host "
+                f"time (TIME_SYNC_REPLY at {reply.device_tx_us} µs): is the device's clock "
+                "running?"
+            )
+        time.sleep(0.02)  # pacing only: the verdict waits for the device's clock
+    raise AssertionError("unreachable: itertools.count() never ends")
 
 
 def sensor_status(s: Sensor) -> Outcome:
