@@ -171,7 +171,7 @@ class FaultLayer:
         self._held_stop: bytearray | None = None
         self._stop_due_us: int | None = None
         self._stop_lock = threading.Lock()
-        self._streaming = False  # a SAMPLE went out since the last STOP reached the device
+        self._streaming = False  # late_stop: a START reached the device after the last STOP
         self._uploading = False  # volatile_model: the host began an upload in this boot
 
     # --- device -> host ----------------------------------------------------------------------
@@ -218,7 +218,6 @@ class FaultLayer:
             return False
         if len(raw) > 2 and raw[2] == m.Sample.TYPE_ID:
             self.ledger.samples_sent += 1
-            self._streaming = True
             return True
         return False
 
@@ -305,8 +304,8 @@ class FaultLayer:
         out = bytearray()
         *frames, tail = data.split(b"\x00")
         for i, encoded in enumerate(frames):
-            stop = self._as_stop(encoded) if "late_stop" in self.faults else None
-            if stop is None or not self._streaming:
+            stop = self._stop_to_hold(encoded) if "late_stop" in self.faults else None
+            if stop is None:
                 out += self._host_frame(encoded)
                 continue
             self._to_device(bytes(out))
@@ -345,13 +344,24 @@ class FaultLayer:
             encode_raw(m.Ack.TYPE_ID, ack.pack(), 0, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)), 0
         )
 
-    def _as_stop(self, encoded: bytes) -> int | None:
-        """The seq of a STOP command, else None."""
+    def _stop_to_hold(self, encoded: bytes) -> int | None:
+        """The seq of a STOP that ends a stream (the late_stop device holds it), else None.
+        Whether the device streams is followed on the commands the host sends, in order: a
+        STOP held while the device was idle would never see the device's clock move on."""
         try:
             frame = decode_frame(encoded)
         except FrameError:
             return None
-        return frame.seq if isinstance(frame.message, m.Stop) else None
+        msg = frame.message
+        if isinstance(msg, m.Start) or (
+            isinstance(msg, m.Configure) and msg.flags & m.ConfigureFlags.CONFIG_STREAM
+        ):
+            self._streaming = True
+        elif isinstance(msg, m.Stop) and self._streaming:
+            return frame.seq
+        elif isinstance(msg, m.Stop):
+            self._streaming = False
+        return None
 
     def _hold_stop(self, seq: int, held: bytes) -> None:
         """Acknowledge STOP at once but hold it, with what the host wrote after it, for
