@@ -13,6 +13,7 @@ import pytest
 from spectratac.conformance import CHECKS, MODEL_CHECKS, run_check, run_suite
 from spectratac.conformance import checks as c
 from spectratac.conformance import model_checks as mc
+from spectratac.conformance.checks import Check
 from spectratac.device import Sensor
 from spectratac.sim.faults import CONFORMANCE_FAULTS, LATE_STOP_US
 
@@ -92,3 +93,22 @@ def test_stop_really_stops_judges_a_late_host_by_the_device(
         monkeypatch.setattr(s, "read", late_read)
         outcome = run_check(s, c.stop_stops)
     assert outcome.passed is passes, outcome.detail
+
+
+@pytest.mark.parametrize(
+    "check", [c.sample_rate, c.continuity_and_time, c.garbage_recovery, c.stop_stops]
+)
+def test_a_streaming_check_ignores_samples_an_earlier_stream_left_unread(check: Check) -> None:
+    """A loaded host reads less than the device sent before a check's STOP: the next check
+    starts with those samples still buffered, and must judge only its own stream."""
+    with Sensor.open("sim://?scene=idle&fault=none") as s:
+        s.configure(integration_ms=50, leds=c.WHITE)
+        s.start()
+        for _ in range(3000):  # bound: 30 s for six samples
+            if s.stats.samples_received >= 6:
+                break
+            time.sleep(0.01)
+        s.stop()
+        assert s.stats.samples_received >= 6, "the device sent no 6 samples within 30 s"
+        outcome = run_check(s, check)
+    assert outcome.passed, outcome.detail

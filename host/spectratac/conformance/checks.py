@@ -27,6 +27,9 @@ from spectratac.protocol.schema import Message
 from spectratac.protocol.versions import expected_definition_hash
 
 WHITE = [[[500, 500, 500]] * 3]
+#: bound on every wait for the device's data (s): generous, as a loaded host runs late; a read
+#: returns as soon as what it waits for has arrived, so the bound only ends a dead device's wait
+WAIT_S = 30.0
 RGB_STEPS = [[[(c == k and 1000) or 0 for c in range(3)]] * 3 for k in range(3)]
 
 
@@ -165,7 +168,7 @@ def _stream(s: Sensor, n: int, integration_ms: int, leds: list) -> np.ndarray:
     s.read(10_000, timeout=0)  # discard anything older
     s.start()
     try:
-        batch = s.read(n, timeout=n * integration_ms / 1000 * 3 + 2)
+        batch = s.read(n, timeout=WAIT_S)
     finally:
         s.stop()
     return batch
@@ -233,14 +236,16 @@ def time_sync(s: Sensor) -> Outcome:
 def garbage_recovery(s: Sensor) -> Outcome:
     rx_errors = s.status().rx_errors
     s.configure(integration_ms=50, leds=WHITE)
+    # an earlier stream's samples (left unread before its STOP) would break the sequence
+    s.read(10_000, timeout=0)
     s.start()
     try:
-        s.read(3, timeout=2)
+        s.read(3, timeout=WAIT_S)
         rng = random.Random(3)
         junk = bytes(rng.randrange(256) for _ in range(600))
         s.link.write(junk + b"\x00")
         info_ok = s.get_config().integration_ms == 50
-        after = s.read(10, timeout=3)
+        after = s.read(10, timeout=WAIT_S)
     finally:
         s.stop()
     seq = after["sequence"].astype(np.int64)
@@ -256,8 +261,6 @@ def garbage_recovery(s: Sensor) -> Outcome:
 
 #: how long the device's own clock must run on after STOP's ACK for "stop really stops"
 STOP_WATCH_US = 10 * 50_000  # ten integration times
-#: bound on the host time that takes: generous, as a loaded host answers slowly (no verdict)
-STOP_WATCH_BOUND_S = 30.0
 
 
 def stop_stops(s: Sensor) -> Outcome:
@@ -275,7 +278,7 @@ def stop_stops(s: Sensor) -> Outcome:
     s.link.add_listener(keep)
     try:
         s.start()
-        s.read(3, timeout=STOP_WATCH_BOUND_S)
+        s.read(3, timeout=WAIT_S)
         s.stop()
         ack = max(i for i, msg in enumerate(wire) if _acks(msg, m.Stop.TYPE_ID))
         before = [msg for msg in wire[:ack] if isinstance(msg, m.Sample)]
@@ -305,13 +308,13 @@ def _await_device_time(s: Sensor, until_us: int) -> m.TimeSyncReply:
         reply = s.link.request(
             m.TimeSyncRequest(exchange_id=exchange, host_time_ns=0),
             m.TimeSyncReply,
-            timeout=STOP_WATCH_BOUND_S,
+            timeout=WAIT_S,
             attempts=1,
         )
         if (reply.device_tx_us - until_us) & 0xFFFF_FFFF < 1 << 31:  # at or past it
             return reply
         waited = time.monotonic() - started
-        if waited > STOP_WATCH_BOUND_S:
+        if waited > WAIT_S:
             raise DeviceTimeoutError(
                 f"the device clock did not reach {until_us} µs within {waited:.0f} s of host "
                 f"time (TIME_SYNC_REPLY at {reply.device_tx_us} µs): is the device's clock "
