@@ -6,7 +6,9 @@ not mocks of the suite: the suite talks to them exactly as it talks to a board.
 
 from __future__ import annotations
 
+import itertools
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +17,7 @@ from spectratac.conformance import checks as c
 from spectratac.conformance import model_checks as mc
 from spectratac.conformance.checks import Check
 from spectratac.device import Sensor
-from spectratac.sim.faults import CONFORMANCE_FAULTS, LATE_STOP_US
+from spectratac.sim.faults import CONFORMANCE_FAULTS, LATE_STOP_US, SYNC_JITTER_US
 
 pytestmark = pytest.mark.slow  # each suite run streams ~5 s of real time
 
@@ -112,3 +114,27 @@ def test_a_streaming_check_ignores_samples_an_earlier_stream_left_unread(check: 
         assert s.stats.samples_received >= 6, "the device sent no 6 samples within 30 s"
         outcome = run_check(s, check)
     assert outcome.passed, outcome.detail
+
+
+@pytest.mark.parametrize(("fault", "passes"), [("none", True), ("sync_jitter", False)])
+def test_time_sync_judges_only_the_exchanges_a_loaded_host_did_not_delay(
+    fault: str, passes: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every third TIME_SYNC request leaves 200 ms late (the host descheduled between taking
+    its send time and writing): the wide error bars of those round trips would cover the
+    sync_jitter device's 50 ms, so only the undelayed exchanges may be judged."""
+    with Sensor.open(f"sim://?scene=idle&fault={fault}") as s:
+        request_at = s.link.request_at
+        calls = itertools.count()
+
+        def late_request_at(*args: Any, **kwargs: Any) -> Any:
+            if next(calls) % 3 == 0:
+                time.sleep(SYNC_JITTER_US / 1e6 * 4)
+            return request_at(*args, **kwargs)
+
+        s.configure(integration_ms=50, leds=c.WHITE)
+        s.start()  # the device clock runs from the first START
+        s.stop()
+        monkeypatch.setattr(s.link, "request_at", late_request_at)
+        outcome = run_check(s, c.time_sync)
+    assert outcome.passed is passes, outcome.detail
