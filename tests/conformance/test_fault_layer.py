@@ -8,7 +8,9 @@ import pytest
 from spectratac.conformance import run_suite
 from spectratac.device import Sensor
 from spectratac.device.errors import DeviceError
-from spectratac.sim.faults import ledger
+from spectratac.protocol.generated import messages as m
+from spectratac.protocol.schema import Message
+from spectratac.sim.faults import LATE_STOP_US, ledger
 from spectratac.sim.serve import serve_tcp
 from spectratac.sim.url import parse_sim_url
 
@@ -65,3 +67,25 @@ def test_a_served_device_is_faulty_too() -> None:
         stop.set()
         server.join()
     assert [n for n, o in result.rows if not o.passed] == ["sensor status flags"]
+
+
+def test_a_late_stop_device_streams_on_for_its_own_time_whatever_the_host_sends() -> None:
+    """The STOP is held for LATE_STOP_US of device time, and a request sent at once waits
+    behind it (the device reads commands in order): the late samples all come before the
+    reply, however soon the host asked."""
+    wire: list[Message] = []
+    with Sensor.open("sim://?scene=idle&fault=late_stop") as s:
+        s.link.add_listener(lambda frame, _now: wire.append(frame.message))
+        s.configure(integration_ms=50, leds=WHITE)
+        s.start()
+        s.read(3, timeout=30)
+        s.stop()
+        s.status()  # at once: before, this released the STOP
+    ack = next(
+        i for i, x in enumerate(wire) if isinstance(x, m.Ack) and x.acked_type == m.Stop.TYPE_ID
+    )
+    end = next(i for i, x in enumerate(wire) if isinstance(x, m.Status))
+    late = [x for x in wire[ack:end] if isinstance(x, m.Sample)]
+    assert len(late) >= LATE_STOP_US // 50_000 - 1
+    span = (late[-1].t_end_us - late[0].t_end_us) & 0xFFFF_FFFF
+    assert LATE_STOP_US - 100_000 <= span <= LATE_STOP_US

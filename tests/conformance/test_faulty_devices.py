@@ -6,11 +6,18 @@ not mocks of the suite: the suite talks to them exactly as it talks to a board.
 
 from __future__ import annotations
 
+import itertools
+import time
+from typing import Any
+
+import numpy as np
 import pytest
-from spectratac.conformance import CHECKS, MODEL_CHECKS, run_suite
+from spectratac.conformance import CHECKS, MODEL_CHECKS, run_check, run_suite
 from spectratac.conformance import checks as c
 from spectratac.conformance import model_checks as mc
-from spectratac.sim.faults import CONFORMANCE_FAULTS
+from spectratac.conformance.checks import Check
+from spectratac.device import Sensor
+from spectratac.sim.faults import CONFORMANCE_FAULTS, LATE_STOP_US, SYNC_JITTER_US
 
 pytestmark = pytest.mark.slow  # each suite run streams ~5 s of real time
 
@@ -70,3 +77,64 @@ def test_a_wrong_definition_hash_fails_the_handshake_and_stops_the_suite() -> No
     the handshake row fails and no other check can run, so none is reported."""
     failed, rows = _failed("sim://?scene=idle&fault=wrong_hash")
     assert (failed, rows) == ([NAME_OF[c.handshake]], 1)
+
+
+@pytest.mark.parametrize(("fault", "passes"), [("none", True), ("late_stop", False)])
+def test_stop_really_stops_judges_a_late_host_by_the_device(
+    fault: str, passes: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A host that runs each read later than a late_stop device streams on (a loaded
+    machine) still catches the late samples, and does not blame a healthy device."""
+    with Sensor.open(f"sim://?scene=idle&fault={fault}") as s:
+        read = s.read
+
+        def late_read(n: int, timeout: float | None = None) -> np.ndarray:
+            time.sleep(LATE_STOP_US / 1e6 * 1.5)  # descheduled: the device runs on meanwhile
+            return read(n, timeout)
+
+        monkeypatch.setattr(s, "read", late_read)
+        outcome = run_check(s, c.stop_stops)
+    assert outcome.passed is passes, outcome.detail
+
+
+@pytest.mark.parametrize(
+    "check", [c.sample_rate, c.continuity_and_time, c.garbage_recovery, c.stop_stops]
+)
+def test_a_streaming_check_ignores_samples_an_earlier_stream_left_unread(check: Check) -> None:
+    """A loaded host reads less than the device sent before a check's STOP: the next check
+    starts with those samples still buffered, and must judge only its own stream."""
+    with Sensor.open("sim://?scene=idle&fault=none") as s:
+        s.configure(integration_ms=50, leds=c.WHITE)
+        s.start()
+        for _ in range(3000):  # bound: 30 s for six samples
+            if s.stats.samples_received >= 6:
+                break
+            time.sleep(0.01)
+        s.stop()
+        assert s.stats.samples_received >= 6, "the device sent no 6 samples within 30 s"
+        outcome = run_check(s, check)
+    assert outcome.passed, outcome.detail
+
+
+@pytest.mark.parametrize(("fault", "passes"), [("none", True), ("sync_jitter", False)])
+def test_time_sync_judges_only_the_exchanges_a_loaded_host_did_not_delay(
+    fault: str, passes: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every third TIME_SYNC request leaves 200 ms late (the host descheduled between taking
+    its send time and writing): the wide error bars of those round trips would cover the
+    sync_jitter device's 50 ms, so only the undelayed exchanges may be judged."""
+    with Sensor.open(f"sim://?scene=idle&fault={fault}") as s:
+        request_at = s.link.request_at
+        calls = itertools.count()
+
+        def late_request_at(*args: Any, **kwargs: Any) -> Any:
+            if next(calls) % 3 == 0:
+                time.sleep(SYNC_JITTER_US / 1e6 * 4)
+            return request_at(*args, **kwargs)
+
+        s.configure(integration_ms=50, leds=c.WHITE)
+        s.start()  # the device clock runs from the first START
+        s.stop()
+        monkeypatch.setattr(s.link, "request_at", late_request_at)
+        outcome = run_check(s, c.time_sync)
+    assert outcome.passed is passes, outcome.detail

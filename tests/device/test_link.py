@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import queue
+import threading
 import time
 
 import pytest
 from spectratac.device import DeviceTimeoutError, DisconnectedError, Sensor, SensorStats
 from spectratac.device.link import Link
 from spectratac.protocol import encode_frame
+from spectratac.protocol.framing import decode_frame
 from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 
@@ -100,4 +102,46 @@ def test_data_frames_go_to_the_owner_and_logs_stay_on_the_link() -> None:
         assert [x.text for x in link.logs] == ["hello"]
         assert stats.frames_received == 2 and stats.logs == 1
     finally:
+        link.close()
+
+
+def test_data_sent_before_a_reply_is_buffered_when_the_reply_wakes_its_caller() -> None:
+    """A SAMPLE and the ACK of STOP in one read: the owner has the sample before `command`
+    returns, even when the reader thread runs the owner's handler late (a loaded host)."""
+    data: queue.Queue[list[Message]] = queue.Queue()
+    transport = SilentTransport()
+
+    def slow_owner(msgs: list[Message], _now: float, _epoch: int) -> None:
+        time.sleep(0.3)  # the reader thread descheduled in the middle of a chunk
+        data.put(msgs)
+
+    link = Link(
+        transport,
+        stats=SensorStats(),
+        on_data=slow_owner,
+        on_lost=lambda exc: None,
+        on_new_epoch=lambda: None,
+        on_resume=lambda: None,
+        timeout=30,
+    )
+    sample = m.Sample(sample_seq=7, t_start_us=1, t_end_us=2)
+
+    def device() -> None:
+        for _ in range(3000):  # the command is written within a moment; bound 30 s
+            if transport.written:
+                break
+            time.sleep(0.01)
+        else:
+            raise AssertionError("the host never wrote STOP within 30 s")
+        frame = decode_frame(next(x for x in transport.written[0].split(b"\x00") if x))
+        ack = m.Ack(acked_type=m.Stop.TYPE_ID, acked_seq=frame.seq)
+        transport.incoming.put(b"\x00" + encode_frame(sample, 1) + encode_frame(ack, 2))
+
+    feeder = threading.Thread(target=device)
+    feeder.start()
+    try:
+        link.command(m.Stop(), attempts=1)
+        assert data.get_nowait() == [sample]
+    finally:
+        feeder.join()
         link.close()

@@ -19,7 +19,7 @@ from importlib import resources
 
 import numpy as np
 
-from spectratac.conformance.checks import WHITE, Outcome
+from spectratac.conformance.checks import WAIT_S, WHITE, Outcome
 from spectratac.device import ModelInfo, Sensor
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol import crc32c
@@ -285,8 +285,8 @@ def estimates_beside(session: ModelSession) -> Outcome:
     _configure_estimates(s, "beside", model.led_steps)
     s.start()
     try:
-        samples = s.read(24, timeout=24 * 0.05 * 3 + 2)
-        rows = s.read_estimates(24 // max(1, model.led_steps), timeout=3)
+        samples = s.read(24, timeout=WAIT_S)
+        rows = s.read_estimates(24 // max(1, model.led_steps), timeout=WAIT_S)
     finally:
         s.stop()
         s.configure(integration_ms=50, leds=WHITE)
@@ -326,7 +326,7 @@ def estimates_instead(session: ModelSession) -> Outcome:
     _configure_estimates(s, "instead", model.led_steps)
     s.start()
     try:
-        rows = s.read_estimates(want, timeout=want * max(1, model.led_steps) * 0.05 * 3 + 2)
+        rows = s.read_estimates(want, timeout=WAIT_S)
     finally:
         s.stop()
     samples = s.read(10_000, timeout=0.2)

@@ -45,7 +45,8 @@ log = logging.getLogger("spectratac.device")
 R = TypeVar("R", bound=Message)
 FrameListener = Callable[[Frame, float], None]  # (accepted frame, host receive time)
 EpochListener = Callable[[int, float], None]  # (new epoch, host time of the reconnect)
-#: SAMPLE and ESTIMATE messages of one chunk read, its host time, the epoch they belong to
+#: SAMPLE and ESTIMATE messages of one chunk read (split at the replies among them), its host
+#: time, the epoch they belong to
 DataHandler = Callable[[list[Message], float, int], None]
 #: Messages the device sends unasked; every other message is a reply to a request.
 DATA_MESSAGES = (m.Sample, m.Estimate)
@@ -66,7 +67,8 @@ class Link:
     """The connection to one device over `transport` (owned and closed by the link).
 
     `on_data(messages, host_time, epoch)` receives the SAMPLE and ESTIMATE messages of each chunk
-    read, on the reader thread. With `reconnect`, a lost link is reopened from the URL
+    read, on the reader thread, each before any reply that followed it on the wire is
+    delivered. With `reconnect`, a lost link is reopened from the URL
     until it is back or closed: `on_new_epoch()` runs before the new connection is read,
     `on_resume()` after its handshake (to restore configuration and streaming). Without it,
     `on_lost(error)` tells the owner the link is gone for good.
@@ -399,6 +401,12 @@ class Link:
                 self.logs.append(msg)
                 log.log(10 + 10 * min(msg.level, 3), "%s: %s", self.url, msg.text)
             else:
+                # the data sent before a reply reaches the owner before the reply wakes its
+                # caller: one woken by STOP's ACK finds every earlier sample already buffered,
+                # however late a loaded host ran this thread (wire order, not host timing)
+                if data_messages:
+                    self._on_data(data_messages, now, self.epoch)
+                    data_messages = []
                 self._deliver(msg, now)
         if data_messages:
             self._on_data(data_messages, now, self.epoch)

@@ -44,7 +44,8 @@ CONFORMANCE_FAULTS = {
     "short_window": "SAMPLE integration windows are 40 % too short (continuity and time)",
     "sync_jitter": "every other TIME_SYNC reply is stamped 50 ms early (time-sync round trip)",
     "no_rx_errors": "STATUS never counts receive errors (recovery after garbage)",
-    "late_stop": "STOP is acknowledged at once but streaming goes on for 0.4 s (stop stops)",
+    "late_stop": "STOP is acknowledged at once but streaming goes on for 0.4 s of device time "
+    "(stop really stops)",
     "flag_fault": "sensor 0 is flagged as a bus fault although present (sensor status)",
     # on-device decoding (protocol 1.1; spectratac.conformance.model_checks)
     "bad_model_info": "MODEL_INFO reports max_hidden 0 (model info)",
@@ -86,7 +87,9 @@ LINK_FAULTS = {
 }
 FAULTS = CONFORMANCE_FAULTS | LINK_FAULTS
 SYNC_JITTER_US = 50_000  # how far a sync_jitter device's odd replies are off
-LATE_STOP_S = 0.4  # how long a late_stop device streams on after acknowledging STOP
+#: how long a late_stop device streams on after acknowledging STOP, on its own clock (host
+#: time would make the fault, and so the check that catches it, depend on the host's load)
+LATE_STOP_US = 400_000
 
 
 @dataclass
@@ -164,9 +167,11 @@ class FaultLayer:
         self._pending = b""  # device bytes of a frame not yet complete
         self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
         self._next_stall = time.monotonic() + self.stall_every
-        self._held_stop: bytes | None = None
+        # late_stop: the STOP and every host byte after it, held until device time _stop_due_us
+        self._held_stop: bytearray | None = None
+        self._stop_due_us: int | None = None
         self._stop_lock = threading.Lock()
-        self._stop_timer: threading.Timer | None = None
+        self._streaming = False  # late_stop: a START reached the device after the last STOP
         self._uploading = False  # volatile_model: the host began an upload in this boot
 
     # --- device -> host ----------------------------------------------------------------------
@@ -183,6 +188,8 @@ class FaultLayer:
             self._unplug()
             return False  # the cable is out: nothing more reaches the host
         *frames, self._pending = (self._pending + data).split(b"\x00")
+        if "late_stop" in self.faults:
+            self._release_stop_at(t)
         out = bytearray()
         for encoded in frames:
             is_sample = self._count(encoded)
@@ -290,17 +297,20 @@ class FaultLayer:
         if not self.faults & HOST_SIDE:
             self._to_device(data)
             return
-        self._release_stop()  # the device finishes stopping before it reads anything newer
+        with self._stop_lock:
+            if self._held_stop is not None:  # the device reads nothing newer before the STOP
+                self._held_stop += data
+                return
         out = bytearray()
         *frames, tail = data.split(b"\x00")
-        for encoded in frames:
-            stop = self._as_stop(encoded) if "late_stop" in self.faults else None
+        for i, encoded in enumerate(frames):
+            stop = self._stop_to_hold(encoded) if "late_stop" in self.faults else None
             if stop is None:
                 out += self._host_frame(encoded)
                 continue
             self._to_device(bytes(out))
-            out.clear()
-            self._hold_stop(encoded + b"\x00", stop)
+            self._hold_stop(stop, b"\x00".join(frames[i:]) + b"\x00" + tail)
+            return
         self._to_device(bytes(out) + tail)
 
     def _host_frame(self, encoded: bytes) -> bytes:
@@ -334,35 +344,50 @@ class FaultLayer:
             encode_raw(m.Ack.TYPE_ID, ack.pack(), 0, (m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR)), 0
         )
 
-    def _as_stop(self, encoded: bytes) -> int | None:
-        """The seq of a STOP command, else None."""
+    def _stop_to_hold(self, encoded: bytes) -> int | None:
+        """The seq of a STOP that ends a stream (the late_stop device holds it), else None.
+        Whether the device streams is followed on the commands the host sends, in order: a
+        STOP held while the device was idle would never see the device's clock move on."""
         try:
             frame = decode_frame(encoded)
         except FrameError:
             return None
-        return frame.seq if isinstance(frame.message, m.Stop) else None
+        msg = frame.message
+        if isinstance(msg, m.Start) or (
+            isinstance(msg, m.Configure) and msg.flags & m.ConfigureFlags.CONFIG_STREAM
+        ):
+            self._streaming = True
+        elif isinstance(msg, m.Stop) and self._streaming:
+            return frame.seq
+        elif isinstance(msg, m.Stop):
+            self._streaming = False
+        return None
 
-    def _hold_stop(self, wire: bytes, seq: int) -> None:
+    def _hold_stop(self, seq: int, held: bytes) -> None:
+        """Acknowledge STOP at once but hold it, with what the host wrote after it, for
+        LATE_STOP_US of device time counted from the device's next output: the device goes on
+        streaming, and reads the STOP and anything newer only then."""
         self._ack(m.Stop.TYPE_ID, seq)
         with self._stop_lock:
-            self._held_stop = wire
-            self._stop_timer = threading.Timer(LATE_STOP_S, self._release_stop)
-            self._stop_timer.daemon = True
-            self._stop_timer.start()
+            self._held_stop = bytearray(held)
+            self._stop_due_us = None
 
-    def _release_stop(self) -> None:
+    def _release_stop_at(self, t: int) -> None:
+        """The device's clock reads `t` µs: pass a held STOP on once it is due."""
         with self._stop_lock:
-            held, self._held_stop = self._held_stop, None
-            if self._stop_timer is not None:
-                self._stop_timer.cancel()
-                self._stop_timer = None
-        if held is not None:
-            self._to_device(held)
+            if self._held_stop is None:
+                return
+            if self._stop_due_us is None:
+                self._stop_due_us = t + LATE_STOP_US
+            if t < self._stop_due_us:
+                return
+            held, self._held_stop = bytes(self._held_stop), None
+            self._streaming = False
+            self._to_device(held)  # under the lock: no newer host write overtakes it
 
     def close(self) -> None:
         with self._stop_lock:
-            if self._stop_timer is not None:
-                self._stop_timer.cancel()
+            self._held_stop = None
 
 
 def _model_info_fault(msg: m.ModelInfo, faults: frozenset[str], uploading: bool) -> m.ModelInfo:
