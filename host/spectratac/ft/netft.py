@@ -43,6 +43,8 @@ log = logging.getLogger("spectratac.ft")
 
 ASSUMED_INTERNAL_RATE_HZ = 7000.0  # classic Net F/T internal sample rate (used if no rate known)
 _MAX_PACKETS_PER_POLL = 8192
+QUIET_S = 0.1  # silence that ends a stopped stream (longer than a buffered packet's interval)
+DRAIN_MAX_S = 1.0  # bound on waiting for it: a sensor that never goes quiet restarts anyway
 
 
 def read_netftapi2(host: str, port: int, timeout: float) -> dict[str, str]:
@@ -171,13 +173,21 @@ class NetFTSensor(FTSensor):
         self._sock.close()
 
     def _drain(self) -> None:
-        """Discard what a previous stream left in flight, so it does not pose as the new one."""
+        """Discard what a previous stream left in flight, so it does not pose as the new one.
+        After a stream, wait for QUIET_S of silence (at most DRAIN_MAX_S): a sensor still
+        sends until it has handled STOP, and a packet of the old stream read after the restart
+        was numbered in the new one (2 duplicates and 200 'reordered' records seen in CI)."""
         self._sock.setblocking(False)
-        try:
-            while True:
-                self._sock.recv(65536)
-        except (BlockingIOError, ConnectionRefusedError):
-            pass
+        deadline = time.monotonic() + (DRAIN_MAX_S if self._tracker.expected is not None else 0.0)
+        while True:
+            try:
+                while True:
+                    self._sock.recv(65536)
+            except (BlockingIOError, ConnectionRefusedError):
+                pass
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([self._sock], [], [], min(QUIET_S, left))[0]:
+                return
 
     # ------------------------------------------------------------------ receiving
     def _poll(self, timeout: float) -> np.ndarray:

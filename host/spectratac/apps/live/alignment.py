@@ -46,6 +46,10 @@ MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only
 #: F/T rows either side of a window that its average looks at: the samples just outside it
 #: (coverage) and enough rows for the median period that sets the gap limit (F/T >= 50 Hz).
 NEAR_S = 0.25
+#: F/T rows the buffer must hold before a window is judged: the gap limit is a few median
+#: periods, and the median of the first two or three rows can be a dropout itself (rows at
+#: 0, 1 and 65 ms gave a 32 ms period and a 62 ms hole passed as covered).
+PERIOD_ROWS = 16
 
 
 log = logging.getLogger("spectratac.apps.live")
@@ -264,7 +268,7 @@ class ReferenceTracker:
         order; windows it will never cover (a dropout, F/T stopped) are given up once
         `max_pending` wait behind them."""
         out: list[tuple[int, float, F64]] = []
-        last = self._rows.t[-1] if self._rows.t.size else -np.inf
+        last = self._rows.t[-1] if self._rows.t.size >= PERIOD_ROWS else -np.inf
         while self._pending:
             p = self._pending[0]
             if p.t_end > last:
