@@ -55,6 +55,7 @@ class ClockBar:
         self._done = threading.Event()
         self._bar: Any = None
         self._thread: threading.Thread | None = None
+        self._t0 = 0.0
 
     def __enter__(self) -> ClockBar:
         if self.enabled:
@@ -68,20 +69,26 @@ class ClockBar:
                 leave=False,
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]",
             )
+            self._t0 = time.monotonic()
             self._thread = threading.Thread(target=self._run, name="clock-bar", daemon=True)
             self._thread.start()
         return self
 
     def _run(self) -> None:
-        t0 = time.monotonic()
         while not self._done.wait(self.every):
-            elapsed = min(time.monotonic() - t0, self.seconds * 0.99)
-            self._bar.n = round(elapsed, 1)
-            self._bar.refresh()
+            self._advance()
+
+    def _advance(self) -> None:
+        elapsed = min(time.monotonic() - self._t0, self.seconds * 0.99)
+        self._bar.n = max(round(elapsed, 1), 0.1)  # > 0: tqdm shows the time left once n > 0
+        self._bar.refresh()
 
     def __exit__(self, *exc: object) -> None:
         self._done.set()
         if self._thread is not None:
             self._thread.join()
         if self._bar is not None:
+            # work shorter than one tick (a twin session now takes under a second) still shows
+            # one frame with the time left before the bar is cleared
+            self._advance()
             self._bar.close()
