@@ -144,6 +144,7 @@ def fit_network(
 
     tr, va = tensors(fit_rows), unpack(tensors(val_rows))
     jitter = GainJitter(data["gain"], fit_rows) if spec.gain_jitter > 0 else None
+    swap = HistorySwap.of(spec, p) if heads.n_classes else None
     w = torch.tensor(loss_weights(spec, heads.regression), dtype=torch.float32)
     ce = torch.nn.CrossEntropyLoss(ignore_index=-100, reduction="sum")
     bce = torch.nn.BCEWithLogitsLoss()
@@ -168,7 +169,15 @@ def fit_network(
             lab = b["label"]
             total = total + ce(out[:, sl["classes"]], lab) / max(int((lab >= 0).sum()), 1)
         if heads.contact:
-            total = total + bce(out[:, sl["contact"]][:, 0], b["contact"])
+            logit = out[:, sl["contact"]][:, 0]
+            if "contact_ok" in b:  # rows whose history was swapped teach the region only
+                ok = b["contact_ok"]
+                e = torch.nn.functional.binary_cross_entropy_with_logits(
+                    logit, b["contact"], reduction="none"
+                )
+                total = total + (e * ok).sum() / torch.clamp(ok.sum(), min=1.0)
+            else:
+                total = total + bce(logit, b["contact"])
         return total
 
     n = tr["packed"].shape[0]
@@ -210,6 +219,8 @@ def fit_network(
                 z = batch["z"]
                 if jitter is not None:  # the same rows seen by a unit of another gain
                     z = jitter.z([v[i] for v in parts], factors[i])
+                if swap is not None:  # region from the evidence now, not the press's history
+                    z, batch = swap.apply(z, batch, gen)
                 if spec.input_noise > 0:  # regularises against press-specific detail
                     z = z + spec.input_noise * torch.randn(z.shape, generator=gen)
                 loss = loss_of(net(z), batch)
@@ -238,6 +249,58 @@ def fit_network(
             bar.close()
     final = avg.module if avg is not None else net
     return (best if best is not None else numpy_weights(final)), history, val_history
+
+
+class HistorySwap:
+    """Region labels taught on the evidence of the moment, not on the press's history.
+
+    A network with temporal context shares one trunk between forces, which need the history
+    (the elastomer creeps), and the region, which the skin's light pattern now decides. Left
+    alone, the region head leans on the history too, and its decision drifts as a long press
+    ages and the moving averages catch up (the demo's blocked split: best() misread presses
+    late in their hold that the recipe without context read right). So in each batch a share
+    `spec.region_history_swap` of the labelled rows gets the history features (lag and
+    moving-average deltas) of another row of the batch, and on those rows only the class
+    loss counts: the network cannot tell them from real rows, so it learns a region that the
+    history does not move, while forces keep learning from the untouched rows. Training
+    only: inference is unchanged.
+    """
+
+    def __init__(self, share: float, columns: NDArray[np.intp]) -> None:
+        import torch
+
+        self.share = share
+        self.columns = torch.as_tensor(columns, dtype=torch.long)
+
+    @classmethod
+    def of(cls, spec: TrainSpec, p: Plan) -> HistorySwap | None:
+        """The swap for `spec`, or None when it is off or the features carry no history."""
+        cols = history_columns(p.features, p.layout)
+        if spec.region_history_swap <= 0 or cols.size == 0:
+            return None
+        return cls(spec.region_history_swap, cols)
+
+    def apply(self, z: Any, batch: dict[str, Any], gen: Any) -> tuple[Any, dict[str, Any]]:
+        """(features, batch) with the history of a share of the labelled rows swapped and
+        their regression and contact losses turned off."""
+        import torch
+
+        n = z.shape[0]
+        pick = (batch["label"] >= 0) & (torch.rand(n, generator=gen) < self.share)
+        src = torch.randint(0, n, (n,), generator=gen)
+        hist = z[:, self.columns]
+        z = z.clone()
+        z[:, self.columns] = torch.where(pick[:, None], hist[src], hist)
+        keep = (~pick).to(z.dtype)
+        return z, {**batch, "y_ok": batch["y_ok"] * keep, "contact_ok": keep}
+
+
+def history_columns(features: Any, layout: Any) -> NDArray[np.intp]:
+    """Feature columns that read the past (lag and moving-average deltas): the linear
+    features with a weight on the assembled vector's lag or moving-average blocks."""
+    base = layout.base
+    past = slice(base, base * (1 + len(layout.lags) + len(layout.emas)))
+    return np.flatnonzero(np.any(np.asarray(features.L)[:, past] != 0, axis=1)).astype(np.intp)
 
 
 class GainJitter:
