@@ -15,7 +15,9 @@ Each step is kept cheap (the paper network's step is mostly its matrix products)
 packed into tensors once, each epoch shuffles them with one gather and its batches are slices
 of that; gain augmentation scales per-row parts computed once (train/gain.py) with the
 epoch's factors drawn at once; the optimiser is torch's fused AdamW (one kernel per step).
-Nothing is converted from NumPy or recomputed per batch.
+Nothing is converted from NumPy or recomputed per batch. With a class head and temporal
+context, `region_history_swap` teaches the class head on rows given another row's history
+(HistorySwap), so that the region is read from the evidence of the moment.
 
 >>> paper_weight("Fz"), paper_weight("Tz"), paper_weight("pressure")
 (0.5, 0.2, 1.0)
