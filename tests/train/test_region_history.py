@@ -103,7 +103,7 @@ def test_a_swap_moves_only_history_of_labelled_rows_and_silences_their_other_los
     label = torch.from_numpy(rng.integers(-1, 9, n))
     label[label < 0] = -100  # the loop's unlabelled rows
     batch = {"label": label, "y_ok": torch.ones(n), "contact": torch.zeros(n)}
-    out, b = HistorySwap(share, cols).apply(z, batch, torch.Generator().manual_seed(seed))
+    out, b = HistorySwap(share, cols, 6).apply(z, batch, torch.Generator().manual_seed(seed))
     moved = ~torch.all(out == z, dim=1)
     picked = b["y_ok"] == 0
     assert torch.equal(b["contact_ok"], 1.0 - picked.float())
