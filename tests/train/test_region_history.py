@@ -77,7 +77,7 @@ def test_a_region_taught_with_swapped_history_reads_the_evidence_not_the_history
     no_context = accuracy(context=0)
     assert without < 0.2, f"the shortcut was not learnt ({without:.2f}): the test lost its point"
     assert with_swap > 0.65, f"region still follows the history: {with_swap:.2f} vs {without:.2f}"
-    assert with_swap > no_context - 0.1, (with_swap, no_context)
+    assert with_swap > no_context - 0.15, f"swap {with_swap:.2f}, no context {no_context:.2f}"
 
 
 def test_the_history_columns_are_the_lag_and_moving_average_deltas() -> None:
