@@ -104,9 +104,7 @@ def main() -> None:
         ref = scores(train(ds, TrainSpec.paper(epochs=args.epochs, seed=seed), train_rows,
                            progress=False), ds, rows)  # fmt: skip
         variants = {
-            f"best swap {s:g}": TrainSpec.best(
-                epochs=args.epochs, seed=seed, region_history_swap=s
-            )
+            f"best swap {s:g}": TrainSpec.best(epochs=args.epochs, seed=seed, region_history_swap=s)
             for s in (float(v) for v in args.swaps.split(","))
         }
         if args.no_context:
