@@ -365,3 +365,36 @@ def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kep
                 '{"type": "latency", "values": [], "redraw": [NaN]}'):  # fmt: skip
         with pytest.raises(inbound.BadMessage):
             inbound.parse(bad)
+
+
+def test_the_reference_is_a_ping_as_large_as_an_estimate_timed_one_way() -> None:
+    # the reference was the echo's half round trip of a 30-byte ping: a stall on one way
+    # counted half, and the small ping crossed the socket and the page's parser cheaper
+    session = FakeSession(period_s=0.01, counts=250)
+    server = LiveServer(session, bind(0)).start()  # type: ignore[arg-type]
+    server.hub.ping_every_s = 0.02
+    client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
+    try:
+        estimate: str | None = None
+        while True:
+            text = client.recv()
+            assert isinstance(text, str), text
+            msg = json.loads(text)
+            if msg["type"] == "estimate":
+                estimate = text
+            elif msg["type"] == "ping" and estimate is not None:
+                break
+        assert len(estimate) > 500 and abs(len(text) - len(estimate)) <= 8, (text, estimate)
+        # stamped when made, on the clock the page times estimates with (Unix ms)
+        assert abs(msg["sent_ms"] - time.time() * 1e3) < 60_000, msg["sent_ms"]
+        client.send_json({"type": "latency", "values": [], "bare": [3.0, 4.5]})
+        deadline = time.monotonic() + 30
+        while session.bare.summary()["n"] == 0:
+            assert time.monotonic() < deadline, "the page's one-way times were not kept"
+            time.sleep(0.02)
+    finally:
+        client.close()
+        server.stop()
+    assert session.bare.values() == [3.0, 4.5]
+    with pytest.raises(inbound.BadMessage, match="'slow' is not a finite number"):
+        inbound.parse('{"type": "latency", "values": [], "bare": ["slow"]}')

@@ -2,8 +2,10 @@
 
 The page stamps every estimate on receipt (`performance.timeOrigin + performance.now()`,
 the same system clock as the host's `time.time()`) and sends the differences to
-`arrival_ms` back in batches; the server also pings the page and times the echo, the
-reference: what the WebSocket alone costs on this machine, measured at the same time.
+`arrival_ms` back in batches. The reference is what the WebSocket alone costs on this
+machine, measured at the same time and the same way: the server's pings, stamped when made
+and padded to an estimate's size, timed one way by the page (`bare`); the server also keeps
+the echo's half round trip (`echo`).
 
 >>> log = LatencyLog()
 >>> log.add([float(v) for v in range(1, 101)])

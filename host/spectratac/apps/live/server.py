@@ -3,7 +3,7 @@
 Routes: ``/`` the page (static files under ``/static``, libraries included: the page
 works offline); ``/ws`` a WebSocket that sends the session's ``meta``, the latest estimate,
 then every message it publishes, and takes the messages of `spectratac.apps.live.inbound`
-(``latency``, ``pong``, ``snake_restart``); ``POST /api/save`` ``{"seconds": 10,
+(``latency``, ``pong``, ``snake_restart``, ``tare``); ``POST /api/save`` ``{"seconds": 10,
 "format": "mcap"}`` writes a clip; ``GET /api/stats`` link, latency and echo figures as JSON.
 
 Only the served page may use it (`spectratac.apps.live.guard`): Host and Origin are checked
@@ -18,12 +18,13 @@ loses its oldest messages, never the sensor's. A joining client's queue gets the
 the latest estimate and joins the fan-out in one step on the event loop, so it sees every
 estimate once, in order.
 
-Latency: `Hub.stages` times every estimate from its publication to the event loop and to
-the socket, and keeps the page's own work per batch of estimates and per redraw (the page
-reports them with its latencies); the session times the stages before (`LiveSession.stages`),
-and `tools/bench/live.py` reports them all. While serving, the process runs with
-`tuning.serving()` (a short GIL switch interval, start-up objects frozen out of the
-collector's reach).
+Latency: the reference is a bare message (`ping_message`) timed one way by the page, like
+an estimate; the echo's half round trip is kept too. `Hub.stages` times every estimate from
+its publication to the event loop and to the socket, and keeps the page's own work per batch
+of estimates and per redraw (the page reports them with its latencies); the session times
+the stages before (`LiveSession.stages`), and `tools/bench/live.py` reports them all.
+While serving, the process runs with `tuning.serving()` (a short GIL switch interval,
+start-up objects frozen out of the collector's reach).
 """
 
 from __future__ import annotations
@@ -78,6 +79,7 @@ class Hub:
         self.clients: set[asyncio.Queue[Item]] = set()
         self.pings: dict[int, float] = {}
         self.last: str | None = None  # the latest estimate fanned out, for joining pages
+        self.ping_every_s = PING_EVERY_S  # the benchmark pings at the sample rate
         self.stages = Stages(("loop", "sent", "page_handle", "page_redraw"))
 
     def publish(self, msg: dict[str, Any]) -> None:
@@ -223,6 +225,7 @@ async def _receive(
         return {"type": "refused", "code": "bad_token", "message": why}
     if isinstance(msg, inbound.Latency):
         session.latency.add(list(msg.values))
+        session.bare.add(list(msg.bare))
         hub.stages.add("page_handle", *msg.handle)
         hub.stages.add("page_redraw", *msg.redraw)
     elif isinstance(msg, inbound.Pong):
@@ -246,14 +249,30 @@ async def _send(websocket: WebSocket, queue: asyncio.Queue[Item], stages: Stages
 
 
 async def _ping(hub: Hub) -> None:
-    """Ping every page; the echo's half round trip is the latency reference."""
+    """Ping every page every `hub.ping_every_s`: the latency reference (see `ping_message`)."""
     n = 0
     while True:
-        await asyncio.sleep(PING_EVERY_S)
+        await asyncio.sleep(hub.ping_every_s)
         n += 1
         hub.pings = {k: v for k, v in hub.pings.items() if k > n - 40}
         hub.pings[n] = time.monotonic()
-        hub._fan_out(json.dumps({"type": "ping", "id": n}))
+        hub._fan_out(ping_message(n, time.time() * 1e3, len(hub.last or "")))
+
+
+def ping_message(n: int, sent_ms: float, size: int) -> str:
+    """Ping `n`, stamped `sent_ms` (Unix ms) when made on the event loop and padded to `size`
+    characters (the latest estimate's): the page times it one way on the same clock as an
+    estimate (`bare`), so the reference crosses the same socket and browser with a message
+    of the same size, and a stall on the way counts in full, as it does for an estimate
+    (the echo's half round trip counted it half). The page also answers with a pong.
+
+    >>> len(ping_message(3, 1.5e12, 120)), len(ping_message(3, 1.5e12, 0)) < 120
+    (120, True)
+    """
+    text = json.dumps({"type": "ping", "id": n, "sent_ms": round(sent_ms, 3)},
+                      separators=(",", ":"))  # fmt: skip
+    pad = size - len(text) - len(',"pad":""')
+    return text if pad <= 0 else f'{text[:-1]},"pad":"{"x" * pad}"}}'
 
 
 def bind(port: int = 0) -> socket.socket:

@@ -78,6 +78,7 @@ class LiveSession:
         self.model_path = model_path
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
+        self.bare = LatencyLog()  # a bare message one way, as the page times an estimate
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
         # frame arrival -> the worker took the sample / its estimate was ready (the parts of
         # `pipeline`; the server's `Hub.stages` times the rest of the way)
@@ -189,6 +190,7 @@ class LiveSession:
             "error": self.error,
             "latency": self.latency.summary(),
             "echo": self.echo.summary(),
+            "bare": self.bare.summary(),
             "pipeline": self.pipeline.summary(),
         }
         if s is not None:
