@@ -8,11 +8,13 @@ Chromium (Debian's chromium + chromium-driver, driven by selenium). The page sta
 estimate on receipt against the frame's arrival time (same system clock); the figures are
 p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
 at the same time, the same way: a bare message one way on the same socket and page, as large
-as an estimate and at the same rate (the server's pings, stamped when made on the event loop
-and padded to the latest estimate's size, sent every sample period; the page times them
-on receipt like an estimate). Until 2026-11-27 the reference was half the round trip of the
-pings' echo at 4 Hz: a stall on one way counted half, and 120 echoes made a noisy p99; the
-echo's half round trip is still reported (`echo_half_rtt_ms`). Also reported: the part spent
+as an estimate, at the same moments (the server's probe, stamped as each estimate is fanned
+out on the event loop, padded to its size and queued right behind it; the page times it on
+receipt like an estimate). Until 2026-11-27 the reference was half the round trip of a
+30-byte ping's echo at 4 Hz: a stall on one way counted half, and 120 echoes made a noisy
+p99 (a ping at its own moment also meets the page's redraws, which an estimate never waits
+for, since it causes them); the echo's half round trip is still reported
+(`echo_half_rtt_ms`). Also reported: the part spent
 before the message leaves the server (decoding included), whether p99 stays under one sample
 period, and per quantile each stage of the way (`stages_ms` in --json): frame read -> taken by the
 decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the event
@@ -78,7 +80,7 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
     server = LiveServer(session, bind(0)).start()
-    server.hub.ping_every_s = SAMPLE_PERIOD_MS / 1e3  # the reference at the estimates' rate
+    server.hub.probe_every = 1  # the reference behind every estimate
     try:
         driver.get(server.url)
         time.sleep(warmup)

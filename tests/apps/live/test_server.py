@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import itertools
 import json
 import re
 import socket
@@ -367,26 +368,32 @@ def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kep
             inbound.parse(bad)
 
 
-def test_the_reference_is_a_ping_as_large_as_an_estimate_timed_one_way() -> None:
-    # the reference was the echo's half round trip of a 30-byte ping: a stall on one way
-    # counted half, and the small ping crossed the socket and the page's parser cheaper
+def test_the_reference_is_a_probe_behind_each_estimate_as_large_timed_one_way() -> None:
+    # the reference was the echo's half round trip of a 30-byte ping at its own moment: a
+    # stall on one way counted half, and the small ping crossed the socket cheaper
     session = FakeSession(period_s=0.01, counts=250)
     server = LiveServer(session, bind(0)).start()  # type: ignore[arg-type]
-    server.hub.ping_every_s = 0.02
+    server.hub.probe_every = 1
     client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
     try:
-        estimate: str | None = None
-        while True:
+        texts: list[str] = []
+        while len(texts) < 40:
             text = client.recv()
             assert isinstance(text, str), text
-            msg = json.loads(text)
-            if msg["type"] == "estimate":
-                estimate = text
-            elif msg["type"] == "ping" and estimate is not None:
-                break
-        assert len(estimate) > 500 and abs(len(text) - len(estimate)) <= 8, (text, estimate)
-        # stamped when made, on the clock the page times estimates with (Unix ms)
-        assert abs(msg["sent_ms"] - time.time() * 1e3) < 60_000, msg["sent_ms"]
+            if json.loads(text)["type"] in ("estimate", "probe"):
+                texts.append(text)
+        kinds = [json.loads(t)["type"] for t in texts]
+        if kinds[:2] == ["estimate", "estimate"]:  # the one given on joining has no probe
+            texts, kinds = texts[1:], kinds[1:]
+        # every estimate fanned out has its probe right behind it
+        n = len(kinds) // 2
+        assert kinds[: 2 * n] == ["estimate", "probe"] * n, kinds
+        for estimate, ref in itertools.pairwise(texts):
+            if json.loads(ref)["type"] != "probe":
+                continue
+            assert len(estimate) > 500 and len(ref) == len(estimate), (ref, estimate)
+            # stamped when sent, on the clock the page times estimates with (Unix ms)
+            assert abs(json.loads(ref)["sent_ms"] - time.time() * 1e3) < 60_000, ref
         client.send_json({"type": "latency", "values": [], "bare": [3.0, 4.5]})
         deadline = time.monotonic() + 30
         while session.bare.summary()["n"] == 0:

@@ -18,8 +18,8 @@ loses its oldest messages, never the sensor's. A joining client's queue gets the
 the latest estimate and joins the fan-out in one step on the event loop, so it sees every
 estimate once, in order.
 
-Latency: the reference is a bare message (`ping_message`) timed one way by the page, like
-an estimate; the echo's half round trip is kept too. `Hub.stages` times every estimate from
+Latency: the reference is a bare message (`probe`) timed one way by the page, like an
+estimate; the echo's half round trip is kept too. `Hub.stages` times every estimate from
 its publication to the event loop and to the socket, and keeps the page's own work per batch
 of estimates and per redraw (the page reports them with its latencies); the session times
 the stages before (`LiveSession.stages`), and `tools/bench/live.py` reports them all.
@@ -63,6 +63,7 @@ STATIC = Path(__file__).with_name("static")
 HOST = "127.0.0.1"  # never another interface: the page controls a device
 QUEUE = 512  # messages per client (25 s at 20 Hz) before the oldest are dropped
 PING_EVERY_S = 0.25
+PROBE_EVERY = 5  # a reference probe behind every 5th estimate: 4 a second at 20 Hz
 MAX_MESSAGE_BYTES = inbound.MAX_MESSAGE_BYTES
 MAX_BODY_BYTES = 4096  # a save request is ~40 bytes
 INLINE_BYTES = 4096  # longer messages are parsed off the event loop
@@ -79,7 +80,8 @@ class Hub:
         self.clients: set[asyncio.Queue[Item]] = set()
         self.pings: dict[int, float] = {}
         self.last: str | None = None  # the latest estimate fanned out, for joining pages
-        self.ping_every_s = PING_EVERY_S  # the benchmark pings at the sample rate
+        self.probe_every = PROBE_EVERY  # estimates per reference probe (the benchmark: 1)
+        self._since_probe = 0
         self.stages = Stages(("loop", "sent", "page_handle", "page_redraw"))
 
     def publish(self, msg: dict[str, Any]) -> None:
@@ -108,6 +110,11 @@ class Hub:
             self.stages.add("loop", (time.monotonic() - published) * 1e3)
         for q in self.clients:
             _put(q, (text, published))
+        if published is not None:
+            self._since_probe += 1
+            if self._since_probe >= self.probe_every:
+                self._since_probe = 0
+                self._fan_out(probe(time.time() * 1e3, len(text)))
 
 
 #: A client queue's entry: the message's text, and when an estimate was published (else None).
@@ -249,28 +256,28 @@ async def _send(websocket: WebSocket, queue: asyncio.Queue[Item], stages: Stages
 
 
 async def _ping(hub: Hub) -> None:
-    """Ping every page every `hub.ping_every_s`: the latency reference (see `ping_message`)."""
+    """Ping every page; the echo's half round trip is kept beside the reference (`probe`)."""
     n = 0
     while True:
-        await asyncio.sleep(hub.ping_every_s)
+        await asyncio.sleep(PING_EVERY_S)
         n += 1
         hub.pings = {k: v for k, v in hub.pings.items() if k > n - 40}
         hub.pings[n] = time.monotonic()
-        hub._fan_out(ping_message(n, time.time() * 1e3, len(hub.last or "")))
+        hub._fan_out(json.dumps({"type": "ping", "id": n}))
 
 
-def ping_message(n: int, sent_ms: float, size: int) -> str:
-    """Ping `n`, stamped `sent_ms` (Unix ms) when made on the event loop and padded to `size`
-    characters (the latest estimate's): the page times it one way on the same clock as an
-    estimate (`bare`), so the reference crosses the same socket and browser with a message
-    of the same size, and a stall on the way counts in full, as it does for an estimate
-    (the echo's half round trip counted it half). The page also answers with a pong.
+def probe(sent_ms: float, size: int) -> str:
+    """The latency reference: a bare message stamped `sent_ms` (Unix ms) as an estimate is
+    fanned out, queued right behind it and padded to its `size`, which the page times one
+    way on the same clock as the estimate (`bare`). Same socket, moment, size and way: what
+    the WebSocket alone costs, against which the estimate's way from the frame is judged.
+    (The echo's half round trip counted a stall on one way half; a ping at its own moment
+    met the page's redraws, which an estimate never waits for, since it causes them.)
 
-    >>> len(ping_message(3, 1.5e12, 120)), len(ping_message(3, 1.5e12, 0)) < 120
+    >>> len(probe(1.5e12, 120)), len(probe(1.5e12, 0)) < 120
     (120, True)
     """
-    text = json.dumps({"type": "ping", "id": n, "sent_ms": round(sent_ms, 3)},
-                      separators=(",", ":"))  # fmt: skip
+    text = json.dumps({"type": "probe", "sent_ms": round(sent_ms, 3)}, separators=(",", ":"))
     pad = size - len(text) - len(',"pad":""')
     return text if pad <= 0 else f'{text[:-1]},"pad":"{"x" * pad}"}}'
 

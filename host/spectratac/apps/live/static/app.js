@@ -492,8 +492,8 @@ function noteArrival(msg, arrived) {
   if (stac.latency.length > 2000) stac.latency.splice(0, stac.latency.length - 2000);
   stac.arrivals.push(performance.now());
 }
-// The reference: a ping (as large as an estimate) timed one way from when the server made it,
-// on the same clock and the same way as an estimate: what the WebSocket alone costs.
+// The reference: a probe the server sends right behind an estimate, as large as it, timed one
+// way from when it was made, on the same clock and the same way: what the WebSocket alone costs.
 function noteBare(msg, arrived) {
   if (typeof msg.sent_ms !== "number") return;
   const lat = arrived - msg.sent_ms;
@@ -579,7 +579,8 @@ function connect() {
     const msg = JSON.parse(ev.data);
     switch (msg.type) {
       case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
-      case "ping": noteBare(msg, arrived); send({ type: "pong", id: msg.id }); break;
+      case "ping": send({ type: "pong", id: msg.id }); break;
+      case "probe": noteBare(msg, arrived); break;
       case "stats": stac.stats = msg; break;
       case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
       case "snake": handlePending(); showSnake(msg.snake); break;
