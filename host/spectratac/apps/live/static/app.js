@@ -492,8 +492,8 @@ function noteArrival(msg, arrived) {
   if (stac.latency.length > 2000) stac.latency.splice(0, stac.latency.length - 2000);
   stac.arrivals.push(performance.now());
 }
-// The reference: a probe the server sends right behind an estimate, as large as it, timed one
-// way from when it was made, on the same clock and the same way: what the WebSocket alone costs.
+// The reference: a probe the server sends in the same message as an estimate, stamped when the
+// estimate reached the event loop: what the socket and this page alone cost that message.
 function noteBare(msg, arrived) {
   if (typeof msg.sent_ms !== "number") return;
   const lat = arrived - msg.sent_ms;
@@ -576,18 +576,21 @@ function connect() {
   socket.onclose = () => { $("conn").textContent = "offline"; $("conn").className = "badge off"; setTimeout(connect, 1000); };
   socket.onmessage = (ev) => {
     const arrived = performance.timeOrigin + performance.now();
-    const msg = JSON.parse(ev.data);
-    switch (msg.type) {
-      case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
-      case "ping": send({ type: "pong", id: msg.id }); break;
-      case "probe": noteBare(msg, arrived); break;
-      case "stats": stac.stats = msg; break;
-      case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
-      case "snake": handlePending(); showSnake(msg.snake); break;
-      case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
-      case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
-    }
+    const data = JSON.parse(ev.data);  // an array: what the server queued in one turn
+    for (const msg of Array.isArray(data) ? data : [data]) onMessage(msg, arrived);
   };
+}
+function onMessage(msg, arrived) {
+  switch (msg.type) {
+    case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
+    case "ping": send({ type: "pong", id: msg.id }); break;
+    case "probe": noteBare(msg, arrived); break;
+    case "stats": stac.stats = msg; break;
+    case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
+    case "snake": handlePending(); showSnake(msg.snake); break;
+    case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
+    case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
+  }
 }
 setInterval(() => {
   if (stac.latencyBatch.length || stac.bareBatch.length) {
