@@ -50,7 +50,7 @@ from spectratac.apps.live.guard import (
     refusal,
     token_matches,
 )
-from spectratac.apps.live.latency import Stages
+from spectratac.apps.live.latency import Stages, unix_ms
 from spectratac.apps.live.session import LiveSession
 from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
@@ -116,7 +116,7 @@ class Hub:
             self._since_probe += 1
             if self._since_probe >= self.probe_every:
                 self._since_probe = 0
-                self._fan_out(probe(time.time() * 1e3))
+                self._fan_out(probe(unix_ms(time.monotonic())))
 
 
 #: A client queue's entry: the message's text, and when an estimate was published (else None).

@@ -32,7 +32,7 @@ import numpy as np
 from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
 from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
-from spectratac.apps.live.latency import LatencyLog, Stages
+from spectratac.apps.live.latency import LatencyLog, Stages, unix_ms
 from spectratac.apps.live.messages import estimate_message, raw_config
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
@@ -94,7 +94,6 @@ class LiveSession:
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()  # the snake is driven by the worker and by clients
         self._save_lock = threading.Lock()
-        self._unix_minus_mono = time.time() - time.monotonic()
         self.error: str | None = None
 
     # ------------------------------------------------------------------ lifecycle
@@ -309,7 +308,7 @@ class LiveSession:
             t_plot = max(float(sensor_clock.to_host(t_end)) - t0, t_last + 1e-4)
             t_last = t_plot
             msg = estimate_message(seq, est, sample, t_plot,
-                                   (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
+                                   unix_ms(sample.host_time))  # fmt: skip
             msg.update(carried)
             if est is not None:
                 with self._lock:
