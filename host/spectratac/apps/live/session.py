@@ -298,6 +298,7 @@ class LiveSession:
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
+        unscored: list[tuple[int, Any, Any]] = []  # estimates whose reference waits
         for seq, (sample, est) in enumerate(self._samples()):
             if self._stop.is_set():
                 return
@@ -323,32 +324,43 @@ class LiveSession:
             self.pipeline.add([(now - sample.host_time) * 1e3])
             self.history.add_row(seq, self._row(msg, sample))
             if tracker is not None:
-                refs = self._reference(tracker, sensor_clock, seq, est, sample, t0)
-                carried = self._scores(tracker, refs)
+                unscored.append((seq, est, sample))
+                # samples waiting to be decoded go first: the reference (the F/T rows read,
+                # windows averaged) is off the page's path, so a worker that fell behind on a
+                # loaded machine catches up on the estimates first, then scores them at once
+                if not self._samples_waiting():
+                    refs = self._reference(tracker, sensor_clock, unscored, t0)
+                    unscored = []
+                    carried = self._scores(tracker, refs)
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())
+
+    def _samples_waiting(self) -> bool:
+        """True if the sensor holds samples the worker has not taken yet (it is behind)."""
+        return int(getattr(self.sensor, "buffered", 0)) > 0
 
     def _reference(
         self,
         tracker: ReferenceTracker,
         sensor_clock: LiveClock,
-        seq: int,
-        est: Any,
-        sample: Any,
+        unscored: list[tuple[int, Any, Any]],
         t0: float,
     ) -> list[list[float]]:
-        """Take the F/T rows that came, add this sample's window; the windows now ready."""
+        """Take the F/T rows that came, add the windows of the (seq, estimate, sample) not
+        scored yet; the windows now ready."""
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
-        t_start, t_end = sensor_clock.to_host(
-            [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
-        )
-        if est is None:  # no model: the reference of every window, nothing to score
-            tracker.add_estimate(seq, float(t_start), float(t_end), np.full(6, np.nan))
-        elif not est.invalid:
-            tracker.add_estimate(seq, float(t_start), float(t_end), np.r_[est.force, est.torque])
+        for seq, est, sample in unscored:
+            t_start, t_end = sensor_clock.to_host(
+                [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
+            )
+            if est is None:  # no model: the reference of every window, nothing to score
+                tracker.add_estimate(seq, float(t_start), float(t_end), np.full(6, np.nan))
+            elif not est.invalid:
+                wrench = np.r_[est.force, est.torque]
+                tracker.add_estimate(seq, float(t_start), float(t_end), wrench)
         refs = []
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)
