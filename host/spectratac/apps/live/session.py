@@ -311,6 +311,7 @@ class LiveSession:
             msg = estimate_message(seq, est, sample, t_plot,
                                    unix_ms(sample.host_time))  # fmt: skip
             msg.update(carried)
+            carried = {**carried, "refs": []}  # each window goes to the page once
             if est is not None:
                 with self._lock:
                     update = self.snake.feed(est, t_end)
