@@ -19,6 +19,7 @@ from spectratac.ft import (
 )
 from spectratac.sim.ft_bota import BotaServer
 from spectratac.sim.ft_source import FTParams, FTSource
+from spectratac.sim.url import parse_sim_url
 from spectratac.sim.world import SimWorld
 
 from tests.ft.fake_bota import FakePort
@@ -45,6 +46,31 @@ def test_sim_handshake_and_stream(world: SimWorld) -> None:
         assert ft.stats.lost == 0 and ft.stats.crc_errors == 0
     finally:
         server.stop()
+
+
+def test_sim_writes_paced_frames_in_batches_like_a_usb_adapter() -> None:
+    # one write per 1 kHz frame woke the simulation and the host's reader 1,000 times a
+    # second each: GIL hand-overs that delayed the live page's threads in the same process
+    world = SimWorld.join(parse_sim_url("sim://?scene=calibration&seed=3&speed=1"))
+    server = BotaServer(FTSource(world, FTParams(loss=0.0)))
+    sizes: list[int] = []
+    write = server._write
+
+    def counted(data: bytes) -> bool:
+        if len(data) % botaframe.FRAME_SIZE == 0:  # frames, not a command's reply
+            sizes.append(len(data) // botaframe.FRAME_SIZE)
+        return write(data)
+
+    server._write = counted  # type: ignore[method-assign]
+    try:
+        with open_ft(server.url, timeout=2.0) as ft:
+            rows = ft.read(400, timeout=10.0)
+        assert len(rows) == 400 and np.all(np.diff(rows["sequence"].astype(np.int64)) == 1)
+        # 10 ms of 1 kHz frames per write (more when the thread runs late), never one by one
+        assert len(sizes) >= 10 and np.median(sizes) >= 8, sizes
+    finally:
+        server.stop()
+        world.release()
 
 
 def test_sim_filter_setup_sets_the_rate(world: SimWorld) -> None:

@@ -7,18 +7,25 @@ scripted presses scene, a simulated Bota F/T as reference) and opens the page in
 Chromium (Debian's chromium + chromium-driver, driven by selenium). The page stamps every
 estimate on receipt against the frame's arrival time (same system clock); the figures are
 p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
-at the same time on the same socket: half the round trip of a bare WebSocket echo (the
-server pings the page every 250 ms). Also reported: the part spent before the message
-leaves the server (decoding included), and whether p99 stays under one sample period; and,
-per quantile, each stage of the way (`stages_ms` in --json): frame read -> taken by the
-decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the event
-loop (`loop`) -> handed to the socket (`sent`); the page's own work per batch of estimates
-(`page_handle`) and per redraw (`page_redraw`), as the page measures them.
+at the same time, the same way: a bare probe stamped as each estimate reaches the event
+loop, sent in the estimate's own WebSocket message and timed one way by the page on the same
+clock (same socket, size, moment and browser; a stall on the way counts in full for both).
+Until 2026-11-27 the reference was half the round trip of a 30-byte ping's echo at 4 Hz: a
+stall on one way counted half, and 120 echoes made a noisy p99; a probe in a message of its
+own met the page's redraw of the estimate before it, which the estimate never waits for. The
+echo's half round trip is still reported (`echo_half_rtt_ms`). Also reported: the part spent
+before the message leaves the server (decoding included), whether p99 stays under one sample
+period, per quantile each stage of the way (`stages_ms` in --json): frame read -> taken by
+the decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the
+event loop (`loop`) -> handed to the socket (`sent`); the page's own work per batch of
+estimates (`page_handle`) and per redraw (`page_redraw`), as the page measures them; and
+the CPU seconds this process (server, decoding, simulated devices; not Chromium) took
+meanwhile (`process_cpu_s`).
 
 Without --model, a small decoder is trained first on twin presses (a few seconds). With
 --busy N the same measurement runs again beside N busy-loop processes (a new server and page),
-each figure against the echo of its own run: the target is p99 <= 2x the echo's, quiet and
-loaded.
+each figure against the reference of its own run: the target is p99 <= 2x the reference's,
+quiet and loaded.
 """
 
 from __future__ import annotations
@@ -74,17 +81,22 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
     server = LiveServer(session, bind(0)).start()
+    server.hub.probe_every = 1  # the reference in every estimate's message
     try:
         driver.get(server.url)
         time.sleep(warmup)
-        for log in (session.latency, session.echo, session.pipeline):
+        for log in (session.latency, session.bare, session.echo, session.pipeline):
             log.clear()
         session.stages.clear()
         server.hub.stages.clear()
+        cpu0 = time.process_time()
         time.sleep(seconds)
+        cpu_s = time.process_time() - cpu0  # server, decoding and simulated devices
         time.sleep(1.2)  # the page sends its latencies once a second
         return {
+            "cpu_s": round(cpu_s, 2),
             "browser": session.latency.summary(),
+            "bare": session.bare.summary(),
             "echo": session.echo.summary(),
             "pipeline": session.pipeline.summary(),
             "stages": {**session.stages.summary(), **server.hub.stages.summary()},
@@ -110,7 +122,7 @@ def main() -> None:
                 runs.append((n, measure(model, args.seconds, args.warmup), loadavg()))
     figures = []
     for n, m, load in runs:
-        b, e = m["browser"], m["echo"]
+        b, e = m["browser"], m["bare"]
         suffix = "" if not args.busy else f", {load_label(n)}"
         for q in ("p50", "p99"):
             value, ref = b[f"{q}_ms"], e[f"{q}_ms"]
@@ -119,18 +131,21 @@ def main() -> None:
                     f"frame arrival -> browser {q}{suffix}",
                     value,
                     "ms",
-                    f"bare WebSocket echo, half round trip, {q}",
+                    f"bare WebSocket message, one way, {q}",
                     ref,
                     round(value / ref, 2) if value is not None and ref else float("nan"),
                     {
                         "estimates_received": b["n"],
-                        "echoes": e["n"],
+                        "bare_messages": e["n"],
+                        "echo_half_rtt_ms": m["echo"][f"{q}_ms"],
                         "server_part_ms": m["pipeline"][f"{q}_ms"],
                         "stages_ms": {k: v[f"{q}_ms"] for k, v in m["stages"].items()},
                         "sample_period_ms": SAMPLE_PERIOD_MS,
                         "within_one_sample_period": value is not None and value < SAMPLE_PERIOD_MS,
                         "max_ms": b["max_ms"],
                         "busy_loops": n,
+                        "process_cpu_s": m["cpu_s"],
+                        "measured_s": args.seconds,
                         "loadavg": load,
                     },
                 )

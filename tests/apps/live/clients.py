@@ -76,6 +76,7 @@ class WsClient:
     conn: WSConnection
     pending: list[Any] = field(default_factory=list)
     text: list[str] = field(default_factory=list)
+    unpacked: list[dict[str, Any]] = field(default_factory=list)
 
     @classmethod
     def connect(
@@ -142,9 +143,13 @@ class WsClient:
             self.pending.extend(self._events())
 
     def recv_json(self, timeout: float = 60.0) -> dict[str, Any]:
-        got = self.recv(timeout)
-        assert isinstance(got, str), f"the server closed the socket: {got}"
-        return json.loads(got)
+        """The next message; one WebSocket message may carry several (a JSON array)."""
+        if not self.unpacked:
+            got = self.recv(timeout)
+            assert isinstance(got, str), f"the server closed the socket: {got}"
+            data = json.loads(got)
+            self.unpacked = data if isinstance(data, list) else [data]
+        return self.unpacked.pop(0)
 
     def recv_until(self, kind: str, timeout: float = 60.0) -> dict[str, Any]:
         """The next message of type `kind` (skipping pings, estimates, stats)."""

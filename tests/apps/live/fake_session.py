@@ -11,16 +11,18 @@ from spectratac.apps.live.latency import LatencyLog
 
 
 class FakeSession:
-    """Publishes ``{"type": "estimate", "seq": n}`` every `period_s`. Like the real session,
+    """Publishes ``{"type": "estimate", "seq": n, ...}`` every `period_s`. Like the real session,
     it sets `last` before publishing; `last_lead_s` widens that gap (the window in which a
     joining page once received the same estimate twice)."""
 
-    def __init__(self, period_s: float = 0.005, last_lead_s: float = 0.0) -> None:
+    def __init__(self, period_s: float = 0.005, last_lead_s: float = 0.0, counts: int = 0) -> None:
         self.period_s = period_s
         self.last_lead_s = last_lead_s
+        self.counts = counts  # raw counts per message: the size of a real estimate
         self.last: dict[str, Any] | None = None
         self.latency = LatencyLog()
         self.echo = LatencyLog()
+        self.bare = LatencyLog()
         self.error: str | None = None
         self.restarts = 0
         self.saves: list[tuple[float, str]] = []
@@ -34,7 +36,8 @@ class FakeSession:
     def _run(self, publish: Any) -> None:
         seq = 0
         while not self._stop.is_set():
-            msg = {"type": "estimate", "seq": seq, "t": seq * self.period_s}
+            msg = {"type": "estimate", "seq": seq, "t": seq * self.period_s,
+                   "counts": [seq % 65536] * self.counts}  # fmt: skip
             self.last = msg
             if self.last_lead_s:
                 time.sleep(self.last_lead_s)

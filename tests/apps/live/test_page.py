@@ -141,6 +141,10 @@ def check_page(driver, server) -> None:
     while server.session.latency.summary()["n"] == 0:
         assert time.monotonic() < deadline, "the page's latency reports were not accepted"
         time.sleep(0.1)
+    # the reference: probes riding in estimates' messages, timed one way by the page
+    while server.session.bare.summary()["n"] == 0:
+        assert time.monotonic() < deadline, "the page's probe times were not reported"
+        time.sleep(0.1)
     # references are matched by sequence number across gaps; a repeated estimate is ignored
     found = "return [7, 5, 12, 3, 13].map(k => stac.indexOfSeq([3, 4, 7, 9, 12], k))"
     assert driver.execute_script(found) == [2, -1, 4, 0, -1]
@@ -377,11 +381,11 @@ def check_a_burst_is_stamped_at_once_and_handled_in_one_frame(driver) -> None:
     before = js(driver, "[stac.received, stac.batches]")
     burst = js(driver, """(() => {
         const n = stac.latency.length, last = stac.last;
-        for (let k = 1; k <= 3; k++) {
-          const msg = {...last, seq: last.seq + k, t: last.t + 0.05 * k,
-                       arrival_ms: performance.timeOrigin + performance.now()};
-          socket.onmessage({data: JSON.stringify(msg)});
-        }
+        const now = () => performance.timeOrigin + performance.now();
+        const msgs = [1, 2, 3].map((k) => ({...last, seq: last.seq + k, t: last.t + 0.05 * k,
+                                             arrival_ms: now()}));
+        socket.onmessage({data: JSON.stringify(msgs[0])});
+        socket.onmessage({data: JSON.stringify(msgs.slice(1))});  // the server's batch: an array
         return [stac.latency.length - n, stac.pending.length, stac.received];
       })()""")  # fmt: skip
     assert burst == [3, 3, before[0]], burst  # stamped; nothing handled within their task

@@ -365,3 +365,86 @@ def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kep
                 '{"type": "latency", "values": [], "redraw": [NaN]}'):  # fmt: skip
         with pytest.raises(inbound.BadMessage):
             inbound.parse(bad)
+
+
+def test_the_reference_is_a_probe_in_each_estimates_own_message_timed_one_way() -> None:
+    # the reference was the echo's half round trip of a 30-byte ping at its own moment: a
+    # stall on one way counted half, and a message of its own met the page's redraws
+    session = FakeSession(period_s=0.01, counts=250)
+    server = LiveServer(session, bind(0)).start()  # type: ignore[arg-type]
+    server.hub.probe_every = 1
+    client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
+    try:
+        probed = 0
+        while probed < 20:
+            text = client.recv()
+            assert isinstance(text, str), text
+            data = json.loads(text)
+            batch = data if isinstance(data, list) else [data]
+            kinds = [m["type"] for m in batch]
+            if "probe" not in kinds:
+                assert "estimate" not in kinds or kinds[0] == "meta", kinds  # given on joining
+                continue
+            # each estimate fanned out, with its probe right behind it in the same message,
+            # stamped then on the clock the page times estimates with (Unix ms)
+            for k, msg in enumerate(batch):
+                if msg["type"] == "estimate" and k + 1 < len(batch):
+                    assert batch[k + 1]["type"] == "probe", kinds
+                    assert abs(batch[k + 1]["sent_ms"] - time.time() * 1e3) < 60_000
+                    probed += 1
+        client.send_json({"type": "latency", "values": [], "bare": [3.0, 4.5]})
+        deadline = time.monotonic() + 30
+        while session.bare.summary()["n"] == 0:
+            assert time.monotonic() < deadline, "the page's one-way times were not kept"
+            time.sleep(0.02)
+    finally:
+        client.close()
+        server.stop()
+    assert session.bare.values() == [3.0, 4.5]
+    with pytest.raises(inbound.BadMessage, match="'slow' is not a finite number"):
+        inbound.parse('{"type": "latency", "values": [], "bare": ["slow"]}')
+
+
+def test_what_piles_up_in_one_event_loop_turn_goes_in_one_message(served) -> None:
+    # after a stall each estimate went out as a message of its own: one receipt, one parse
+    # and one task on the page each, the last one waiting for all the others
+    server, _ = served
+    client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
+    inside, gate = threading.Event(), threading.Event()
+
+    def stall() -> None:  # the event loop held, as a descheduled loop thread is
+        inside.set()
+        gate.wait(30)
+
+    try:
+        client.recv_json()  # meta: the socket is served
+        assert server.hub.loop is not None
+        server.hub.loop.call_soon_threadsafe(stall)
+        assert inside.wait(30), "the event loop did not run the stall"
+        for k in range(5):
+            server.hub.publish({"type": "estimate", "seq": -1 - k})
+        gate.set()
+        while True:
+            text = client.recv()
+            assert isinstance(text, str), text
+            data = json.loads(text)
+            batch = data if isinstance(data, list) else [data]
+            tagged = [m["seq"] for m in batch if m["type"] == "estimate" and m["seq"] < 0]
+            if tagged:
+                break
+        assert tagged == [-1, -2, -3, -4, -5], batch
+    finally:
+        gate.set()
+        client.close()
+
+
+def test_the_clock_offset_is_read_in_the_tightest_bracket(monkeypatch) -> None:
+    # one `time.time() - time.monotonic()` with the thread descheduled between the two reads
+    # put every estimate's stamp 50 ms off at load 20 (estimates p50 65 ms, probes 16 ms)
+    from spectratac.apps.live import latency
+
+    mono = iter([0.0, 0.050, 1.0, 1.0001, 2.0, 2.020])  # tries: 50 ms, 0.1 ms, 20 ms apart
+    unix = iter([1000.049, 1001.00005, 1002.019])  # each read late in its bracket
+    monkeypatch.setattr(latency.time, "monotonic", lambda: next(mono))
+    monkeypatch.setattr(latency.time, "time", lambda: next(unix))
+    assert latency.measure_unix_minus_monotonic(tries=3) == pytest.approx(1000.0, abs=1e-4)

@@ -4,7 +4,8 @@ Every WebSocket message is one of::
 
     {"type": "latency", "values": [ms, ...]}   # receipt latencies, at most MAX_LATENCY_VALUES
                                                # (optional "handle", "redraw": the page's own
-                                               # work per batch of estimates and per redraw, ms)
+                                               # work per batch of estimates and per redraw, ms;
+                                               # "bare": the pings' one-way latencies, ms)
     {"type": "pong", "id": n}                  # echo of the server's ping n
     {"type": "snake_restart"}
     {"type": "tare"}                           # zero the drift baseline (nothing touches the skin)
@@ -49,6 +50,7 @@ class Latency:
     values: tuple[float, ...]
     handle: tuple[float, ...] = ()
     redraw: tuple[float, ...] = ()
+    bare: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,7 @@ def parse(text: str) -> ClientMessage:
             _latencies(msg.get("values")),
             _latencies(msg.get("handle", []), "handle"),
             _latencies(msg.get("redraw", []), "redraw"),
+            _latencies(msg.get("bare", []), "bare"),
         )
     if kind == "pong":
         return Pong(_ping_id(msg.get("id")))

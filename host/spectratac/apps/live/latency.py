@@ -2,8 +2,10 @@
 
 The page stamps every estimate on receipt (`performance.timeOrigin + performance.now()`,
 the same system clock as the host's `time.time()`) and sends the differences to
-`arrival_ms` back in batches; the server also pings the page and times the echo, the
-reference: what the WebSocket alone costs on this machine, measured at the same time.
+`arrival_ms` back in batches. The reference is what the WebSocket alone costs on this
+machine, measured at the same time and the same way: the server's pings, stamped when made
+and padded to an estimate's size, timed one way by the page (`bare`); the server also keeps
+the echo's half round trip (`echo`).
 
 >>> log = LatencyLog()
 >>> log.add([float(v) for v in range(1, 101)])
@@ -23,11 +25,41 @@ from __future__ import annotations
 
 import collections
 import threading
+import time
 from typing import Any
 
 import numpy as np
 
 KEEP = 20_000
+_TRIES = 9
+_offset_s: float | None = None
+_offset_lock = threading.Lock()
+
+
+def unix_ms(monotonic_s: float) -> float:
+    """Host monotonic seconds as Unix ms, the clock the page stamps receipts on. Estimates
+    and the reference probe go through this one conversion, so that an error in it is
+    theirs alike; its offset is measured once per process (`measure_unix_minus_monotonic`)."""
+    global _offset_s
+    with _offset_lock:
+        if _offset_s is None:
+            _offset_s = measure_unix_minus_monotonic()
+        offset = _offset_s
+    return (monotonic_s + offset) * 1e3
+
+
+def measure_unix_minus_monotonic(tries: int = _TRIES) -> float:
+    """Unix time minus monotonic time (s), read between two monotonic reads and kept from the
+    tightest of `tries` brackets: a thread descheduled between the two clock reads (50 ms
+    at load 20) made a plain ``time.time() - time.monotonic()`` that much off, and every
+    latency with it."""
+    best = (float("inf"), 0.0)
+    for _ in range(tries):
+        t0 = time.monotonic()
+        unix = time.time()
+        t1 = time.monotonic()
+        best = min(best, (t1 - t0, unix - (t0 + t1) / 2))
+    return best[1]
 
 
 class LatencyLog:

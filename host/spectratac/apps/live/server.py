@@ -3,7 +3,7 @@
 Routes: ``/`` the page (static files under ``/static``, libraries included: the page
 works offline); ``/ws`` a WebSocket that sends the session's ``meta``, the latest estimate,
 then every message it publishes, and takes the messages of `spectratac.apps.live.inbound`
-(``latency``, ``pong``, ``snake_restart``); ``POST /api/save`` ``{"seconds": 10,
+(``latency``, ``pong``, ``snake_restart``, ``tare``); ``POST /api/save`` ``{"seconds": 10,
 "format": "mcap"}`` writes a clip; ``GET /api/stats`` link, latency and echo figures as JSON.
 
 Only the served page may use it (`spectratac.apps.live.guard`): Host and Origin are checked
@@ -13,17 +13,19 @@ Inputs are bounded: WebSocket messages (uvicorn closes the socket with 1009 beyo
 a message over `INLINE_BYTES` is parsed on a worker thread, so no client stalls the others.
 
 Messages cross from the session's worker thread into the event loop with
-`call_soon_threadsafe`; each client has a bounded queue, and a client too slow to keep up
-loses its oldest messages, never the sensor's. A joining client's queue gets the meta and
-the latest estimate and joins the fan-out in one step on the event loop, so it sees every
-estimate once, in order.
+`call_soon_threadsafe`; each client has a bounded queue, whose messages queued in one turn
+of the event loop go out as one WebSocket message (a JSON array: `batch_text`), and a
+client too slow to keep up loses its oldest messages, never the sensor's. A joining client's
+queue gets the meta and the latest estimate and joins the fan-out in one step on the event
+loop, so it sees every estimate once, in order.
 
-Latency: `Hub.stages` times every estimate from its publication to the event loop and to
-the socket, and keeps the page's own work per batch of estimates and per redraw (the page
-reports them with its latencies); the session times the stages before (`LiveSession.stages`),
-and `tools/bench/live.py` reports them all. While serving, the process runs with
-`tuning.serving()` (a short GIL switch interval, start-up objects frozen out of the
-collector's reach).
+Latency: the reference is a bare message (`probe`) timed one way by the page, like an
+estimate; the echo's half round trip is kept too. `Hub.stages` times every estimate from
+its publication to the event loop and to the socket, and keeps the page's own work per batch
+of estimates and per redraw (the page reports them with its latencies); the session times
+the stages before (`LiveSession.stages`), and `tools/bench/live.py` reports them all.
+While serving, the process runs with `tuning.serving()` (a short GIL switch interval,
+start-up objects frozen out of the collector's reach).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from spectratac.apps.live.guard import (
     refusal,
     token_matches,
 )
-from spectratac.apps.live.latency import Stages
+from spectratac.apps.live.latency import Stages, unix_ms
 from spectratac.apps.live.session import LiveSession
 from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
@@ -62,6 +64,8 @@ STATIC = Path(__file__).with_name("static")
 HOST = "127.0.0.1"  # never another interface: the page controls a device
 QUEUE = 512  # messages per client (25 s at 20 Hz) before the oldest are dropped
 PING_EVERY_S = 0.25
+PROBE_EVERY = 5  # a reference probe behind every 5th estimate: 4 a second at 20 Hz
+BATCH_MAX = 64  # messages per WebSocket message at most (what piled up after a stall)
 MAX_MESSAGE_BYTES = inbound.MAX_MESSAGE_BYTES
 MAX_BODY_BYTES = 4096  # a save request is ~40 bytes
 INLINE_BYTES = 4096  # longer messages are parsed off the event loop
@@ -78,6 +82,8 @@ class Hub:
         self.clients: set[asyncio.Queue[Item]] = set()
         self.pings: dict[int, float] = {}
         self.last: str | None = None  # the latest estimate fanned out, for joining pages
+        self.probe_every = PROBE_EVERY  # estimates per reference probe (the benchmark: 1)
+        self._since_probe = 0
         self.stages = Stages(("loop", "sent", "page_handle", "page_redraw"))
 
     def publish(self, msg: dict[str, Any]) -> None:
@@ -106,6 +112,11 @@ class Hub:
             self.stages.add("loop", (time.monotonic() - published) * 1e3)
         for q in self.clients:
             _put(q, (text, published))
+        if published is not None:
+            self._since_probe += 1
+            if self._since_probe >= self.probe_every:
+                self._since_probe = 0
+                self._fan_out(probe(unix_ms(time.monotonic())))
 
 
 #: A client queue's entry: the message's text, and when an estimate was published (else None).
@@ -223,6 +234,7 @@ async def _receive(
         return {"type": "refused", "code": "bad_token", "message": why}
     if isinstance(msg, inbound.Latency):
         session.latency.add(list(msg.values))
+        session.bare.add(list(msg.bare))
         hub.stages.add("page_handle", *msg.handle)
         hub.stages.add("page_redraw", *msg.redraw)
     elif isinstance(msg, inbound.Pong):
@@ -239,14 +251,29 @@ async def _receive(
 async def _send(websocket: WebSocket, queue: asyncio.Queue[Item], stages: Stages) -> None:
     with contextlib.suppress(WebSocketDisconnect, RuntimeError):
         while True:
-            text, published = await queue.get()
-            await websocket.send_text(text)
-            if published is not None:
-                stages.add("sent", (time.monotonic() - published) * 1e3)
+            batch = [await queue.get()]
+            while len(batch) < BATCH_MAX and not queue.empty():
+                batch.append(queue.get_nowait())
+            await websocket.send_text(batch_text([text for text, _ in batch]))
+            now = time.monotonic()
+            for _, published in batch:
+                if published is not None:
+                    stages.add("sent", (now - published) * 1e3)
+
+
+def batch_text(texts: list[str]) -> str:
+    """One WebSocket message for the messages queued in one event-loop turn: a lone message
+    as it is, several as a JSON array. After a stall the page gets what piled up in one
+    receipt and one parse, and a probe shares its estimate's message (`probe`).
+
+    >>> batch_text(['{"a":1}']), batch_text(['{"a":1}', '{"b":2}'])
+    ('{"a":1}', '[{"a":1},{"b":2}]')
+    """
+    return texts[0] if len(texts) == 1 else "[" + ",".join(texts) + "]"
 
 
 async def _ping(hub: Hub) -> None:
-    """Ping every page; the echo's half round trip is the latency reference."""
+    """Ping every page; the echo's half round trip is kept beside the reference (`probe`)."""
     n = 0
     while True:
         await asyncio.sleep(PING_EVERY_S)
@@ -254,6 +281,21 @@ async def _ping(hub: Hub) -> None:
         hub.pings = {k: v for k, v in hub.pings.items() if k > n - 40}
         hub.pings[n] = time.monotonic()
         hub._fan_out(json.dumps({"type": "ping", "id": n}))
+
+
+def probe(sent_ms: float) -> str:
+    """The latency reference: a bare message stamped `sent_ms` (Unix ms) as an estimate is
+    fanned out and queued right behind it, so that it goes in the same WebSocket message
+    (`batch_text`); the page times it on the clock and at the receipt it times the estimate
+    with (`bare`): what the socket and the browser alone cost that very message, against
+    which the estimate's whole way from the frame is judged. (The echo's half round trip
+    counted a stall on one way half; a message of its own met the page's redraw of the
+    estimate before it, which the estimate itself never waits for.)
+
+    >>> probe(1.5e12)
+    '{"type":"probe","sent_ms":1500000000000.0}'
+    """
+    return json.dumps({"type": "probe", "sent_ms": round(sent_ms, 3)}, separators=(",", ":"))
 
 
 def bind(port: int = 0) -> socket.socket:

@@ -32,7 +32,7 @@ import numpy as np
 from spectratac.apps.live.alignment import FT_WINDOW_S, LiveClock, ReferenceTracker
 from spectratac.apps.live.geometry import page_geometry
 from spectratac.apps.live.history import FORMATS, KEEP_S, History
-from spectratac.apps.live.latency import LatencyLog, Stages
+from spectratac.apps.live.latency import LatencyLog, Stages, unix_ms
 from spectratac.apps.live.messages import estimate_message, raw_config
 from spectratac.apps.sensor_setup import SampleTap, open_for_decoder
 from spectratac.apps.snake.controller import SnakeController
@@ -78,6 +78,7 @@ class LiveSession:
         self.model_path = model_path
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
+        self.bare = LatencyLog()  # a bare message one way, as the page times an estimate
         self.pipeline = LatencyLog()  # frame arrival -> message published (decoding included)
         # frame arrival -> the worker took the sample / its estimate was ready (the parts of
         # `pipeline`; the server's `Hub.stages` times the rest of the way)
@@ -93,7 +94,6 @@ class LiveSession:
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()  # the snake is driven by the worker and by clients
         self._save_lock = threading.Lock()
-        self._unix_minus_mono = time.time() - time.monotonic()
         self.error: str | None = None
 
     # ------------------------------------------------------------------ lifecycle
@@ -189,6 +189,7 @@ class LiveSession:
             "error": self.error,
             "latency": self.latency.summary(),
             "echo": self.echo.summary(),
+            "bare": self.bare.summary(),
             "pipeline": self.pipeline.summary(),
         }
         if s is not None:
@@ -297,6 +298,7 @@ class LiveSession:
         t0: float | None = None
         t_last = -np.inf
         next_stats = time.monotonic() + STATS_EVERY_S
+        unscored: list[tuple[int, Any, Any]] = []  # estimates whose reference waits
         for seq, (sample, est) in enumerate(self._samples()):
             if self._stop.is_set():
                 return
@@ -307,8 +309,9 @@ class LiveSession:
             t_plot = max(float(sensor_clock.to_host(t_end)) - t0, t_last + 1e-4)
             t_last = t_plot
             msg = estimate_message(seq, est, sample, t_plot,
-                                   (sample.host_time + self._unix_minus_mono) * 1e3)  # fmt: skip
+                                   unix_ms(sample.host_time))  # fmt: skip
             msg.update(carried)
+            carried = {**carried, "refs": []}  # each window goes to the page once
             if est is not None:
                 with self._lock:
                     update = self.snake.feed(est, t_end)
@@ -322,32 +325,43 @@ class LiveSession:
             self.pipeline.add([(now - sample.host_time) * 1e3])
             self.history.add_row(seq, self._row(msg, sample))
             if tracker is not None:
-                refs = self._reference(tracker, sensor_clock, seq, est, sample, t0)
-                carried = self._scores(tracker, refs)
+                unscored.append((seq, est, sample))
+                # samples waiting to be decoded go first: the reference (the F/T rows read,
+                # windows averaged) is off the page's path, so a worker that fell behind on a
+                # loaded machine catches up on the estimates first, then scores them at once
+                if not self._samples_waiting():
+                    refs = self._reference(tracker, sensor_clock, unscored, t0)
+                    unscored = []
+                    carried = self._scores(tracker, refs)
             if now >= next_stats:
                 next_stats = now + STATS_EVERY_S
                 publish(self.stats())
+
+    def _samples_waiting(self) -> bool:
+        """True if the sensor holds samples the worker has not taken yet (it is behind)."""
+        return int(getattr(self.sensor, "buffered", 0)) > 0
 
     def _reference(
         self,
         tracker: ReferenceTracker,
         sensor_clock: LiveClock,
-        seq: int,
-        est: Any,
-        sample: Any,
+        unscored: list[tuple[int, Any, Any]],
         t0: float,
     ) -> list[list[float]]:
-        """Take the F/T rows that came, add this sample's window; the windows now ready."""
+        """Take the F/T rows that came, add the windows of the (seq, estimate, sample) not
+        scored yet; the windows now ready."""
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
-        t_start, t_end = sensor_clock.to_host(
-            [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
-        )
-        if est is None:  # no model: the reference of every window, nothing to score
-            tracker.add_estimate(seq, float(t_start), float(t_end), np.full(6, np.nan))
-        elif not est.invalid:
-            tracker.add_estimate(seq, float(t_start), float(t_end), np.r_[est.force, est.torque])
+        for seq, est, sample in unscored:
+            t_start, t_end = sensor_clock.to_host(
+                [sample.t_start_us / 1e6, sample.device_time_us / 1e6]
+            )
+            if est is None:  # no model: the reference of every window, nothing to score
+                tracker.add_estimate(seq, float(t_start), float(t_end), np.full(6, np.nan))
+            elif not est.invalid:
+                wrench = np.r_[est.force, est.torque]
+                tracker.add_estimate(seq, float(t_start), float(t_end), wrench)
         refs = []
         for key, t, wrench in tracker.ready():
             self.history.add_reference(key, wrench)

@@ -20,7 +20,7 @@ const REF = css.getPropertyValue("--ref").trim();
 const stac = {  // the page's state; window.stac for tests and for a look from the console
   meta: null, received: 0, paused: false, windowS: 20, autoscale: true, follow: true, view: null, countsFit: false,
   xs: [], seqs: [], steps: [], pred: AXES.map(() => []), ref: AXES.map(() => []), counts: [],
-  rawStep: null, rawSteps: [], latency: [], latencyBatch: [], handleBatch: [], redrawBatch: [], pending: [], lastSeq: -1, batches: 0, arrivals: [], raw: {}, last: null,
+  rawStep: null, rawSteps: [], latency: [], latencyBatch: [], bare: [], bareBatch: [], handleBatch: [], redrawBatch: [], pending: [], lastSeq: -1, batches: 0, arrivals: [], raw: {}, last: null,
   snake: null, snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
   stats: null, yRanges: {}, duplicates: 0, refused: [],
 };
@@ -401,7 +401,9 @@ function showLink() {
   }
   const lat = stac.latency;
   rows.push(["to browser p50 / p99", `${fmt(percentile(lat, 0.5), 1)} / ${fmt(percentile(lat, 0.99), 1)} ms`]);
-  rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`]);
+  rows.push(["WebSocket alone p50 / p99", `${fmt(percentile(stac.bare, 0.5), 1)} / ${fmt(percentile(stac.bare, 0.99), 1)} ms`,
+    false, "a bare message as large as an estimate, timed the same way"]);
+  rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`, false, "half the round trip"]);
   if (s.error) rows.push(["error", s.error, true]);
   $("link").innerHTML = rows.map(([k, v, bad, why]) => `<dt${why ? ` title="${why}"` : ""}>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
 }
@@ -490,6 +492,14 @@ function noteArrival(msg, arrived) {
   if (stac.latency.length > 2000) stac.latency.splice(0, stac.latency.length - 2000);
   stac.arrivals.push(performance.now());
 }
+// The reference: a probe the server sends in the same message as an estimate, stamped when the
+// estimate reached the event loop: what the socket and this page alone cost that message.
+function noteBare(msg, arrived) {
+  if (typeof msg.sent_ms !== "number") return;
+  const lat = arrived - msg.sent_ms;
+  stac.bare.push(lat); stac.bareBatch.push(lat);
+  if (stac.bare.length > 2000) stac.bare.splice(0, stac.bare.length - 2000);
+}
 function handlePending() {
   const batch = stac.pending;
   if (!batch.length) return;
@@ -566,24 +576,29 @@ function connect() {
   socket.onclose = () => { $("conn").textContent = "offline"; $("conn").className = "badge off"; setTimeout(connect, 1000); };
   socket.onmessage = (ev) => {
     const arrived = performance.timeOrigin + performance.now();
-    const msg = JSON.parse(ev.data);
-    switch (msg.type) {
-      case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
-      case "ping": send({ type: "pong", id: msg.id }); break;
-      case "stats": stac.stats = msg; break;
-      case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
-      case "snake": handlePending(); showSnake(msg.snake); break;
-      case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
-      case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
-    }
+    const data = JSON.parse(ev.data);  // an array: what the server queued in one turn
+    for (const msg of Array.isArray(data) ? data : [data]) onMessage(msg, arrived);
   };
 }
+function onMessage(msg, arrived) {
+  switch (msg.type) {
+    case "estimate": noteArrival(msg, arrived); stac.pending.push(msg); break;
+    case "ping": send({ type: "pong", id: msg.id }); break;
+    case "probe": noteBare(msg, arrived); break;
+    case "stats": stac.stats = msg; break;
+    case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
+    case "snake": handlePending(); showSnake(msg.snake); break;
+    case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
+    case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
+  }
+}
 setInterval(() => {
-  if (stac.latencyBatch.length) {
+  if (stac.latencyBatch.length || stac.bareBatch.length) {
     // at most the server's limit per list: a tab the browser throttled may have piled up more
     const cut = (a) => a.slice(-4096);
-    send({ type: "latency", values: cut(stac.latencyBatch), handle: cut(stac.handleBatch), redraw: cut(stac.redrawBatch) });
-    stac.latencyBatch = []; stac.handleBatch = []; stac.redrawBatch = [];
+    send({ type: "latency", values: cut(stac.latencyBatch), handle: cut(stac.handleBatch), redraw: cut(stac.redrawBatch),
+           bare: cut(stac.bareBatch) });
+    stac.latencyBatch = []; stac.handleBatch = []; stac.redrawBatch = []; stac.bareBatch = [];
   }
 }, 1000);
 
