@@ -51,18 +51,18 @@ def test_fits_in_two_workers_give_the_models_of_the_same_fits_run_here(twin: Dat
         assert a.decoder.meta["spec"] == b.decoder.meta["spec"]
 
 
-def test_every_fit_has_the_same_threads_however_many_run_at_once() -> None:
-    # the share of all the jobs, not of the workers that happen to start: on 2 CPUs four
-    # fits take one thread each whether they run two at a time or one after another
-    assert fit_threads(jobs=4, cpus=2) == fit_threads(jobs=4, cpus=1) == 1
+def test_every_fit_has_the_threads_it_has_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a fit's figures depend on its threads: a fit run beside others keeps those of a fit
+    # run alone (the demo's table stays what one fit after another gave)
+    monkeypatch.delenv(threads.ENV, raising=False)
+    assert fit_threads(cpus=2) == threads.decide(2, 1).threads == 2
     assert (workers_for(4, cpus=1), workers_for(4, cpus=2), workers_for(4, cpus=16)) == (1, 2, 4)
-    assert fit_threads(jobs=4, cpus=16) == 4
 
 
 def test_the_users_thread_count_wins(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(threads.ENV, "2")
-    assert fit_threads(jobs=4, cpus=2) == 2
-    assert workers_for(jobs=4, cpus=2) == 1  # two threads each: one fit at a time
+    monkeypatch.setenv(threads.ENV, "1")
+    assert fit_threads(cpus=2) == 1
+    assert workers_for(jobs=4, cpus=2) == 2
 
 
 def test_the_caller_hears_every_epoch_of_every_fit(twin: Dataset) -> None:

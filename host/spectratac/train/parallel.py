@@ -1,18 +1,22 @@
-"""Independent trainings at once: `FitPool` runs `train` jobs in worker processes that
-split the CPUs under the thread policy (spectratac.threads).
+"""Independent trainings at once: `FitPool` runs `train` jobs in worker processes, one per
+CPU up to the number of jobs.
 
 Why: the demo trains four decoders (two recipes, two splits) that do not depend on each
-other, and a small network gains only ~1.5x from a second thread, so two one-thread
-processes on two cores finish sooner than one two-thread process doing them in turn.
+other, and a small network gains only ~1.5x from a second thread, so two processes on two
+cores finish the four fits sooner than one process doing them in turn.
 
-The result does not depend on how the jobs are spread: every job runs with the same number
-of torch threads (`fit_threads`: the share of `jobs` processes, so one thread each on up to
-seven CPUs), whether in a worker or, with one worker, in this process; a job's weights are
-a function of its dataset, spec and rows (tests/train/test_parallel_fits.py). Workers are
-spawned (no torch state is inherited); a job carries its dataset.
+A job's model does not depend on how the jobs are spread: every job computes with the
+threads it would have alone on this machine (the thread policy's share of one process,
+`fit_threads`), in a worker or, with one worker, in this process, so its weights are those
+of the same fit run alone, bit for bit (tests/train/test_parallel_fits.py): the threads
+change the order of torch's sums, and 40 epochs turn that into other figures. The workers'
+threads then outnumber the cores; waiting OpenMP threads sleep (the policy's
+OMP_WAIT_POLICY=PASSIVE) rather than spin, so this costs the cores little.
+SPECTRATAC_THREADS=1 gives every fit one thread instead (other figures than the default).
+Workers are spawned (no torch state is inherited); a job carries its dataset.
 
->>> fit_threads(jobs=4, cpus=2), fit_threads(jobs=4, cpus=8), workers_for(jobs=4, cpus=2)
-(1, 2, 2)
+>>> fit_threads(cpus=2), workers_for(jobs=4, cpus=2), workers_for(jobs=4, cpus=16)
+(2, 2, 4)
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import multiprocessing
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -36,17 +40,17 @@ from spectratac.train.fitting import train
 EpochTick = Callable[[int, int], None]
 
 
-def fit_threads(jobs: int, cpus: int | None = None) -> int:
-    """Torch threads of every job: the policy's share when `jobs` processes compute at once
-    (SPECTRATAC_THREADS, if set, wins as everywhere)."""
+def fit_threads(cpus: int | None = None) -> int:
+    """Torch threads of every job: those of a process computing alone (SPECTRATAC_THREADS,
+    if set, wins as everywhere)."""
     cpus = threads.usable_cpus() if cpus is None else cpus
-    return threads.decide(cpus, jobs, os.environ.get(threads.ENV)).threads
+    return threads.decide(cpus, 1, os.environ.get(threads.ENV)).threads
 
 
 def workers_for(jobs: int, cpus: int | None = None) -> int:
-    """Worker processes for `jobs` jobs: one per job, at most one per share of the CPUs."""
+    """Worker processes for `jobs` jobs: one per job, at most one per CPU."""
     cpus = threads.usable_cpus() if cpus is None else cpus
-    return max(1, min(jobs, cpus // fit_threads(jobs, cpus)))
+    return max(1, min(jobs, cpus))
 
 
 @dataclass(frozen=True)
@@ -69,10 +73,10 @@ class Fitted:
 _WORKER_TICKS: Any = None
 
 
-def _init_worker(workers: int, ticks: Any) -> None:
+def _init_worker(ticks: Any) -> None:
     global _WORKER_TICKS
     _WORKER_TICKS = ticks
-    threads.apply(workers)  # before anything imports torch
+    threads.apply(1)  # each job computes as if alone (see above); before torch is imported
 
 
 def warm_up() -> None:
@@ -108,7 +112,6 @@ class FitPool:
     worker the jobs run in this process, one by one, when their result is asked for."""
 
     def __init__(self, jobs: int, workers: int | None = None) -> None:
-        self.threads = fit_threads(jobs)
         self.workers = workers_for(jobs) if workers is None else max(1, workers)
         self._jobs: list[tuple[Dataset, FitJob]] = []
         self._futures: list[cf.Future[Fitted]] = []
@@ -119,21 +122,17 @@ class FitPool:
             ctx = multiprocessing.get_context("spawn")
             # put writes to the pipe at once: a job's last tick is there before its result
             self._ticks = ctx.SimpleQueue()
-            # spawned children inherit this environment: their share from the first import on
-            threads.apply(self.workers)
             self._pool = cf.ProcessPoolExecutor(
                 self.workers,
                 mp_context=ctx,
                 initializer=_init_worker,
-                initargs=(self.workers, self._ticks),
+                initargs=(self._ticks,),
             )
             for _ in range(self.workers):  # a worker is spawned per task no idle one takes
                 self._pool.submit(warm_up)
 
     def submit(self, ds: Dataset, job: FitJob) -> int:
-        """Queue `job` on `ds` (with the pool's torch threads unless its spec names some);
-        its index for `result`."""
-        job = FitJob(replace(job.spec, threads=job.spec.threads or self.threads), job.rows)
+        """Queue `job` on `ds`; its index for `result`."""
         index = len(self._jobs)
         self._jobs.append((ds, job))
         if self._pool is not None:
@@ -167,7 +166,6 @@ class FitPool:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
             self._ticks.close()
-            threads.apply(1)  # the workers are gone: this process computes alone again
 
     def __enter__(self) -> FitPool:
         return self
