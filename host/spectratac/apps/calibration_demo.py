@@ -3,7 +3,9 @@
 1. record a shortened, accelerated calibration session from the simulated optical sensor and
    a simulated Bota F/T sensor of the same scene (both over their real wire protocols);
 2. build the aligned dataset from the recording;
-3. train the paper's recipe and our best decoder, each under the random and the blocked split;
+3. train the paper's recipe and our best decoder, each under the random and the blocked split
+   (the four fits side by side in worker processes that split the cores, started with step 1
+   so that they have imported torch by step 3: spectratac.train.parallel);
 4. evaluate them beside the paper's figures and a reference column (`DemoOptions.floor`:
    the command line passes the twin's inverse, spectratac.studies.oracle_floor: the twin's
    own forward model inverted sample by sample, which knows the unit but not the press
@@ -14,7 +16,8 @@
    accuracies (a handful of held-out presses: one near a region boundary moves it by
    points); the table says so when the best decoder's region accuracy is below the recipe's.
 
-Every figure it prints is measured in this run. Torch is imported only in step 3. The demo
+Every figure it prints is measured in this run. This process imports torch only if it
+trains itself (one worker: a single CPU, or SPECTRATAC_THREADS set to every CPU). The demo
 names the simulated devices by URL only: it never imports the twin or the simulator.
 """
 
@@ -41,6 +44,9 @@ GAIN_BLOCKS = 5  # consecutive blocks of the blocked split's held-out rows, for 
 #: loops on a loaded 2-core machine, 15,000 (30x at 500 Hz) did not.
 DEMO_SPEED = 60.0
 DEMO_FT_RATE = 100
+#: The decoders the demo trains, each under the random and the blocked split (four fits,
+#: run side by side: train/parallel.py), in the order they are evaluated.
+DEMO_SPECS = ("paper", "best")
 
 
 def best_spec(epochs: int, seed: int) -> Any:
@@ -83,16 +89,21 @@ class DemoOptions:
 
 def run_demo(opts: DemoOptions, say: Say = print) -> dict[str, Any]:
     """Run the four stages into `opts.out`; return the JSON-ready summary."""
+    from spectratac.train import KINDS
+    from spectratac.train.parallel import FitPool
+
     opts.out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
-    rec = _record(opts, say)
-    opts.timings["record_s"] = time.monotonic() - t0
-    t1 = time.monotonic()
-    dataset = _build(opts, say)
-    opts.timings["dataset_s"] = time.monotonic() - t1
-    t2 = time.monotonic()
-    results = _train_and_evaluate(opts, on_scene_clock(dataset, opts.scene_s), say)
-    opts.timings["train_evaluate_s"] = time.monotonic() - t2
+    # the training workers start now and import torch while the session records
+    with FitPool(len(DEMO_SPECS) * len(KINDS)) as pool:
+        rec = _record(opts, say)
+        opts.timings["record_s"] = time.monotonic() - t0
+        t1 = time.monotonic()
+        dataset = _build(opts, say)
+        opts.timings["dataset_s"] = time.monotonic() - t1
+        t2 = time.monotonic()
+        results = _train_and_evaluate(opts, on_scene_clock(dataset, opts.scene_s), say, pool)
+        opts.timings["train_evaluate_s"] = time.monotonic() - t2
     opts.timings["total_s"] = time.monotonic() - t0
     return {
         "url": opts.url,
@@ -190,42 +201,58 @@ def on_scene_clock(dataset: Any, scene_s: float) -> Any:
     return Dataset(arrays, {**dataset.meta, "sessions": sessions})
 
 
-def _train_and_evaluate(opts: DemoOptions, dataset: Any, say: Say) -> dict[str, Any]:
+def _train_and_evaluate(
+    opts: DemoOptions, dataset: Any, say: Say, pool: Any = None
+) -> dict[str, Any]:
     from spectratac.evaluate import write_report
-    from spectratac.evaluate.fit_both_splits import fit_and_evaluate, save_models
-    from spectratac.train import TrainSpec
+    from spectratac.evaluate.fit_both_splits import fit_and_evaluate_each, save_models
+    from spectratac.train import KINDS, TrainSpec
 
     out: dict[str, Any] = {}
     models: dict[str, Any] = {}
     held: Any = None
-    specs = {
-        "paper": TrainSpec.paper(epochs=opts.epochs, seed=opts.seed),
-        "best": best_spec(opts.epochs, opts.seed),
-    }
-    for i, (name, spec) in enumerate(specs.items()):
-        label = "the paper's recipe" if name == "paper" else "our best decoder"
-        about = opts.about("train + evaluate") if i == 0 else ""
-        say(f"[3/4] training {label} under the random and the blocked split ({i + 1}/2){about}")
-        res = fit_and_evaluate(
+    paper = TrainSpec.paper(epochs=opts.epochs, seed=opts.seed)
+    specs = dict(zip(DEMO_SPECS, (paper, best_spec(opts.epochs, opts.seed)), strict=True))
+    say(
+        f"[3/4] training the paper's recipe and our best decoder, each under the random and the "
+        f"blocked split, at once{opts.about('train + evaluate')}"
+    )
+    # the four fits run side by side (train/parallel.py); the paper's are evaluated and
+    # written while the best decoder's still train
+    bar = _bar(opts, total=len(specs) * len(KINDS) * opts.epochs, unit="epoch", desc="training")
+    epochs: dict[int, int] = {}
+
+    def tick(job: int, done: int) -> None:
+        epochs[job] = done
+        if bar is not None:
+            bar.n = sum(epochs.values())
+            bar.refresh()
+
+    try:
+        for name, res in fit_and_evaluate_each(
             dataset,
-            spec,
+            specs,
             seed=opts.seed,
-            floor=opts.floor if name == "paper" else None,
-            progress=opts.progress,
-        )
-        files = save_models(res, opts.out / f"{name}.stac")
-        write_report(
-            res.evaluation,
-            opts.out / f"report-{name}",
-            {"path": str(opts.out / "data.npz"), "samples": dataset.n},
-            {"path": ", ".join(f"{f} ({kind} split)" for kind, f in files.items())},
-            dataset,
-        )
-        out[name] = {kind: _scores(section) for kind, section in res.sections.items()} | {
-            "train_seconds": {k: round(v, 1) for k, v in res.train_seconds.items()}
-        }
-        models[name] = res.models["blocked"]
-        held = res.splits["blocked"].test
+            floors={"paper": opts.floor},
+            pool=pool,
+            tick=tick,
+        ):
+            files = save_models(res, opts.out / f"{name}.stac")
+            write_report(
+                res.evaluation,
+                opts.out / f"report-{name}",
+                {"path": str(opts.out / "data.npz"), "samples": dataset.n},
+                {"path": ", ".join(f"{f} ({kind} split)" for kind, f in files.items())},
+                dataset,
+            )
+            out[name] = {kind: _scores(section) for kind, section in res.sections.items()} | {
+                "train_seconds": {k: round(v, 1) for k, v in res.train_seconds.items()}
+            }
+            models[name] = res.models["blocked"]
+            held = res.splits["blocked"].test
+    finally:
+        if bar is not None:
+            bar.close()
     out["gain_blocks"] = gain_blocks(dataset, held, models["paper"], models["best"])
     say("[4/4] results (MAE in N and N·m; held-out rows only)")
     for line in results_table(out):

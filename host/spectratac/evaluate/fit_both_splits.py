@@ -25,8 +25,9 @@ with the same signature works, e.g. a stand-in:
 
 from __future__ import annotations
 
+import contextlib
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from spectratac.dataset.schema import Dataset
 from spectratac.evaluate.run import Evaluation, Floor, Section, evaluate_model
 from spectratac.train.groups import KINDS, Split, SplitSpec, split_dataset
 from spectratac.train.holdout import mark
+from spectratac.train.parallel import EpochTick, FitJob, FitPool
 
 Trainer = Callable[..., Any]  # (dataset, spec, rows=..., progress=...) -> decoder
 
@@ -93,6 +95,49 @@ def fit_and_evaluate(
         seed=seed,
     )
     return FitResult(models, splits, ev, seconds)
+
+
+def fit_and_evaluate_each(
+    dataset: Dataset,
+    specs: Mapping[str, Any],
+    kinds: Sequence[str] = KINDS,
+    *,
+    seed: int = 0,
+    floors: Mapping[str, Floor | None] | None = None,
+    pool: FitPool | None = None,
+    tick: EpochTick | None = None,
+) -> Iterator[tuple[str, FitResult]]:
+    """`fit_and_evaluate` for every spec of `specs`, all fits at once in worker processes
+    (train/parallel.py: every fit with the same torch threads however many run at once, so
+    the models do not depend on the spread). Yields (name, result) in the order of `specs`,
+    each as soon as its fits are done, while later fits go on; `floors[name]` is its floor.
+    `pool`: a started FitPool to use (the caller closes it), else one made here.
+    `tick(job, epochs done)` hears of every fit's epochs (job = spec index x kinds + kind)."""
+    splits = {k: split_dataset(dataset, SplitSpec(k, seed=seed)) for k in kinds}
+    with contextlib.ExitStack() as stack:
+        if pool is None:
+            pool = stack.enter_context(FitPool(len(specs) * len(kinds)))
+        index = {
+            (name, k): pool.submit(dataset, FitJob(spec, splits[k].train))
+            for name, spec in specs.items()
+            for k in kinds
+        }
+        for name in specs:
+            fitted = {k: pool.result(index[name, k], tick) for k in kinds}
+            models = {k: f.decoder for k, f in fitted.items()}
+            for k in kinds:
+                mark(models[k], dataset, splits[k])
+            first, *rest = kinds
+            ev = evaluate_model(
+                models[first],
+                dataset,
+                splits=kinds,
+                companions={k: models[k] for k in rest},
+                floor=(floors or {}).get(name),
+                seed=seed,
+            )
+            seconds = {k: f.seconds for k, f in fitted.items()}
+            yield name, FitResult(models, dict(splits), ev, seconds)
 
 
 def save_models(result: FitResult, path: str | Path) -> dict[str, Path]:
