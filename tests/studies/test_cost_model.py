@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 from spectratac import threads
 from spectratac.studies import cost_model
@@ -53,3 +54,32 @@ def test_makespan_hands_jobs_to_the_first_free_worker() -> None:
     assert cost_model.makespan([10.0, 10.0, 40.0, 40.0], 2) == 50.0
     assert cost_model.makespan([40.0, 10.0, 10.0, 10.0], 2) == 40.0
     assert cost_model.makespan([], 2) == 0.0
+
+
+def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Fault injection on a fake clock: every probe fit costs 10 ms + 10 us per row, and the
+    scheduler stalls one of them for 0.3 s (a busy machine). The per-row rate is multiplied
+    by rows x epochs (~400k in the demo), so the stalled probe alone made a 3-minute demo
+    an estimate of over an hour; the median of the repeats leaves the stall out."""
+    import spectratac.train as train_pkg
+    from spectratac.dataset import Dataset
+    from spectratac.train import TrainSpec
+
+    now = [0.0]
+    stalled = [False]
+
+    def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
+        stall = len(rows) > 64 and not stalled[0]  # the first probe of many rows
+        stalled[0] |= stall
+        now[0] += 0.01 + 1e-5 * len(rows) + (0.3 if stall else 0.0)
+
+    monkeypatch.setattr(train_pkg, "train", fake_train)
+    monkeypatch.setattr(cost_model.time, "perf_counter", lambda: now[0])
+    ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
+    cost = cost_model.TrainingCost.measure(ds, TrainSpec.paper())
+    assert cost.row_epoch_s == pytest.approx(1e-5, rel=1e-6)
+    assert cost.fixed_s == pytest.approx(0.01 + 64e-5, rel=1e-6)
+    # the demo's best fit: 9,600 rows x 40 epochs
+    assert cost.seconds(9600, 40) == pytest.approx(0.01064 + 3.84, rel=1e-3)

@@ -65,6 +65,10 @@ class Estimate:
         }
 
 
+#: Timed calls per training probe; their median is kept (TrainingCost.measure).
+PROBE_REPEATS = 3
+
+
 def _timed(fn: Any, *args: Any, **kwargs: Any) -> tuple[Any, float]:
     t0 = time.perf_counter()
     out = fn(*args, **kwargs)
@@ -119,10 +123,15 @@ class TrainingCost:
         return self.fixed_s + self.row_epoch_s * rows * epochs
 
     @classmethod
-    def measure(cls, dataset: Dataset, spec: Any, batches: int = 2) -> TrainingCost:
+    def measure(
+        cls, dataset: Dataset, spec: Any, batches: int = 4, repeats: int = PROBE_REPEATS
+    ) -> TrainingCost:
         """Train `spec` for one epoch on 64 rows (the fixed cost: planning, features, the
         runtime, an almost empty epoch), then for one epoch on the first `batches` batches of
-        rows (contiguous, so temporal context works as in the real run)."""
+        rows (contiguous, so temporal context works as in the real run); each `repeats`
+        times, keeping the median. Why: the per-row cost is multiplied by rows x epochs
+        (~400k in the demo), so one scheduler stall of 0.1 s in a single 20-ms probe on a
+        busy machine became an estimate of an hour and more for work of three minutes."""
         from spectratac.train import train
 
         # no validation split: 64 probe rows hold too few groups to hold one out, and an
@@ -133,10 +142,15 @@ class TrainingCost:
         train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
         small = np.arange(min(64, dataset.n))
         rows = np.arange(min(batches * int(getattr(spec, "batch_size", 256)), dataset.n))
-        _, fixed = _timed(train, dataset, one, rows=small, progress=False)
-        _, t1 = _timed(train, dataset, one, rows=rows, progress=False)
+        fixed = _median_s(repeats, train, dataset, one, rows=small, progress=False)
+        t1 = _median_s(repeats, train, dataset, one, rows=rows, progress=False)
         per_row = (t1 - fixed) / max(rows.size - small.size, 1)
         return cls(fixed, max(per_row, t1 / rows.size / 10))  # a noisy probe: never ~0
+
+
+def _median_s(repeats: int, fn: Any, *args: Any, **kwargs: Any) -> float:
+    """The median of `repeats` timed calls: a stall in one of them does not count."""
+    return float(np.median([_timed(fn, *args, **kwargs)[1] for _ in range(max(repeats, 1))]))
 
 
 def oracle_rate(dataset: Dataset, rows: int = PROBE_ORACLE_ROWS) -> float:
