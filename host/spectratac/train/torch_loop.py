@@ -314,7 +314,10 @@ class GainJitter:
     def __init__(self, view: Any, rows: NDArray[np.intp]) -> None:
         import torch
 
-        self.parts = [torch.from_numpy(a) for a in view.parts(rows) if a is not None]
+        # float64 once here, not per batch: z() computes in float64, and converting every
+        # batch's slice cost a fresh allocation per step (half the demo's page faults)
+        parts = [a for a in view.parts(rows) if a is not None]
+        self.parts = [torch.from_numpy(np.asarray(a, np.float64)) for a in parts]
         self.has_rat = len(self.parts) == 3
         self.c_lin = torch.from_numpy(np.asarray(view.c_lin, np.float64))
         self.mon = torch.from_numpy(np.asarray(view.mon, np.int64))
