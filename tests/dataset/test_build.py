@@ -314,9 +314,22 @@ def test_sessions_of_different_units_are_flagged(
 
 
 def test_a_truncated_recording_builds_its_prefix(tour_mcap: Path, tmp_path: Path) -> None:
+    """Cut inside the middle one of the chunks that hold frames. (A cut at 2/3 of the file
+    kept every sample when a loaded host let the F/T run on after the optical stream: the
+    file's last third was F/T rows alone.)"""
+    from mcap.reader import make_reader
+    from spectratac.record.format import FRAMES
+
     data = tour_mcap.read_bytes()
+    with open(tour_mcap, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    [frames] = [c.id for c in summary.channels.values() if c.topic == FRAMES]
+    chunks = [c for c in summary.chunk_indexes if frames in c.message_index_offsets]
+    assert len(chunks) >= 4, f"the tour holds its frames in {len(chunks)} chunk(s) only"
+    middle = chunks[len(chunks) // 2]
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(data[: len(data) * 2 // 3])
+    cut.write_bytes(data[: middle.chunk_start_offset + middle.chunk_length // 2])
     with pytest.warns(TruncatedRecordingWarning):
         [ds] = build_datasets([cut])
     with warnings.catch_warnings():
@@ -534,6 +547,55 @@ def test_a_hardware_style_session_over_a_pty(tmp_path: Path) -> None:
     lag = arrival - ds.t_end
     assert np.all(lag > -1e-3), f"windows end {-lag.min() * 1e3:.2f} ms after their frames came"
     assert np.min(lag) < 0.02, f"no frame within 20 ms of its window: {np.min(lag) * 1e3:.1f} ms"
+
+
+@pytest.mark.parametrize("exchanges", [True, False])
+def test_a_session_read_in_one_burst_keeps_the_sensors_pace(
+    tmp_path: Path, exchanges: bool
+) -> None:
+    """Fault injection: a stalled host reads a short session's frames and F/T rows in one
+    burst after the session. Their arrivals alone fit a drift of -1 and put every window on
+    one host instant (test_a_hardware_style_session_over_a_pty failed so beside two busy
+    loops). The declared clock scale holds instead: windows keep the device's pace, end
+    before their frames arrived, and the clock record says why."""
+    from spectratac.sim.synthetic_recording import write_twin_recording
+    from spectratac.twin import builtin_scenes, generate_session
+
+    scene = builtin_scenes.idle(2.0)
+    session = generate_session(scene, seed=5, ft_rate_hz=500)
+    path = write_twin_recording(
+        tmp_path / "burst.mcap", session, scene, "idle", speed=1.0, sync_every_s=0.5
+    )
+    rec = read_recording(path)
+    assert rec.ft is not None and len(rec.time_sync) >= 2
+    burst = float(rec.frame_host_times.max()) + 0.3  # the host wakes 0.3 s late
+    ft = rec.ft.copy()
+    ft["host_time"] = burst
+    # an exchange sent before the stall has its reply read in the burst
+    late = [e | {"host_received": max(e["host_received"], burst)} for e in rec.time_sync]
+    stalled = dataclasses.replace(
+        rec,
+        frame_host_times=np.full_like(rec.frame_host_times, burst),
+        ft=ft,
+        time_sync=late if exchanges else [],
+    )
+    [ds] = session_datasets(stalled)
+    clock = ds.meta["sessions"][0]["clock"]
+    assert "drift_rejected" in clock and clock["drift"] == 0.0, clock
+    device_s = ds.device_time_us / 1e6
+    np.testing.assert_allclose(np.diff(ds.t_end), np.diff(device_s), atol=1e-9)
+    assert np.all(ds.t_end <= burst + 1e-9)  # causal
+    if exchanges:  # NTP-style: off the truth (host = 1000 s + scene time) by at most half
+        # the round trips used (those within 1.5x the shortest)
+        rtt = min(e["host_received"] - e["host_sent"] for e in late)
+        assert np.abs(ds.t_end - (1000.0 + device_s)).max() <= 0.75 * rtt + 1e-3
+    else:  # the envelope: the last frame came promptly
+        assert ds.t_end[-1] == pytest.approx(burst, abs=1e-6)
+    # the F/T's own clock, fitted to its arrivals, is held the same way
+    t_ft, ft_clock = ft_host_times(ft, 1.0)
+    assert "drift_rejected" in ft_clock
+    np.testing.assert_allclose(np.diff(t_ft), np.diff(ft["sensor_time"]), atol=1e-9)
+    assert t_ft[-1] == pytest.approx(burst, abs=1e-6)
 
 
 @pytest.mark.parametrize("stamp_delay_s", [0.0, 0.01])

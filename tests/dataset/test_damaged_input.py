@@ -21,9 +21,15 @@ from spectratac.record.format import FRAMES
 
 
 def damage_a_middle_chunk(src: Path, dst: Path) -> None:
+    """Flip a bit in the middle one of the chunks that hold frames. (The middle chunk of the
+    file held F/T rows alone when a loaded host let the F/T run on after the optical stream.)"""
     data = bytearray(src.read_bytes())
     with open(src, "rb") as f:
-        chunks = make_reader(f).get_summary().chunk_indexes
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    [frames] = [c.id for c in summary.channels.values() if c.topic == FRAMES]
+    chunks = [c for c in summary.chunk_indexes if frames in c.message_index_offsets]
+    assert len(chunks) >= 3, f"{src} holds its frames in {len(chunks)} chunk(s): none between"
     middle = chunks[len(chunks) // 2]
     data[middle.chunk_start_offset + middle.chunk_length // 2] ^= 0x40
     dst.write_bytes(bytes(data))

@@ -97,6 +97,26 @@ def test_exchanges_remove_the_latency_floor_that_arrivals_cannot() -> None:
     assert both <= 1e-3
 
 
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), drift=st.floats(-0.02, 0.02))
+def test_a_known_drift_fits_only_the_offset(seed: int, drift: float) -> None:
+    """drift= (a declared clock): the line keeps that slope and rests on the arrivals'
+    envelope, even when they all came in one burst (where a free fit gives drift -1)."""
+    rng = np.random.default_rng(seed)
+    s = 3.0 + np.arange(0.0, 2.0, 0.05)
+    truth = OFFSET + (1 + drift) * s
+    lat = latency(rng, s.size)
+    model = fit_clock(s, truth + lat, drift=drift)
+    assert model.drift == drift
+    # under every arrival, off the truth by the smallest latency (what arrivals cannot show)
+    np.testing.assert_allclose(model.to_host(s) - truth, lat.min(), atol=1e-9)
+    burst = np.full(s.size, truth[-1] + 0.3)
+    assert fit_clock(s, burst).drift == pytest.approx(-1.0)
+    held = fit_clock(s, burst, drift=drift)
+    assert held.drift == drift and np.all(held.to_host(s) <= burst + 1e-9)
+    assert held.to_host(s[-1]) == pytest.approx(burst[-1], abs=1e-9)
+
+
 def test_early_glitches_are_rejected() -> None:
     rng = np.random.default_rng(1)
     s = np.arange(0.0, 60.0, 0.001)

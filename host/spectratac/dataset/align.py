@@ -5,7 +5,10 @@ and frame arrival times) and the reference F/T's (from its arrival times), with
 `scale` is device seconds per host second, the recorded link's clock scale
 (`spectratac.device.LinkInfo`): 1 for real hardware; a paced simulation's speed, whose device
 and F/T clocks both run on scene time. Dividing by it first leaves fit_clock the small
-offset and drift it is built for.
+offset and drift it is built for. What remains of the drift is a clock's error against its
+declared rate, under 1 % for any oscillator; a fit far beyond that learnt the host's
+scheduling, not the clock (a stalled host that reads a session's samples in one burst fits a
+drift of -1 and puts every window on one instant), so the declared rate is used instead.
 """
 
 from __future__ import annotations
@@ -20,6 +23,9 @@ from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_avera
 
 _WRAP = 1 << 32
 CAUSALITY_TOLERANCE_S = 0.5e-3  # how far before a window's end its frame may seem to arrive
+#: The largest drift against the declared clock scale taken from the arrivals: quartz is off
+#: by ~1e-4, an RC oscillator by ~1e-2, the simulated F/T's ft_drift by at most 1e-2.
+MAX_DRIFT = 0.02
 
 
 @dataclass
@@ -64,25 +70,40 @@ def device_windows(samples: np.ndarray, exchanges: list[dict[str, Any]], scale: 
     start_s = samples["t_start_us"] / 1e6 / scale
     arrival = samples["host_time"]
     sync = sync_exchanges(exchanges, samples["t_end_us"], arrival, scale)
-    model = fit_clock(end_s, arrival, exchanges=sync or None)
-    note: dict[str, Any] = {}
+    model, note = _declared_fit(end_s, arrival, sync)
     if sync:
         early = float(np.quantile(arrival - model.to_host(end_s), 0.01))
         if early < -CAUSALITY_TOLERANCE_S:
-            model = fit_clock(end_s, arrival)
-            note = {
-                "exchanges_rejected": f"windows would end {-early * 1e3:.2f} ms after their "
-                "frames arrived: the device's TIME_SYNC stamps are late"
-            }
+            model, note = _declared_fit(end_s, arrival, [])
+            note["exchanges_rejected"] = (
+                f"windows would end {-early * 1e3:.2f} ms after their frames arrived: the "
+                "device's TIME_SYNC stamps are late"
+            )
     return Windows(model.to_host(start_s), model.to_host(end_s), _describe(model, scale) | note)
 
 
 def ft_host_times(ft: np.ndarray, scale: float) -> tuple[np.ndarray, dict[str, Any]]:
     """F/T sample times on the host clock (FT_RECORD rows; the F/T's own clock fitted to
-    arrival times)."""
+    arrival times, held to the declared rate like the device's)."""
     sensor = ft["sensor_time"] / scale
-    model = fit_clock(sensor, ft["host_time"])
-    return model.to_host(sensor), _describe(model, scale)
+    model, note = _declared_fit(sensor, ft["host_time"], [])
+    return model.to_host(sensor), _describe(model, scale) | note
+
+
+def _declared_fit(
+    sensor: np.ndarray, arrival: np.ndarray, sync: list[TimeSyncExchange]
+) -> tuple[ClockModel, dict[str, Any]]:
+    """fit_clock, unless the drift it fits is beyond any clock's (MAX_DRIFT): then the
+    arrivals came in bursts, not at the sensor's pace, and only the offset is fitted, the
+    drift held at the declared scale's (0 once divided by it). The note says which."""
+    model = fit_clock(sensor, arrival, exchanges=sync or None)
+    if abs(model.drift) <= MAX_DRIFT:
+        return model, {}
+    note = (
+        f"the arrivals fit a drift of {model.drift:+.1%}, beyond any clock's "
+        f"±{MAX_DRIFT:.0%}: they came in bursts (a stalled host); the declared rate is used"
+    )
+    return fit_clock(sensor, arrival, exchanges=sync or None, drift=0.0), {"drift_rejected": note}
 
 
 def ft_targets(

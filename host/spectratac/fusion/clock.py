@@ -105,12 +105,14 @@ def fit_clock(
     *,
     exchanges: Sequence[Exchange] | None = None,
     window: float | None = None,
+    drift: float | None = None,
 ) -> ClockModel:
     """Fit host = offset + (1 + drift) * sensor from arrival times and/or time-sync exchanges.
 
     `sensor_times` (s, device clock) and `host_times` (s, host arrival) pair up sample by
     sample; either may be empty when `exchanges` are given. `window` (sensor seconds) refits
-    on overlapping windows for a piecewise model that follows a changing drift."""
+    on overlapping windows for a piecewise model that follows a changing drift. `drift`:
+    known from elsewhere (a declared clock), so only the offset is fitted, and no windows."""
     s = np.asarray(sensor_times, dtype=np.float64).ravel()
     h = np.asarray(host_times, dtype=np.float64).ravel()
     if s.shape != h.shape:
@@ -128,7 +130,10 @@ def fit_clock(
         return _fit_exchanges_only(*sync)
     s_ref, h_ref = float(s[0]), float(h[0])
     x, y = s - s_ref, (h - h_ref) - (s - s_ref)  # y: departure from slope 1, small numbers
-    slope, intercept = _envelope_line(x, y)
+    if drift is None:
+        slope, intercept = _envelope_line(x, y)
+    else:
+        slope, intercept = drift, _envelope_offset(x, y - drift * x)
     method = "envelope"
     local = None
     if exchanges:
@@ -139,7 +144,7 @@ def fit_clock(
         method = "envelope+exchanges"
     resid = y - (intercept + slope * x)
     model = ClockModel(s_ref, h_ref + intercept, slope, method, _residual_stats(resid))
-    if window is not None and np.ptp(x) > 1.5 * window:
+    if window is not None and drift is None and np.ptp(x) > 1.5 * window:
         model = _piecewise(model, x, y, window, h_ref, local)
     return model
 
@@ -158,6 +163,12 @@ def _envelope_line(x: F64, y: F64) -> tuple[float, float]:
     j = int(np.clip(np.searchsorted(hx, x_mean) - 1, 0, len(hx) - 2))
     slope = float((hy[j + 1] - hy[j]) / (hx[j + 1] - hx[j]))
     return slope, float(hy[j] - slope * hx[j])
+
+
+def _envelope_offset(x: F64, y: F64) -> float:
+    """The intercept of the highest horizontal line under points (x, y), glitches set aside."""
+    bx, by, _ = _bin_minima(x, y)
+    return float(np.min(by[_reject_early(bx, by)]))
 
 
 def _bin_minima(x: F64, y: F64) -> tuple[F64, F64, F64]:
