@@ -3,6 +3,7 @@ that split the CPUs (train/parallel.py), each probed with the threads it will ha
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -65,7 +66,14 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
     an estimate of over an hour; the median of the repeats leaves the stall out."""
     import spectratac.train as train_pkg
     from spectratac.dataset import Dataset
-    from spectratac.train import TrainSpec
+
+    @dataclasses.dataclass(frozen=True)
+    class Spec:  # the fields the probe sets; the fake trainer below reads none of them
+        epochs: int = 30
+        val_fraction: float = 0.1
+        best_val: bool = True
+        uncertainty: bool = True
+        batch_size: int = 256
 
     now = [0.0]
     stalled = [False]
@@ -78,7 +86,7 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
     monkeypatch.setattr(train_pkg, "train", fake_train)
     monkeypatch.setattr(cost_model.time, "perf_counter", lambda: now[0])
     ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
-    cost = cost_model.TrainingCost.measure(ds, TrainSpec.paper())
+    cost = cost_model.TrainingCost.measure(ds, Spec())
     assert cost.row_epoch_s == pytest.approx(1e-5, rel=1e-6)
     assert cost.fixed_s == pytest.approx(0.01 + 64e-5, rel=1e-6)
     # the demo's best fit: 9,600 rows x 40 epochs
