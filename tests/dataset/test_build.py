@@ -32,6 +32,8 @@ from spectratac.record import (
 )
 from spectratac.sim.world import rebuild_scene
 
+from tests.dataset.mcap_chunks import middle_frame_chunk
+
 pytestmark = pytest.mark.subprocess
 
 
@@ -317,19 +319,10 @@ def test_a_truncated_recording_builds_its_prefix(tour_mcap: Path, tmp_path: Path
     """Cut inside the middle one of the chunks that hold frames. (A cut at 2/3 of the file
     kept every sample when a loaded host let the F/T run on after the optical stream: the
     file's last third was F/T rows alone.)"""
-    from mcap.reader import make_reader
-    from spectratac.record.format import FRAMES
-
     data = tour_mcap.read_bytes()
-    with open(tour_mcap, "rb") as f:
-        summary = make_reader(f).get_summary()
-    assert summary is not None
-    [frames] = [c.id for c in summary.channels.values() if c.topic == FRAMES]
-    chunks = [c for c in summary.chunk_indexes if frames in c.message_index_offsets]
-    assert len(chunks) >= 4, f"the tour holds its frames in {len(chunks)} chunk(s) only"
-    middle = chunks[len(chunks) // 2]
+    start, length = middle_frame_chunk(tour_mcap, at_least=4)
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(data[: middle.chunk_start_offset + middle.chunk_length // 2])
+    cut.write_bytes(data[: start + length // 2])
     with pytest.warns(TruncatedRecordingWarning):
         [ds] = build_datasets([cut])
     with warnings.catch_warnings():

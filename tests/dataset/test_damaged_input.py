@@ -13,25 +13,20 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from mcap.reader import make_reader
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.dataset import Dataset, DatasetError
 from spectratac.record.format import FRAMES
+
+from tests.dataset.mcap_chunks import middle_frame_chunk
 
 
 def damage_a_middle_chunk(src: Path, dst: Path) -> None:
     """Flip a bit in the middle one of the chunks that hold frames. (The middle chunk of the
     file held F/T rows alone when a loaded host let the F/T run on after the optical stream.)"""
     data = bytearray(src.read_bytes())
-    with open(src, "rb") as f:
-        summary = make_reader(f).get_summary()
-    assert summary is not None
-    [frames] = [c.id for c in summary.channels.values() if c.topic == FRAMES]
-    chunks = [c for c in summary.chunk_indexes if frames in c.message_index_offsets]
-    assert len(chunks) >= 3, f"{src} holds its frames in {len(chunks)} chunk(s): none between"
-    middle = chunks[len(chunks) // 2]
-    data[middle.chunk_start_offset + middle.chunk_length // 2] ^= 0x40
+    start, length = middle_frame_chunk(src, at_least=3)
+    data[start + length // 2] ^= 0x40
     dst.write_bytes(bytes(data))
 
 

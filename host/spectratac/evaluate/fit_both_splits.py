@@ -85,8 +85,20 @@ def fit_and_evaluate(
         seconds[kind] = time.perf_counter() - t0
         mark(model, dataset, split)
         models[kind], splits[kind] = model, split
+    ev = _evaluate(dataset, models, kinds, floor, seed)
+    return FitResult(models, splits, ev, seconds)
+
+
+def _evaluate(
+    dataset: Dataset,
+    models: Mapping[str, Any],
+    kinds: Sequence[str],
+    floor: Floor | None,
+    seed: int,
+) -> Evaluation:
+    """Score the first kind's model with the others as its companions."""
     first, *rest = kinds
-    ev = evaluate_model(
+    return evaluate_model(
         models[first],
         dataset,
         splits=kinds,
@@ -94,7 +106,6 @@ def fit_and_evaluate(
         floor=floor,
         seed=seed,
     )
-    return FitResult(models, splits, ev, seconds)
 
 
 def fit_and_evaluate_each(
@@ -127,15 +138,7 @@ def fit_and_evaluate_each(
             models = {k: f.decoder for k, f in fitted.items()}
             for k in kinds:
                 mark(models[k], dataset, splits[k])
-            first, *rest = kinds
-            ev = evaluate_model(
-                models[first],
-                dataset,
-                splits=kinds,
-                companions={k: models[k] for k in rest},
-                floor=(floors or {}).get(name),
-                seed=seed,
-            )
+            ev = _evaluate(dataset, models, kinds, (floors or {}).get(name), seed)
             seconds = {k: f.seconds for k, f in fitted.items()}
             yield name, FitResult(models, dict(splits), ev, seconds)
 
