@@ -127,3 +127,28 @@ def test_spectratac_status_bits_mark_rows_ood(twin_ds) -> None:
 def test_ft_names_match_estimates(dec) -> None:
     est = dec.predict_inputs(synthetic(5).inputs)
     assert est.target_names == FT_NAMES
+
+
+def test_threads_decoding_with_one_runtime_keep_their_own_outputs(dec) -> None:
+    """Two streams of one model in two threads (e.g. two joins of a bench, or two sensors):
+    the fused plan's buffers were shared, so one thread's call overwrote the output another
+    thread was still reading (and at load raised 'output array is read-only')."""
+    import pickle
+    import threading
+
+    u = np.clip(synthetic(2, 5).inputs, 0, 65535)
+    expected = [dec.runtime.run(u[i : i + 1])[0] for i in range(2)]
+    outs: dict[int, np.ndarray] = {}
+
+    def decode(i: int) -> None:
+        outs[i] = dec.runtime.run1(u[i])  # not copied: the array the thread's plan returns
+
+    for i in range(2):  # one after the other: no race needed to see the sharing
+        t = threading.Thread(target=decode, args=(i,))
+        t.start()
+        t.join()
+    for i in range(2):
+        np.testing.assert_allclose(outs[i], expected[i], rtol=1e-5, atol=1e-5)
+    # a runtime that has run still pickles (worker processes hand decoders back), plans left out
+    again = pickle.loads(pickle.dumps(dec.runtime))
+    np.testing.assert_allclose(again.run1(u[0]), expected[0], rtol=1e-5, atol=1e-5)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import io
 import json
+import threading
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -64,7 +65,12 @@ class Runtime:
     y_scale: F64  # (R,) zero-anchored target scales
     std_scale: F64  # (R,) post-hoc calibration of the uncertainty head (1 = none)
     dtype: Any = np.float32
-    _plan: Any = field(default=None, repr=False)
+    # fused plans by thread: a plan's buffers are scratch space, so two threads decoding with
+    # one runtime (two streams of one model, a bench's three joins) each need their own; not
+    # an __init__ field, so every `replace` (new weights, dtype, scales) starts without plans
+    _plans: threading.local = field(
+        default_factory=threading.local, init=False, repr=False, compare=False
+    )
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -84,7 +90,19 @@ class Runtime:
         return cls(features, center, scaler, arch, weights, heads, ys, np.ones(heads.n_reg))
 
     def with_dtype(self, dtype: Any) -> Runtime:
-        return replace(self, dtype=dtype, _plan=None)
+        return replace(self, dtype=dtype)
+
+    def set_weights(self, weights: Weights) -> None:
+        """New weights in place (training's last step); plans compiled before are dropped."""
+        self.weights = weights
+        self._plans = threading.local()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without its compiled plans (closures; rebuilt on first use)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_plans"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state, _plans=threading.local())
 
     @property
     def n_inputs(self) -> int:
@@ -110,13 +128,15 @@ class Runtime:
     def run1(self, u: F64) -> F32:
         """Outputs (O,) of one assembled vector through the fused float32 plan.
 
-        The returned array is reused by the next call: copy it to keep it.
+        The returned array is reused by the next call in the same thread: copy it to keep
+        it. Each thread has its own plan, so threads never write into each other's buffers.
         """
-        if self._plan is None:
+        plan = getattr(self._plans, "plan", None)
+        if plan is None:
             from spectratac.decode.fused import compile_single
 
-            self._plan = compile_single(self)
-        return self._plan(u)
+            plan = self._plans.plan = compile_single(self)
+        return plan(u)
 
     # ------------------------------------------------------------------ files
     def header(self) -> dict[str, Any]:

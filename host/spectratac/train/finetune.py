@@ -298,7 +298,7 @@ def finetune(
             fresh = Runtime.create(p.features, rt.arch, rt.weights, rt.heads, u[fit_rows])
             rt = replace(rt, center=fresh.center, scaler=fresh.scaler)
         if predicate is None:
-            return replace(rt, dtype=base.runtime.dtype, _plan=None), [], [], 0
+            return replace(rt, dtype=base.runtime.dtype), [], [], 0
         data = {
             "z": rt.normalised(u),
             "y": np.where(tv[:, None], y_all, 0.0) / rt.y_scale,
@@ -316,7 +316,7 @@ def finetune(
             run_spec, p, data, net_rows, val_rows, progress, start=dict(rt.weights),
             trainable=predicate,
         )  # fmt: skip
-        out = replace(rt, weights=weights, dtype=base.runtime.dtype, _plan=None)
+        out = replace(rt, weights=weights, dtype=base.runtime.dtype)
         return out, hist, val_hist, int(net_rows.size - fit_rows.size)
 
     runs = {("finetuned+refit" if r else "finetuned"): (r, *tuned(r)) for r in refits}
@@ -335,10 +335,10 @@ def finetune(
         kept = min(val_scores, key=lambda k: val_scores[k])  # ties: the first
     if kept == "gain":
         refit, history, val_history, n_augmented = False, [], [], 0
-        out_rt = replace(gain_rt, dtype=base.runtime.dtype, _plan=None)
+        out_rt = replace(gain_rt, dtype=base.runtime.dtype)
     elif kept == "base":
         refit, out_rt, history, val_history, n_augmented = False, base.runtime, [], [], 0
-        out_rt = replace(out_rt, _plan=None)
+        out_rt = replace(out_rt)  # its own runtime, not the base's
     else:
         refit, out_rt, history, val_history, n_augmented = runs[kept]
     y_fit = y_all[fit_rows][tv[fit_rows]]
@@ -405,7 +405,7 @@ def gain_calibrated(rt: Runtime, u: NDArray[np.float64], y: NDArray[np.float64])
     num = np.sum(np.where(ok, pred * y, 0.0), axis=0)
     den = np.sum(np.where(ok, pred * pred, 0.0), axis=0)
     g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
-    return replace(rt, y_scale=rt.y_scale * np.clip(g, *GAIN_RANGE), _plan=None)
+    return replace(rt, y_scale=rt.y_scale * np.clip(g, *GAIN_RANGE))
 
 
 def _scaled_mae(

@@ -103,8 +103,7 @@ def train(
     else:
         ridge = None
         weights, history, val_history = fit_network(spec, p, data, net_rows, val_rows, progress)
-    rt.weights = weights
-    rt._plan = None
+    rt.set_weights(weights)
     if p.heads.uncertainty and val_rows.size:
         rt.std_scale = _calibrate(rt, u[val_rows], y_all[val_rows], tv[val_rows])
     base = p.layout.base

@@ -144,7 +144,7 @@ def as_stored(dec: Decoder, weights: str = "f32") -> Decoder:
     w = dict(dec.runtime.weights)
     for name, _, _ in _layers(dec):
         w[name + ".weight"] = _quantise(w[name + ".weight"], weights)[2]
-    runtime = replace(dec.runtime, weights=w, _plan=None)
+    runtime = replace(dec.runtime, weights=w)
     return replace(dec, runtime=runtime, guard=dec.guard.on_device())
 
 
