@@ -10,5 +10,10 @@ def test_live_bench_json(run_bench) -> None:
     figures = run_bench("live.py", "--seconds", "2", "--warmup", "1")
     p99 = figures["frame arrival -> browser p99"]
     assert p99["unit"] == "ms" and p99["extra"]["estimates_received"] >= 20
-    assert p99["reference_name"].startswith("bare WebSocket echo") and p99["extra"]["echoes"] > 0
+    # the reference: a bare message in each estimate's own WebSocket message, timed one way;
+    # the old echo's half round trip is still reported beside it
+    extra = p99["extra"]
+    assert p99["reference_name"].startswith("bare WebSocket message, one way")
+    assert extra["bare_messages"] == extra["estimates_received"]
+    assert extra["echo_half_rtt_ms"] > 0 and p99["reference_value"] > 0
     assert figures["frame arrival -> browser p50"]["value"] <= p99["value"]
