@@ -117,7 +117,7 @@ def test_live_foxglove_serves_estimates_beside_the_reference(press_model, tmp_pa
     proc = subprocess.Popen(
         [sys.executable, "-m", "spectratac", "live", str(press_model),
          PRESSES_URL + "&speed=4&ft=bota", "--foxglove", "0", "--no-browser", "--json",
-         "--duration", "30", "-o", str(tmp_path)],
+         "--duration", "15", "-o", str(tmp_path)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
     )  # fmt: skip
     try:
@@ -127,7 +127,7 @@ def test_live_foxglove_serves_estimates_beside_the_reference(press_model, tmp_pa
         client = FoxgloveClient(line["foxglove"]).connect(TOPICS)
         client.subscribe(*TOPICS)
         got = []
-        deadline = time.monotonic() + 25
+        deadline = time.monotonic() + 14
         while time.monotonic() < deadline:
             got += client.receive(0.5)
             est = [r.message for r in got if r.topic == "/spectratac/estimates"]
