@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from spectratac import host_clock
 from spectratac.errors import SpectraTacError
 from spectratac.record.schemas import (
     COUNTS,
@@ -69,7 +70,7 @@ class FoxgloveBridge:
         self._server: Any = None
         self._context: Any = None
         self._channels: dict[str, Any] = {}
-        self._offset_ns = time.time_ns() - time.monotonic_ns()  # host monotonic -> Unix
+        self._offset_ns = host_clock.unix_minus_monotonic_ns()  # host monotonic -> Unix
         self.sent = dict.fromkeys(TOPICS, 0)
         # the recording's caps: a stream faster than a real sensor (an accelerated
         # simulation) is thinned rather than starve the session's threads

@@ -25,13 +25,13 @@ from __future__ import annotations
 
 import sqlite3
 import struct
-import time
 from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl
 
 import numpy as np
 
+from spectratac import host_clock
 from spectratac.ft.errors import FTBagError, FTNotFoundError, FTURLError
 from spectratac.ft.options import Options
 from spectratac.ft.records import FT_RECORD, FTInfo
@@ -184,7 +184,7 @@ class RosbagFTSensor(ReplayFTSensor):
             raise FTURLError(f"{url}: rate and speed must be > 0")
         rows, topic, msgtype, nominal = load_wrenches(path, topic)
         # the bag's wall-clock receive times onto this host's monotonic clock
-        unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
+        unix_minus_monotonic_ns = host_clock.unix_minus_monotonic_ns()
         rows["host_time"] -= unix_minus_monotonic_ns / NS_PER_S
         info = FTInfo("rosbag", model=f"ROS 2 bag {msgtype}", serial=str(path))
         info.rate_hz = rate or nominal

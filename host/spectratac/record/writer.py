@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from spectratac import __version__
+from spectratac import __version__, host_clock
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
     FORMAT,
@@ -95,7 +95,7 @@ class RecordingWriter:
         write the decoded channels beside the compact ones (FORMAT.md)."""
         self.path = Path(path)
         if unix_minus_monotonic_ns is None:
-            unix_minus_monotonic_ns = time.time_ns() - time.monotonic_ns()
+            unix_minus_monotonic_ns = host_clock.unix_minus_monotonic_ns()
         self.clock = HostClock(unix_minus_monotonic_ns)
         try:
             self._file: io.BufferedWriter = open(self.path, "wb")  # noqa: SIM115

@@ -25,13 +25,12 @@ from __future__ import annotations
 
 import collections
 import threading
-import time
 from typing import Any
 
 import numpy as np
+from spectratac.host_clock import unix_minus_monotonic_ns
 
 KEEP = 20_000
-_TRIES = 9
 _offset_s: float | None = None
 _offset_lock = threading.Lock()
 
@@ -39,27 +38,13 @@ _offset_lock = threading.Lock()
 def unix_ms(monotonic_s: float) -> float:
     """Host monotonic seconds as Unix ms, the clock the page stamps receipts on. Estimates
     and the reference probe go through this one conversion, so that an error in it is
-    theirs alike; its offset is measured once per process (`measure_unix_minus_monotonic`)."""
+    theirs alike; its offset is read once per process, tightly (`spectratac.host_clock`)."""
     global _offset_s
     with _offset_lock:
         if _offset_s is None:
-            _offset_s = measure_unix_minus_monotonic()
+            _offset_s = unix_minus_monotonic_ns() / 1e9
         offset = _offset_s
     return (monotonic_s + offset) * 1e3
-
-
-def measure_unix_minus_monotonic(tries: int = _TRIES) -> float:
-    """Unix time minus monotonic time (s), read between two monotonic reads and kept from the
-    tightest of `tries` brackets: a thread descheduled between the two clock reads (50 ms
-    at load 20) made a plain ``time.time() - time.monotonic()`` that much off, and every
-    latency with it."""
-    best = (float("inf"), 0.0)
-    for _ in range(tries):
-        t0 = time.monotonic()
-        unix = time.time()
-        t1 = time.monotonic()
-        best = min(best, (t1 - t0, unix - (t0 + t1) / 2))
-    return best[1]
 
 
 class LatencyLog:
