@@ -436,4 +436,3 @@ def test_what_piles_up_in_one_event_loop_turn_goes_in_one_message(served) -> Non
     finally:
         gate.set()
         client.close()
-
