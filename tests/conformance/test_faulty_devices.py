@@ -70,9 +70,11 @@ def failed_with(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Fai
     share their flash, as two opens of one board would."""
     store = tmp_path_factory.mktemp("faulty-flash")
     faults = ["none", *BREAKS]
-    urls = [f"sim://?scene=idle&fault={f}&model_store={store / f}.flash" for f in faults]
-    with ThreadPoolExecutor(len(urls)) as pool:
-        futures = dict(zip(faults, map(lambda url: pool.submit(_failed, url), urls), strict=True))
+    with ThreadPoolExecutor(len(faults)) as pool:
+        futures = {
+            f: pool.submit(_failed, f"sim://?scene=idle&fault={f}&model_store={store / f}.flash")
+            for f in faults
+        }
     return lambda fault: futures[fault].result()  # a run's error is raised in its own test
 
 
