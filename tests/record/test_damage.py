@@ -89,6 +89,28 @@ def test_truncation_is_still_truncation_not_corruption(recording) -> None:
     assert [w.category for w in caught] == [TruncatedRecordingWarning]
 
 
+def records(raw: bytes) -> list[tuple[int, int]]:
+    """(offset, opcode) of every top-level record of an intact MCAP file."""
+    out, pos = [], 8
+    while pos + 9 <= len(raw) - 8:
+        out.append((pos, raw[pos]))
+        pos += 9 + int.from_bytes(raw[pos + 1 : pos + 9], "little")
+    return out
+
+
+def test_a_message_index_hit_in_its_opcode_is_not_read_as_a_frame(recording) -> None:
+    # found by the property below: one bit turned a message index (0x07) into a message
+    # (0x05), whose "data" (the index's time/offset pairs) came back as a 101st frame
+    path, _ = recording
+    indexes = [at for at, op in records(path.read_bytes()) if op == 0x07]
+    assert len(indexes) >= CHUNKS
+    for at in indexes:
+        flip(path, at, 0x02)
+        rec, _ = read(path)
+        assert rec.frames == [frame(i) for i in range(CHUNKS * PER_CHUNK)], at
+        flip(path, at, 0x02)  # mended for the next
+
+
 @settings(
     max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )

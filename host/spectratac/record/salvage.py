@@ -104,6 +104,7 @@ def salvage(buf: bytes | memoryview, skip_topics: frozenset[str] = frozenset()) 
         out.truncated, out.problem = True, "not an MCAP file (no MCAP magic at its start)"
         return out
     pos, counting, stats = 8, False, None
+    in_indexes = False  # after a chunk, where only its message indexes may stand
     while pos < n:
         if n - pos < 9:
             out.problem = "the file ends inside a record header"
@@ -125,8 +126,12 @@ def salvage(buf: bytes | memoryview, skip_topics: frozenset[str] = frozenset()) 
             continue
         try:
             stream = ReadDataStream(io.BytesIO(buf[pos + 9 : end]))
-            if op == Opcode.MESSAGE:  # outside chunks (files from other writers)
-                record: McapRecord | None = Message.read(stream, length)
+            if op == Opcode.MESSAGE and in_indexes:
+                # a message index whose opcode was hit (0x07 ^ 0x02 = 0x05): its entries
+                # would read as a message of the indexed channel; ignored like any index
+                record: McapRecord | None = None
+            elif op == Opcode.MESSAGE:  # outside chunks (files from other writers)
+                record = Message.read(stream, length)
             elif op == Opcode.MESSAGE_INDEX and not counting:
                 record = None  # only a damaged chunk's indexes are read (the costly part)
             else:
@@ -134,6 +139,9 @@ def salvage(buf: bytes | memoryview, skip_topics: frozenset[str] = frozenset()) 
         except (KeyError, *READ_ERRORS):  # a record this reader has no use for, or damaged
             record = None
         pos = end
+        in_indexes = op in (Opcode.CHUNK, Opcode.MESSAGE_INDEX) or (
+            in_indexes and op == Opcode.MESSAGE
+        )
         if isinstance(record, Footer):
             out.finished = bytes(buf[end : end + 8]) == MAGIC
             break  # only the closing magic follows
