@@ -36,9 +36,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import re
 from dataclasses import replace
-from pathlib import Path
 from typing import Any, TypeVar
 
 import crcmod.predefined
@@ -426,10 +424,3 @@ def describe(image: bytes) -> dict[str, Any]:
         "n_outputs": f["n_outputs"],
         "sections": sections,
     }
-
-
-def header_limits(path: str | Path) -> dict[str, int]:
-    """The STAC_MODEL_* limits #defined in a C header (stac_model_image.h; numbers only)."""
-    text = Path(path).read_text(encoding="utf-8")
-    found = re.findall(r"#define STAC_MODEL_(\w+) (\d+)u", text)
-    return {k: int(v) for k, v in found if k in LIMITS}
