@@ -183,12 +183,6 @@ class Decoder:
         est.no_rest = valid[sel] & ~seen[sel]
         return est
 
-    def predict_assembled(self, u: Any, status: Any = None) -> Estimates:
-        """Estimates for assembled vectors (N, D) (the exports' input)."""
-        u = np.atleast_2d(np.asarray(u, dtype=np.float64))
-        valid = np.all(np.isfinite(u), axis=1)
-        return self._estimates(u, valid, status)
-
     def _estimates(self, u: F64, valid: NDArray[np.bool_], status: Any) -> Estimates:
         n = u.shape[0]
         heads = self.heads
