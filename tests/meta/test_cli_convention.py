@@ -267,7 +267,7 @@ REMOVED = [
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize(("argv", "spelling"), REMOVED, ids=lambda v: " ".join(v))
+@pytest.mark.parametrize(("argv", "spelling"), REMOVED, ids=[" ".join(a) for a, _ in REMOVED])
 def test_removed_spellings_are_usage_errors(
     argv: list[str], spelling: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
