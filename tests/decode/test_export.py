@@ -128,30 +128,40 @@ def run_c(
 
 @pytest.mark.parametrize("name", list(VARIANTS))
 def test_c_header_compiles_and_matches(decoders, twin_ds, tmp_path, name) -> None:
+    """The header's outputs and flags on assembled vectors (its input) are the decoder's on
+    the raw rows they come from: 100 of a session, then a saturated sample, one far beyond
+    the training range and an invalid one."""
+    from spectratac.decode.assemble import assemble
+
     dec = decoders[name]
     header = dec.export("c", tmp_path / "stac_decoder.h")
-    u = assembled(dec, twin_ds, 100)
-    bad = u[:3].copy()
-    bad[0, 1] = np.nan  # invalid
-    bad[1, 0] = 65535.0  # saturated: out of distribution
-    bad[2, :] *= 3.0  # far beyond the training range
-    rows = np.concatenate([u, bad])
-    ref = reference(dec, u)
-    est = dec.predict_assembled(rows)
+    step, x = session_rows(twin_ds, faults=False)
+    bad = np.stack([x[-1], x[-1] * 3.0, x[-1]])  # times 3: far beyond the training range
+    bad[0, 0] = 65535.0  # saturated: out of distribution
+    bad[2, 1] = np.nan  # invalid
+    n = len(x)
+    x, step = np.concatenate([x, bad]), np.concatenate([step, np.repeat(step[-1:], 3)])
+    u, valid = assemble(dec.layout, x, step)
+    keep = np.concatenate([np.flatnonzero(valid[:n])[:100], np.arange(n, n + 3)])
+    rows = u[keep]
+    ref = reference(dec, rows[:100])
+    est = dec.predict_inputs(x, step)  # the decoder itself, from the raw rows
     for real, sanitize in (("float", True), ("double", False)):
         got = run_c(header, rows, real, sanitize, tmp_path)
         flags = got[:, 0].astype(int)
         np.testing.assert_allclose(got[:100, 1:], ref, **TOL)
-        assert flags[100] == 1 and (flags[101] & 2) and (flags[102] & 2)
-        np.testing.assert_array_equal((flags & 2) > 0, est.ood)
+        assert (flags[100] & 2) and (flags[101] & 2) and flags[102] == 1
+        np.testing.assert_array_equal((flags & 2) > 0, est.ood[keep])
 
 
-def session_rows(ds) -> tuple[np.ndarray, np.ndarray]:
+def session_rows(ds, faults: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Steps and inputs of the first session in time order, with faults the live path must
     survive without losing its state: a NaN sample, an unknown LED step, an infinite count."""
     rows = np.flatnonzero(ds.session == ds.session[0])
     rows = rows[np.argsort(ds.t_end[rows], kind="stable")]
     step, x = ds.step[rows].astype(np.int64), ds.inputs[rows].astype(np.float64)
+    if not faults:
+        return step, x
     for at, bad_step, bad in ((5, None, np.nan), (200, 7, None), (900, None, np.inf)):
         xb = x[at].copy()
         if bad is not None:
@@ -191,14 +201,14 @@ def test_c_live_assembly_matches_python(
     header = dec.export("c", tmp_path / "stac_decoder.h")
     step, x = session_rows(ds)
     u, valid = assemble(dec.layout, x, step)
-    est = dec.predict_assembled(u[valid])
+    est = dec.predict_inputs(x, step)  # the decoder itself, from the raw rows
     rows = np.column_stack([step, x])
     for real, sanitize in (("float", True), ("double", False)):
         got = run_c(header, rows, real, sanitize, tmp_path, STREAM_HARNESS)
         flags = got[:, 0].astype(int)
         assert (flags[~valid] == 1).all() and (flags[valid] & 1 == 0).all()
         np.testing.assert_allclose(got[valid, 1:], reference(dec, u[valid]), **STREAM_TOL[real])
-        np.testing.assert_array_equal((flags[valid] & 2) > 0, est.ood)
+        np.testing.assert_array_equal((flags[valid] & 2) > 0, est.ood[valid])
     assert (~valid).sum() == 3 + dec.layout.steps - 1  # the faults and the first steps
 
 

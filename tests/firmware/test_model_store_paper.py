@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.decode import Decoder
-from spectratac.decode.assemble import Assembler
 from spectratac.decode.estimates import FORCE, TORQUE
 from spectratac.decode.export import model_image as mi
 from spectratac.device import Sensor
@@ -50,14 +49,12 @@ def paper() -> Decoder:
 
 
 def python_estimates(dec: Decoder, samples: list[m.Sample]):
-    """The Python decoder's live path (Assembler, then the decoder) over the SAMPLEs."""
+    """The Python decoder over the SAMPLEs (its batch assembly gives what the live path's
+    Assembler gives sample by sample)."""
     counts = np.array([s.counts for s in samples], np.float64)[:, :, :4].reshape(-1, 12)
     status = np.array([s.sensor_status for s in samples], np.uint8)
-    asm = Assembler(dec.layout)
-    u = np.full((len(samples), dec.layout.size), np.nan)
-    for i, s in enumerate(samples):
-        u[i] = asm.push(int(s.led_step), counts[i])[0]  # a view the next push overwrites
-    return dec.predict_assembled(u, status=status)
+    step = np.array([s.led_step for s in samples], np.int64)
+    return dec.predict_inputs(counts, step, status=status)
 
 
 def test_paper_float32_model_uploads_survives_and_decodes(tmp_path: Path, paper) -> None:

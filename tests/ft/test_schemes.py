@@ -3,6 +3,8 @@ points (the simulator's sim://) or run-time registration; an unknown scheme is F
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from importlib.metadata import entry_points
 from typing import Any
 
@@ -22,6 +24,22 @@ def test_an_unknown_scheme_names_the_known_ones() -> None:
         FTSensor.open("nosuch://x")
     with pytest.raises(FTURLError, match="not an F/T URL"):
         FTSensor.open("no scheme at all")
+
+
+@pytest.mark.subprocess
+def test_the_base_class_dispatches_whatever_module_is_imported_first() -> None:
+    """FTSensor.open dispatches through the registry that spectratac.ft.open registers (the
+    base class never imports it): importing the base module alone, in a fresh process,
+    already brings the registry, because a package's __init__ runs before its modules."""
+    code = (
+        "from spectratac.ft.base import FTSensor\n"
+        "try:\n"
+        "    FTSensor.open('nosuch://x')\n"
+        "except Exception as exc:\n"
+        "    print(type(exc).__name__)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "FTURLError", out.stderr
 
 
 def test_a_scheme_registered_at_run_time_opens_its_urls(tmp_path: Any) -> None:

@@ -1,8 +1,8 @@
 """Every verb follows one command-line convention, checked on the argparse tree itself so that a
 new verb cannot drift: -o/--output for what it writes, --force wherever it could overwrite
 something (refused with exit code 3 otherwise), one spelling per setting across verbs,
-URL + --timeout wherever a device is opened, exit codes from ExitCode, and old spellings that
-still work (hidden, with a warning)."""
+URL + --timeout wherever a device is opened, exit codes from ExitCode, and one spelling per
+option, the one --help shows (no hidden options, no old spellings, no prefixes)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from spectratac.cli import build_parser, main
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import ROW_FORMATS, RenamedOption
+from spectratac.cli.options import ROW_FORMATS
 
 CLI = Path(__file__).resolve().parents[2] / "host" / "spectratac" / "cli"
 # Spellings that name an output path in other tools; here it is always -o/--output.
@@ -34,8 +34,21 @@ WRITING_VERBS = {
     "evaluate": (["evaluate", "missing.stac", "missing.npz", "-o", "{out}"], "folder"),
     "twin generate": (["twin", "generate", "--scene", "idle", "-o", "{out}"], "x.npz"),
     "twin population": (
-        ["twin", "population", "--units", "0", "--sessions", "1", "--duration", "5",
-         "--scene", "idle", "--no-progress", "-o", "{out}"],
+        [
+            "twin",
+            "population",
+            "--units",
+            "0",
+            "--sessions",
+            "1",
+            "--duration",
+            "5",
+            "--scene",
+            "idle",
+            "--no-progress",
+            "-o",
+            "{out}",
+        ],
         "x.npz",
     ),
     "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
@@ -61,11 +74,22 @@ VERBS = dict(leaves(build_parser()))
 
 
 def visible(actions: list) -> list[argparse.Action]:
-    return [
-        a
-        for a in actions
-        if not isinstance(a, (RenamedOption, argparse._HelpAction, argparse._VersionAction))
-    ]
+    shown_always = (argparse._HelpAction, argparse._VersionAction)
+    return [a for a in actions if not isinstance(a, shown_always)]
+
+
+def parsers(
+    parser: argparse.ArgumentParser, path: str = "spectratac"
+) -> Iterator[tuple[str, argparse.ArgumentParser]]:
+    """(prog, parser) of the whole tree: the top, every verb and every sub-verb."""
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, child in action.choices.items():
+                yield from parsers(child, f"{path} {name}")
+
+
+PARSERS = dict(parsers(build_parser()))
 
 
 def test_the_tree_has_every_documented_verb() -> None:
@@ -141,15 +165,44 @@ def test_one_spelling_per_setting_across_verbs() -> None:
 
 
 @pytest.mark.parametrize("verb", sorted(VERBS))
-def test_row_formats_and_old_spellings_are_alike(verb: str) -> None:
-    actions = VERBS[verb]
-    for action in visible(actions):
+def test_row_formats_are_alike(verb: str) -> None:
+    for action in visible(VERBS[verb]):
         if action.dest == "format":
             assert tuple(action.choices) == ROW_FORMATS and action.default == "table"
-    shown = {a.dest for a in visible(actions)}
-    for action in actions:
-        if isinstance(action, RenamedOption):
-            assert action.help == argparse.SUPPRESS and action.dest in shown, verb
+
+
+@pytest.mark.parametrize("prog", sorted(PARSERS))
+def test_every_option_has_one_long_spelling_shown_by_help(prog: str) -> None:
+    """Every parser of the tree, sub-verbs included: each option has exactly one --long
+    spelling (a -x short form beside it is fine), nothing is hidden from --help, and no
+    prefix of a spelling is accepted as another name for it."""
+    parser = PARSERS[prog]
+    text = parser.format_help()
+    assert not parser.allow_abbrev, f"{prog}: a prefix (--out for --output) is a second name"
+    for action in parser._actions:
+        assert action.help is not argparse.SUPPRESS, (prog, action.option_strings or action.dest)
+        if not action.option_strings:
+            continue
+        longs = [o for o in action.option_strings if o.startswith("--")]
+        shorts = [o for o in action.option_strings if not o.startswith("--")]
+        assert len(longs) == 1 and len(shorts) <= 1, (prog, action.option_strings)
+        assert longs[0] in text, f"{prog} --help does not show {longs[0]}"
+
+
+def test_the_spelling_check_sees_hidden_and_second_spellings() -> None:
+    """The check above on a parser that breaks it in each way: it fails."""
+    for add in (
+        lambda p: p.add_argument("--seconds", dest="duration", help=argparse.SUPPRESS),
+        lambda p: p.add_argument("--duration", "--seconds", help="two names"),
+    ):
+        parser = argparse.ArgumentParser(prog="spectratac x", allow_abbrev=False)
+        add(parser)
+        PARSERS["spectratac x"] = parser
+        try:
+            with pytest.raises(AssertionError):
+                test_every_option_has_one_long_spelling_shown_by_help("spectratac x")
+        finally:
+            del PARSERS["spectratac x"]
 
 
 def is_number(node: ast.expr | None) -> bool:
@@ -196,45 +249,41 @@ def test_a_missing_device_exits_3_in_every_verb(
     assert "/dev/ttyNOPE" in err and not (tmp_path / "never.mcap").exists()
 
 
-RENAMED = [
-    # (old argv, new argv, dest)
-    (["train", "d.npz", "--out", "m.stac"], ["train", "d.npz", "-o", "m.stac"], "output"),
-    (["evaluate", "m", "d", "--report", "r"], ["evaluate", "m", "d", "-o", "r"], "output"),
-    (["demo", "--out", "x"], ["demo", "-o", "x"], "output"),
-    (["demo", "--scene-seconds", "60"], ["demo", "--duration", "60"], "duration"),
-    (["demo", "--live", "--seconds", "3"], ["demo", "--live", "--duration", "3"], "duration"),
-    (["decode", "m", "sim://", "--seconds", "2"], ["decode", "m", "sim://", "--duration", "2"],
-     "duration"),
-    (["record", "sim://", "-o", "s", "--samples", "9"], ["record", "sim://", "-o", "s",
-     "--count", "9"], "count"),
-    (["ft", "info", "csv://f", "--samples", "9"], ["ft", "info", "csv://f", "--count", "9"],
-     "count"),
-    (["twin", "generate", "s.npz"], ["twin", "generate", "-o", "s.npz"], "output"),
-    (["twin", "generate", "-o", "s", "--dg", "2"], ["twin", "generate", "-o", "s",
-     "--digital-gain", "2"], "digital_gain"),
-    (["twin", "generate", "-o", "s", "--sens-low"], ["twin", "generate", "-o", "s",
-     "--sensitivity", "low"], "sensitivity"),
+REMOVED = [
+    # (argv with a spelling that is gone, the spelling): the options that replaced them are
+    # -o/--output, --duration, --count, --digital-gain and --sensitivity low
+    (["train", "d.npz", "-o", "m.stac", "--out", "m.stac"], "--out"),
+    (["evaluate", "m", "d", "-o", "r", "--report", "r"], "--report"),
+    (["demo", "--out", "x"], "--out"),
+    (["demo", "--scene-seconds", "60"], "--scene-seconds"),
+    (["demo", "--live", "--seconds", "3"], "--seconds"),
+    (["decode", "m", "sim://", "--seconds", "2"], "--seconds"),
+    (["record", "sim://", "-o", "s", "--samples", "9"], "--samples"),
+    (["ft", "info", "csv://f", "--samples", "9"], "--samples"),
+    (["twin", "generate", "s.npz"], "s.npz"),
+    (["twin", "generate", "-o", "s", "--dg", "2"], "--dg"),
+    (["twin", "generate", "-o", "s", "--sens-low"], "--sens-low"),
+    (["record", "sim://", "-o", "s", "--dur", "9"], "--dur"),  # a prefix is no spelling
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize(("old", "new", "dest"), RENAMED, ids=lambda v: " ".join(v))
-def test_old_spellings_still_work_with_a_warning(
-    old: list[str], new: list[str], dest: str, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(("argv", "spelling"), REMOVED, ids=[" ".join(a) for a, _ in REMOVED])
+def test_removed_spellings_are_usage_errors(
+    argv: list[str], spelling: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    parsed_new = build_parser().parse_args(new)
-    assert "deprecated" not in capsys.readouterr().err
-    parsed_old = build_parser().parse_args(old)
-    assert vars(parsed_old) == vars(parsed_new)
-    assert getattr(parsed_old, dest) not in (None, "high", 1)  # the old spelling took effect
-    warning = capsys.readouterr().err.strip().splitlines()
-    assert len(warning) == 1 and "is deprecated; use" in warning[0], warning
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args(argv)
+    assert exit_.value.code == ExitCode.USAGE
+    assert f"unrecognized arguments: {spelling}" in capsys.readouterr().err
 
 
-def test_required_output_given_by_neither_spelling_is_a_usage_error(
+def test_a_required_output_left_out_is_a_usage_error(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    without_output = ["train", "d.npz"]  # stops at the usage check: nothing trains
-    assert main(without_output) == ExitCode.USAGE
+    for argv in (["train", "d.npz"], ["evaluate", "m.stac", "d.npz"]):
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)  # stops at the usage check: nothing trains or evaluates
+        assert exit_.value.code == ExitCode.USAGE
+        assert "required: -o/--output" in capsys.readouterr().err
+    assert main(["twin", "generate", "--scene", "idle"]) == ExitCode.USAGE  # --list needs none
     assert "required: -o/--output" in capsys.readouterr().err
-    assert main(["evaluate", "m.stac", "d.npz"]) == ExitCode.USAGE
-    assert main(["twin", "generate", "--scene", "idle"]) == ExitCode.USAGE

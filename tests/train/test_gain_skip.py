@@ -16,7 +16,7 @@ from spectratac.decode.networks import SKIP, init_weights
 from spectratac.decode.runtime import Runtime
 from spectratac.train import TrainSpec, train
 from spectratac.train.gain import GainView
-from spectratac.train.torch_loop import gain_jittered
+from spectratac.train.torch_loop import GainJitter
 
 from tests.decode.conftest import synthetic
 
@@ -54,6 +54,8 @@ def test_a_jittered_batch_is_the_rows_under_one_gain_each(g: float, seed: int) -
     """The loop's features of a jittered batch are exactly those of u[rows] x one factor per
     row in [1 - g, 1 + g] (sample, lags, averages and baseline alike), through the paper's
     features with the drift baseline's ratios and a polynomial's monomials."""
+    import torch
+
     rng = np.random.default_rng(seed)
     for features, degree in (("paper33", 1), ("generic", 2)):
         lay = Layout(SPECTRATAC_INPUTS, lags=(1,), drift=True)
@@ -63,8 +65,9 @@ def test_a_jittered_batch_is_the_rows_under_one_gain_each(g: float, seed: int) -
         w = init_weights(arch, fs.n_features, 3, rng)
         rt = Runtime.create(fs, arch, w, Heads(("Fx", "Fy", "Fz")), u)
         rows = np.array([8, 0, 3, 3])
-        data = {"gain": GainView(rt.with_dtype(np.float64), u)}
-        z = gain_jittered(data, rows, g, np.random.default_rng(seed)).numpy()
+        jitter = GainJitter(GainView(rt.with_dtype(np.float64), u), rows)  # as the loop does
+        factors = GainJitter.factors(rows.size, g, np.random.default_rng(seed))
+        z = jitter.z(jitter.take(torch.arange(rows.size)), factors).numpy()
         factor = np.random.default_rng(seed).uniform(1 - g, 1 + g, (rows.size, 1))
         assert np.all((factor >= 1 - g) & (factor <= 1 + g))
         want = rt.with_dtype(np.float64).normalised(u[rows] * factor)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spectratac.twin import builtin_scenes
+from spectratac.twin import builtin_scenes, optics
 from spectratac.twin.electronics import AF, SD_ALS, TRIG, SensorConfig
 from spectratac.twin.rig import PLAN_MAX, TwinRig, _Normals
 
@@ -56,13 +56,24 @@ def test_lookahead_counts_equal_window_by_window_counts() -> None:
     assert plain[:, 0].min() > 0 and len(np.unique(plain[:, 1])) > 100  # real, varying data
 
 
-def test_repeated_reads_of_one_window_share_optics_but_not_noise() -> None:
+def test_repeated_reads_of_one_window_share_optics_but_not_noise(monkeypatch) -> None:
+    """The three sensors of a window (triggered together) and repeated reads of it share one
+    evaluation of the optics, so one draw of LED flicker; shot and read noise are fresh."""
+    evaluations = []
+    led_intensity = optics.led_intensity
+
+    def counted(*args, **kwargs):
+        evaluations.append(args)
+        return led_intensity(*args, **kwargs)
+
     rig = TwinRig(builtin_scenes.idle(5.0), seed=2)
     rig.set_led_duties(0, np.full((3, 3), 0.25))
-    first = rig.window_rates(0, 50_000)
-    reads = [rig.read_window(0, 0, 50_000, SensorConfig())[0] for _ in range(5)]
-    assert rig.window_rates(0, 50_000) is first  # one evaluation, one flicker draw
-    assert len({r.tobytes() for r in reads}) == 5  # fresh shot/read noise every read
+    monkeypatch.setattr(optics, "led_intensity", counted)
+    reads = [rig.read_window(k % 3, 0, 50_000, SensorConfig())[0] for k in range(15)]
+    assert len(evaluations) == 1  # one evaluation, one flicker draw
+    assert len({r.tobytes() for r in reads[::3]}) == 5  # fresh shot/read noise every read
+    rig.read_window(0, 50_000, 100_000, SensorConfig())
+    assert len(evaluations) == 2  # the spy sees every evaluation: the next window is one
 
 
 def test_plans_stop_at_their_maximum_and_restart_short_after_a_miss() -> None:

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 from spectratac import __version__, threads
 from spectratac.cli.exit_codes import ExitCode, exit_code_for
-from spectratac.cli.options import require, show_defaults
+from spectratac.cli.options import show_defaults
 from spectratac.errors import SpectraTacError
 
 # Verb modules under spectratac.cli, in the order they appear in --help.
@@ -52,7 +52,18 @@ def build_parser() -> argparse.ArgumentParser:
     for name in VERB_MODULES:
         importlib.import_module(f"spectratac.cli.{name}").register(subparsers)
     show_defaults(parser)
+    _full_spellings_only(parser)
     return parser
+
+
+def _full_spellings_only(parser: argparse.ArgumentParser) -> None:
+    """Turn off argparse's prefix matching in `parser` and its sub-verbs: an option has the
+    one spelling --help shows (a prefix such as --out would be a second name of --output)."""
+    parser.allow_abbrev = False
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _full_spellings_only(child)
 
 
 def _one_line(message: Warning | str, category: type[Warning], *_: object, **__: object) -> None:
@@ -81,7 +92,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return ExitCode.USAGE
     try:
-        require(args)
         with warnings.catch_warnings():
             warnings.showwarning = _one_line  # a SpectraTac warning says what to do: no file:line
             return int(args.func(args))

@@ -30,7 +30,6 @@ from spectratac.cli.options import (
     add_decoding_checks,
     add_device_url,
     add_duration,
-    add_renamed,
     add_row_format,
     load_decoder,
 )
@@ -54,7 +53,6 @@ def register(subparsers: Any) -> None:
     add_device_url(p)
     add_count(p, 0, "estimates to print (0: no limit)")
     add_duration(p, 0.0, "stop after S seconds of the sensor's clock (0: never)")
-    add_renamed(p, "--seconds", "duration", "--duration", type=float)
     add_row_format(p)
     add_decoding_checks(p)
     p.set_defaults(func=run)

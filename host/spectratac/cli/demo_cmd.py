@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_duration, add_output, add_renamed, refuse_overwrite
+from spectratac.cli.options import add_duration, add_output, refuse_overwrite
 from spectratac.cli.output import Table
 
 
@@ -23,12 +23,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "demo", help="record, build, train and evaluate on the simulated sensor (or --live)"
     )
-    add_output(
-        p, type=Path, default=Path("demo-output"), help="output folder", renamed_from=("--out",)
-    )
+    add_output(p, type=Path, default=Path("demo-output"), help="output folder")
     add_duration(p, None, "scene length (default 600: the calibration; --live: 10)")
-    add_renamed(p, "--scene-seconds", "duration", "--duration", type=float)
-    add_renamed(p, "--seconds", "duration", "--duration", type=float)
     p.add_argument("--speed", default=None, help="time scale (default 60; --live: 1 or 'max')")
     p.add_argument("--epochs", type=int, default=40, help="training epochs per decoder")
     p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")

@@ -33,7 +33,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("model", help="decoder file (.stac)")
     p.add_argument("data", help="dataset .npz, or CSV / column .npz (as train reads them)")
-    add_output(p, required=True, help="folder for the report", renamed_from=("--report",))
+    add_output(p, required=True, help="folder for the report")
     p.add_argument(
         "--split",
         choices=("random", "blocked", "both"),

@@ -19,7 +19,6 @@ from spectratac.cli.options import (
     add_count,
     add_device_url,
     add_duration,
-    add_renamed,
     add_row_format,
     stop_count,
 )
@@ -40,7 +39,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info = verbs.add_parser("info", help="identity, scaling and rate of an F/T sensor")
     add_device_url(info, URL_HELP)
     add_count(info, 200, "records to read for a check (0: none)")
-    add_renamed(info, "--samples", "count", "--count", type=int)
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     stream = verbs.add_parser("stream", help="print F/T records")

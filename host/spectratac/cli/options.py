@@ -1,12 +1,11 @@
 """The options several verbs share, spelled once: a device URL with its --timeout, the output
-path (-o/--output) with its --force, the row formats of the streaming verbs, and old spellings
-of renamed options (hidden, still accepted for one release, with a warning on stderr).
+path (-o/--output) with its --force, and the row formats of the streaming verbs.
 
 A verb never overwrites what a user may care about: an existing output file, or an output
 folder that already holds files, is refused (OutputExistsError, exit code 3) unless --force.
 
 >>> p = argparse.ArgumentParser(prog="spectratac x")
->>> add_output(p, help="file to write", renamed_from=("--out",))
+>>> add_output(p, help="file to write")
 >>> p.parse_args(["-o", "a.npz"]).output
 'a.npz'
 """
@@ -25,49 +24,6 @@ from spectratac.errors import SpectraTacError
 DEVICE_URL_HELP = "serial port, socket://host:port, rfc2217://…, or sim://…"
 DEFAULT_TIMEOUT_S = 2.0
 ROW_FORMATS = ("table", "csv", "jsonl")
-# Parser default naming the options that must be given (by either spelling); see require().
-REQUIRED_KEY = "required_options"
-
-
-class RenamedOption(argparse.Action):
-    """The old spelling of a renamed option: hidden from --help, stores into the new one's
-    dest and says on stderr which spelling to use instead."""
-
-    def __init__(
-        self,
-        option_strings: Sequence[str],
-        dest: str,
-        *,
-        replacement: str,
-        nargs: Any = None,
-        const: Any = None,
-        **kwargs: Any,
-    ) -> None:
-        kwargs.setdefault("default", argparse.SUPPRESS)  # the new spelling sets the default
-        super().__init__(option_strings, dest, nargs=nargs, const=const, **kwargs)
-        self.help = argparse.SUPPRESS
-        self.replacement = replacement
-
-    def __call__(
-        self,
-        parser: argparse.ArgumentParser,
-        namespace: argparse.Namespace,
-        values: Any,
-        option_string: str | None = None,
-    ) -> None:
-        old = option_string or f"the positional {self.metavar or self.dest}"
-        print(
-            f"{parser.prog}: warning: {old} is deprecated; use {self.replacement}",
-            file=sys.stderr,
-        )
-        setattr(namespace, self.dest, self.const if self.nargs == 0 else values)
-
-
-def add_renamed(
-    parser: argparse._ActionsContainer, old: str, dest: str, replacement: str, **kwargs: Any
-) -> None:
-    """Keep `old` working as a hidden alias of the option now spelled `replacement`."""
-    parser.add_argument(old, dest=dest, action=RenamedOption, replacement=replacement, **kwargs)
 
 
 def add_output(
@@ -77,24 +33,12 @@ def add_output(
     required: bool = False,
     default: Any = None,
     type: Any = None,
-    renamed_from: Sequence[str] = (),
 ) -> None:
     """-o/--output: where a verb writes its file or folder (the one spelling for every verb),
-    and --force to overwrite it (check with refuse_overwrite before writing anything).
-    Old spellings in `renamed_from` stay accepted; `required` is then checked by require()."""
+    and --force to overwrite it (check with refuse_overwrite before writing anything)."""
     parser.add_argument(
-        "-o",
-        "--output",
-        required=required and not renamed_from,
-        default=default,
-        type=type,
-        metavar="PATH",
-        help=help,
+        "-o", "--output", required=required, default=default, type=type, metavar="PATH", help=help
     )
-    for old in renamed_from:
-        add_renamed(parser, old, "output", "-o/--output", type=type)
-    if required and renamed_from:
-        parser.set_defaults(**{REQUIRED_KEY: {"output": "-o/--output"}})
     add_force(parser)
 
 
@@ -151,13 +95,6 @@ def npz_name(path: Path | str) -> Path:
     the name ends in it."""
     path = Path(path)
     return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
-
-
-def require(args: argparse.Namespace) -> None:
-    """Raise UsageError for a required option given by neither its new nor its old name."""
-    for dest, spelling in getattr(args, REQUIRED_KEY, {}).items():
-        if getattr(args, dest, None) is None:
-            raise UsageError(f"the following arguments are required: {spelling}")
 
 
 def add_device_url(
@@ -258,7 +195,7 @@ def stop_count(count: int | None, duration: float | None, default: int = 20) -> 
     return count
 
 
-#: Actions whose default says nothing a user chooses (flags, help, sub-verbs, old spellings).
+#: Actions whose default says nothing a user chooses (flags, help, sub-verbs).
 _NO_DEFAULT_SHOWN = (
     argparse._StoreTrueAction,
     argparse._StoreFalseAction,
@@ -266,7 +203,6 @@ _NO_DEFAULT_SHOWN = (
     argparse._HelpAction,
     argparse._VersionAction,
     argparse._SubParsersAction,
-    RenamedOption,
 )
 
 

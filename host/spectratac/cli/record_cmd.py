@@ -18,7 +18,6 @@ from spectratac.cli.options import (
     add_device_url,
     add_duration,
     add_output,
-    add_renamed,
     refuse_overwrite,
 )
 from spectratac.errors import SpectraTacError
@@ -55,7 +54,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "wall seconds)",
     )
     add_count(until, None, "stop after N optical samples")
-    add_renamed(until, "--samples", "count", "--count", type=int)
     p.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     p.add_argument("--gain", type=float, default=1.0, choices=sorted(GAINS))
     p.add_argument("--sensitivity", default="high", choices=("high", "low"))

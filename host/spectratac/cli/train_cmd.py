@@ -85,7 +85,7 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser("train", help="train a decoder: dataset files -> model.stac")
     p.add_argument("data", nargs="+", help="dataset .npz files, or CSV / column .npz files")
-    add_output(p, required=True, help="model file to write (.stac)", renamed_from=("--out",))
+    add_output(p, required=True, help="model file to write (.stac)")
     p.add_argument("--recipe", choices=RECIPES, default="paper", help="starting spec")
     p.add_argument("--features", choices=FEATURES, help="default: paper33, or generic")
     p.add_argument("--model", choices=MODELS)

@@ -18,14 +18,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode, UsageError
-from spectratac.cli.options import (
-    RenamedOption,
-    add_duration,
-    add_output,
-    add_renamed,
-    npz_name,
-    refuse_overwrite,
-)
+from spectratac.cli.options import add_duration, add_output, npz_name, refuse_overwrite
 from spectratac.hardware.generated.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 from spectratac.sim.named_scenes import POPULATION_SCENES, SCENES
 
@@ -49,10 +42,6 @@ def register(subparsers: Any) -> None:
 
     g = sub.add_parser("generate", help="simulate a session and write it to an .npz file")
     add_output(g, help="the .npz file to write")
-    # The output used to be a positional OUT: still accepted, with a warning.
-    g.add_argument(
-        "output", nargs="?", action=RenamedOption, replacement="-o/--output", metavar="OUT"
-    )
     g.add_argument(
         "--scene",
         default="calibration",
@@ -64,9 +53,7 @@ def register(subparsers: Any) -> None:
     g.add_argument("--integration-ms", type=int, default=50, choices=INTEGRATION_MS)
     g.add_argument("--gain", type=float, default=1.0, choices=sorted(GAINS))
     g.add_argument("--digital-gain", type=int, default=1, choices=DIGITAL_GAINS)
-    add_renamed(g, "--dg", "digital_gain", "--digital-gain", type=int, choices=DIGITAL_GAINS)
     g.add_argument("--sensitivity", default="high", choices=("high", "low"))
-    add_renamed(g, "--sens-low", "sensitivity", "--sensitivity low", nargs=0, const="low")
     g.add_argument("--duty", type=float, default=None, help="white LED duty for all channels")
     g.add_argument("--json", action="store_true", help="print a JSON summary")
     g.set_defaults(func=_generate)

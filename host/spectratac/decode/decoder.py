@@ -26,12 +26,16 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
 from spectratac.decode.estimates import CONTACT_FORCE_N, FORCE, TORQUE, Estimate, Estimates
+from spectratac.decode.export import export as export_to
+from spectratac.decode.export import model_image
+from spectratac.decode.export.model_image import ModelImageError
 from spectratac.decode.feature_matrices import build_features
 from spectratac.decode.guard import Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
 from spectratac.decode.runtime import Runtime
+from spectratac.decode.stac_file import read_model, write_model
 from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit, device_unit_ids
 from spectratac.device.records import Sample
 from spectratac.device.streams import EstimateStream, SampleStream
@@ -179,12 +183,6 @@ class Decoder:
         est.no_rest = valid[sel] & ~seen[sel]
         return est
 
-    def predict_assembled(self, u: Any, status: Any = None) -> Estimates:
-        """Estimates for assembled vectors (N, D) (the exports' input)."""
-        u = np.atleast_2d(np.asarray(u, dtype=np.float64))
-        valid = np.all(np.isfinite(u), axis=1)
-        return self._estimates(u, valid, status)
-
     def _estimates(self, u: F64, valid: NDArray[np.bool_], status: Any) -> Estimates:
         n = u.shape[0]
         heads = self.heads
@@ -299,15 +297,11 @@ class Decoder:
     def model_id(self, weights: str = "f32") -> int:
         """The id of this decoder's model image with `weights` (what a device that runs it
         reports in MODEL_INFO and every ESTIMATE)."""
-        from spectratac.decode.export import model_image
-
         return model_image.model_id(model_image.encode(self, weights=weights))
 
     def _image_id(self, weights: str) -> int | None:
         """`model_id`, or None for a decoder no model image can carry (a linear skip, a
         polynomial ridge, other inputs): no device runs it, so the host decodes."""
-        from spectratac.decode.export.model_image import ModelImageError
-
         try:
             return self.model_id(weights)
         except ModelImageError:
@@ -418,8 +412,6 @@ class Decoder:
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> Path:
         """Write the single-file model (.stac): weights, normalisation, features, config."""
-        from spectratac.decode.stac_file import write_model
-
         return write_model(self, path)
 
     @classmethod
@@ -432,8 +424,6 @@ class Decoder:
         """Read a .stac file. Refuses (DecoderConfigError) if `expect_config` (a config
         dict or a device CONFIG message) differs from the training configuration; warns
         (DecoderUnitWarning) if `expect_unit` is another unit."""
-        from spectratac.decode.stac_file import read_model
-
         dec = read_model(path, cls)
         if expect_config is not None:
             dec.check_config(expect_config, "the expected configuration")
@@ -443,9 +433,7 @@ class Decoder:
     def export(self, fmt: str, path: str | Path) -> Path:
         """Write the stateless part (assembled vector -> outputs) as onnx, numpy,
         torchscript or c. See spectratac.decode.export."""
-        from spectratac.decode.export import export
-
-        return export(self, fmt, path)
+        return export_to(self, fmt, path)
 
     # ------------------------------------------------------------------ tests and docs
     @classmethod

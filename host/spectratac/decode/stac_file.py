@@ -20,7 +20,7 @@ import zipfile
 import zlib
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -28,10 +28,8 @@ from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.guard import Guard
 from spectratac.decode.layout import Layout
+from spectratac.decode.parts import DecoderParts
 from spectratac.decode.runtime import Runtime
-
-if TYPE_CHECKING:  # only the type: Decoder imports this module to load and save itself
-    from spectratac.decode.decoder import Decoder
 
 D = TypeVar("D")
 #: Builds the decoder from the pieces a file holds: Decoder itself (`Decoder.load`).
@@ -58,7 +56,7 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-def write_model(dec: Decoder, path: str | Path) -> Path:
+def write_model(dec: DecoderParts, path: str | Path) -> Path:
     path = Path(path)
     meta = {
         "format": FORMAT,

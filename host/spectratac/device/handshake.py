@@ -7,20 +7,34 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol, TypeVar
 
 from spectratac.device.errors import DeviceTimeoutError, ProtocolMismatchError
 from spectratac.errors import printable
 from spectratac.protocol.generated import messages as m
+from spectratac.protocol.schema import Message
 from spectratac.protocol.versions import expected_definition_hash
 
-if TYPE_CHECKING:
-    from spectratac.device.link import Link
-
 log = logging.getLogger("spectratac.device")
+R = TypeVar("R", bound=Message)
 
 
-def read_info(link: Link) -> m.Info:
+class Requester(Protocol):
+    """What the handshake needs of a link (`Link` has it): its URL, timeout and hash policy,
+    raw writes and requests."""
+
+    url: str
+    timeout: float
+    strict_hash: bool
+
+    def write(self, data: bytes) -> None: ...
+
+    def request(
+        self, msg: Message, expect: type[R], *, timeout: float | None = None, attempts: int = 2
+    ) -> R: ...
+
+
+def read_info(link: Requester) -> m.Info:
     """The device's INFO, its text fields made printable. Asks again every 0.5 s within the
     link's timeout; raises DeviceTimeoutError or ProtocolMismatchError saying what to do (a
     definition hash mismatch only warns unless `link.strict_hash`)."""

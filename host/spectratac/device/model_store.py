@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from spectratac.device.errors import (
     CommandRejectedError,
@@ -18,11 +18,9 @@ from spectratac.device.errors import (
     MissingCapabilityError,
     ModelUploadError,
 )
+from spectratac.device.link import Link
 from spectratac.protocol import crc32c
 from spectratac.protocol.generated import messages as m
-
-if TYPE_CHECKING:
-    from spectratac.device.sensor import Sensor
 
 CHUNK = 224  # MODEL_CHUNK.data: every chunk but the last is full
 PRESENT = ("none", "uploaded", "builtin")
@@ -92,68 +90,68 @@ class ModelInfo:
         return asdict(self)
 
 
-def require(sensor: Sensor, capability: m.Capabilities, wanted: str) -> None:
+def require(link: Link, capability: m.Capabilities, wanted: str) -> None:
     """Raise MissingCapabilityError unless the device reported `capability` in INFO."""
-    if sensor.info.capabilities & capability:
+    if link.info.capabilities & capability:
         return
-    version = f"{sensor.info.protocol_major}.{sensor.info.protocol_minor}"
+    version = f"{link.info.protocol_major}.{link.info.protocol_minor}"
     raise MissingCapabilityError(
-        f"{sensor.url} cannot {wanted}: it does not report {capability.name} (protocol "
-        f"{version}, firmware {'.'.join(map(str, sensor.info.firmware_version))}); flash a "
+        f"{link.url} cannot {wanted}: it does not report {capability.name} (protocol "
+        f"{version}, firmware {'.'.join(map(str, link.info.firmware_version))}); flash a "
         f"firmware with on-device decoding (protocol 1.1 or later) or decode on the host",
         str(capability.name),
     )
 
 
-def read_info(sensor: Sensor) -> ModelInfo:
-    require(sensor, m.Capabilities.CAP_ESTIMATE, "report its model (GET_MODEL)")
-    return ModelInfo.from_message(sensor.link.request(m.GetModel(), m.ModelInfo))
+def read_info(link: Link) -> ModelInfo:
+    require(link, m.Capabilities.CAP_ESTIMATE, "report its model (GET_MODEL)")
+    return ModelInfo.from_message(link.request(m.GetModel(), m.ModelInfo))
 
 
-def tare(sensor: Sensor) -> None:
+def tare(link: Link) -> None:
     """TARE (protocol 1.3): the device's model takes its next sample as the baseline's zero.
     Raises MissingCapabilityError, saying what to do, for a device older than 1.3."""
-    require(sensor, m.Capabilities.CAP_ESTIMATE, "tare its model (TARE)")
-    if sensor.info.protocol_minor < m.Tare.SINCE:
+    require(link, m.Capabilities.CAP_ESTIMATE, "tare its model (TARE)")
+    if link.info.protocol_minor < m.Tare.SINCE:
         raise MissingCapabilityError(
-            f"{sensor.url} cannot tare its model: TARE is protocol 1.{m.Tare.SINCE}, the device "
-            f"speaks {sensor.info.protocol_major}.{sensor.info.protocol_minor}; flash a newer "
+            f"{link.url} cannot tare its model: TARE is protocol 1.{m.Tare.SINCE}, the device "
+            f"speaks {link.info.protocol_major}.{link.info.protocol_minor}; flash a newer "
             f"firmware, or decode on the host (estimates='off') and tare the host's decoder",
             "TARE",
         )
-    sensor.link.command(m.Tare())
+    link.command(m.Tare())
 
 
-def clear(sensor: Sensor) -> None:
-    require(sensor, m.Capabilities.CAP_MODEL_UPLOAD, "erase its model (MODEL_CLEAR)")
-    sensor.link.command(m.ModelClear(), timeout=max(sensor.timeout, FLASH_TIMEOUT))
+def clear(link: Link) -> None:
+    require(link, m.Capabilities.CAP_MODEL_UPLOAD, "erase its model (MODEL_CLEAR)")
+    link.command(m.ModelClear(), timeout=max(link.timeout, FLASH_TIMEOUT))
 
 
-def upload(sensor: Sensor, image: bytes, model_id: int, progress: Progress | None = None) -> None:
+def upload(link: Link, image: bytes, model_id: int, progress: Progress | None = None) -> None:
     """Upload `image` as model `model_id`; on a NACK or a timeout start again from
     MODEL_BEGIN once (uploads are not resumable). Raises ModelUploadError naming the error."""
-    require(sensor, m.Capabilities.CAP_MODEL_UPLOAD, "take an uploaded model (MODEL_BEGIN)")
+    require(link, m.Capabilities.CAP_MODEL_UPLOAD, "take an uploaded model (MODEL_BEGIN)")
     image = bytes(image)
     if not image:
         raise ValueError("image is empty: give the bytes of model_image.encode(decoder)")
     if not 0 <= model_id <= 0xFFFF_FFFF:
         raise ValueError(f"model_id={model_id}: must fit u32 (0..4294967295)")
-    capacity = read_info(sensor).capacity
+    capacity = read_info(link).capacity
     if len(image) > capacity:
         raise ModelUploadError(
-            f"the model image is {len(image)} B but {sensor.url}'s model store holds {capacity} B",
+            f"the model image is {len(image)} B but {link.url}'s model store holds {capacity} B",
             "MODEL_TOO_LARGE",
             m.ERROR_TEXT[m.Error.MODEL_TOO_LARGE][1],
         )
     crc = crc32c(image)
     for attempt in (1, 2):
         try:
-            _send(sensor, image, model_id, crc, progress)
+            _send(link, image, model_id, crc, progress)
             break
         except CommandRejectedError as exc:
             if exc.name in FINAL or attempt == 2:
                 raise ModelUploadError(
-                    f"{sensor.url} refused the model upload ({exc.command}: {exc.name}, "
+                    f"{link.url} refused the model upload ({exc.command}: {exc.name}, "
                     f"{exc.meaning})",
                     exc.name,
                     exc.action,
@@ -161,16 +159,16 @@ def upload(sensor: Sensor, image: bytes, model_id: int, progress: Progress | Non
         except DeviceTimeoutError as exc:
             if attempt == 2:
                 raise ModelUploadError(
-                    f"the model upload to {sensor.url} failed twice: {exc}",
+                    f"the model upload to {link.url} failed twice: {exc}",
                     "TIMEOUT",
                     "Check the link (STATUS rx_errors) and retry; the device keeps no "
                     "half-written model",
                 ) from exc
-        sensor.stats.model_upload_retries += 1
-    stored = read_info(sensor)
+        link.stats.model_upload_retries += 1
+    stored = read_info(link)
     if (stored.model_id, stored.size, stored.crc) != (model_id, len(image), crc):
         raise ModelUploadError(
-            f"{sensor.url} acknowledged the upload but reports model 0x{stored.model_id:08X} "
+            f"{link.url} acknowledged the upload but reports model 0x{stored.model_id:08X} "
             f"({stored.size} B, CRC 0x{stored.crc:08X}) instead of 0x{model_id:08X} "
             f"({len(image)} B, CRC 0x{crc:08X})",
             "MISMATCH",
@@ -178,10 +176,9 @@ def upload(sensor: Sensor, image: bytes, model_id: int, progress: Progress | Non
         )
 
 
-def _send(sensor: Sensor, image: bytes, model_id: int, crc: int, progress: Progress | None) -> None:
-    flash = max(sensor.timeout, FLASH_TIMEOUT)
+def _send(link: Link, image: bytes, model_id: int, crc: int, progress: Progress | None) -> None:
+    flash = max(link.timeout, FLASH_TIMEOUT)
     # one attempt per command: a resent chunk would be out of order (SPEC.md section 13)
-    link = sensor.link
     link.command(
         m.ModelBegin(model_id=model_id, size=len(image), crc=crc), attempts=1, timeout=flash
     )

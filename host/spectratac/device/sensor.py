@@ -238,7 +238,7 @@ class Sensor:
             raise ValueError(f"estimates={estimates!r}: allowed 'off', 'beside' or 'instead'")
         stride = 1
         if estimates != "off":
-            model_store.require(self, m.Capabilities.CAP_ESTIMATE, "send estimates")
+            model_store.require(self._link, m.Capabilities.CAP_ESTIMATE, "send estimates")
             stride = self.model_info().led_steps
         if integration_ms not in INTEGRATION_TIMES:
             raise ValueError(f"integration_ms={integration_ms}: allowed {INTEGRATION_TIMES}")
@@ -317,7 +317,7 @@ class Sensor:
     def model_info(self) -> ModelInfo:
         """The model the device decodes with and its limits (GET_MODEL). Raises
         MissingCapabilityError for a device without CAP_ESTIMATE."""
-        return model_store.read_info(self)
+        return model_store.read_info(self._link)
 
     def upload_model(
         self, image: bytes, model_id: int, progress: Progress | None = None
@@ -328,17 +328,17 @@ class Sensor:
         MODEL_BEGIN once. Returns the device's MODEL_INFO afterwards. Raises
         MissingCapabilityError (no CAP_MODEL_UPLOAD) or ModelUploadError carrying the NACK's
         error name and what to do."""
-        model_store.upload(self, image, model_id, progress)
+        model_store.upload(self._link, image, model_id, progress)
         return self.model_info()
 
     def tare(self) -> None:
         """Zero the on-device model's drift baseline on its next sample (TARE, protocol 1.3):
         call it while nothing touches the skin. MissingCapabilityError for an older device."""
-        model_store.tare(self)
+        model_store.tare(self._link)
 
     def clear_model(self) -> None:
         """Erase the uploaded model; a built-in one, if the firmware has one, takes over."""
-        model_store.clear(self)
+        model_store.clear(self._link)
 
     def request_raw(
         self,

@@ -25,7 +25,6 @@ import numpy as np
 
 from spectratac.device.record_queue import RecordQueue
 from spectratac.ft.errors import FTDisconnectedError, FTError
-from spectratac.ft.open import open_url
 from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
 
 
@@ -34,6 +33,10 @@ class FTSensor(ABC):
 
     #: Subclasses set their URL scheme.
     scheme: ClassVar[str] = ""
+    #: open()'s dispatch by URL scheme, registered by the scheme registry (spectratac.ft.open,
+    #: which the package imports with this module): the registry imports this base class and
+    #: returns its instances, this class never imports the registry.
+    _dispatch: ClassVar[Callable[..., FTSensor]]
 
     def __init__(self, url: str, info: FTInfo, *, timeout: float, buffer_size: int) -> None:
         if buffer_size < 1:
@@ -69,7 +72,7 @@ class FTSensor(ABC):
         connects the real driver to it. Options given as keywords override the URL's
         query. Raises FTURLError, FTNotFoundError or FTTimeoutError (within `timeout`)
         with what to do."""
-        return open_url(url, timeout=timeout, buffer_size=buffer_size, **options)
+        return FTSensor._dispatch(url, timeout=timeout, buffer_size=buffer_size, **options)
 
     def close(self) -> None:
         """Stop the stream and the reader, close the link. Safe to call more than once."""

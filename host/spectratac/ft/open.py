@@ -15,13 +15,11 @@ spectratac.ft.errors.FTURLError: 'nosuch://x' is not an F/T URL: the schemes are
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
+from spectratac.ft.base import FTSensor
 from spectratac.ft.errors import FTURLError
 from spectratac.url_schemes import SchemeRegistry
-
-if TYPE_CHECKING:  # the drivers import this module: FTSensor.open dispatches here
-    from spectratac.ft.base import FTSensor
 
 #: Entry-point group of F/T sensor plug-ins: name = URL scheme, value = an FTOpener.
 ENTRY_POINTS = "spectratac.ft_sensors"
@@ -71,3 +69,6 @@ def open_url(url: str, *, timeout: float, buffer_size: int, **options: Any) -> F
             f"{', '.join(s + '://' for s in ft_schemes())}; examples: {EXAMPLES}"
         )
     return opener(url, timeout=timeout, buffer_size=buffer_size, **options)
+
+
+FTSensor._dispatch = open_url  # FTSensor.open dispatches here: registered, not imported by it

@@ -351,18 +351,6 @@ class GainJitter:
         return ((f - self.mean) / self.std).float()
 
 
-def gain_jittered(
-    data: dict[str, Any], rows: NDArray[np.intp], g: float, rng: np.random.Generator
-) -> Any:
-    """z-scored features (torch, float32) of `rows` with each row's assembled inputs scaled
-    by one factor from [1 - g, 1 + g]: a gain drift scales the sample, its history and the
-    drift baseline alike. `data["gain"]` is the rows' GainView (train/gain.py)."""
-    import torch
-
-    jitter = GainJitter(data["gain"], rows)
-    return jitter.z(jitter.take(torch.arange(rows.size)), GainJitter.factors(rows.size, g, rng))
-
-
 def skip_init(data: dict[str, Any], rows: NDArray[np.intp], n_out: int) -> NDArray[np.float32]:
     """The linear skip's start (n_out, F): least squares of the scaled regression targets on
     the z-scored features over the rows with valid targets; zero for the other outputs. The

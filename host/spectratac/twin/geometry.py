@@ -92,11 +92,3 @@ def region_centre(region: int) -> tuple[float, float]:
     r = 0.5 * (CENTER_RADIUS_MM + ACTIVE_RADIUS_MM)
     a = np.deg2rad(SECTOR_CENTRE_DEG[region])
     return (float(r * np.cos(a)), float(r * np.sin(a)))
-
-
-def rotate_xy(x: ArrayLike, y: ArrayLike, degrees: float) -> tuple[NDArray[np.float64], ...]:
-    """Rotate points about the board centre (used by the 120° symmetry tests)."""
-    a = np.deg2rad(degrees)
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
-    return (xa * np.cos(a) - ya * np.sin(a), xa * np.sin(a) + ya * np.cos(a))

@@ -291,15 +291,12 @@ class TwinRig:
                 rates = rates + tl * s[None, j, :, :, c]
         return list(zip(rates, temp.tolist(), strict=True))
 
-    def window_rates(self, t0_us: int, t1_us: int) -> Window:
+    def _rates(self, key: tuple[int, int, int], cfg: tuple[SensorConfig, bool] | None) -> Window:
         """Reference count rates (3 sensors, 5 channels) over a window, and the temperature.
 
         Shared by the sensors of one window: the firmware triggers the three sensors together,
         so they share one evaluation and one draw of LED flicker (the LEDs are common to all
         three, so a shared draw is also the physical behaviour)."""
-        return self._rates((int(t0_us), int(t1_us), self._version), None)
-
-    def _rates(self, key: tuple[int, int, int], cfg: tuple[SensorConfig, bool] | None) -> Window:
         hit = self._rates_cache.get(key)
         if hit is not None:
             return hit

@@ -40,16 +40,14 @@ b'\\x00\\x00'
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from spectratac.hardware.generated import veml3328 as chip
 from spectratac.twin.electronics import AF, SD0, SD1, SD_ALS, TRIG, SensorConfig
 from spectratac.twin.errors import I2CNack
-
-if TYPE_CHECKING:
-    from spectratac.twin.rig import TwinRig
 
 ADDRESS = chip.ADDRESS
 REG_CONF = chip.REG_CONF
@@ -63,11 +61,20 @@ READABLE = frozenset((REG_CONF, REG_ID, *DATA_REGS))
 CONF_MASK = chip.CONF_DEFINED
 
 
+class Windows(Protocol):
+    """What a sensor asks of the rig (`TwinRig` has it): the counts of one integration
+    window of sensor `k`, and whether they saturated."""
+
+    def read_window(
+        self, k: int, t0_us: int, t1_us: int, cfg: SensorConfig, *, sd_als: bool = False
+    ) -> tuple[NDArray[np.uint16], bool]: ...
+
+
 class Veml3328:
     """One VEML3328 on its own bus, driven by the rig's optics (see module docstring)."""
 
-    def __init__(self, rig: TwinRig, index: int, *, present: bool = True) -> None:
-        self.rig = rig
+    def __init__(self, windows: Windows, index: int, *, present: bool = True) -> None:
+        self.windows = windows
         self.index = index
         self.present = present
         self.conf = POWER_ON_CONF
@@ -164,7 +171,7 @@ class Veml3328:
                 self._store(t0, t0 + it, cfg, bool(self.conf & SD_ALS))
 
     def _store(self, t0: int, t1: int, cfg: SensorConfig, sd_als: bool) -> None:
-        counts, sat = self.rig.read_window(self.index, t0, t1, cfg, sd_als=sd_als)
+        counts, sat = self.windows.read_window(self.index, t0, t1, cfg, sd_als=sd_als)
         for reg, v in zip(DATA_REGS, counts.tolist(), strict=True):
             self.data[reg] = int(v)
         self.saturated = sat

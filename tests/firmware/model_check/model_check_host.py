@@ -148,8 +148,9 @@ class Reference:
 
 
 def reference(dec: Any, session: Session) -> Reference:
-    """The Python decoder's live path (decode/assemble.Assembler, as Decoder.stream runs it)
-    over the session, then the decoder on the assembled vectors."""
+    """The Python decoder over the session: its outputs on the vectors the live path
+    assembles (decode/assemble.Assembler, as Decoder.stream runs it) and its estimates
+    (Decoder.predict_inputs, whose batch assembly gives the same vectors)."""
     from spectratac.decode.assemble import Assembler
 
     x, step = session.raw12, session.step.astype(np.int64)
@@ -159,7 +160,7 @@ def reference(dec: Any, session: Session) -> Reference:
     for i in range(len(step)):
         v, valid[i] = asm.push(int(step[i]), x[i])
         u[i] = v
-    est = dec.predict_assembled(u, status=session.status)
+    est = dec.predict_inputs(x, step, status=session.status)
     out = np.full((len(step), dec.heads.n_out), np.nan)
     out[valid] = dec.runtime.run(u[valid])
     flags = (est.contact * EST_CONTACT + est.ood * EST_OOD + est.invalid * EST_INVALID).astype(

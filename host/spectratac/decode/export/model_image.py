@@ -36,10 +36,8 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import re
 from dataclasses import replace
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar
 
 import crcmod.predefined
 import numpy as np
@@ -70,10 +68,11 @@ from spectratac.decode.generated.model_image_layout import (
 )
 from spectratac.decode.guard import DARK_COUNTS
 from spectratac.decode.networks import SKIP, layer_shapes, norm_names
+from spectratac.decode.parts import DecoderParts
 from spectratac.hardware.generated import vocabulary as vocab
 
-if TYPE_CHECKING:  # only the type: Decoder.model_id imports this module
-    from spectratac.decode.decoder import Decoder
+#: A decoder, or anything else with its parts (as_stored returns the same type).
+D = TypeVar("D", bound=DecoderParts)
 
 #: The STM32 model store: flash sectors 4-7 (448 KiB) less the 64 bytes of its commit record.
 MAX_IMAGE_BYTES = 458752 - 64
@@ -87,7 +86,7 @@ class ModelImageError(DecoderError):
     """The decoder cannot run on the device, or bytes are not a valid model image."""
 
 
-def decoder_hash(dec: Decoder) -> bytes:
+def decoder_hash(dec: DecoderParts) -> bytes:
     """SHA-256 of the decoder's content (what its .stac file holds), independent of how
     the file was zipped: the same decoder always hashes the same."""
     h = hashlib.sha256()
@@ -107,7 +106,7 @@ def decoder_hash(dec: Decoder) -> bytes:
     return h.digest()
 
 
-def decoder_model_id(dec: Decoder, weights: str = "f32") -> int:
+def decoder_model_id(dec: DecoderParts, weights: str = "f32") -> int:
     """The model_id `encode(dec, weights)` writes: from the content hash and the weight
     format (another format gives other numbers, so another id); never 0 (0 means none)."""
     digest = hashlib.sha256(decoder_hash(dec) + weights.encode()).digest()
@@ -131,12 +130,12 @@ def _quantise(w: NDArray[Any], weights: str) -> tuple[bytes, NDArray[np.float32]
     return q.tobytes(), scale, q.astype(np.float32) * scale[:, None]
 
 
-def _layers(dec: Decoder) -> list[tuple[str, int, int]]:
+def _layers(dec: DecoderParts) -> list[tuple[str, int, int]]:
     rt = dec.runtime
     return layer_shapes(rt.arch, rt.features.n_features, rt.heads.n_out)
 
 
-def as_stored(dec: Decoder, weights: str = "f32") -> Decoder:
+def as_stored(dec: D, weights: str = "f32") -> D:
     """A copy of `dec` whose network weights are the values an image in `weights` format
     holds (float16 or int8 rounding) and whose guard makes the checks the image carries
     (`Guard.on_device`): the reference its device estimates and flags must match."""
@@ -154,9 +153,9 @@ def _check_format(weights: str) -> None:
 
 
 # ---------------------------------------------------------------------------- checks
-def check_runnable(dec: Decoder) -> None:
+def check_runnable(dec: DecoderParts) -> None:
     """Raise ModelImageError naming the first thing the firmware cannot run."""
-    rt, lay, heads = dec.runtime, dec.layout, dec.heads
+    rt, lay, heads = dec.runtime, dec.layout, dec.runtime.heads
     kind, hidden, blocks = rt.arch
     fix = "train a smaller decoder (TrainSpec) or decode on the host"
     if tuple(lay.channels) != vocab.DECODED_INPUTS:
@@ -233,8 +232,8 @@ def _target_bounds(lo: NDArray[Any], hi: NDArray[Any]) -> tuple[bytes, bytes]:
     return lo32.astype("<f4").tobytes(), hi32.astype("<f4").tobytes()
 
 
-def _sections(dec: Decoder, weights: str) -> dict[str, bytes]:
-    rt, lay, heads, guard = dec.runtime, dec.layout, dec.heads, dec.guard
+def _sections(dec: DecoderParts, weights: str) -> dict[str, bytes]:
+    rt, lay, heads, guard = dec.runtime, dec.layout, dec.runtime.heads, dec.guard
     fs = rt.features
     s: dict[str, bytes] = {}
     s["lags"] = np.asarray(lay.lags, "<u2").tobytes()
@@ -267,14 +266,16 @@ def _sections(dec: Decoder, weights: str) -> dict[str, bytes]:
     return s
 
 
-def has_rest(dec: Decoder) -> bool:
+def has_rest(dec: DecoderParts) -> bool:
     """True when the image carries the rest signature: a drift baseline that searches for
     rest before it adapts (decode/assemble._Baseline), on the device as on the host."""
     lay = dec.layout
     return bool(lay.drift and len(lay.rest) == lay.base and len(lay.press) == lay.base)
 
 
-def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_BYTES) -> bytes:
+def encode(
+    dec: DecoderParts, weights: str = "f32", *, limit: int | None = MAX_IMAGE_BYTES
+) -> bytes:
     """The model image of `dec` with network weights in `weights` ("f32", "f16", "i8").
 
     Raises ModelImageError when the firmware cannot run the decoder or the image exceeds
@@ -282,7 +283,7 @@ def encode(dec: Decoder, weights: str = "f32", *, limit: int | None = MAX_IMAGE_
     where only the flash left by the firmware bounds it)."""
     _check_format(weights)
     check_runnable(dec)
-    rt, lay, heads, guard = dec.runtime, dec.layout, dec.heads, dec.guard
+    rt, lay, heads, guard = dec.runtime, dec.layout, dec.runtime.heads, dec.guard
     kind, hidden, blocks = rt.arch
     if kind == "linear":
         hidden, blocks = 0, 0
@@ -361,7 +362,7 @@ def _unpack_header(image: bytes) -> dict[str, Any]:
     }
 
 
-def fs_rows(dec: Decoder) -> tuple[int, int]:
+def fs_rows(dec: DecoderParts) -> tuple[int, int]:
     """(linear feature rows, ratio feature rows)."""
     fs = dec.runtime.features
     return int(fs.L.shape[0]), int(fs.P.shape[0])
@@ -423,10 +424,3 @@ def describe(image: bytes) -> dict[str, Any]:
         "n_outputs": f["n_outputs"],
         "sections": sections,
     }
-
-
-def header_limits(path: str | Path) -> dict[str, int]:
-    """The STAC_MODEL_* limits #defined in a C header (stac_model_image.h; numbers only)."""
-    text = Path(path).read_text(encoding="utf-8")
-    found = re.findall(r"#define STAC_MODEL_(\w+) (\d+)u", text)
-    return {k: int(v) for k, v in found if k in LIMITS}
