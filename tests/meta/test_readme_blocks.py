@@ -158,6 +158,7 @@ def run_document(markdown: str, folder: Path, name: str, timeout: float = BLOCK_
     return len(runnable)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", DOCUMENTS)
 def test_every_block_runs_in_order(name: str, tmp_path: Path) -> None:
     ran = run_document((REPO / name).read_text(), tmp_path, name)
@@ -211,6 +212,14 @@ def test_a_broken_block_fails(code: str, why: str, tmp_path: Path) -> None:
 def test_a_hanging_block_fails(tmp_path: Path) -> None:
     with pytest.raises(BlockFailed, match="still ran after"):
         run_document("```sh\nsleep 600\n```\n", tmp_path, "hang.md", timeout=1.0)
+
+
+def test_a_skipped_line_runs_nothing_of_itself(tmp_path: Path) -> None:
+    # The reason holds `;`: quoted, so none of it runs (a word of it run as a command fails).
+    assert ";" in SKIPPED["make firmware && make flash"]
+    document = "```sh\nmake firmware && make flash\ntouch ran\n```\n"
+    assert run_document(document, tmp_path, "skip.md") == 1
+    assert (tmp_path / "ran").exists()
 
 
 def test_hardware_lines_run_against_the_simulated_device() -> None:
