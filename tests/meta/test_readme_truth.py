@@ -24,6 +24,7 @@ from tests.meta.test_layering import BESIDE, DATA_FLOW
 REPO = Path(__file__).resolve().parents[2]
 README = REPO / "README.md"
 ARCHITECTURE = REPO / "host/spectratac/ARCHITECTURE.md"
+CLI_GUIDE = REPO / "host/spectratac/cli/README.md"
 MAX_LINES = 250
 MAX_WIDTH = 300
 #: The user's guides held to the README's shape.
@@ -130,6 +131,29 @@ def test_the_conformance_count_is_the_suites() -> None:
     with Sensor.open("sim://?scene=idle&speed=max") as sensor:  # a device that decodes
         runs = len(CHECKS) + len(applicable(sensor.info.capabilities))
     assert (total, protocol, model) == (runs, len(CHECKS), len(MODEL_CHECKS))
+
+
+def test_the_verbs_that_stop_on_count_and_duration_are_the_cli_guides() -> None:
+    stops = {
+        tuple(code_spans(options)): code_spans(verbs_cell)
+        for options, verbs_cell in table(section(CLI_GUIDE.read_text(), "When a verb stops"))
+    }
+    streaming, duration_only = stops[("--count N", "--duration S")], stops[("--duration S",)]
+    for verb, actions in VERBS.items():
+        options = {o for a in actions for o in a.option_strings}
+        stops_on = {"--count", "--duration"} & options
+        if verb == "ft info":  # --count sizes its rate check; it never stops a run
+            stops_on.discard("--count")
+        if verb in streaming:
+            expected = {"--count", "--duration"}
+        elif verb in duration_only:
+            expected = {"--duration"}
+        else:
+            expected = set()
+        if verb not in LEAVING:
+            assert stops_on == expected, (
+                f"`{verb}` stops on {sorted(stops_on)}: the CLI guide says {sorted(expected)}"
+            )
 
 
 def test_the_layout_table_lists_the_top_level_folders() -> None:
