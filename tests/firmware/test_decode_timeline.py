@@ -24,7 +24,7 @@ pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.slow]
 
 WHITE = [[[500, 500, 500]] * 3]
 SAMPLES = 120  # 6 s of device time at 50 ms: a 1 % change is 1.2 samples' worth
-MODELLED_MS = {"f32": 9.8, "f16": 14.8, "i8": 11.7}  # firmware/README.md, ondevice.py
+MODELLED_MS = {"f32": 9.8, "f16": 14.8, "i8": 11.7}  # tools/bench/MEASUREMENTS.md, ondevice.py
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ superloop with the paper's model installed in its store, against three VEML3328 
 models (the sensor model's integration timing), its clock made from QEMU's instruction count
 at the decode bench's cycles per instruction (tools/bench/ondevice.py: cycle model over QEMU
 instructions for the paper model, 937k / 329k in float32, 1421k / 800k in float16, 1121k /
-595k in int8, firmware/README.md). Decoding before the next trigger would lengthen every
+595k in int8, tools/bench/MEASUREMENTS.md). Decoding before the next trigger would lengthen every
 sample period by the decode (~10-15 ms at 50 ms integration); decoding while the sensors
 integrate must keep the rate within 1 % of the rate without estimates. The native
 simulator's timeline: test_decode_timeline.py.

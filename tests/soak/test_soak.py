@@ -2,7 +2,7 @@
 (byte corruption, unplug/replug, link stalls, F/T dropouts), through tools/bench/reliability.py.
 
 SPECTRATAC_SOAK_SECONDS sets the simulated seconds per device (default here: 60, about a
-minute and a half of wall time on a loaded CI runner; the README's table used 300).
+minute and a half of wall time on a loaded CI runner; tools/bench/MEASUREMENTS.md's run used 300).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The full fidelity report (the paper's recipe on a 50-minute twin session, 30 epochs) stays
-inside the calibration band on the built layer stack: the README's twin figures."""
+inside the calibration band on the built layer stack: what `spectratac twin report` prints."""
 
 from __future__ import annotations
 

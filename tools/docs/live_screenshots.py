@@ -1,4 +1,5 @@
-"""The README's screenshots of the live page, taken as a user would see them.
+"""The live page's screenshots in its guide (host/spectratac/apps/live/README.md), taken as a
+user would see them.
 
     python tools/docs/live_screenshots.py [-o host/spectratac/apps/live/screenshots] [--model M]
 

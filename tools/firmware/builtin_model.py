@@ -5,7 +5,7 @@
 writes the model image (spectratac.decode.export.model_image) as
 ``const uint8_t stac_builtin_model[]`` and ``const uint32_t stac_builtin_model_size``. A
 firmware built with this file and ``-DSTAC_BUILTIN_MODEL`` decodes with it whenever no uploaded
-model is stored (firmware/README.md, "Model store"). ``--symbol`` renames the array (the C
+model is stored (firmware/docs/model-store.md). ``--symbol`` renames the array (the C
 tests' fixture uses its own name); an input that already is an image (magic "STMI") is used
 as it is, so the array holds exactly the bytes GET_MODEL's CRC describes.
 

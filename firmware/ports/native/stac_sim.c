@@ -56,7 +56,7 @@ struct stac_sim {
  * sensors' integration, so the simulated device charges it to its clock: cycles per
  * multiply-add of the network's linear layers, every other part of a decode included, from
  * the cycle model of tools/bench/ondevice.py for the paper's ResMLP 128x3 (104,448 MACs:
- * 937k / 1421k / 1121k cycles a sample for float32 / float16 / int8, firmware/README.md).
+ * 937k / 1421k / 1121k cycles a sample for float32 / float16 / int8, tools/bench/MEASUREMENTS.md).
  * A model, not a measurement: the simulated device reports no cycle counter (STATUS
  * cycle_hz 0), only ESTIMATE.decode_us and the timeline show this time. */
 #define SIM_CPU_HZ 96000000u

@@ -15,33 +15,15 @@ scores each of the last FORWARD_SESSIONS; their mean, each session weighing half
 after it (`recent_weighted`: drift grows with time), is the figure to expect on the next
 session (`HeldOutCheck.expected`, printed by `expected_text`), the worst beside it.
 
-How well it predicts: `python tools/bench/heldout_forward.py [--seed N] [--variants]`
-(2026-11-27; ridge, twin units 0-7, each with its own ageing rates and a re-mounting per
-session, trained on its first 6 sessions and scored on the next 2; one ratio printed figure
-/ next sessions' error per unit and force, 24 per seed). With 120-s sessions (28 presses
-each), over seeds 0-2, ratios within 1.3x: the recent-weighted mean of the last 4 folds (the
-printed figure) 72 of 72 (0.78-1.19); their plain mean 71 (0.76-1.23); the plain mean of
-the last 3 folds (the figure before) 70 (0.76-1.22: one unit's Fy under-predicted twice);
-the last fold alone 70; folds scored one and two sessions ahead 71; a linear trend of the
-fold errors extrapolated to the sessions scored 60 (0.67-1.37: noisy); the round-robin
-figure 66 (0.60-1.31); the same decoder on a replicate of the next sessions (same mounting,
-ageing and room, other presses) 72. With 30-s sessions (7 presses, seed 0) every summary
-misses about a quarter or more (printed 18 of 24, 0.57-1.60; last 3 folds 17; round-robin
-13), and so does the replicate (19 of 24, 0.74-1.54): a 7-press session's MAE depends on
-which presses it holds by more than 1.3x, which no figure computed before the session can
-know. A network (`--model paper --epochs 5`, units 0-3, seed 0) is under-predicted more:
-9 of 12 within (0.65-1.28, geometric mean 0.89; the plain mean of the last 3 folds 8 of
-12, the round-robin figure 5), its replicates 12 of 12: the next sessions cost the
-network more than its forward folds did (its Fx and Fy on two units).
+How well the printed figure predicts the next sessions' error is measured by
+`tools/bench/heldout_forward.py`; its figures are in tools/bench/MEASUREMENTS.md.
 
 A decoder whose error on whole held-out groups (sessions, presses, time blocks) is many times
 its error on its training rows has learnt what is particular to the training groups: session
-offsets, drift, the exact presses. GAP_WARN = 2, from measurements on the synthetic skin
-(`spectratac.sim.generic_skin`, 8 sessions of 8 s, the paper's recipe, 10 epochs): with
-sessions that are alike (drift=False) the ratio is 1.2, the cost of a new session's noise
-and unseen press positions; with session-level gains, offsets and ageing (drift=True) it is
-5.8, and 19.5 training on 24 sessions of 20 s and testing on 12 later ones. The CV ratios of
-the ridge baselines on the drifting skin stay at 1.0-1.2. A ratio above 2 is no longer noise.
+offsets, drift, the exact presses. GAP_WARN = 2: on the synthetic skin
+(`spectratac.sim.generic_skin`) sessions that are alike give a ratio near 1 and drifting
+sessions several times that (tools/bench/MEASUREMENTS.md), so a ratio above 2 is no longer
+noise.
 
 >>> gap({"Fz": 0.25}, {"Fz": 4.8})
 (19.2, 'held-out error is 19.2x the training error (Fz; warning above 2x)')

@@ -12,21 +12,15 @@ unit's rows. What adapts is `mode`:
   the default).
 - "full": every weight.
 
-Measured on the twin (`python tools/bench/generalisation.py --sections c`: a `TrainSpec.best()`
-model of 4 units recalibrated for a fifth; force MAE on another session of that unit as a
-multiple of the same recipe trained on its own 50-minute calibration; 1.18x with no
-recalibration), with 1 / 2 / 5 minutes of the unit's data: mode "first" 1.18 (the base kept) /
-1.23 / 1.10x, "full" 1.18 / 1.19 / 1.08x (the normalisation refitted or not as the held-out
-presses chose: not at 2 minutes, refitted at 5). Forcing the choice: never refitted, "first"
-1.18 / 1.23 / 1.03x and "full" 1.18 / 1.19 / 1.00x; always refitted, "first" 1.18 / 1.33 /
-1.10x and "head" 1.18 / 1.18 / 1.17x; "scaler" alone 1.74 / 1.74 / 1.78x. A few minutes are
-one session: their feature statistics are that session's (mounting, temperature) as much as
-the unit's, which held-out presses of the same session cannot tell apart; a unit whose gains
-differ much (the tests' synthetic one) needs the refit.
+A few minutes are one session: their feature statistics are that session's (mounting,
+temperature) as much as the unit's, which held-out presses of the same session cannot tell
+apart; a unit whose gains differ much (the tests' synthetic one) needs the refit. How each
+mode does with 1, 2 and 5 minutes of a new twin unit is measured by
+`tools/bench/generalisation.py --sections c` (figures in tools/bench/MEASUREMENTS.md).
 
 `refit_scaler`: whether the input normalisation is re-fitted on the new rows before the
 gradient steps. None (the default) tries both and keeps the one the held-out presses prefer;
-without held-out presses (too little data) it is not refitted, from the figures above.
+without held-out presses (too little data) it is not refitted, as the benchmark's figures chose.
 
 Validation is grouped: whole presses (a press and the idle rows after it) are held out, never
 single rows, whose near-duplicate neighbours would sit in training. The weights of the epoch

@@ -189,7 +189,7 @@ class TrainSpec:
         evidence of the moment (region_history_swap: with the history the network read
         regions worse than the paper's recipe, which has none). On a blocked
         split of the twin's 3000 s calibration session it cuts MAE by 29, 32 and 27 %
-        (Fx, Fy, Fz; 3 seeds) against the paper's recipe (studies/README.md)."""
+        (Fx, Fy, Fz; 3 seeds) against the paper's recipe (tools/bench/MEASUREMENTS.md)."""
         best = {
             "context": 8,
             "context_ema": (10.0, 40.0, 160.0),

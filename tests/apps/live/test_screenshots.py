@@ -1,4 +1,4 @@
-"""The README's screenshots of the live page show what a user sees, nothing of the machine
+"""The live page guide's screenshots of the page show what a user sees, nothing of the machine
 that took them: each PNG carries the page's visible text (written beside the pixels by
 tools/docs/live_screenshots.py), which must name no temporary or home path."""
 
@@ -51,9 +51,9 @@ def test_the_screenshots_show_the_page_the_readme_describes() -> None:
     assert "model model.stac" in live  # a neutral name, not where the tool trained it
     bare = page_text((SHOTS / "live-no-model.png").read_bytes()) or ""
     assert NO_MODEL in bare and "spectratac train" in bare and "IR" in bare
-    readme = (ROOT / "README.md").read_text()
+    guide = (ROOT / "host/spectratac/apps/live/README.md").read_text()  # the page's guide
     for name in ("live.png", "live-no-model.png", "snake.png"):
-        assert f"host/spectratac/apps/live/screenshots/{name}" in readme, name
+        assert f"](screenshots/{name})" in guide, name
 
 
 def test_page_text_reads_what_the_tool_writes() -> None:
