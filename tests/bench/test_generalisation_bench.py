@@ -1,4 +1,4 @@
-"""tools/bench/generalisation.py end to end on a tiny population (no figure is asserted)."""
+"""`python -m tools.bench.generalisation` end to end on a tiny population (no figure asserted)."""
 
 from __future__ import annotations
 

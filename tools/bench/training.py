@@ -129,8 +129,8 @@ def paper_run(rows: int, epochs: int) -> benchlib.Figure:
         ref_wall,
         wall / ref_wall,
         {
-            "cpu_s": round(cpu, 1),
-            "reference_cpu_s": round(ref_cpu, 1),
+            "cpu_s": round(cpu, 3),
+            "reference_cpu_s": round(ref_cpu, 3),
             "cpu_ratio": round(cpu / ref_cpu, 3),
             "target_s": 120.0 * trained / (266_000 * 30),
             "rows_per_s": round(trained / wall),

@@ -26,7 +26,6 @@ from . import moulds, schematic
 from .params import REPO, load
 
 SYSTEM_PYTHON = "/usr/bin/python3"
-HERE = Path(__file__).resolve().parent
 # Lines that carry the run's date: dropped so that regenerating changes nothing in git.
 DATED = re.compile(r"^(G04 #@! TF\.CreationDate.*|; #@! TF\.CreationDate.*|\*\* Created on .*)\n",
                    re.MULTILINE)
