@@ -7,7 +7,8 @@
 Each benchmark runs in a process of its own from the repository root and prints figures that
 are ratios to a reference measured beside them in the same run (this machine is shared: the
 ratio survives the load, an absolute time does not); per benchmark the runner prints them,
-headline first, and one JSON line. Results are kept per commit in build/bench/results/
+headline first, and one JSON line (the headline; with --json, only JSON lines, each with all
+of its benchmark's figures). Results are kept per commit in build/bench/results/
 (results.py); --log appends one row per figure to the measurements log,
 tools/bench/MEASUREMENTS.md (--log-file or $SPECTRATAC_MEASUREMENTS: another file).
 
@@ -99,7 +100,9 @@ def show(name: str, run: dict[str, Any], as_json: bool, quick: bool) -> None:
     if head:
         record |= {k: head[k] for k in ("name", "value", "unit", "reference_name",
                                         "reference_value", "ratio")}  # fmt: skip
-    record |= {"seconds": run["seconds"], "loadavg": run["loadavg"][0], "figures": figures}
+    record |= {"seconds": run["seconds"], "loadavg": run["loadavg"][0]}
+    if as_json:  # beside the table, the headline is enough; the results file has them all
+        record["figures"] = figures
     print(json.dumps(record), flush=True)
 
 
