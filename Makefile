@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 EXTRAS := train,sim,record,report,live,hardware,ray,dev
 
-.PHONY: venv demo test test-fast lint regen hardware firmware firmware-test firmware-native flash clean
+.PHONY: venv demo test test-fast lint bench bench-quick regen hardware firmware firmware-test firmware-native flash clean
 
 venv: $(STAMP)
 
@@ -40,29 +40,41 @@ test-fast: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check host tools tests
 
+# The regression benchmarks (tools/bench/registry.py), each figure a ratio to a reference
+# measured in the same run; results kept in build/bench/results/<commit>.json
+# (compare two: .venv/bin/python -m tools.bench compare A B). One or some:
+# make bench BENCH_ARGS="protocol twin"; the list: .venv/bin/python -m tools.bench --list.
+BENCH_ARGS ?=
+bench: $(STAMP)
+	$(BIN)/python -m tools.bench $(BENCH_ARGS)
+
+# Every benchmark's few-seconds version: it checks that they all run, not what they measure.
+bench-quick: $(STAMP)
+	$(BIN)/python -m tools.bench --quick $(BENCH_ARGS)
+
 # Regenerate every committed generated file from its one definition in hardware/definitions/
 # (the list: tools/codegen/manifest.toml; a test fails on drift).
 regen: $(STAMP)
-	$(BIN)/python tools/codegen/generate.py
+	$(BIN)/python -m tools.codegen.generate
 
 # KiCad board + schematic, Gerbers/drill/BOM/CPL, mould STLs and renders from hardware/definitions/params.toml.
 # Needs apt's kicad, openscad, gerbv and xvfb (.ci/run installs them).
 hardware: $(STAMP)
-	$(BIN)/python tools/hardware/build.py
+	$(BIN)/python -m tools.hardware.build
 
 # Firmware (offline PlatformIO: project platforms + pip scons; never the registry).
 FW_BIN := build/pio/blackpill/firmware.bin
 firmware: $(STAMP)
-	$(BIN)/python tools/platformio/pio.py run -e blackpill
+	$(BIN)/python -m tools.platformio.pio run -e blackpill
 
 # C unit tests of the core with ASan + UBSan through PlatformIO's native env.
 firmware-test: $(STAMP)
-	$(BIN)/python tools/platformio/pio.py run -e native -t exec
+	$(BIN)/python -m tools.platformio.pio run -e native -t exec
 
 # The simulator library (build/firmware/native/libstac_sim.so, C ABI in generated/stac_sim.h) as
 # tools/firmware/build.toml describes it; rebuilt only when a source is newer.
 firmware-native:
-	$(PYTHON) tools/firmware/build.py simlib
+	$(PYTHON) -m tools.firmware.build simlib
 
 # Black Pill in ROM DFU mode (hold BOOT0, tap NRST); ST-Link: see firmware/README.md.
 flash: firmware

@@ -55,10 +55,11 @@ def repo() -> Path:
 
 @pytest.fixture()
 def run_bench(repo: Path) -> Callable[..., Figures]:
-    """run_bench("ft.py", "--records", "2000") -> --json figures of tools/bench/ft.py by name."""
+    """run_bench("ft", "--records", "2000") -> --json figures of `python -m tools.bench.ft` by
+    name (the benchmark alone, as the runner `python -m tools.bench` starts it)."""
 
-    def run(script: str, *args: str) -> Figures:
-        cmd = [sys.executable, f"tools/bench/{script}", *args, "--json"]
+    def run(module: str, *args: str) -> Figures:
+        cmd = [sys.executable, "-m", f"tools.bench.{module}", *args, "--json"]
         # Its own session: on a timeout or a failure, the bench's servers and busy loops go
         # with it (subprocess.run would kill the script alone and orphan them).
         proc = subprocess.Popen(
@@ -69,7 +70,7 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
             out, err = proc.communicate(timeout=BENCH_TIMEOUT_S)
         except subprocess.TimeoutExpired:
             raise AssertionError(
-                f"{script} {' '.join(args)} ran over {BENCH_TIMEOUT_S} s (stopped, with "
+                f"{module} {' '.join(args)} ran over {BENCH_TIMEOUT_S} s (stopped, with "
                 f"every process it started)"
             ) from None
         finally:

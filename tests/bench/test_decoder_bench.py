@@ -11,7 +11,7 @@ pytestmark = pytest.mark.train
 
 
 def test_speed_bench_quick(run_bench, tmp_path: Path) -> None:
-    by = run_bench("decoder.py", "--quick", "--out", str(tmp_path))
+    by = run_bench("decoder", "--quick", "--out", str(tmp_path))
     figs, names = list(by.values()), set(by)
     # quick grid: 2 integration times x 2 LED sequences x 2 models, latency + training each
     assert len(figs) == 2 * 2 * 2 * 2
@@ -27,8 +27,32 @@ def test_speed_bench_quick(run_bench, tmp_path: Path) -> None:
     assert (tmp_path / "decoder_speed_pareto.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_one_point_of_the_grid(run_bench, tmp_path: Path) -> None:
+    by = run_bench("decoder", "--quick", "--out", str(tmp_path), "--models",
+                   "linear", "--integration", "100", "--sequences", "per-led")  # fmt: skip
+    assert set(by) == {"100ms-per-led/linear latency", "100ms-per-led/linear training"}
+    (row,) = json.loads((tmp_path / "decoder_speed.json").read_text())["rows"]
+    assert row["sequence"] == "per-led" and row["steps"] == 3 and row["latency_ratio"] == 1.0
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [(["--models", "cnn"], "unknown models"), (["--integration", "75"], "choose one of")],
+)
+def test_a_bad_setting_is_a_usage_error(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], option: list[str],
+    message: str,
+) -> None:
+    from tools.bench import decoder
+
+    monkeypatch.setattr("sys.argv", ["decoder", "--quick", *option])
+    with pytest.raises(SystemExit) as exit_:
+        decoder.main()
+    assert exit_.value.code == 2 and message in capsys.readouterr().err
+
+
 def test_variants_bench_quick(run_bench, tmp_path: Path) -> None:
-    by = run_bench("decoder_variants.py", "--quick", "--out", str(tmp_path), "--only", "contact",
+    by = run_bench("decoder", "--variants", "--quick", "--out", str(tmp_path), "--only", "contact",
                    "combined")  # fmt: skip
     assert by["paper blocked Fx MAE"]["ratio"] == 1.0
     assert {"contact blocked Fz MAE", "combined random Fy MAE", "combined latency"} <= set(by)

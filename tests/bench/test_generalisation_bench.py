@@ -1,4 +1,4 @@
-"""tools/bench/generalisation.py end to end on a tiny population (no figure is asserted)."""
+"""`python -m tools.bench.generalisation` end to end on a tiny population (no figure asserted)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ TINY += ["--best-epochs", "1", "--budget", "5", "--no-progress"]
 
 
 def test_generalisation_bench_tiny(run_bench) -> None:
-    by = run_bench("generalisation.py", *TINY)
+    by = run_bench("generalisation", *TINY)
     for recipe in ("paper", "best", "linear", "poly2", "auto"):
         a = by[f"(a) held-out unit: {recipe}"]
         assert a["reference_name"] == "(a) paper" and math.isfinite(a["ratio"]) and a["value"] > 0

@@ -7,7 +7,7 @@ import pytest
 
 @pytest.mark.slow
 def test_live_bench_json(run_bench) -> None:
-    figures = run_bench("live.py", "--seconds", "2", "--warmup", "1")
+    figures = run_bench("live", "--seconds", "2", "--warmup", "1")
     p99 = figures["frame arrival -> browser p99"]
     assert p99["unit"] == "ms" and p99["extra"]["estimates_received"] >= 20
     # the reference: a bare message in each estimate's own WebSocket message, timed one way;

@@ -3,14 +3,9 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools" / "bench"))
-
-import benchlib
+from tools.bench import benchlib
 
 
 def test_busy_loops_spin_while_measuring_and_are_gone_after() -> None:
@@ -23,7 +18,7 @@ def test_busy_loops_spin_while_measuring_and_are_gone_after() -> None:
 
 @pytest.mark.train
 def test_training_bench_json(run_bench) -> None:
-    figures = run_bench("training.py", "--epochs", "1", "--rounds", "1", "--busy", "1")
+    figures = run_bench("training", "--epochs", "1", "--rounds", "1", "--busy", "1")
     quiet, loaded = figures["MLP training, quiet"], figures["MLP training, 1 busy loops"]
     assert quiet["value"] > 0 and quiet["extra"]["threads"] >= 1
     assert loaded["reference_value"] == quiet["value"]
@@ -33,7 +28,7 @@ def test_training_bench_json(run_bench) -> None:
 @pytest.mark.train
 @pytest.mark.slow
 def test_demo_bench_json(run_bench) -> None:
-    figures = run_bench("demo.py", "--duration", "20", "--epochs", "1")
+    figures = run_bench("demo", "--duration", "20", "--epochs", "1")
     quiet = figures["make demo, quiet"]
     assert quiet["reference_value"] == 120.0 and quiet["value"] > 0
     assert {"record_s", "dataset_s", "train_evaluate_s", "total_s", "estimate_s", "cpu_s"} <= set(

@@ -9,7 +9,7 @@ pytestmark = [pytest.mark.qemu, pytest.mark.firmware, pytest.mark.train, pytest.
 
 
 def test_ondevice_bench_json(run_bench) -> None:
-    figures = run_bench("ondevice.py", "--samples", "5")
+    figures = run_bench("ondevice", "--samples", "5")
     for recipe in ("paper (resmlp 128x3", "best (resmlp 128x2"):
         for weights in ("f32", "f16", "i8"):
             label = f"{recipe}, {weights})"

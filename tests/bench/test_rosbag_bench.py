@@ -4,7 +4,7 @@ from __future__ import annotations
 
 
 def test_rosbag_bench_json(run_bench) -> None:
-    figures = run_bench("rosbag.py", "--samples", "400", "--ft-rate", "100", "--rounds", "1")
+    figures = run_bench("rosbag", "--samples", "400", "--ft-rate", "100", "--rounds", "1")
     assert set(figures) == {
         "export rosbag, sqlite3",
         "export rosbag, mcap",

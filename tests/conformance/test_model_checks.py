@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import json
 from pathlib import Path
 
@@ -18,12 +18,7 @@ CAP = m.Capabilities
 
 
 def _tool():
-    path = REPO / "tools" / "vectors" / "make_conformance_model.py"
-    spec = importlib.util.spec_from_file_location("make_conformance_model", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("tools.vectors.make_conformance_model")
 
 
 def test_the_packaged_model_is_a_fresh_export() -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -166,11 +165,7 @@ def test_the_layout_definition_refuses_padding_and_wrong_sizes(
     """Offsets come from the definition's field order: a field that would need padding, or
     fields that do not fill the declared header, are refused when generating; so is a
     target_map that does not hold every F/T axis of the vocabulary beside it."""
-    sys.path.insert(0, str(REPO / "tools" / "codegen"))
-    try:
-        import model_image_backend as backend  # type: ignore[import-not-found]
-    finally:
-        sys.path.remove(str(REPO / "tools" / "codegen"))
+    from tools.codegen import model_image_backend as backend
     definitions = REPO / "hardware" / "definitions"
     layout = backend.load(definitions / "model_image.toml")
     assert layout.offset("n_sections") == 50 and layout.struct_format() == mi.HEADER.format

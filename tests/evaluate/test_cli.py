@@ -1,4 +1,4 @@
-"""`spectratac evaluate` and `spectratac bench decoder` on tiny data (real training)."""
+"""`spectratac evaluate` on tiny data (real training)."""
 
 from __future__ import annotations
 
@@ -125,30 +125,6 @@ def test_evaluate_errors_exit_3(trained, tmp_path, capsys) -> None:
     g = generic.save(tmp_path / "g.npz")
     assert main(["evaluate", str(model), str(g), "-o", str(tmp_path / "g")]) == 3
     assert "inputs" in capsys.readouterr().err
-
-
-def test_bench_decoder_cli(tmp_path, capsys) -> None:
-    argv = [
-        "bench",
-        "decoder",
-        "--quick",
-        "--out",
-        str(tmp_path),
-        "--no-progress",
-        "--models",
-        "linear",
-        "--integration",
-        "100",
-        "--sequences",
-        "per-led",
-        "--json",
-    ]
-    res = _json(capsys, argv)
-    (row,) = res["rows"]
-    assert row["sequence"] == "per-led" and row["steps"] == 3 and row["latency_ratio"] == 1.0
-    assert main(["bench", "decoder", "--quick", "--models", "cnn"]) == 3
-    assert main(["bench", "decoder", "--quick", "--integration", "75"]) == 3
-    assert "choose one of" in capsys.readouterr().err
 
 
 def test_evaluate_says_its_time_before_it_starts(trained, tmp_path, capsys) -> None:

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import shutil
 import socket
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+
+from tools.platformio import pio  # the offline PlatformIO runner
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "build" / "firmware" / "native"
@@ -23,8 +24,6 @@ ELF = REPO / "build" / "pio" / "blackpill_uart" / "firmware.elf"
 USB_ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
 BUILD_TIMEOUT_S = 600
 
-sys.path.insert(0, str(REPO / "tools" / "platformio"))
-import pio  # noqa: E402  (tools/platformio/pio.py: the offline PlatformIO runner)
 
 
 def need(tool: str, package: str) -> None:
@@ -119,12 +118,7 @@ def qemu_port(image: Path) -> Iterator[int]:
 
 def load_native_build() -> ModuleType:
     """tools/firmware/build.py: compiles the host targets of tools/firmware/build.toml."""
-    path = REPO / "tools" / "firmware" / "build.py"
-    spec = importlib.util.spec_from_file_location("stac_native_build", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("tools.firmware.build")
 
 
 @pytest.fixture(scope="session")

@@ -6,7 +6,7 @@ can check the committed C arrays against a fresh export."""
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 from pathlib import Path
 from types import ModuleType
 
@@ -33,12 +33,7 @@ def fixture_image(weights: str = "f32") -> bytes:
 
 
 def builtin_model_tool() -> ModuleType:
-    path = REPO / "tools" / "firmware" / "builtin_model.py"
-    spec = importlib.util.spec_from_file_location("builtin_model", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("tools.firmware.builtin_model")
 
 
 def render_fixture() -> str:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import struct
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,11 +24,10 @@ from spectratac.decode.export import model_image as mi
 from spectratac.protocol import crc32c, decode_frame
 from spectratac.protocol.generated import messages as m
 
+from tools.platformio import pio
+
 from .conftest import REPO, need
 from .test_decode_timeline import paper  # noqa: F401  (the module's fixture)
-
-sys.path.insert(0, str(REPO / "tools" / "platformio"))
-import pio
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.qemu, pytest.mark.slow]
 

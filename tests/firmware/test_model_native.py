@@ -8,7 +8,6 @@ rounding, and the same estimate/no-estimate decisions, flags and regions."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import crcmod.predefined
@@ -19,10 +18,8 @@ from spectratac.decode.export import model_image as mi
 from spectratac.decode.generated.model_image_layout import OFFSETS
 from spectratac.train import TrainSpec, train
 
-from tests.firmware.conftest import OUT, REPO
-
-sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
-import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
+from tests.firmware.conftest import OUT
+from tests.firmware.model_check import model_check_host as harness
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.subprocess]
 

@@ -4,7 +4,6 @@ sample by sample: the interpreter built with the firmware's flags (PlatformIO en
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +12,8 @@ from spectratac.decode.export import model_image as mi
 from spectratac.train import TrainSpec, train
 
 from tests.firmware.conftest import REPO, build_image
+from tests.firmware.model_check import model_check_host as harness
 from tests.firmware.test_model_native import twin, with_faults
-
-sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
-import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
 
 pytestmark = [pytest.mark.qemu, pytest.mark.firmware, pytest.mark.train, pytest.mark.subprocess]
 

@@ -8,7 +8,6 @@ hundred samples of presses on every region."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +21,9 @@ from spectratac.protocol.generated import messages as m
 from spectratac.sim.generated.native_abi import STORE_CAPACITY
 from spectratac.train import TrainSpec, train
 
-from .conftest import REPO
-from .test_model_store_sim import Link, configure
+from tests.firmware.model_check import model_check_host as harness
 
-sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
-import model_check_host as harness  # tests/firmware/model_check/model_check_host.py
+from .test_model_store_sim import Link, configure
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.slow]
 

@@ -5,8 +5,6 @@ refuses a structure whose C layout NumPy could not mirror."""
 from __future__ import annotations
 
 import re
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -24,26 +22,18 @@ GENERATED = [
 
 
 @pytest.fixture(scope="module")
-def backend() -> Iterator[ModuleType]:
-    sys.path.insert(0, str(REPO / "tools" / "codegen"))
-    try:
-        import sim_abi_backend  # type: ignore[import-not-found]
+def backend() -> ModuleType:
+    from tools.codegen import sim_abi_backend
 
-        yield sim_abi_backend
-    finally:
-        sys.path.remove(str(REPO / "tools" / "codegen"))
+    return sim_abi_backend
 
 
 def test_generated_abi_has_not_drifted() -> None:
     """Both sides of the ABI are outputs of its one definition in the manifest, so the drift
     test (tests/meta/test_generated.py) regenerates them; here: they are what it lists."""
-    sys.path.insert(0, str(REPO / "tools" / "codegen"))
-    try:
-        import generate  # type: ignore[import-not-found]
+    from tools.codegen import generate
 
-        outputs = generate.read_manifest().outputs
-    finally:
-        sys.path.remove(str(REPO / "tools" / "codegen"))
+    outputs = generate.read_manifest().outputs
     from_abi = [o.path for o in outputs if o.source == "hardware/definitions/sim_abi.toml"]
     assert from_abi == GENERATED
     for rel in GENERATED:

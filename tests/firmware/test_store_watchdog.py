@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import re
 import struct
-import sys
 import tomllib
 from pathlib import Path
 
@@ -28,12 +27,11 @@ import pytest
 from spectratac.decode import Decoder
 from spectratac.decode.export import model_image as mi
 
+from tools.bench import ondevice  # the decode bench's cycle model
+
 from .conftest import REPO
 from .test_decode_timeline import paper  # noqa: F401  (the module's fixture)
 from .test_decode_timeline_qemu import elf, run, store_region  # noqa: F401
-
-sys.path.insert(0, str(REPO / "tools" / "bench"))
-import ondevice  # tools/bench/ondevice.py: the decode bench's cycle model
 
 pytestmark = [pytest.mark.train, pytest.mark.firmware, pytest.mark.qemu, pytest.mark.slow]
 

@@ -5,7 +5,7 @@ native_core/ and are replayed, with the vectors, by test_native_regressions_repl
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import json
 import os
 import subprocess
@@ -28,11 +28,7 @@ RSS_LIMIT_MB = 6144
 
 
 def _builder() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("stac_native_build", BUILD)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("tools.firmware.build")
 
 
 @pytest.fixture(scope="module")

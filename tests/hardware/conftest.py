@@ -4,21 +4,17 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from kiutils.board import Board
+from kiutils.schematic import Schematic
+
+from tools.hardware.params import Geometry, load
 
 REPO = Path(__file__).resolve().parents[2]
-TOOLS = REPO / "tools" / "hardware"
 KICAD_DIR = REPO / "hardware" / "kicad"
 SYSTEM_PYTHON = "/usr/bin/python3"
-if str(TOOLS) not in sys.path:
-    sys.path.insert(0, str(TOOLS))
-
-from kiutils.board import Board  # noqa: E402
-from kiutils.schematic import Schematic  # noqa: E402
-from params import Geometry, load  # noqa: E402
 
 
 def pcbnew_missing() -> str | None:

@@ -9,10 +9,11 @@ import math
 import re
 
 import pytest
-from circuit import LED_COLOURS, connector_layout, nets, parts
 from conftest import KICAD_DIR, pad_nets, reference
 from kiutils.board import Board
-from params import Geometry, load_pinmap
+
+from tools.hardware.circuit import LED_COLOURS, connector_layout, nets, parts
+from tools.hardware.params import Geometry, load_pinmap
 
 
 def _angle_diff(a: float, b: float) -> float:

@@ -9,7 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import KICAD_DIR, SYSTEM_PYTHON, TOOLS, pcbnew_missing, reference
+from conftest import KICAD_DIR, REPO, SYSTEM_PYTHON, pcbnew_missing, reference
 from kiutils.board import Board
 
 REASON = pcbnew_missing()
@@ -21,7 +21,8 @@ def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[st
     out = tmp_path_factory.mktemp("pcb")
     home = tmp_path_factory.mktemp("home")  # KiCad writes settings under HOME
     proc = subprocess.run(
-        [SYSTEM_PYTHON, str(TOOLS / "pcb_build.py"), str(out)],
+        [SYSTEM_PYTHON, "-m", "tools.hardware.pcb_build", str(out)],
+        cwd=REPO,
         capture_output=True,
         text=True,
         env=dict(os.environ, HOME=str(home)),

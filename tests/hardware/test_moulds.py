@@ -6,12 +6,13 @@ import math
 import shutil
 from pathlib import Path
 
-import moulds
 import numpy as np
 import pytest
 import trimesh
 from conftest import REPO, openscad_missing
-from params import Geometry
+
+from tools.hardware import moulds
+from tools.hardware.params import Geometry
 
 pytestmark = pytest.mark.kicad
 

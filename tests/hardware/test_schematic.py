@@ -8,11 +8,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import schematic as schgen
 from conftest import KICAD_DIR, pad_nets
 from kiutils.board import Board
 from kiutils.schematic import Schematic
-from params import Geometry, load_pinmap
+
+from tools.hardware import schematic as schgen
+from tools.hardware.params import Geometry, load_pinmap
 
 
 def schematic_netlist(sch: Schematic) -> dict[tuple[str, str], str]:

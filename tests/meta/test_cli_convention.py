@@ -20,9 +20,6 @@ from spectratac.cli.options import ROW_FORMATS
 CLI = Path(__file__).resolve().parents[2] / "host" / "spectratac" / "cli"
 # Spellings that name an output path in other tools; here it is always -o/--output.
 OUTPUT_SPELLINGS = {"--out", "--output", "--report", "--outdir", "--output-dir", "--dest"}
-# bench decoder's options are shared with tools/bench/decoder*.py (add_options), which keep
-# their own --out; the one exception to -o/--output.
-OUTPUT_EXCEPTIONS = {("bench decoder", "out")}
 # Verbs whose output folder only ever gains new, uniquely named files (never overwrites).
 NEVER_OVERWRITES = {"live"}
 # Verbs that refuse an existing output: argv ({out}: the output) and what the output is: a
@@ -52,12 +49,10 @@ WRITING_VERBS = {
         "x.npz",
     ),
     "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
-    "bench decoder": (["bench", "decoder", "--quick", "--out", "{out}"], "folder"),
     "export rosbag": (["export", "rosbag", "missing.mcap", "-o", "{out}"], "folder"),
 }
-# Verb modules whose returns are checked for literal exit codes (bench_cmd is shared with
-# tools/bench and returns its codes there).
-EXIT_CODE_MODULES = sorted(p for p in CLI.glob("*_cmd.py") if p.name != "bench_cmd.py")
+# Verb modules whose returns are checked for literal exit codes.
+EXIT_CODE_MODULES = sorted(CLI.glob("*_cmd.py"))
 
 
 def leaves(parser: argparse.ArgumentParser, path: str = "") -> Iterator[tuple[str, list]]:
@@ -96,7 +91,7 @@ def test_the_tree_has_every_documented_verb() -> None:
     for verb in (
         "info", "stream", "sim serve", "sim ft", "conformance", "twin report", "twin generate",
         "protocol show", "protocol decode", "ft info", "ft stream", "record", "dataset build",
-        "dataset info", "train", "evaluate", "decode", "bench decoder", "demo", "model info",
+        "dataset info", "train", "evaluate", "decode", "demo", "model info",
         "model upload", "model clear",
     ):  # fmt: skip
         assert verb in VERBS, f"{verb} is gone from the argparse tree"
@@ -105,8 +100,6 @@ def test_the_tree_has_every_documented_verb() -> None:
 @pytest.mark.parametrize("verb", sorted(VERBS))
 def test_output_paths_are_spelled_o_output(verb: str) -> None:
     for action in visible(VERBS[verb]):
-        if (verb, action.dest) in OUTPUT_EXCEPTIONS:
-            continue
         names = set(action.option_strings)
         if action.dest in ("out", "output", "report") or names & OUTPUT_SPELLINGS:
             assert action.option_strings == ["-o", "--output"], (verb, action.option_strings)
@@ -153,9 +146,9 @@ def test_verbs_that_open_a_device_take_url_and_timeout(verb: str) -> None:
 def test_one_spelling_per_setting_across_verbs() -> None:
     spellings: dict[str, set[tuple[str, ...]]] = defaultdict(set)
     dests: dict[str, set[str]] = defaultdict(set)
-    for verb, actions in VERBS.items():
+    for actions in VERBS.values():
         for action in visible(actions):
-            if not action.option_strings or (verb, action.dest) in OUTPUT_EXCEPTIONS:
+            if not action.option_strings:
                 continue
             spellings[action.dest].add(tuple(action.option_strings))
             for option in action.option_strings:

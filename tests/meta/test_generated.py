@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -21,15 +20,11 @@ NOT_SOURCE = frozenset({"build", "node_modules", "__pycache__", "demo-output"})
 
 
 @pytest.fixture(scope="module")
-def generate() -> Iterator[ModuleType]:
-    """tools/codegen/generate.py as a module (tools/codegen is not a package)."""
-    sys.path.insert(0, str(REPO / "tools" / "codegen"))
-    try:
-        import generate  # type: ignore[import-not-found]
+def generate() -> ModuleType:
+    """tools/codegen/generate.py as a module."""
+    from tools.codegen import generate
 
-        yield generate
-    finally:
-        sys.path.remove(str(REPO / "tools" / "codegen"))
+    return generate
 
 
 def generated_files(root: Path) -> set[str]:
@@ -58,7 +53,7 @@ def manifest_problems(listed: list[str], on_disk: set[str]) -> list[str]:
 
 def test_generated_code_has_not_drifted(tmp_path: Path, generate: ModuleType) -> None:
     subprocess.run(
-        [sys.executable, "tools/codegen/generate.py", "--root", str(tmp_path)],
+        [sys.executable, "-m", "tools.codegen.generate", "--root", str(tmp_path)],
         cwd=REPO,
         check=True,
         capture_output=True,

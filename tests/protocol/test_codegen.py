@@ -12,9 +12,7 @@ import doctest
 import importlib
 import shutil
 import subprocess
-import sys
 import tomllib
-from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -28,13 +26,9 @@ DEFINITIONS = "hardware/definitions"
 
 
 @pytest.fixture
-def codegen(repo: Path) -> Iterator[dict[str, ModuleType]]:
-    """The generator's modules (tools/codegen is not a package)."""
-    sys.path.insert(0, str(repo / "tools" / "codegen"))
-    try:
-        yield {name: importlib.import_module(name) for name in ("definition", "part")}
-    finally:
-        sys.path.pop(0)
+def codegen() -> dict[str, ModuleType]:
+    """The generator's modules."""
+    return {n: importlib.import_module(f"tools.codegen.{n}") for n in ("definition", "part")}
 
 
 def _definition_copy(repo: Path, tmp_path: Path, text: str) -> Path:

@@ -1,5 +1,6 @@
 """The soak: 16 simulated devices streaming and one recording under random seeded faults
-(byte corruption, unplug/replug, link stalls, F/T dropouts), through tools/bench/reliability.py.
+(byte corruption, unplug/replug, link stalls, F/T dropouts), through
+`python -m tools.bench.reliability`.
 
 SPECTRATAC_SOAK_SECONDS sets the simulated seconds per device (default here: 60, about a
 minute and a half of wall time on a loaded CI runner; tools/bench/MEASUREMENTS.md's run used 300).
@@ -16,7 +17,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.subprocess]
 
 def test_nothing_is_lost_unaccounted_and_the_recording_reads_back(run_bench) -> None:
     seconds = os.environ.get("SPECTRATAC_SOAK_SECONDS", "60")
-    soak = run_bench("reliability.py", "--devices", "16", "--seconds", seconds)["reliability"]
+    soak = run_bench("reliability", "--devices", "16", "--seconds", seconds)["reliability"]["extra"]
     load, faults, rec = soak["load"], soak["faults"], soak["recording"]
     assert load["devices"] == 16 and load["simulated_s_per_device"] >= float(seconds)
     # every fault kind really happened, and was survived

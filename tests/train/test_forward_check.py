@@ -171,7 +171,7 @@ def test_sessions_numbered_out_of_time_order_are_chained_by_their_start_times() 
 
 @pytest.mark.subprocess
 def test_the_bench_gives_the_same_figures_for_the_same_seed(run_bench) -> None:
-    args = ("heldout_forward.py", "--units", "0", "--session-s", "10", "--train", "3",
+    args = ("heldout_forward", "--units", "0", "--session-s", "10", "--train", "3",
             "--next", "1", "--seed", "3")  # fmt: skip
     first, again = run_bench(*args), run_bench(*args)
     assert first == again

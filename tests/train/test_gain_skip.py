@@ -44,7 +44,7 @@ def test_the_options_are_checked_and_older_specs_load() -> None:
         TrainSpec.paper(gain_jitter=1.0)
     with pytest.raises(DecoderError, match="model='ridge' is linear already"):
         TrainSpec(model="ridge", targets=("Fz",), skip=True)
-    assert TrainSpec.best().gain_jitter == 0.15  # measured to help: tools/bench/gain_skip.py
+    assert TrainSpec.best().gain_jitter == 0.15  # measured to help (tools/bench/MEASUREMENTS.md)
     assert TrainSpec.best(model="ridge", targets=("Fz",)).gain_jitter == 0.0  # no batches
 
 

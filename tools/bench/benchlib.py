@@ -1,4 +1,4 @@
-"""Shared helpers for benchmarks in tools/bench/.
+"""Shared helpers of the benchmarks in tools/bench/ (the runner: `python -m tools.bench`).
 
 House rule: this machine is shared and noisy, so every figure is reported as a ratio to a
 reference measured side by side in the same run, alternating the two so that load spikes hit
@@ -53,6 +53,20 @@ def side_by_side(
         s_rates.append(best_rate(subject, 1))
         r_rates.append(best_rate(reference, 1))
     return statistics.median(s_rates), statistics.median(r_rates)
+
+
+def gemm_seconds(flops: float, batch: int, threads: int, width: int = 128) -> float:
+    """Seconds torch takes for `flops` of (batch x width) @ (width x width) products on
+    `threads` threads: raw arithmetic of a training's size, the reference of training times."""
+    import torch
+
+    torch.set_num_threads(threads)
+    a, b = torch.randn(batch, width), torch.randn(width, width)
+    reps = max(1, int(flops / (2 * batch * width * width)))
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        torch.mm(a, b)
+    return time.perf_counter() - t0
 
 
 def parser(description: str, busy: bool = False) -> argparse.ArgumentParser:

@@ -1,7 +1,7 @@
 """Benchmark: decoder runtime and training cost, each beside a reference measured in the same
 run (this machine is shared: read the ratios, not the absolute times).
 
-    .venv/bin/python tools/bench/decoder_runtime.py [--json] [--samples 60000] [--epochs 30]
+    python -m tools.bench.decoder_runtime [--json] [--samples 60000] [--epochs 30]
 
 1. Single-sample latency (p50, p99) of the paper's decoder (ResMLP 128 x 3 on 33 features,
    six axes + nine regions) through the fused NumPy runtime, torch not imported, against one
@@ -23,14 +23,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
-
-import benchlib
 from spectratac import threads
 from spectratac.dataset import FT_NAMES, SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder
+
+from tools.bench import benchlib
 
 BATCH = 50  # calls per alternation
 
@@ -149,7 +146,6 @@ def percentile_figures(
 
 
 def training_figure(samples: int, epochs: int) -> benchlib.Figure:
-    import torch
     from spectratac.sim.twin_dataset import from_twin_session
     from spectratac.train import TrainSpec, train
     from spectratac.twin import builtin_scenes as scenes
@@ -161,18 +157,11 @@ def training_figure(samples: int, epochs: int) -> benchlib.Figure:
     t0 = time.perf_counter()
     dec = train(ds, spec, progress=False)
     train_s = time.perf_counter() - t0
-    # plain GEMMs of the model's shapes, same total FLOPs (forward + backward = 3x forward)
-    # the threads training had: the spec's, else the thread policy's share (spec.threads 0)
-    torch.set_num_threads(spec.threads or threads.current().threads)
-    a = torch.randn(spec.batch_size, 128)
-    b = torch.randn(128, 128)
-    per = 2 * spec.batch_size * 128 * 128
+    # plain GEMMs of the model's shapes, same total FLOPs (forward + backward = 3x forward),
+    # on the threads training had: the spec's, else the thread policy's share (spec.threads 0)
     total = 3 * dec.flops_per_sample * ds.n * epochs
-    reps = max(1, int(total / per))
-    t0 = time.perf_counter()
-    for _ in range(reps):
-        torch.mm(a, b)
-    gemm_s = time.perf_counter() - t0
+    n_threads = spec.threads or threads.current().threads
+    gemm_s = benchlib.gemm_seconds(total, spec.batch_size, n_threads)
     return benchlib.Figure(
         f"paper recipe training, {ds.n} samples x {epochs} epochs",
         train_s,

@@ -1,6 +1,6 @@
 """`spectratac demo` end to end, quiet and beside N busy-loop processes, in the same run.
 
-    python tools/bench/demo.py [--json] [--busy 2] [--epochs 40] [--duration 600]
+    python -m tools.bench.demo [--json] [--busy 2] [--epochs 40] [--duration 600]
 
 Runs the demo as `make demo` does (a fresh process, after set-up: the venv exists) into a
 temporary folder and reads its own stage timings (estimate, record, dataset, train +
@@ -19,12 +19,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
-
-import benchlib
+from tools.bench import benchlib
 
 BUDGET_S = 120.0  # README: make demo on a quiet machine after set-up
 LOADED_RATIO = 2.5  # the issue's bound beside two busy loops

@@ -3,21 +3,17 @@ the superloop pass that turns an integration's end into a frame handed to the UA
 idle pass, and the flash and static RAM of both STM32F411 images (USB CDC-ACM host link, env
 blackpill; USART1 host link, env blackpill_uart) against the budget.
 
-    .venv/bin/python tools/bench/firmware.py [--json] [--no-image]
+    python -m tools.bench.firmware [--json] [--no-image]
 """
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
-from types import ModuleType
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import benchlib
+from tools.bench import benchlib
 
 REPO = Path(__file__).resolve().parents[2]
 FLASH_BUDGET = 32 * 1024
@@ -28,16 +24,8 @@ RAM_BUDGET = 24 * 1024
 IMAGES = {"blackpill": "USB CDC-ACM", "blackpill_uart": "USART1"}
 
 
-def load(path: Path, name: str) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def native_figures() -> list[benchlib.Figure]:
-    build = load(REPO / "tools" / "firmware" / "build.py", "stac_native_build")
+    from tools.firmware import build
     exe = build.build("bench")
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True, timeout=600)
     v = {k: float(x) for k, x in (line.split() for line in out.stdout.splitlines())}
@@ -57,8 +45,7 @@ def native_figures() -> list[benchlib.Figure]:
 
 
 def image_figures() -> list[benchlib.Figure]:
-    sys.path.insert(0, str(REPO / "tools" / "platformio"))
-    import pio
+    from tools.platformio import pio
 
     figures: list[benchlib.Figure] = []
     for env, link in IMAGES.items():

@@ -1,6 +1,6 @@
 """F/T driver throughput and the cost of simulated F/T sensors.
 
-    python tools/bench/ft.py [--records N] [--seconds S] [--json]
+    python -m tools.bench.ft [--records N] [--seconds S] [--json]
 
 Figures, each beside a reference measured in the same run:
 - Bota driver parse (resync-capable frame parser + records, 4 KiB chunks, in memory), in
@@ -26,13 +26,11 @@ import sys
 import threading
 import time
 import tty
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np
-from benchlib import Figure, parser, report, side_by_side
 from spectratac.ft import FT_RECORD, botaframe, open_ft, rdt
+
+from tools.bench.benchlib import Figure, parser, report, side_by_side
 
 BOTA_LINK_FPS = 460_800 / 10 / botaframe.FRAME_SIZE
 NETFT_MAX_RATE = 7000.0

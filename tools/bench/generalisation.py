@@ -1,6 +1,6 @@
 """Benchmark: decoders on units and sessions they never saw, and few-shot recalibration.
 
-    .venv/bin/python tools/bench/generalisation.py [--quick] [--json] [--no-progress]
+    python -m tools.bench.generalisation [--quick] [--json] [--no-progress]
         [--units N] [--session-s S] [--full-cal-s S] [--test-s S] [--epochs N]
         [--best-epochs N] [--budget S] [--few-shot-base paper|best] [--seed S]
 
@@ -39,22 +39,18 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
-
-import benchlib
 from spectratac.dataset.schema import FT_NAMES, Dataset
 from spectratac.decode import DecoderUnitWarning
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.sim.twin_dataset import population
 from spectratac.train import TrainSpec, auto_recipe, train
 from spectratac.train.finetune import MODES, finetune
+
+from tools.bench import benchlib
 
 FORCES = vocab.FORCE_AXES
 NEW_UNIT = 1000  # a unit seed far from the population's 1..N

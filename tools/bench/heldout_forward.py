@@ -12,7 +12,7 @@ know. Every ratio is reported, then the share within the target: issue 22, the p
 figure within 1.3x of the next sessions' error. Same arguments, same figures (`--seed`
 seeds every session's conditions, presses and noise).
 
-    PYTHONPATH=host python tools/bench/heldout_forward.py [--units 0-7] [--session-s 120]
+    python -m tools.bench.heldout_forward [--units 0-7] [--session-s 120]
         [--train 6] [--next 2] [--seed 0] [--model ridge|paper] [--variants] [--json]
 
 `--variants` also scores other summaries of the forward folds (all folds, the last, recent
@@ -28,7 +28,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from benchlib import Figure, parser, report
 from spectratac.dataset import Dataset, concat
 from spectratac.sim.named_scenes import named_scene
 from spectratac.sim.twin_dataset import from_twin_session, population
@@ -37,6 +36,8 @@ from spectratac.train.metrics import decoder_mae
 from spectratac.twin.generate import generate_session
 from spectratac.twin.session import SessionConditions
 from spectratac.twin.unit import UnitParams
+
+from tools.bench.benchlib import Figure, parser, report
 
 FORCES = ("Fx", "Fy", "Fz")
 TARGET = 1.3  # issue 22: the printed figure within 1.3x of the next sessions' error

@@ -1,6 +1,6 @@
 """Live page latency: a sample's frame arriving at the host -> its estimate in the browser.
 
-    python tools/bench/live.py [--json] [--seconds S] [--warmup S] [--model PATH] [--busy 2]
+    python -m tools.bench.live [--json] [--seconds S] [--warmup S] [--model PATH] [--busy 2]
 
 Runs `spectratac live`'s server on the simulated sensor at real time (20 samples/s, the
 scripted presses scene, a simulated Bota F/T as reference) and opens the page in headless
@@ -31,17 +31,15 @@ quiet and loaded.
 from __future__ import annotations
 
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchlib import Figure, busy_loops, load_label, loadavg, parser, report
 from spectratac.apps.live.server import LiveServer, bind
 from spectratac.apps.live.session import LiveSession
 from spectratac.decode import Decoder
+
+from tools.bench.benchlib import Figure, busy_loops, load_label, loadavg, parser, report
 
 URL = "sim://?scene=presses&order=up,right,down,left,centre&seed=0&speed=1&ft=bota"
 SAMPLE_PERIOD_MS = 50.0

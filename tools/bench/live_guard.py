@@ -6,28 +6,24 @@ stalling another page, and pages joining mid-stream seeing every estimate once, 
 The server runs in this process on a stand-in session (tests/apps/live/fake_session.py:
 numbered estimates every 5 ms, no device), so the figures are the server's alone.
 
-    python tools/bench/live_guard.py [--joins 200] [--json]
+    python -m tools.bench.live_guard [--joins 200] [--json]
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import socket
-import sys
 import threading
 import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path[:0] = [str(ROOT / "host"), str(ROOT)]
+from spectratac.apps.live.server import LiveServer, bind
+from wsproto.events import CloseConnection
 
-from spectratac.apps.live.server import LiveServer, bind  # noqa: E402
-from wsproto.events import CloseConnection  # noqa: E402
-
-from tests.apps.live.clients import Refused, WsClient, http_request  # noqa: E402
-from tests.apps.live.fake_session import FakeSession  # noqa: E402
+from tests.apps.live.clients import Refused, WsClient, http_request
+from tests.apps.live.fake_session import FakeSession
+from tools.bench.benchlib import Figure, report
 
 EVIL = "http://evil.example"
 
@@ -172,11 +168,26 @@ def main() -> None:
     finally:
         server.stop()
     out["joins"] = joins(args.joins)
-    if args.json:
-        print(json.dumps(out))
-        return
-    for k, v in out.items():
-        print(f"{k:14} {v}")
+    report(figures(out), args.json)
+
+
+def figures(out: dict[str, Any]) -> list[Figure]:
+    """Each check as a figure against what it is measured by: refusals against attempts,
+    memory after the 400 MB POST against before it, another page's longest gap between
+    estimates during the 16 MB message against the estimate period, bad joins against joins."""
+    hostile, post, big, join = out["hostile"], out["post_400mb"], out["message_16mb"], out["joins"]
+    gap_ms = 1e3 * FakeSession().period_s
+    return [
+        Figure("hostile requests refused", hostile["refused"], "requests", "requests tried",
+               hostile["tried"], hostile["refused"] / hostile["tried"], hostile),
+        Figure("RSS after a 400 MB POST", post["rss_after_mb"], "MB", "RSS before",
+               post["rss_before_mb"], post["rss_after_mb"] / post["rss_before_mb"], post),
+        Figure("another page's longest gap during a 16 MB message", big["watcher_max_gap_ms"],
+               "ms", "estimate period", gap_ms, big["watcher_max_gap_ms"] / gap_ms, big),
+        Figure("joins with a duplicate or out-of-order estimate",
+               join["duplicate_or_out_of_order"], "joins", "joins", join["joins"],
+               join["duplicate_or_out_of_order"] / join["joins"], join),
+    ]  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Joining under load: live Fz error during contact on the tour joined mid-press, beside the
 same model on the same scene joined at rest (issue 22 item 1).
 
-    python tools/bench/midpress.py [--json] [--seconds S] [--model PATH]
+    python -m tools.bench.midpress [--json] [--seconds S] [--model PATH]
 
 Three simulated sensors play the region tour at real time (speed=1) side by side, so that
 load hits them alike: one joined at rest (start=0, the reference), one joined 226 ms into
@@ -18,22 +18,19 @@ a drift baseline trained here on twin presses of seed 0's unit (the tour's unit)
 
 from __future__ import annotations
 
-import sys
 import tempfile
 import threading
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchlib import Figure, parser, report
 from spectratac.apps.sensor_setup import SampleTap, sensor_settings
 from spectratac.decode import Decoder
 from spectratac.device import Sensor
 from spectratac.device.ground_truth import ground_truth_of
 from spectratac.device.transport import open_transport
+
+from tools.bench.benchlib import Figure, parser, report
 
 TOUR = "sim://?scene=tour&seed=0&speed=1&start={start}"
 MID_PRESS_S = 0.056 + 0.226  # the tour's first press starts at 0.056 s; 226 ms into it

@@ -29,7 +29,7 @@ STM32 image (env blackpill_uart) against its 64 KiB of flash (sectors 0-3), and 
 plus an uploaded paper-size float32 model in the model store (sectors 4-7, 448 KiB) against
 the 512 KiB flash, and static RAM against the 128 KiB.
 
-    .venv/bin/python tools/bench/ondevice.py [--json] [--samples 40] [--firmware]
+    python -m tools.bench.ondevice [--json] [--samples 40] [--firmware]
 """
 
 from __future__ import annotations
@@ -37,20 +37,16 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import benchlib
+from tests.firmware.model_check import model_check_host as check
+from tools.bench import benchlib
+from tools.platformio import pio
 
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "tests" / "firmware" / "model_check"))
-sys.path.insert(0, str(REPO / "tools" / "platformio"))
-import model_check_host as check  # noqa: E402
-import pio  # noqa: E402
 
 PAPER_F32 = "paper (resmlp 128x3, f32)"
 CLOCK_HZ = 96e6

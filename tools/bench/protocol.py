@@ -1,6 +1,6 @@
 """Protocol decoder throughput and corruption detection.
 
-    python tools/bench/protocol.py [--frames N] [--corrupt N] [--json]
+    python -m tools.bench.protocol [--frames N] [--corrupt N] [--json]
 
 Figures, each beside a reference measured in the same run:
 - incremental decoder (StreamDecoder, 4 KiB chunks) and bulk decoder (decode_samples to NumPy),
@@ -15,14 +15,12 @@ from __future__ import annotations
 
 import random
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchlib import Figure, parser, report, side_by_side
 from cobs import cobs
 from spectratac.protocol import StreamDecoder, crc32c, decode_samples, encode_frame
 from spectratac.protocol.generated import messages
+
+from tools.bench.benchlib import Figure, parser, report, side_by_side
 
 LINK_BAUD = 921_600
 

@@ -1,6 +1,6 @@
 """Recording and dataset building: samples/s written, build time of a 60,000-sample session.
 
-    python tools/bench/recording.py [--json] [--samples N] [--ft-rate HZ] [--rounds R]
+    python -m tools.bench.recording [--json] [--samples N] [--ft-rate HZ] [--rounds R]
                                     [--live-samples N]
 
 The session is made, not recorded: a twin calibration session (`--samples` windows of 50 ms,
@@ -30,9 +30,6 @@ import time
 import warnings
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchlib import Figure, parser, report, side_by_side
 from mcap.stream_reader import StreamReader
 from spectratac.dataset.build import build_datasets
 from spectratac.device import Sensor
@@ -40,6 +37,8 @@ from spectratac.record import Recorder, RecordOptions
 from spectratac.sim.synthetic_recording import sample_frames, write_twin_recording
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
+
+from tools.bench.benchlib import Figure, parser, report, side_by_side
 
 INTEGRATION_S = 0.05
 

@@ -1,6 +1,6 @@
 """ROS 2 bag export: messages/s written by `spectratac export rosbag`, beside dataset build.
 
-    python tools/bench/rosbag.py [--json] [--samples N] [--ft-rate HZ] [--rounds R]
+    python -m tools.bench.rosbag [--json] [--samples N] [--ft-rate HZ] [--rounds R]
 
 The session is made, not recorded, as in recording.py: a twin calibration session of
 `--samples` 50 ms windows with F/T at `--ft-rate`, written as a real recording. Figures,
@@ -22,16 +22,14 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchlib import Figure, parser, report, side_by_side
 from spectratac.dataset.build import build_datasets
 from spectratac.ros2 import export_rosbag
 from spectratac.ros2.messages import TYPESTORE, WRENCH_STAMPED, wrench_stamped
 from spectratac.sim.synthetic_recording import sample_frames, write_twin_recording
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
+
+from tools.bench.benchlib import Figure, parser, report, side_by_side
 
 INTEGRATION_S = 0.05
 

@@ -1,6 +1,6 @@
 """Simulated device input throughput: bytes the host sends into SimDevice.feed.
 
-    python tools/bench/sim_device.py [--megabytes M] [--rounds R] [--json]
+    python -m tools.bench.sim_device [--megabytes M] [--rounds R] [--json]
 
 Figures, each beside a reference measured in the same run:
 - feed of M MiB of line noise in one call, in bytes/s, beside the same bytes fed 4 KiB per
@@ -13,14 +13,12 @@ Figures, each beside a reference measured in the same run:
 from __future__ import annotations
 
 import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np
-from benchlib import Figure, parser, report, side_by_side
 from spectratac.sim.device import SimDevice
 from spectratac.sim.named_scenes import make_scene
+
+from tools.bench.benchlib import Figure, parser, report, side_by_side
 
 LINK_BYTES_PER_S = 921_600 / 10
 

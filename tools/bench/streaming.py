@@ -1,6 +1,6 @@
 """Host streaming: frame-to-user latency, samples/s at speed=max, CPU for 16 devices.
 
-    python tools/bench/streaming.py [--json] [--frames N] [--samples N] [--devices N]
+    python -m tools.bench.streaming [--json] [--frames N] [--samples N] [--devices N]
                                     [--seconds S] [--rounds R]
 
 1. Latency over a pty: real firmware output (captured from the simulated device) is written to
@@ -29,13 +29,9 @@ import sys
 import threading
 import time
 import tty
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np
 import serial
-from benchlib import Figure, parser, report
 from spectratac.device import Sensor
 from spectratac.device.transport import SerialTransport
 from spectratac.protocol import encode_frame
@@ -43,6 +39,8 @@ from spectratac.protocol.generated import messages as m
 from spectratac.sim.device import SimDevice
 from spectratac.sim.named_scenes import make_scene
 from spectratac.sim.runner import RUN_STEPS
+
+from tools.bench.benchlib import Figure, parser, report
 
 
 def capture_device_frames(n: int) -> tuple[bytes, list[bytes]]:

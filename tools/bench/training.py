@@ -1,8 +1,8 @@
-"""Training throughput: the paper network and our best decoder quiet and beside N busy-loop
-processes, and the paper recipe on a large dataset beside a NumPy reference, in the same run.
+"""Training throughput: the recipes quiet and beside N busy-loop processes, and the paper
+recipe on a large dataset beside torch GEMMs of the same FLOPs, in the same run.
 
-    python tools/bench/training.py [--json] [--busy 2] [--rounds 3] [--epochs 5]
-    python tools/bench/training.py --nets none --paper-rows 266000   # the paper, 30 epochs
+    python -m tools.bench.training [--json] [--busy 2] [--rounds 3] [--epochs 5]
+    python -m tools.bench.training --nets none --paper-rows 266000   # the paper, 30 epochs
 
 1. Throughput (rows per second, every augmented row counted) of `train` on the demo's data,
    the twin's 600 s calibration session (12 000 rows), for each network of --nets: "mlp" (a
@@ -11,31 +11,23 @@ processes, and the paper recipe on a large dataset beside a NumPy reference, in 
    256). Each round fits once quiet and once beside --busy busy loops, alternately, so that
    the machine's own load hits both; the figure under load is its best round against the
    best quiet round (target >= 0.4: a fair share of 2 cores among 4 runnable processes is
-   0.5). Without the thread policy (spectratac.threads), torch's spinning threads made the
-   same fit 2-4x slower beside two busy loops and ~180x slower beside another training.
+   0.5). It guards the thread policy (spectratac.threads): torch's spinning threads slow a
+   fit many times over beside other work.
 2. With --paper-rows N: TrainSpec.paper() (30 epochs, or --paper-epochs) on N rows of a twin
    calibration session, wall and CPU time (target for 266 000 rows x 30 epochs: <= 120 s on
-   2 cores), beside the same network's training in plain NumPy (numpy_resmlp.py: forward,
-   backward and AdamW by hand, same batch; one BLAS thread, in its own process) for
-   --ref-epochs epochs on rows of the same shape, once before and once after, scaled to the
-   same number of epochs. CPU times are reported beside wall times: on a shared machine the
-   wall time says as much about the other jobs as about the loop.
+   2 cores), beside torch matrix products of the network's width and batch doing the fit's
+   FLOPs (forward + backward ~ 3x forward), timed just before and just after the fit: the
+   ratio is the training loop's overhead over raw arithmetic. CPU times are reported beside
+   wall times: on a shared machine the wall time says as much about the other jobs as about
+   the loop.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
-
-import benchlib
+from tools.bench import benchlib
 
 NETS = ("mlp", "paper", "best")
 
@@ -109,53 +101,40 @@ def throughput(net: str, ds: Any, epochs: int, rounds: int, busy: int) -> list[b
     return figures
 
 
-def reference_epoch(
-    shape: tuple[int, int, int, int], batch: int, epochs: int
-) -> tuple[float, float]:
-    """(wall s, CPU s) per epoch of the NumPy reference on rows of the given shape
-    (rows, features, regression targets, classes), in a process of its own with one BLAS
-    thread (numpy_resmlp.py says why)."""
-    env = {
-        **os.environ,
-        **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")},
-    }
-    script = Path(__file__).resolve().parent / "numpy_resmlp.py"
-    args = [str(v) for v in (*shape, epochs, batch)]
-    out = subprocess.run(
-        [sys.executable, str(script), *args], env=env, capture_output=True, text=True, check=True
-    ).stdout
-    r = json.loads(out.splitlines()[-1])
-    return r["wall_s"], r["cpu_s"]
-
-
-def paper_run(rows: int, epochs: int, ref_epochs: int) -> benchlib.Figure:
+def paper_run(rows: int, epochs: int) -> benchlib.Figure:
+    """The paper recipe on `rows` twin rows for `epochs`, beside torch GEMMs of the same
+    FLOPs (forward + backward ~ 3x forward) timed just before and just after the fit."""
     from spectratac import threads
-    from spectratac.train.plan import plan
 
-    ds = twin_rows(rows)
     spec = spec_of("paper", epochs)
-    p = plan(ds, spec)
-    shape = (ds.n, p.features.n_features, p.heads.n_reg, p.heads.n_classes)
+    # a small fit first: imports torch and gives the network's FLOPs per row
+    probe = timed_fit(twin_rows(2000), spec_of("paper", 1))[3]
+    ds = twin_rows(rows)
+    n_threads = spec.threads or threads.current().threads
+    flops = 3.0 * probe.flops_per_sample * ds.n * epochs
     load0 = benchlib.loadavg()
-    before = reference_epoch(shape, spec.batch_size, ref_epochs)
+    c0 = time.process_time()
+    before = benchlib.gemm_seconds(flops, spec.batch_size, n_threads)
+    ref_cpu = time.process_time() - c0
     wall, cpu, trained, dec = timed_fit(ds, spec)
-    after = reference_epoch(shape, spec.batch_size, ref_epochs)
-    ref_wall = (before[0] + after[0]) / 2 * epochs
-    ref_cpu = (before[1] + after[1]) / 2 * epochs
+    c0 = time.process_time()
+    after = benchlib.gemm_seconds(flops, spec.batch_size, n_threads)
+    ref_cpu = (ref_cpu + time.process_time() - c0) / 2
+    ref_wall = (before + after) / 2
     return benchlib.Figure(
         f"paper recipe, {ds.n} rows x {epochs} epochs",
         wall,
         "s",
-        "NumPy reference, same network and batch",
+        "torch GEMMs of the same FLOPs",
         ref_wall,
         wall / ref_wall,
         {
-            "cpu_s": round(cpu, 1),
-            "reference_cpu_s": round(ref_cpu, 1),
+            "cpu_s": round(cpu, 3),
+            "reference_cpu_s": round(ref_cpu, 3),
             "cpu_ratio": round(cpu / ref_cpu, 3),
             "target_s": 120.0 * trained / (266_000 * 30),
             "rows_per_s": round(trained / wall),
-            "threads": threads.current().threads,
+            "threads": n_threads,
             "final_loss": dec.meta["history"][-1],
             "loadavg": [load0, benchlib.loadavg()],
         },
@@ -169,7 +148,6 @@ def main() -> None:
     p.add_argument("--nets", default="mlp", help=f"comma-separated: {', '.join(NETS)}, or none")
     p.add_argument("--paper-rows", type=int, default=0, help="also time the paper recipe")
     p.add_argument("--paper-epochs", type=int, default=30)
-    p.add_argument("--ref-epochs", type=int, default=1, help="NumPy reference epochs, x2")
     args = p.parse_args()
     nets = [n for n in args.nets.split(",") if n and n != "none"]
     unknown = sorted(set(nets) - set(NETS))
@@ -181,7 +159,7 @@ def main() -> None:
         for net in nets:
             figures += throughput(net, ds, args.epochs, args.rounds, args.busy)
     if args.paper_rows:
-        figures.append(paper_run(args.paper_rows, args.paper_epochs, args.ref_epochs))
+        figures.append(paper_run(args.paper_rows, args.paper_epochs))
     benchlib.report(figures, args.json)
 
 

@@ -1,7 +1,7 @@
 """Benchmark: generating the 50-minute calibration session (60,000 optical samples plus the
 1 kHz F/T stream) against merely allocating its output arrays, side by side in one run.
 
-    .venv/bin/python tools/bench/twin.py [--json] [--rounds 3] [--busy 2]
+    python -m tools.bench.twin [--json] [--rounds 3] [--busy 2]
 
 Also times a population dataset (4 units x 3 sessions x 5 minutes, each session with its own
 unit, mounting, temperature and ageing) against one session of the same simulated length, in
@@ -15,22 +15,17 @@ neighbour's load (a CI run beside it) inflates far less than the wall time.
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host"))
-
-import benchlib
 from spectratac.sim.twin_dataset import from_twin_session, population
 from spectratac.twin import builtin_scenes as scenes
 from spectratac.twin import generate_session
 from spectratac.twin.electronics import AF, TRIG, SensorConfig
 from spectratac.twin.rig import TwinRig
+
+from tools.bench import benchlib
 
 
 def allocate_like(n: int, m: int) -> int:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import part as part_definition
+from . import part as part_definition
 
 SCALARS: dict[str, tuple[str, str, int, bool]] = {
     # type: (C type, struct code, size, signed)

@@ -4,8 +4,8 @@ What is generated from what, and by which backend, is tools/codegen/manifest.tom
 renders exactly the files it lists, and the drift test (tests/meta/test_generated.py) reads the
 same list.
 
-python tools/codegen/generate.py            # rewrite the committed files
-python tools/codegen/generate.py --root DIR # write the same tree under DIR (drift check)
+python -m tools.codegen.generate            # rewrite the committed files (`make regen`)
+python -m tools.codegen.generate --root DIR # write the same tree under DIR (drift check)
 """
 
 from __future__ import annotations
@@ -22,15 +22,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import board_backend
-import board_geometry_backend
-import model_image_backend
-import part
-import sim_abi_backend
-import vocabulary_backend
-from definition import load
+from . import (
+    board_backend,
+    board_geometry_backend,
+    model_image_backend,
+    part,
+    sim_abi_backend,
+    vocabulary_backend,
+)
+from .definition import load
 
 REPO = Path(__file__).resolve().parents[2]
 MANIFEST = Path(__file__).resolve().parent / "manifest.toml"
@@ -93,7 +93,9 @@ def read_manifest(path: Path = MANIFEST) -> Manifest:
 
 def _backend(name: str) -> Callable[[Any], str]:
     module, function = name.rsplit(".", 1)
-    render: Callable[[Any], str] = getattr(importlib.import_module(module), function)
+    render: Callable[[Any], str] = getattr(
+        importlib.import_module(f".{module}", __package__), function
+    )
     return render
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from definition import SCALARS, Definition, Field, allowed_values, bits_mask
+from .definition import SCALARS, Definition, Field, allowed_values, bits_mask
 
 
 def _type(f: Field) -> str:

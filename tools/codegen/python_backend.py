@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 
-from definition import SCALARS, Definition, Field, Message, allowed_values, bits_mask
+from .definition import SCALARS, Definition, Field, Message, allowed_values, bits_mask
 
 HEADER = '''\
 # ruff: noqa: E501  (docstrings copied from the definition may be long)

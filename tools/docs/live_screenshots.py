@@ -1,7 +1,7 @@
 """The live page's screenshots in its guide (host/spectratac/apps/live/README.md), taken as a
 user would see them.
 
-    python tools/docs/live_screenshots.py [-o host/spectratac/apps/live/screenshots] [--model M]
+    python -m tools.docs.live_screenshots [-o host/spectratac/apps/live/screenshots] [--model M]
 
 Serves `spectratac live` on the simulated sensor (the scripted presses scene with a simulated
 Bota F/T, at real time) and photographs it in headless Chromium (Debian's chromium +

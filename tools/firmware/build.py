@@ -8,7 +8,7 @@ checkout, and by spectratac.sim.native in a checkout. `build()` recompiles a tar
 one of its inputs is newer than the output, so edited C sources are picked up on the next use.
 Standard library only: setup.py imports it before any dependency is installed.
 
-    python tools/firmware/build.py [--out build/firmware/native] [simlib simlib-asan unit-tests ...]
+    python -m tools.firmware.build [--out build/firmware/native] [simlib simlib-asan unit-tests ...]
 """
 
 from __future__ import annotations

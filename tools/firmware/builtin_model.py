@@ -1,6 +1,6 @@
 """Compile a decoder into the firmware: a .stac model file (or a model image) as a C array.
 
-    python tools/firmware/builtin_model.py MODEL.stac -o firmware/builtin/stac_builtin_model.c
+    python -m tools.firmware.builtin_model MODEL.stac -o firmware/builtin/stac_builtin_model.c
 
 writes the model image (spectratac.decode.export.model_image) as
 ``const uint8_t stac_builtin_model[]`` and ``const uint32_t stac_builtin_model_size``. A

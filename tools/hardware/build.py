@@ -1,6 +1,6 @@
 """`make hardware`: regenerate every hardware output from hardware/definitions/params.toml.
 
-    .venv/bin/python tools/hardware/build.py [--out DIR] [--no-render]
+    .venv/bin/python -m tools.hardware.build [--out DIR] [--no-render]
 
 Writes (under DIR, default hardware/):
   kicad/   spectratac.kicad_sch (kiutils), spectratac.kicad_pcb + .kicad_pro (pcbnew, routed),
@@ -22,12 +22,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-import moulds
-import schematic
-from params import REPO, load
+from . import moulds, schematic
+from .params import REPO, load
 
 SYSTEM_PYTHON = "/usr/bin/python3"
-HERE = Path(__file__).resolve().parent
 # Lines that carry the run's date: dropped so that regenerating changes nothing in git.
 DATED = re.compile(r"^(G04 #@! TF\.CreationDate.*|; #@! TF\.CreationDate.*|\*\* Created on .*)\n",
                    re.MULTILINE)
@@ -43,8 +41,9 @@ def build_pcb(kicad_dir: Path) -> dict[str, object]:
     """Run the pcbnew generator with a throw-away HOME (KiCad writes settings there)."""
     with tempfile.TemporaryDirectory() as home:
         env = dict(os.environ, HOME=home)
-        proc = subprocess.run([SYSTEM_PYTHON, str(HERE / "pcb_build.py"), str(kicad_dir)],
-                              capture_output=True, text=True, env=env)
+        proc = subprocess.run([SYSTEM_PYTHON, "-m", "tools.hardware.pcb_build",
+                               str(kicad_dir.resolve())],
+                              capture_output=True, text=True, env=env, cwd=REPO)
     (kicad_dir / "spectratac.kicad_prl").unlink(missing_ok=True)  # per-user view state
     _undate(kicad_dir)
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from params import Geometry, load_pinmap
+from .params import Geometry, load_pinmap
 
 # Bottom-side connector: pad angles grouped by the part they serve, so that every trace from a
 # pad runs radially inward to its own sector. Sensor k gets SCL at -20°, SDA at +20° around its

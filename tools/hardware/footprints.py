@@ -22,8 +22,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pcbnew  # type: ignore[import-not-found]
-from circuit import Part, connector_layout
-from params import Geometry, load_pinmap
+
+from .circuit import Part, connector_layout
+from .params import Geometry, load_pinmap
 
 LIB = "SpectraTac"
 FACTS = Path(__file__).resolve().parents[2] / "hardware" / "datasheet_facts.toml"

@@ -7,7 +7,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from params import REPO, Geometry
+from .params import REPO, Geometry
 
 SCAD = REPO / "hardware" / "mould" / "spectratac_moulds.scad"
 PARTS = ("pdms_mould", "skin_cavity", "skin_core", "fixture")

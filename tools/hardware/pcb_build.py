@@ -1,6 +1,6 @@
 """Generate, route, check and plot the sensor PCB. Run with Debian's /usr/bin/python3.
 
-    HOME=$(mktemp -d) /usr/bin/python3 tools/hardware/pcb_build.py OUT_DIR
+    HOME=$(mktemp -d) /usr/bin/python3 -m tools.hardware.pcb_build OUT_DIR   # from the repo root
 
 writes OUT_DIR/spectratac.kicad_pcb (+ .kicad_pro with the design rules), drc.rpt,
 gerber/ (Gerbers + Excellon drill), spectratac-bom.csv and spectratac-cpl.csv, and prints a JSON
@@ -15,11 +15,12 @@ import re
 import sys
 from pathlib import Path
 
-import footprints
 import pcbnew  # type: ignore[import-not-found]
-from circuit import Part, connector_layout, nets, parts
-from params import Geometry, load
-from router import Router, Rules, Shape, route_all
+
+from . import footprints
+from .circuit import Part, connector_layout, nets, parts
+from .params import Geometry, load
+from .router import Router, Rules, Shape, route_all
 
 RULES = Rules()
 NAME = "spectratac"

@@ -11,14 +11,15 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from circuit import Part, parts
 from kiutils.items.common import Effects, Fill, Font, Justify, Position, Property, Stroke
 from kiutils.items.schitems import LocalLabel, SchematicSymbol, SymbolInstance
 from kiutils.items.syitems import SyRect
 from kiutils.libraries import Library, LibTable
 from kiutils.schematic import Schematic
 from kiutils.symbol import Symbol, SymbolLib, SymbolPin
-from params import Geometry
+
+from .circuit import Part, parts
+from .params import Geometry
 
 LIB = "SpectraTac"
 NS = uuid.UUID("5e3c7a2a-8f1d-4c55-9b9e-3d1f0a6c2b10")

@@ -3,8 +3,8 @@
 Sets PLATFORMIO_CORE_DIR to build/pio-core (prepared by setup_offline.py) and turns off
 telemetry and update checks, then runs the venv's `pio` with the given arguments.
 
-    python tools/platformio/pio.py run -e blackpill
-    python tools/platformio/pio.py run -e native -t exec
+    python -m tools.platformio.pio run -e blackpill
+    python -m tools.platformio.pio run -e native -t exec
 
 One pio at a time per checkout (an advisory lock on build/pio.lock): every environment shares
 the core directory and build/pio, and two runs of one environment at once (pytest-xdist workers)
@@ -21,9 +21,7 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from setup_offline import REPO, environment
+from .setup_offline import REPO, environment
 
 LOCK = REPO / "build" / "pio.lock"
 

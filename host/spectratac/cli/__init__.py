@@ -34,7 +34,6 @@ VERB_MODULES: tuple[str, ...] = (
     "dataset_cmd",
     "export_cmd",
     "evaluate_cmd",
-    "bench_cmd",
     "train_cmd",
     "decode_cmd",
     "live_cmd",

@@ -49,7 +49,7 @@ def test_no_press_fires_twice_on_another_unit(press_model, seed: int) -> None:
 @pytest.fixture(scope="module")
 def population_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """`TrainSpec.best()` at a small size on one minute of each of units 10-19 (none of the
-    units played below): the bench's population model (tools/bench/snake_units.py), smaller."""
+    units played below): the population model of the Snake measurement, smaller."""
     from spectratac.sim.twin_dataset import population
     from spectratac.train import TrainSpec, train
 
