@@ -1,4 +1,4 @@
-"""The package's layering, machine-checked: the rule the README's Layout table states.
+"""The package's layering, machine-checked: the rule host/spectratac/ARCHITECTURE.md states.
 
 The data flow, bottom to top (DATA_FLOW): each part imports only parts below it. Beside it:
 `twin` (the physics model) imports no other part; `sim` (simulated devices and F/T sensors)

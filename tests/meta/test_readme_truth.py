@@ -29,9 +29,6 @@ MAX_LINES = 250
 MAX_WIDTH = 300
 #: The user's guides held to the README's shape.
 SHORT_GUIDES = ("README.md", "firmware/README.md")
-#: The `bench` verb is being dropped (issue 37: benchmarks run with `make bench`); the README
-#: does not list it. Once the verb is gone the test fails until this exemption goes too.
-LEAVING = {"bench decoder"}
 
 
 def verbs(parser: argparse.ArgumentParser, path: str = "") -> Iterator[tuple[str, list]]:
@@ -93,9 +90,8 @@ def test_the_guide_is_short_and_its_lines_are_readable(name: str) -> None:
 
 def test_the_verb_table_has_one_row_per_verb() -> None:
     listed = set(verb_table())
-    assert set(VERBS) >= LEAVING, f"{sorted(LEAVING - set(VERBS))} left the CLI: drop LEAVING"
-    assert listed == set(VERBS) - LEAVING, (
-        f"not in the README's verb table: {sorted(set(VERBS) - LEAVING - listed)}; "
+    assert listed == set(VERBS), (
+        f"not in the README's verb table: {sorted(set(VERBS) - listed)}; "
         f"in it but no verb: {sorted(listed - set(VERBS))}"
     )
 
@@ -150,10 +146,9 @@ def test_the_verbs_that_stop_on_count_and_duration_are_the_cli_guides() -> None:
             expected = {"--duration"}
         else:
             expected = set()
-        if verb not in LEAVING:
-            assert stops_on == expected, (
-                f"`{verb}` stops on {sorted(stops_on)}: the CLI guide says {sorted(expected)}"
-            )
+        assert stops_on == expected, (
+            f"`{verb}` stops on {sorted(stops_on)}: the CLI guide says {sorted(expected)}"
+        )
 
 
 def test_the_layout_table_lists_the_top_level_folders() -> None:

@@ -4,7 +4,7 @@
 
 Runs the demo as `make demo` does (a fresh process, after set-up: the venv exists) into a
 temporary folder and reads its own stage timings (estimate, record, dataset, train +
-evaluate) and the CPU time it used. The quiet total is set against the README's budget
+evaluate) and the CPU time it used. The quiet total is set against the demo's budget
 (120 s); the loaded total against the quiet total of this run (target <= 2.5x). The two runs'
 results tables must be the same (issue 22: the table is a function of the scene), and the
 bench fails if they are not. To see where the time goes inside a stage, run the same command
@@ -22,7 +22,7 @@ import time
 
 from tools.bench import benchlib
 
-BUDGET_S = 120.0  # README: make demo on a quiet machine after set-up
+BUDGET_S = 120.0  # issue 26's budget for make demo on a quiet machine after set-up
 LOADED_RATIO = 2.5  # the issue's bound beside two busy loops
 
 

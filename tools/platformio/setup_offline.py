@@ -6,7 +6,7 @@ from tools/platformio/tool-scons (a thin wrapper around the pip `scons` package)
 `symlink://`, so nothing else is installed. Prints the core directory to export as
 PLATFORMIO_CORE_DIR.
 
-    python tools/platformio/setup_offline.py [--core-dir build/pio-core]
+    python -m tools.platformio.setup_offline [--core-dir build/pio-core]
 """
 
 from __future__ import annotations

@@ -121,7 +121,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--threads",
         type=int,
-        help="torch threads (default: the thread policy, SPECTRATAC_THREADS; README)",
+        help="torch threads (default: the thread policy, SPECTRATAC_THREADS; THREADS.md)",
     )
     p.add_argument("--holdout", choices=SPLIT_KINDS, help="train on this split's training rows")
     p.add_argument("--split-seed", type=int, default=0, help="seed of the --holdout split")

@@ -184,7 +184,7 @@ class TrainSpec:
         baseline), a 2-block ResMLP (fewer FLOPs per sample than the paper's 3 blocks),
         training on every press also rotated and mirrored (the sensor's symmetry) and under
         a +-15 % gain (gain_jitter: on a new twin unit read at 0.85 and 1.15 times its gain
-        it halves the force MAE, tools/bench/gain_skip.py), batch 256, weight decay 0.05,
+        it halves the force MAE: tools/bench/MEASUREMENTS.md), batch 256, weight decay 0.05,
         weight averaging and Fz weighted 2 in the loss; its region head is taught on the
         evidence of the moment (region_history_swap: with the history the network read
         regions worse than the paper's recipe, which has none). On a blocked

@@ -1,5 +1,5 @@
-"""The decoder benchmarks as a library: `spectratac bench decoder` and the scripts
-tools/bench/decoder.py and tools/bench/decoder_variants.py all call this package.
+"""The decoder benchmarks as a library, which `tools/bench/decoder.py` (the `decoder-speed` and
+`decoder-variants` entries of `make bench`) calls.
 
 - `speed_bench(cfg, out)`: integration time x LED sequence x model size, error against
   observation rate, latency and training time (`speed`, `acquisition`).

@@ -1,5 +1,5 @@
-"""Command-line options of the decoder benchmarks, shared by `spectratac bench decoder` and
-tools/bench/decoder.py, tools/bench/decoder_variants.py so that all three accept the same.
+"""Command-line options of the decoder benchmarks (`tools/bench/decoder.py`), kept beside the
+library so that its settings and its options cannot drift apart.
 
 >>> import argparse
 >>> p = argparse.ArgumentParser()

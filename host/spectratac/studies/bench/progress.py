@@ -36,7 +36,7 @@ def run_with_progress(
     points = len({"paper", *cfg.variants}) if variants else len(planned_points(cfg))
     bar = tqdm(
         total=points + 1,  # + the latency / oracle stage
-        desc="bench decoder",
+        desc="decoder bench",
         unit="model",
         file=sys.stderr,
         leave=False,
