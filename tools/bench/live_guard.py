@@ -1,6 +1,6 @@
-"""The live server against hostile clients (issue 25), with figures for the
-reliability rows of the measurements log: other sites and Host names refused, control without the page's token
-refused, a 400 MB POST and a 16 MB WebSocket message refused without raising memory or
+"""The live server against hostile clients (issue 25), with figures for the reliability
+rows of the measurements log: other sites and Host names refused, control without the page's
+token refused, a 400 MB POST and a 16 MB WebSocket message refused without raising memory or
 stalling another page, and pages joining mid-stream seeing every estimate once, in order.
 
 The server runs in this process on a stand-in session (tests/apps/live/fake_session.py:

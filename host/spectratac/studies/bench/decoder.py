@@ -1,4 +1,5 @@
-"""The two decoder benchmarks end to end, run by `tools/bench/decoder.py`: build the data, train, score, time, write tables and plots.
+"""The two decoder benchmarks end to end, run by `tools/bench/decoder.py`: build the data,
+train, score, time, write tables and plots.
 
 - `variants_bench`: the paper's recipe against each improvement beyond it.
 - `speed_bench`: integration time x LED sequence x model size.
