@@ -162,7 +162,7 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
 @pytest.mark.slow
 def test_session_without_a_model_publishes_raw_counts_and_the_reference(tmp_path) -> None:
     url = PRESSES_URL + "&speed=4&ft=bota"
-    # as the live benchmark runs it (tools/bench/live.py times a session without a model too)
+    # with the benchmark's instruments on (tools/bench/live.py), which time every sample
     session = LiveSession(None, url, out_dir=tmp_path, benchmark=True)
     received = Received()
     got = received.messages
