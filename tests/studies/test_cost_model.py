@@ -1,5 +1,6 @@
-"""The demo's estimate follows how the demo runs: its four fits side by side on the workers
-that split the CPUs (train/parallel.py), each probed with the threads it will have."""
+"""The twin verbs' estimates: the demo's follows how the demo runs (its four fits side by
+side on the workers that split the CPUs, train/parallel.py, each probed with the threads it
+will have); `evaluate` adds the twin's inverse only on twin data."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 from spectratac import threads
+from spectratac.apps.estimates import Estimate, TrainingCost
+from spectratac.dataset import Dataset
 from spectratac.studies import cost_model
 from spectratac.train.parallel import fit_threads
 
@@ -21,17 +24,17 @@ def probed(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """Probes stubbed to fixed costs; the specs the training probe was given."""
     specs: list[Any] = []
 
-    def measure(cls: type, dataset: Any, spec: Any, batches: int = 2) -> cost_model.TrainingCost:
+    def measure(cls: type, dataset: Any, spec: Any, batches: int = 2) -> TrainingCost:
         specs.append(spec)
-        return cost_model.TrainingCost(FIT_S["best" if spec.augment != "none" else "paper"], 0.0)
+        return TrainingCost(FIT_S["best" if spec.augment != "none" else "paper"], 0.0)
 
     class Probe:
         dataset = None
 
     monkeypatch.setattr(cost_model, "twin_probe", lambda *a, **k: Probe())
-    monkeypatch.setattr(cost_model, "build_rate", lambda probe: 1e-4)
+    monkeypatch.setattr(cost_model, "twin_build_rate", lambda probe: 1e-4)
     monkeypatch.setattr(cost_model, "oracle_rate", lambda dataset: 0.0)
-    monkeypatch.setattr(cost_model.TrainingCost, "measure", classmethod(measure))
+    monkeypatch.setattr(TrainingCost, "measure", classmethod(measure))
     return specs
 
 
@@ -57,37 +60,24 @@ def test_makespan_hands_jobs_to_the_first_free_worker() -> None:
     assert cost_model.makespan([], 2) == 0.0
 
 
-def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
+def test_the_oracle_is_added_to_evaluate_only_where_it_runs(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Fault injection on a fake clock: every probe fit costs 10 ms + 10 us per row, and the
-    scheduler stalls one of them for 0.3 s (a busy machine). The per-row rate is multiplied
-    by rows x epochs (~400k in the demo), so the stalled probe alone made a 3-minute demo
-    an estimate of over an hour; the median of the repeats leaves the stall out."""
-    import spectratac.train as train_pkg
-    from spectratac.dataset import Dataset
+    """`evaluate` on twin data also runs the twin's inverse: its part is probed on the
+    dataset's rows; on any other data there is no oracle, no probe and no part."""
+    probed: list[int] = []
 
-    @dataclasses.dataclass(frozen=True)
-    class Spec:  # the fields the probe sets; the fake trainer below reads none of them
-        epochs: int = 30
-        val_fraction: float = 0.1
-        best_val: bool = True
-        uncertainty: bool = True
-        batch_size: int = 256
+    def oracle_rate(dataset: Any, rows: int) -> float:
+        probed.append(rows)
+        return 0.5
 
-    now = [0.0]
-    stalled = [False]
-
-    def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
-        stall = len(rows) > 64 and not stalled[0]  # the first probe of many rows
-        stalled[0] |= stall
-        now[0] += 0.01 + 1e-5 * len(rows) + (0.3 if stall else 0.0)
-
-    monkeypatch.setattr(train_pkg, "train", fake_train)
-    monkeypatch.setattr(cost_model.time, "perf_counter", lambda: now[0])
-    ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
-    cost = cost_model.TrainingCost.measure(ds, Spec())
-    assert cost.row_epoch_s == pytest.approx(1e-5, rel=1e-6)
-    assert cost.fixed_s == pytest.approx(0.01 + 64e-5, rel=1e-6)
-    # the demo's best fit: 9,600 rows x 40 epochs
-    assert cost.seconds(9600, 40) == pytest.approx(0.01064 + 3.84, rel=1e-3)
+    monkeypatch.setattr(cost_model, "oracle_rate", oracle_rate)
+    base = Estimate({"predict": 2.0}, {"predict s/row": 1e-4}, 0.1)
+    real = Dataset.generic(np.zeros((50, 1)), np.ones(50), ["a"], ["Fz"])
+    assert cost_model.with_oracle(base, real, 1000) is base and probed == []
+    twin = dataclasses.replace(real, meta={**real.meta, "sessions": [{"source": "twin"}]})
+    assert cost_model.with_oracle(base, twin, 0) is base and probed == []
+    e = cost_model.with_oracle(base, twin, 1000)
+    assert probed == [cost_model.PROBE_ORACLE_ROWS]
+    assert e.parts_s == {"predict": 2.0, "oracle": 500.0}
+    assert e.rates["oracle s/row"] == 0.5 and e.calibration_s > 0.1

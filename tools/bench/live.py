@@ -2,18 +2,18 @@
 
     python -m tools.bench.live [--json] [--seconds S] [--warmup S] [--model PATH] [--busy 2]
 
-Runs `spectratac live`'s server on the simulated sensor at real time (20 samples/s, the
-scripted presses scene, a simulated Bota F/T as reference) and opens the page in headless
-Chromium (Debian's chromium + chromium-driver, driven by selenium). The page stamps every
-estimate on receipt against the frame's arrival time (same system clock); the figures are
-p50 and p99 of that latency over S seconds after a warm-up, beside the reference measured
-at the same time, the same way: a bare probe stamped as each estimate reaches the event
-loop, sent in the estimate's own WebSocket message and timed one way by the page on the same
-clock (same socket, size, moment and browser; a stall on the way counts in full for both).
-Until 2026-11-27 the reference was half the round trip of a 30-byte ping's echo at 4 Hz: a
-stall on one way counted half, and 120 echoes made a noisy p99; a probe in a message of its
-own met the page's redraw of the estimate before it, which the estimate never waits for. The
-echo's half round trip is still reported (`echo_half_rtt_ms`). Also reported: the part spent
+Runs `spectratac live`'s server in this process on the simulated sensor at real time (20
+samples/s, the scripted presses scene, a simulated Bota F/T as reference) with the
+benchmark's instruments switched on (`LiveSession(benchmark=True)`; a user's server has
+none of them), and opens the page in headless Chromium (Debian's chromium +
+chromium-driver, driven by selenium). The page stamps every estimate on receipt against the
+frame's arrival time (same system clock); the figures are p50 and p99 of that latency over
+S seconds after a warm-up, beside the reference measured at the same time, the same way: a
+bare probe stamped as each estimate reaches the event loop, sent in the estimate's own
+WebSocket message and timed one way by the page on the same clock (same socket, size,
+moment and browser; a stall on the way counts in full for both). The half round trip of an
+echo ping (4 Hz) is reported too (`echo_half_rtt_ms`): it counts a stall on one way half,
+so it is no reference. Also reported: the part spent
 before the message leaves the server (decoding included), whether p99 stays under one sample
 period, per quantile each stage of the way (`stages_ms` in --json): frame read -> taken by
 the decoding worker (`taken`) -> estimate ready (`decoded`); published -> fanned out on the
@@ -71,15 +71,14 @@ def measure(model: Path, seconds: float, warmup: float) -> dict:
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
-    session = LiveSession(Decoder.load(model), URL, ft_url=URL)
+    session = LiveSession(Decoder.load(model), URL, ft_url=URL, benchmark=True)
     profile = tempfile.mkdtemp(prefix="stac-bench-chromium-")
     options = webdriver.ChromeOptions()
     options.binary_location = "/usr/bin/chromium"
     for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={profile}", "--window-size=1400,1000"):
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
-    server = LiveServer(session, bind(0)).start()
-    server.hub.probe_every = 1  # the reference in every estimate's message
+    server = LiveServer(session, bind(0)).start()  # a probe in every estimate's message
     try:
         driver.get(server.url)
         time.sleep(warmup)

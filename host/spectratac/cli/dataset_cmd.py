@@ -24,7 +24,8 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, npz_name, refuse_overwrite
 from spectratac.errors import printable
 
-#: Recordings at least this large (about two minutes of a session with F/T) get an estimate.
+#: Recordings at least this large (about two minutes of a session with F/T) get an estimate:
+#: its probe builds a fifth of this (`spectratac.apps.estimates.BUILD_PROBE_BYTES`).
 LONG_BUILD_BYTES = 5_000_000
 
 
@@ -73,7 +74,6 @@ def _build(args: argparse.Namespace) -> int:
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
     from spectratac.errors import SpectraTacError
     from spectratac.record.errors import CorruptedRecordingWarning
-    from spectratac.studies.cost_model import build_estimate
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:
         raise SpectraTacError("--max-gap-ms must be > 0")
@@ -85,9 +85,8 @@ def _build(args: argparse.Namespace) -> int:
 
         external = load_external_ft(args.ft)
     paths = [Path(p) for p in args.recordings]
-    # the probe costs most of a second: worth it only where the build takes a while
-    long = sum(p.stat().st_size for p in paths if p.exists()) >= LONG_BUILD_BYTES
-    estimate = build_estimate(paths) if long else None
+    options = BuildOptions(max_gap_ms=args.max_gap_ms, ft=external)
+    estimate = _estimate(paths, options)
     if estimate is not None and not args.json:
         announce(f"dataset build of {len(paths)} recording(s)", estimate)
     bar = None
@@ -114,7 +113,7 @@ def _build(args: argparse.Namespace) -> int:
                 datasets = build_datasets(
                     args.recordings,
                     split=args.split,
-                    options=BuildOptions(max_gap_ms=args.max_gap_ms, ft=external),
+                    options=options,
                     progress=progress,
                 )
         finally:
@@ -192,6 +191,23 @@ def summary(ds: Any) -> dict[str, Any]:
         if len(t)
         else {},
     }
+
+
+def _estimate(paths: list[Path], options: Any) -> Any:
+    """How long the build will take: the largest recording's first chunks built and timed
+    (`spectratac.apps.estimates.build_estimate`), scaled to every recording's bytes; None
+    for small recordings (the probe would be a large share of the work) and when the probe
+    cannot be built (the build itself then says why)."""
+    from spectratac.apps.estimates import build_estimate
+    from spectratac.errors import SpectraTacError
+
+    if sum(p.stat().st_size for p in paths if p.exists()) < LONG_BUILD_BYTES:
+        return None
+    try:
+        return build_estimate(paths, options)
+    except SpectraTacError as exc:
+        print(f"note: no time estimate ({exc})", file=sys.stderr)
+        return None
 
 
 def _info(args: argparse.Namespace) -> int:

@@ -1,11 +1,10 @@
-"""How long a long verb will take, said before it starts (issue 26): the estimate line on
-stderr, and a progress bar that runs on the clock for work that has no finer steps.
+"""How long a long verb will take, said before it starts: the estimate line on stderr, and a
+progress bar that runs on the clock for work that has no finer steps.
 
-Estimates come from spectratac.studies.cost_model (rates measured now, on this machine). A
-person reads the line on stderr before any work; --json carries the same figures under
-"estimate" and never a progress line on stdout.
-
-Durations read as a person says them (spectratac.apps.durations).
+The estimates come from probes of the user's own data (`spectratac.apps.estimates`: the
+recording, the dataset, the model) and, for the twin's verbs, of twin work
+(`spectratac.studies.cost_model`). A person reads the line on stderr before any work;
+--json carries the same figures under "estimate" and never a progress line on stdout.
 """
 
 from __future__ import annotations

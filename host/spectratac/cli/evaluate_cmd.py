@@ -66,13 +66,14 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
+    from spectratac.apps.estimates import evaluation_estimate
     from spectratac.cli.eta import announce
     from spectratac.dataset.generic_io import load_data
     from spectratac.decode import Decoder
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
-    from spectratac.studies.cost_model import evaluation_estimate
+    from spectratac.studies.cost_model import with_oracle
     from spectratac.studies.oracle_floor import OracleFloor
     from spectratac.train.holdout import fingerprint, parse_sessions
 
@@ -93,7 +94,9 @@ def run(args: argparse.Namespace) -> int:
         kinds = ("sessions",)
     per = 1 + (baseline is not None) + (args.oracle_samples > 0)
     models = len(kinds) * (1 + (baseline is not None))
-    estimate = evaluation_estimate(model, dataset, models, len(kinds) * args.oracle_samples)
+    # the user's model on the user's rows; the twin's inverse only where it runs (twin data)
+    estimate = evaluation_estimate(model, dataset, models)
+    estimate = with_oracle(estimate, dataset, len(kinds) * args.oracle_samples)
     if not args.json:
         announce("evaluate", estimate)
     bar = tqdm(

@@ -135,8 +135,8 @@ def _record(args: argparse.Namespace) -> int:
     estimate: dict[str, Any] = {}
 
     def note(link: Any, ft_url: str | None) -> None:
+        from spectratac.apps.estimates import recording_estimate
         from spectratac.cli.eta import announce
-        from spectratac.studies.cost_model import recording_estimate
 
         if ft_url is None and not args.json:
             print(

@@ -240,8 +240,8 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
     """How long this training will take: the --budget for the auto recipe (the search keeps
     to it, the final refit included); a recipe's rates probed on the dataset's first rows;
     None for a fine-tune (its epochs stop early on held-out presses)."""
+    from spectratac.apps.estimates import Estimate, training_estimate
     from spectratac.errors import SpectraTacError
-    from spectratac.studies.cost_model import Estimate, training_estimate
 
     if auto:
         return Estimate({"search + final refit (--budget)": args.budget}, {}, 0.0)

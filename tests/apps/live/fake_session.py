@@ -15,8 +15,15 @@ class FakeSession:
     it sets `last` before publishing; `last_lead_s` widens that gap (the window in which a
     joining page once received the same estimate twice)."""
 
-    def __init__(self, period_s: float = 0.005, last_lead_s: float = 0.0, counts: int = 0) -> None:
+    def __init__(
+        self,
+        period_s: float = 0.005,
+        last_lead_s: float = 0.0,
+        counts: int = 0,
+        benchmark: bool = False,
+    ) -> None:
         self.period_s = period_s
+        self.benchmark = benchmark  # as LiveSession's: the server then probes and pings
         self.last_lead_s = last_lead_s
         self.counts = counts  # raw counts per message: the size of a real estimate
         self.last: dict[str, Any] | None = None
@@ -51,7 +58,8 @@ class FakeSession:
             self._thread.join(timeout=5.0)
 
     def meta(self) -> dict[str, Any]:
-        return {"type": "meta", "model": {"path": "/secret/model.stac"}, "url": "sim://"}
+        return {"type": "meta", "model": {"path": "/secret/model.stac"}, "url": "sim://",
+                "benchmark": self.benchmark}  # fmt: skip
 
     def stats(self) -> dict[str, Any]:
         return {"type": "stats", "latency": self.latency.summary()}

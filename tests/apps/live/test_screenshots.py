@@ -56,6 +56,16 @@ def test_the_screenshots_show_the_page_the_readme_describes() -> None:
         assert f"](screenshots/{name})" in guide, name
 
 
+@pytest.mark.parametrize("name", ["live.png", "live-no-model.png"])
+def test_the_screenshots_link_panel_shows_what_a_user_needs(name: str) -> None:
+    """Rate, losses and the latency to the browser; not the benchmark's WebSocket rows,
+    which a user's page no longer has (issue 37)."""
+    text = page_text((SHOTS / name).read_bytes()) or ""
+    for row in ("rate", "lost", "frame errors", "latency to browser p50 / p99"):
+        assert row in text.splitlines(), (name, row, REGENERATE)
+    assert "WebSocket" not in text and "echo" not in text, f"{name}: {REGENERATE}"
+
+
 def test_page_text_reads_what_the_tool_writes() -> None:
     import importlib.util
 

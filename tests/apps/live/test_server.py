@@ -36,6 +36,17 @@ def served() -> Iterator[tuple[LiveServer, FakeSession]]:
         server.stop()
 
 
+@pytest.fixture
+def benchmarked() -> Iterator[tuple[LiveServer, FakeSession]]:
+    """A server as the live benchmark starts it (tools/bench/live.py): latency measured."""
+    session = FakeSession(benchmark=True)
+    server = LiveServer(session, bind(0)).start()  # type: ignore[arg-type]
+    try:
+        yield server, session
+    finally:
+        server.stop()
+
+
 def port_of(server: LiveServer) -> int:
     return int(server.sock.getsockname()[1])
 
@@ -221,12 +232,11 @@ def test_malformed_messages_get_a_typed_refusal_and_the_socket_stays_open(served
             page.send_text(text)
             refused = page.recv_until("refused")
             assert refused["code"] in ("bad_message", "too_large"), (text[:60], refused)
-        page.send_json({"type": "latency", "values": [3.5]})
         page.send_json({"type": "snake_restart"})
         page.recv_until("snake")  # still served, in order
     finally:
         page.close()
-    assert session.latency.values() == [3.5]
+    assert session.restarts == 1
 
 
 def test_a_16_mb_message_is_refused_while_another_page_keeps_receiving(served) -> None:
@@ -343,8 +353,10 @@ def test_serving_shortens_the_gil_switch_and_freezes_start_up_objects_then_resto
     assert sys.getswitchinterval() == before and gc.get_freeze_count() == 0
 
 
-def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kept(served) -> None:
-    server, _ = served
+def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kept(
+    benchmarked,
+) -> None:
+    server, _ = benchmarked
     client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
     try:
         got = 0
@@ -367,12 +379,36 @@ def test_each_estimate_is_timed_through_the_server_and_the_pages_reports_are_kep
             inbound.parse(bad)
 
 
+def test_a_users_server_sends_no_probe_or_ping_and_takes_no_latency_reports(served) -> None:
+    """The benchmark's instruments are off unless a benchmark asks (issue 37): over a
+    hundred estimates no probe and no ping reaches the page, nothing is timed, the page is
+    told not to report, and a report or a pong is refused."""
+    server, session = served
+    port = port_of(server)
+    page = WsClient.connect(port, f"/ws?token={server.token}")
+    try:
+        meta = page.recv_json()
+        assert meta["type"] == "meta" and meta["benchmark"] is False
+        kinds: list[str] = []
+        while kinds.count("estimate") < 100:
+            kinds.append(page.recv_json()["type"])
+        assert set(kinds) == {"estimate"}, set(kinds)
+        for msg in ({"type": "latency", "values": [3.5], "bare": [1.0]}, {"type": "pong", "id": 1}):
+            page.send_json(msg)
+            refused = page.recv_until("refused")
+            assert refused["code"] == "not_measuring", refused
+    finally:
+        page.close()
+    assert not server.hub.benchmark and server.hub.pings == {}
+    assert [log["n"] for log in server.hub.stages.summary().values()] == [0, 0, 0, 0]
+    assert session.latency.values() == [] and session.bare.values() == []
+
+
 def test_the_reference_is_a_probe_in_each_estimates_own_message_timed_one_way() -> None:
     # the reference was the echo's half round trip of a 30-byte ping at its own moment: a
     # stall on one way counted half, and a message of its own met the page's redraws
-    session = FakeSession(period_s=0.01, counts=250)
+    session = FakeSession(period_s=0.01, counts=250, benchmark=True)
     server = LiveServer(session, bind(0)).start()  # type: ignore[arg-type]
-    server.hub.probe_every = 1
     client = WsClient.connect(port_of(server), f"/ws?token={server.token}")
     try:
         probed = 0

@@ -119,6 +119,10 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert stats and stats[-1]["link"]["lost"] == 0 and stats[-1]["ft"]["received"] > 1000
     final = session.stats()  # what the session reports: both figures, and over how much
     assert final["mae_contact"]["Fz"] > 0 and final["mae"]["Fz"] > 0
+    # a user's session times nothing for a benchmark and tells the page not to report
+    assert session.meta()["benchmark"] is False and "latency" not in final
+    timed = [session.pipeline.summary(), *session.stages.summary().values()]
+    assert [s["n"] for s in timed] == [0, 0, 0]
     assert 0 < final["windows"]["in_contact"] < final["windows"]["scored"]
     # clips
     with open(csv_clip["path"]) as f:
@@ -158,7 +162,8 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
 @pytest.mark.slow
 def test_session_without_a_model_publishes_raw_counts_and_the_reference(tmp_path) -> None:
     url = PRESSES_URL + "&speed=4&ft=bota"
-    session = LiveSession(None, url, out_dir=tmp_path)
+    # with the benchmark's instruments on (tools/bench/live.py), which time every sample
+    session = LiveSession(None, url, out_dir=tmp_path, benchmark=True)
     received = Received()
     got = received.messages
     session.start(received)
@@ -178,7 +183,11 @@ def test_session_without_a_model_publishes_raw_counts_and_the_reference(tmp_path
     assert all("mae" not in m and "snake" not in m for m in est)
     refs = [r for m in est for r in m.get("refs", [])]
     assert len(refs) > 0.8 * len(est) and any(r[4] < -1.5 for r in refs)  # the presses
-    assert "mae" not in session.stats()
+    stats = session.stats()
+    assert "mae" not in stats
+    # a benchmark's session times each sample's way and reports the page's figures
+    assert meta["benchmark"] is True and {"latency", "echo", "bare", "pipeline"} <= set(stats)
+    assert stats["pipeline"]["n"] == len(est) <= session.stages.summary()["taken"]["n"]
     with open(clip["path"]) as f:
         rows = list(csv.DictReader(f))
     assert rows and rows[0]["Fz"] == "" and rows[0]["s0.C"].isdigit()

@@ -5,14 +5,16 @@ Every WebSocket message is one of::
     {"type": "latency", "values": [ms, ...]}   # receipt latencies, at most MAX_LATENCY_VALUES
                                                # (optional "handle", "redraw": the page's own
                                                # work per batch of estimates and per redraw, ms;
-                                               # "bare": the pings' one-way latencies, ms)
+                                               # "bare": the probes' one-way latencies, ms)
     {"type": "pong", "id": n}                  # echo of the server's ping n
     {"type": "snake_restart"}
     {"type": "tare"}                           # zero the drift baseline (nothing touches the skin)
 
 Anything else (not JSON, NaN/Infinity, ``1e999``, huge integers, deep nesting, wrong types,
 too long) raises `BadMessage`, which the server answers with
-``{"type": "refused", "code": ..., "message": ...}`` instead of acting on it.
+``{"type": "refused", "code": ..., "message": ...}`` instead of acting on it. Only a
+benchmark's page sends ``latency`` and ``pong`` (`LiveSession(benchmark=True)`); another
+server refuses them (code ``not_measuring``).
 
 >>> parse('{"type": "pong", "id": 3}')
 Pong(id=3)

@@ -1,11 +1,13 @@
-"""Latency figures the page reports: frame arrival -> browser, and a bare WebSocket echo.
+"""Latency figures a benchmark's page reports (`LiveSession(benchmark=True)`): frame arrival
+-> browser, and the references a bare message and an echo give.
 
 The page stamps every estimate on receipt (`performance.timeOrigin + performance.now()`,
-the same system clock as the host's `time.time()`) and sends the differences to
-`arrival_ms` back in batches. The reference is what the WebSocket alone costs on this
-machine, measured at the same time and the same way: the server's pings, stamped when made
-and padded to an estimate's size, timed one way by the page (`bare`); the server also keeps
-the echo's half round trip (`echo`).
+the same system clock as the host's `time.time()`) against its `arrival_ms` (`unix_ms`):
+every page shows that latency to the browser; a benchmark's page also sends it back in
+batches. The reference is what the WebSocket alone costs on this machine, measured at the
+same time and the same way: the server's probe behind each estimate, in the same WebSocket
+message, timed one way by the page (`bare`); the server also keeps the echo's half round
+trip (`echo`).
 
 >>> log = LatencyLog()
 >>> log.add([float(v) for v in range(1, 101)])

@@ -23,11 +23,12 @@ level), never from numbers of its own.
 share (see `alignment`); ``arrival_ms`` is when the sample's bytes were read, in Unix ms,
 for the page to measure the latency to the browser.
 
-Besides estimates the page gets ``meta`` (once, first), ``stats``, ``ping``, ``probe``
-(``sent_ms``: the latency reference, in an estimate's WebSocket message), ``snake``,
+Besides estimates the page gets ``meta`` (once, first), ``stats``, ``snake``,
 ``error`` (the session stopped) and ``refused`` (a message of the page's the server did not
-act on, with a ``code``: see `spectratac.apps.live.inbound`). Messages the server queued in
-one turn of its event loop arrive as one WebSocket message, a JSON array of them.
+act on, with a ``code``: see `spectratac.apps.live.inbound`); a benchmark's page also gets
+``ping`` and ``probe`` (``sent_ms``: the latency reference, in an estimate's WebSocket
+message; `spectratac.apps.live.server`). Messages the server queued in one turn of its event
+loop arrive as one WebSocket message, a JSON array of them.
 
 >>> msg = estimate_message(7, _example_estimate(), _example_sample(), 1.25, 5.0)
 >>> msg["t"], msg["force"], msg["region"], msg["saturated"][3], msg["dark"]

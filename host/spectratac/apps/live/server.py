@@ -3,8 +3,9 @@
 Routes: ``/`` the page (static files under ``/static``, libraries included: the page
 works offline); ``/ws`` a WebSocket that sends the session's ``meta``, the latest estimate,
 then every message it publishes, and takes the messages of `spectratac.apps.live.inbound`
-(``latency``, ``pong``, ``snake_restart``, ``tare``); ``POST /api/save`` ``{"seconds": 10,
-"format": "mcap"}`` writes a clip; ``GET /api/stats`` link, latency and echo figures as JSON.
+(``snake_restart``, ``tare``; ``latency`` and ``pong`` from a benchmark's page only);
+``POST /api/save`` ``{"seconds": 10, "format": "mcap"}`` writes a clip; ``GET /api/stats``
+the link's figures as JSON.
 
 Only the served page may use it (`spectratac.apps.live.guard`): Host and Origin are checked
 on every request, and writing or controlling needs the token written into the served page.
@@ -19,11 +20,12 @@ client too slow to keep up loses its oldest messages, never the sensor's. A join
 queue gets the meta and the latest estimate and joins the fan-out in one step on the event
 loop, so it sees every estimate once, in order.
 
-Latency: the reference is a bare message (`probe`) timed one way by the page, like an
-estimate; the echo's half round trip is kept too. `Hub.stages` times every estimate from
-its publication to the event loop and to the socket, and keeps the page's own work per batch
-of estimates and per redraw (the page reports them with its latencies); the session times
-the stages before (`LiveSession.stages`), and `tools/bench/live.py` reports them all.
+A benchmark's session (`LiveSession(benchmark=True)`, `tools/bench/live.py`) also gets its
+latency measured against a reference: a bare message (`probe`) behind every estimate, timed
+one way by the page like the estimate, and an echo ping whose half round trip is kept.
+`Hub.stages` then times every estimate from its publication to the event loop and to the
+socket, and keeps the page's own work per batch of estimates and per redraw (the page
+reports them with its latencies). Without it none of this is sent, kept or shown.
 While serving, the process runs with `tuning.serving()` (a short GIL switch interval,
 start-up objects frozen out of the collector's reach).
 """
@@ -63,8 +65,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 STATIC = Path(__file__).with_name("static")
 HOST = "127.0.0.1"  # never another interface: the page controls a device
 QUEUE = 512  # messages per client (25 s at 20 Hz) before the oldest are dropped
-PING_EVERY_S = 0.25
-PROBE_EVERY = 5  # a reference probe behind every 5th estimate: 4 a second at 20 Hz
+PING_EVERY_S = 0.25  # a benchmark's echo pings
 BATCH_MAX = 64  # messages per WebSocket message at most (what piled up after a stall)
 MAX_MESSAGE_BYTES = inbound.MAX_MESSAGE_BYTES
 MAX_BODY_BYTES = 4096  # a save request is ~40 bytes
@@ -73,17 +74,17 @@ INLINE_BYTES = 4096  # longer messages are parsed off the event loop
 
 class Hub:
     """The set of connected pages; `publish` is safe to call from any thread, everything
-    else runs on the event loop. `stages` times an estimate's way through the server
-    (published -> fanned out on the loop -> handed to the socket) and the page's own work
-    per batch of estimates and per redraw, as the page reports it."""
+    else runs on the event loop. With `benchmark`, a probe goes behind every estimate and
+    `stages` times an estimate's way through the server (published -> fanned out on the
+    loop -> handed to the socket) and the page's own work per batch of estimates and per
+    redraw, as the page reports it."""
 
-    def __init__(self) -> None:
+    def __init__(self, benchmark: bool = False) -> None:
         self.loop: asyncio.AbstractEventLoop | None = None
         self.clients: set[asyncio.Queue[Item]] = set()
         self.pings: dict[int, float] = {}
         self.last: str | None = None  # the latest estimate fanned out, for joining pages
-        self.probe_every = PROBE_EVERY  # estimates per reference probe (the benchmark: 1)
-        self._since_probe = 0
+        self.benchmark = benchmark
         self.stages = Stages(("loop", "sent", "page_handle", "page_redraw"))
 
     def publish(self, msg: dict[str, Any]) -> None:
@@ -106,20 +107,21 @@ class Hub:
         return queue
 
     def _fan_out(self, text: str, published: float | None = None) -> None:
-        """Runs on the loop; `published` (monotonic s) marks an estimate, timed to the page."""
+        """Runs on the loop; `published` (monotonic s) marks an estimate (a benchmark's is
+        timed to the page, its probe right behind it)."""
+        timed = published is not None and self.benchmark
         if published is not None:
             self.last = text
+        if timed:
             self.stages.add("loop", (time.monotonic() - published) * 1e3)
         for q in self.clients:
-            _put(q, (text, published))
-        if published is not None:
-            self._since_probe += 1
-            if self._since_probe >= self.probe_every:
-                self._since_probe = 0
-                self._fan_out(probe(unix_ms(time.monotonic())))
+            _put(q, (text, published if timed else None))
+        if timed:
+            self._fan_out(probe(unix_ms(time.monotonic())))
 
 
-#: A client queue's entry: the message's text, and when an estimate was published (else None).
+#: A client queue's entry: the message's text, and when a benchmark's estimate was published
+#: (else None: not timed).
 Item = tuple[str, float | None]
 
 
@@ -137,11 +139,12 @@ def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guar
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
         hub.loop = asyncio.get_running_loop()
-        pinger = asyncio.create_task(_ping(hub))
+        pinger = asyncio.create_task(_ping(hub)) if hub.benchmark else None
         try:
             yield
         finally:
-            pinger.cancel()
+            if pinger is not None:
+                pinger.cancel()
             await asyncio.to_thread(session.stop)
 
     async def index(request: Request) -> HTMLResponse:
@@ -232,6 +235,9 @@ async def _receive(
     if not control:
         why = "this connection is read-only: control needs the page's token"
         return {"type": "refused", "code": "bad_token", "message": why}
+    if isinstance(msg, inbound.Latency | inbound.Pong) and not hub.benchmark:
+        why = f"{type(msg).__name__.lower()}: this server measures no latency (no benchmark)"
+        return {"type": "refused", "code": "not_measuring", "message": why}
     if isinstance(msg, inbound.Latency):
         session.latency.add(list(msg.values))
         session.bare.add(list(msg.bare))
@@ -273,7 +279,8 @@ def batch_text(texts: list[str]) -> str:
 
 
 async def _ping(hub: Hub) -> None:
-    """Ping every page; the echo's half round trip is kept beside the reference (`probe`)."""
+    """A benchmark's pings to every page; the echo's half round trip is kept beside the
+    reference (`probe`)."""
     n = 0
     while True:
         await asyncio.sleep(PING_EVERY_S)
@@ -322,7 +329,7 @@ class LiveServer:
         self.sock = sock
         host, port = sock.getsockname()[:2]
         self.url = f"http://{host}:{port}/"
-        self.hub = Hub()
+        self.hub = Hub(benchmark=session.benchmark)
         self.token = new_token()
         app = create_app(session, self.hub, port=port, token=self.token)
         config = uvicorn.Config(app, ws="wsproto", ws_max_size=MAX_MESSAGE_BYTES,

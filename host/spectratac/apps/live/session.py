@@ -14,6 +14,12 @@ Torch is never imported: decoding runs on the model file's NumPy runtime.
 Without a decoder (``LiveSession(None, url)``: no model trained yet) the session streams the
 device as it is configured and publishes raw counts and the reference F/T only, the
 estimate's fields null (`NO_MODEL`); there is nothing to score and no Snake to steer.
+
+``benchmark=True`` is for `tools/bench/live.py` and its tests only: it times every
+estimate's way to the browser (the server sends probes and echo pings, the page reports
+its latencies back, the session and server time each stage). A user's session sends and
+shows none of it; the page measures its own latency to the browser from each estimate's
+``arrival_ms``.
 """
 
 from __future__ import annotations
@@ -66,6 +72,7 @@ class LiveSession:
         snake: SnakeController | None = None,
         out_dir: str | Path = "live-clips",
         model_path: str | None = None,
+        benchmark: bool = False,
     ) -> None:
         self.decoder = decoder
         self.url = url
@@ -76,6 +83,7 @@ class LiveSession:
         self.history = History(history_s)
         self.out_dir = Path(out_dir)
         self.model_path = model_path
+        self.benchmark = benchmark  # the benchmark's instruments below are filled only then
         self.latency = LatencyLog()  # frame arrival -> browser, as the page reports it
         self.echo = LatencyLog()  # the bare WebSocket round trip, halved
         self.bare = LatencyLog()  # a bare message one way, as the page times an estimate
@@ -163,6 +171,7 @@ class LiveSession:
             "snake": self.snake_state(),
             "threshold_n": det.threshold_n,
             "release_n": det.release_n,
+            "benchmark": self.benchmark,  # the page reports its latencies only then
         }
 
     def tare(self) -> None:
@@ -187,11 +196,10 @@ class LiveSession:
             "estimates": self.estimates,
             "running": self.running,
             "error": self.error,
-            "latency": self.latency.summary(),
-            "echo": self.echo.summary(),
-            "bare": self.bare.summary(),
-            "pipeline": self.pipeline.summary(),
         }
+        if self.benchmark:
+            out.update(latency=self.latency.summary(), echo=self.echo.summary(),
+                       bare=self.bare.summary(), pipeline=self.pipeline.summary())  # fmt: skip
         if s is not None:
             out["link"] = {
                 "samples": s.samples_received,
@@ -258,17 +266,20 @@ class LiveSession:
 
     def _samples(self) -> Iterator[tuple[Any, Any | None]]:
         """(sample, its estimate or None without a model), as they arrive."""
+        timing = self.benchmark
         if self.decoder is None:
             for sample in self.sensor:
-                self.stages.add("taken", (time.monotonic() - sample.host_time) * 1e3)
+                if timing:
+                    self.stages.add("taken", (time.monotonic() - sample.host_time) * 1e3)
                 yield sample, None
             return
         tap = SampleTap(self.sensor)
         for est in self.decoder.stream(tap):
             sample = tap.last
-            now = time.monotonic()
-            self.stages.add("taken", (tap.taken_at - sample.host_time) * 1e3)
-            self.stages.add("decoded", (now - sample.host_time) * 1e3)
+            if timing:
+                now = time.monotonic()
+                self.stages.add("taken", (tap.taken_at - sample.host_time) * 1e3)
+                self.stages.add("decoded", (now - sample.host_time) * 1e3)
             yield sample, est
 
     def _decode(self, publish: Publish) -> None:
@@ -322,7 +333,8 @@ class LiveSession:
             self.last = msg
             publish(msg)  # first: the history and the figures below are not on the page's path
             now = time.monotonic()
-            self.pipeline.add([(now - sample.host_time) * 1e3])
+            if self.benchmark:
+                self.pipeline.add([(now - sample.host_time) * 1e3])
             self.history.add_row(seq, self._row(msg, sample))
             if tracker is not None:
                 unscored.append((seq, est, sample))

@@ -11,7 +11,7 @@ const KEEP_S = 65;  // seconds of data kept for the longest plot window
 const ARROWS = { up: "\u2191", down: "\u2193", left: "\u2190", right: "\u2192" };
 const TORQUE_COLOURS = ["#1f5fbf", "#e08a00", "#2e7d32"];
 const CHANNEL_COLOURS = { R: "#d0342c", G: "#2e7d32", B: "#1f5fbf", C: "#6b7483", IR: "#8e44ad" };
-// written into the page by the server: control (saves, latency reports, Snake) needs it
+// written into the page by the server: control (saves, Tare, Snake) needs it
 const TOKEN = document.querySelector('meta[name="spectratac-token"]').content;
 const css = getComputedStyle(document.documentElement);
 const PRED = css.getPropertyValue("--pred").trim();
@@ -400,10 +400,13 @@ function showLink() {
     else rows.push(["F/T lost on purpose (simulated)", s.ft.lost, false, `the simulated sensor drops samples with probability ft_loss=${sim}`]);
   }
   const lat = stac.latency;
-  rows.push(["to browser p50 / p99", `${fmt(percentile(lat, 0.5), 1)} / ${fmt(percentile(lat, 0.99), 1)} ms`]);
-  rows.push(["WebSocket alone p50 / p99", `${fmt(percentile(stac.bare, 0.5), 1)} / ${fmt(percentile(stac.bare, 0.99), 1)} ms`,
-    false, "a bare message as large as an estimate, timed the same way"]);
-  rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`, false, "half the round trip"]);
+  rows.push(["latency to browser p50 / p99", `${fmt(percentile(lat, 0.5), 1)} / ${fmt(percentile(lat, 0.99), 1)} ms`,
+    false, "from a sample's arrival at the host to this page, over the last 2,000 estimates"]);
+  if (stac.meta && stac.meta.benchmark) {  // the benchmark's references (tools/bench/live.py)
+    rows.push(["WebSocket alone p50 / p99", `${fmt(percentile(stac.bare, 0.5), 1)} / ${fmt(percentile(stac.bare, 0.99), 1)} ms`,
+      false, "a bare message in the estimate's own WebSocket message, timed the same way"]);
+    rows.push(["WebSocket echo p50 / p99", `${fmt(echo.p50_ms, 1)} / ${fmt(echo.p99_ms, 1)} ms`, false, "half the round trip"]);
+  }
   if (s.error) rows.push(["error", s.error, true]);
   $("link").innerHTML = rows.map(([k, v, bad, why]) => `<dt${why ? ` title="${why}"` : ""}>${k}</dt><dd class="${bad ? "bad" : ""}">${v}</dd>`).join("");
 }
@@ -492,7 +495,7 @@ function noteArrival(msg, arrived) {
   if (stac.latency.length > 2000) stac.latency.splice(0, stac.latency.length - 2000);
   stac.arrivals.push(performance.now());
 }
-// The reference: a probe the server sends in the same message as an estimate, stamped when the
+// A benchmark's reference: a probe the server sends in the same message as an estimate, stamped when the
 // estimate reached the event loop: what the socket and this page alone cost that message.
 function noteBare(msg, arrived) {
   if (typeof msg.sent_ms !== "number") return;
@@ -592,14 +595,16 @@ function onMessage(msg, arrived) {
     case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
   }
 }
+// A benchmark's page (meta.benchmark: tools/bench/live.py) reports its latencies once a
+// second; any other page keeps them to itself.
 setInterval(() => {
-  if (stac.latencyBatch.length || stac.bareBatch.length) {
+  if (stac.meta && stac.meta.benchmark && (stac.latencyBatch.length || stac.bareBatch.length)) {
     // at most the server's limit per list: a tab the browser throttled may have piled up more
     const cut = (a) => a.slice(-4096);
     send({ type: "latency", values: cut(stac.latencyBatch), handle: cut(stac.handleBatch), redraw: cut(stac.redrawBatch),
            bare: cut(stac.bareBatch) });
-    stac.latencyBatch = []; stac.handleBatch = []; stac.redrawBatch = []; stac.bareBatch = [];
   }
+  stac.latencyBatch = []; stac.handleBatch = []; stac.redrawBatch = []; stac.bareBatch = [];
 }, 1000);
 
 connect();

@@ -1,0 +1,233 @@
+"""How long `record`, `dataset build`, `train` and `evaluate` will take on this machine, now:
+rates measured by short probes of the user's own data (the recording's first chunks, the
+dataset's first rows, the model on that dataset), never constants and never a simulated
+session, so a large file or a loaded laptop gets a longer estimate.
+
+`spectratac.cli.eta` prints them. The twin's verbs (`twin report|generate|population`, and
+`demo`, whose data do not exist before it runs) estimate their twin work in
+`spectratac.studies.cost_model` with the same `Estimate` and `TrainingCost`.
+
+>>> e = Estimate({"record": 40.0, "train": 80.0}, {"s/row-epoch": 2e-5}, 1.5)
+>>> e.total_s, e.as_dict()["parts_s"]["train"]
+(120.0, 80.0)
+>>> e.with_part("oracle", 5.0, {"oracle s/row": 0.01}, 0.5).as_dict()["total_s"]
+125.0
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+
+from spectratac.dataset.schema import Dataset
+
+T = TypeVar("T")
+
+#: Timed calls per training probe; their median is kept (TrainingCost.measure).
+PROBE_REPEATS = 3
+#: Bytes of a recording that `build_estimate` builds as its probe (about 25 s of a session
+#: with F/T; tens of milliseconds of building): a fifth of the smallest recording that gets
+#: an estimate (`spectratac.cli.dataset_cmd.LONG_BUILD_BYTES`), a few percent of a long one.
+BUILD_PROBE_BYTES = 1 << 20
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Seconds per part of a verb's work, the measured rates behind them, and the seconds
+    the probes themselves took (already spent when the estimate is shown)."""
+
+    parts_s: dict[str, float]
+    rates: dict[str, float]
+    calibration_s: float
+
+    @property
+    def total_s(self) -> float:
+        return float(sum(self.parts_s.values()))
+
+    def with_part(
+        self, name: str, seconds: float, rates: dict[str, float], calibration_s: float
+    ) -> Estimate:
+        """This estimate and one more part of the work, probed apart."""
+        return Estimate(
+            {**self.parts_s, name: seconds},
+            {**self.rates, **rates},
+            self.calibration_s + calibration_s,
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """The --json form."""
+        return {
+            "total_s": round(self.total_s, 1),
+            "parts_s": {k: round(v, 1) for k, v in self.parts_s.items()},
+            "rates": {k: float(f"{v:.4g}") for k, v in self.rates.items()},
+            "calibration_s": round(self.calibration_s, 2),
+        }
+
+
+def timed(fn: Callable[..., T], *args: Any, **kwargs: Any) -> tuple[T, float]:
+    """`fn(*args, **kwargs)` and the seconds it took."""
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
+
+
+def median_s(repeats: int, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> float:
+    """The median of `repeats` timed calls: a stall in one of them does not count."""
+    return float(np.median([timed(fn, *args, **kwargs)[1] for _ in range(max(repeats, 1))]))
+
+
+# ------------------------------------------------------------------ train
+@dataclass(frozen=True)
+class TrainingCost:
+    """Training time of one TrainSpec: fixed_s (planning, features, runtime) plus
+    row_epoch_s per training row and epoch."""
+
+    fixed_s: float
+    row_epoch_s: float
+
+    def seconds(self, rows: int, epochs: int) -> float:
+        return self.fixed_s + self.row_epoch_s * rows * epochs
+
+    @classmethod
+    def measure(
+        cls, dataset: Dataset, spec: Any, batches: int = 4, repeats: int = PROBE_REPEATS
+    ) -> TrainingCost:
+        """Train `spec` for one epoch on 64 rows (the fixed cost: planning, features, the
+        runtime, an almost empty epoch), then for one epoch on the first `batches` batches of
+        rows (contiguous, so temporal context works as in the real run); each `repeats`
+        times, keeping the median. Why: the per-row cost is multiplied by rows x epochs
+        (~400k in the demo), so one scheduler stall of 0.1 s in a single 20-ms probe on a
+        busy machine became an estimate of an hour and more for work of three minutes."""
+        from spectratac.train import train
+
+        # no validation split: 64 probe rows hold too few groups to hold one out, and an
+        # epoch's validation pass is a small share of it
+        one = dataclasses.replace(
+            spec, epochs=1, val_fraction=0.0, best_val=False, uncertainty=False
+        )
+        train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
+        small = np.arange(min(64, dataset.n))
+        rows = np.arange(min(batches * int(getattr(spec, "batch_size", 256)), dataset.n))
+        fixed = median_s(repeats, train, dataset, one, rows=small, progress=False)
+        t1 = median_s(repeats, train, dataset, one, rows=rows, progress=False)
+        per_row = (t1 - fixed) / max(rows.size - small.size, 1)
+        return cls(fixed, max(per_row, t1 / rows.size / 10))  # a noisy probe: never ~0
+
+
+def training_estimate(dataset: Dataset, spec: Any, fits: int = 1) -> Estimate:
+    """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, probed on
+    the dataset's own first rows."""
+    t0 = time.perf_counter()
+    cost = TrainingCost.measure(dataset, spec)
+    return Estimate(
+        {"train": fits * cost.seconds(dataset.n, spec.epochs)},
+        {"s/row-epoch": cost.row_epoch_s, "fixed s": cost.fixed_s},
+        time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------ evaluate
+def predict_rate(decoder: Any, dataset: Dataset, rows: int = 2000) -> float:
+    """Seconds per row of `decoder.predict` on the first `rows` rows of `dataset`."""
+    sel = np.arange(min(rows, dataset.n))
+    _, seconds = timed(decoder.predict, dataset, rows=sel)
+    return seconds / max(sel.size, 1)
+
+
+def evaluation_estimate(decoder: Any, dataset: Dataset, models: int) -> Estimate:
+    """`spectratac evaluate`: `models` decoders predict every row, at the rate of the
+    user's model on the user's dataset. (On simulated data the twin's oracle decodes rows
+    too: `spectratac.studies.cost_model.with_oracle` adds that part.)"""
+    t0 = time.perf_counter()
+    per_row = predict_rate(decoder, dataset)
+    return Estimate(
+        {"predict": models * per_row * dataset.n},
+        {"predict s/row": per_row},
+        time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------ dataset build
+@dataclass(frozen=True)
+class BuildCost:
+    """Build time of recordings: fixed_s per recording (reading its session, fitting its
+    clocks) plus byte_s per byte of it."""
+
+    fixed_s: float
+    byte_s: float
+
+    def seconds(self, sizes: Sequence[int]) -> float:
+        return sum(self.fixed_s + self.byte_s * n for n in sizes)
+
+    @classmethod
+    def measure(
+        cls,
+        path: Path,
+        probe_bytes: int = BUILD_PROBE_BYTES,
+        options: Any = None,
+        repeats: int = PROBE_REPEATS,
+    ) -> BuildCost:
+        """Build the first `probe_bytes` of the recording `path` (whole chunks of it, read
+        back as the truncated prefix they are) and its first half as much, `repeats` times
+        each, keeping the medians: the two sizes part the fixed cost from the per-byte cost,
+        and the median leaves out a stall of a busy machine, which the file's size would
+        multiply. Raises what the build raises when a prefix holds too
+        little to build."""
+        from spectratac.dataset.build import build_datasets
+
+        def build(part: Path) -> None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a prefix is a truncated recording by design
+                build_datasets([part], options=options)
+
+        with open(path, "rb") as f:
+            head = f.read(probe_bytes)
+        with tempfile.TemporaryDirectory() as folder:
+            small, large = Path(folder) / f"half-{path.name}", Path(folder) / path.name
+            small.write_bytes(head[: len(head) // 2])
+            large.write_bytes(head)
+            # the median also leaves out the first call's costs (imports, caches)
+            t_small = median_s(repeats, build, small)
+            t_large = median_s(repeats, build, large)
+        per_byte = (t_large - t_small) / max(len(head) - len(head) // 2, 1)
+        per_byte = max(per_byte, t_large / max(len(head), 1) / 10)  # a noisy probe: never ~0
+        return cls(max(t_large - per_byte * len(head), 0.0), per_byte)
+
+
+def build_estimate(paths: Sequence[Path], options: Any = None) -> Estimate:
+    """`spectratac dataset build`: every recording at the build cost of the largest one's
+    first chunks (`BuildCost.measure`, with the build's options, e.g. an external F/T). A
+    probe too short to build (no clock fit yet) is retried once on four times the bytes;
+    SpectraTacError if that fails too."""
+    from spectratac.errors import SpectraTacError
+
+    t0 = time.perf_counter()
+    sizes = {p: p.stat().st_size for p in paths if p.exists()}
+    largest = max(sizes, key=lambda p: sizes[p])
+    try:
+        cost = BuildCost.measure(largest, BUILD_PROBE_BYTES, options)
+    except SpectraTacError:
+        cost = BuildCost.measure(largest, 4 * BUILD_PROBE_BYTES, options)
+    return Estimate(
+        {"build": cost.seconds(list(sizes.values()))},
+        {"s/MB": cost.byte_s * 1e6, "fixed s": cost.fixed_s},
+        time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------ record
+def recording_estimate(duration_s: float | None, clock_scale: float | None) -> Estimate | None:
+    """`spectratac record --duration S`: S seconds of the sensor's clock take S / scale wall
+    seconds (the link's own pace: 1 for hardware, speed for a paced simulation); None when
+    the length is not known up front (a count, a guided protocol, Ctrl-C, speed=max)."""
+    if duration_s is None or not clock_scale:
+        return None
+    return Estimate({"record": duration_s / clock_scale}, {"sensor s per s": clock_scale}, 0.0)
