@@ -14,7 +14,7 @@ from spectratac.apps.live.session import NO_MODEL
 ROOT = Path(__file__).resolve().parents[3]
 SHOTS = ROOT / "host" / "spectratac" / "apps" / "live" / "screenshots"
 KEY = b"spectratac:page-text"
-REGENERATE = "regenerate them: python tools/docs/live_screenshots.py"
+REGENERATE = "regenerate them: python -m tools.docs.live_screenshots"
 MACHINE_PATHS = re.compile(r"/tmp/|/var/folders/|/home/|/root/|pytest-of-|\\Temp\\")
 
 
