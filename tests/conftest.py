@@ -60,24 +60,17 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
 
     def run(module: str, *args: str) -> Figures:
         cmd = [sys.executable, "-m", f"tools.bench.{module}", *args, "--json"]
-        # Its own session: on a timeout or a failure, the bench's servers and busy loops go
-        # with it (subprocess.run would kill the script alone and orphan them).
-        proc = subprocess.Popen(
-            cmd, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            start_new_session=True,
-        )  # fmt: skip
         try:
-            out, err = proc.communicate(timeout=BENCH_TIMEOUT_S)
+            code, out, err = processes.communicate_group(
+                cmd, BENCH_TIMEOUT_S, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+            )
         except subprocess.TimeoutExpired:
             raise AssertionError(
                 f"{module} {' '.join(args)} ran over {BENCH_TIMEOUT_S} s (stopped, with "
                 f"every process it started)"
             ) from None
-        finally:
-            processes.kill_group(proc.pid)
-            proc.wait()
-        if proc.returncode != 0:
-            raise subprocess.CalledProcessError(proc.returncode, cmd, out, err)
+        if code != 0:
+            raise subprocess.CalledProcessError(code, cmd, out, err)
         return {f["name"]: f for f in map(json.loads, out.splitlines())}
 
     return run

@@ -7,7 +7,9 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import subprocess
 from pathlib import Path
+from typing import Any
 
 
 def _parent_and_state(pid: int) -> tuple[int, str] | None:
@@ -58,3 +60,16 @@ def kill_group(pgid: int) -> None:
     whatever it started); an empty group is fine."""
     with contextlib.suppress(ProcessLookupError):
         os.killpg(pgid, signal.SIGKILL)
+
+
+def communicate_group(cmd: list[str], timeout: float, **popen: Any) -> tuple[int, str, str]:
+    """Run `cmd` in its own session and return (exit code, stdout, stderr); on a timeout
+    (subprocess.TimeoutExpired) or any failure the child and everything it started are
+    killed, not orphaned as subprocess.run's kill of the child alone would leave them."""
+    proc = subprocess.Popen(cmd, text=True, start_new_session=True, **popen)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    finally:
+        kill_group(proc.pid)
+        proc.wait()
+    return proc.returncode, out or "", err or ""

@@ -128,23 +128,19 @@ def run_block(block: Block, folder: Path, name: str, timeout: float = BLOCK_TIME
     env = dict(os.environ)
     env["PATH"] = f"{VENV_BIN}{os.pathsep}{env.get('PATH', '')}"
     env["BROWSER"] = "true"  # `live` opens the page in a browser: here, in none
-    proc = subprocess.Popen(
-        cmd, cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        stdin=subprocess.DEVNULL, start_new_session=True,
-    )  # fmt: skip
     try:
-        out, _ = proc.communicate(timeout=timeout)
+        code, out, _ = processes.communicate_group(
+            cmd, timeout, cwd=folder, env=env, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        )  # fmt: skip
     except subprocess.TimeoutExpired:
         raise BlockFailed(
             f"{name}:{block.line}: the ```{block.lang} block still ran after {timeout:.0f} s "
             f"(a hang?); stopped:\n{as_run(block)}"
         ) from None
-    finally:
-        processes.kill_group(proc.pid)
-        proc.wait()
-    if proc.returncode != 0:
+    if code != 0:
         raise BlockFailed(
-            f"{name}:{block.line}: the ```{block.lang} block exited {proc.returncode}:\n"
+            f"{name}:{block.line}: the ```{block.lang} block exited {code}:\n"
             f"{as_run(block)}--- output (end) ---\n{out[-4000:]}"
         )
     return out
