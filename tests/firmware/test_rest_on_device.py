@@ -153,6 +153,6 @@ def test_tare_on_a_device_older_than_1_3_is_a_typed_error(
 
     with Sensor.open("sim://?seed=3&speed=max") as sensor:
         older = dataclasses.replace(sensor.info, protocol_minor=2)
-        monkeypatch.setattr(Sensor, "info", property(lambda self: older))
+        monkeypatch.setattr(sensor.link, "info", older)  # what the device told the link
         with pytest.raises(MissingCapabilityError, match=r"TARE is protocol 1\.3.*1\.2"):
             sensor.tare()
