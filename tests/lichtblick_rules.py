@@ -55,7 +55,7 @@ def parse_json_schema(root: Any, root_type_name: str) -> Parsed:
         posts: list[Callable[[dict[str, Any]], None]] = []
         names: list[str] = []
         if not isinstance(schema, dict) or schema.get("type") != "object":
-            got = json.dumps(schema.get("type")) if isinstance(schema, dict) else "undefined"
+            got = _js_json(schema.get("type")) if isinstance(schema, dict) else "undefined"
             raise ChannelRejected(
                 f'Expected "type": "object" for schema {type_name}, got {got}'
             )
@@ -316,3 +316,25 @@ def check_mcap(path: Any, *, messages: int = 50) -> dict[str, int]:
                 raise ChannelRejected(f"{channel.topic}: {exc}") from None
             decoded[channel.topic] += 1
     return decoded
+
+
+def rejected_channels(path: Any) -> dict[str, str]:
+    """Every channel of the MCAP file at `path` the player would drop, with its reason."""
+    from mcap.reader import make_reader
+
+    out: dict[str, str] = {}
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None, f"{path}: no summary"
+    for channel in summary.channels.values():
+        schema = summary.schemas.get(channel.schema_id) if channel.schema_id else None
+        try:
+            parse_channel(
+                channel.message_encoding,
+                None if schema is None else schema.name,
+                None if schema is None else schema.encoding,
+                None if schema is None else schema.data,
+            )
+        except ChannelRejected as exc:
+            out[channel.topic] = str(exc)
+    return out

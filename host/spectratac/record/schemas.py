@@ -226,14 +226,14 @@ class RateCap:
 
     def take(self, n: int, host_time: float, first_time: float | None = None) -> slice:
         """`first_time`: the batch's first row's host time, when a batch spans more than a
-        moment (a clip written at once): the bucket then holds the whole span's worth, so a
+        moment (a clip written at once): the bucket then also holds the span's worth, so a
         1 kHz sensor's ten seconds are copied whole."""
         span = 0.0 if first_time is None else max(0.0, host_time - first_time)
         if self._last is None and first_time is not None:
             self._last = first_time
         if self._last is not None:
             elapsed = max(0.0, host_time - self._last)
-            room = self.rate_hz * max(1.0, span)
+            room = self.rate_hz * (1.0 + span)  # one second's burst, plus the batch's span
             self._tokens = min(room, self._tokens + elapsed * self.rate_hz)
         self._last = host_time if self._last is None else max(self._last, host_time)
         if n <= self._tokens:
