@@ -91,7 +91,7 @@ def test_a_clip_opens_and_keeps_a_1_khz_reference_whole(tmp_path: Path) -> None:
     assert len(rec.ft) == 9_941
     assert len(rec.estimates) == 100  # the rows no model decoded are not estimates
     assert rec.estimates[0]["force"] == {"x": 0.1, "y": 0.0, "z": -1.0}
-    assert rec.estimates[0]["torque"] == {} and rec.estimates[0]["decoded"] is False
+    assert rec.estimates[0]["torque"] == {} and rec.estimates[0]["decoded"] is True
 
 
 @pytest.mark.slow

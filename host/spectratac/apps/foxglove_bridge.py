@@ -352,13 +352,15 @@ class FoxgloveBridge:
     # ------------------------------------------------------------------ encoding
     def _pump(self) -> None:
         while not self._stop.wait(POLL_S):
-            self._send_safely()
-        self._send_safely()
-
-    def _send_safely(self) -> None:
-        try:
             self._send()
-        except Exception as exc:  # one bad batch must not end the bridge: logged once
+        self._send()
+
+    def _guarded(self, work: Any, *args: Any) -> None:
+        """Run one batch's encoding; an exception skips that batch alone, logged once per
+        kind (a subscriber must not end the bridge for everyone)."""
+        try:
+            work(*args)
+        except Exception as exc:
             self.errors += 1
             kind = type(exc).__name__
             if kind not in self._logged:
@@ -372,26 +374,34 @@ class FoxgloveBridge:
         rows = self._rows.drain()
         live = self._live
         if frames and live & {COUNTS, ESTIMATES}:
-            samples, sample_t, estimates, estimate_t = split_frames(frames)
-            first, now = frames[0][1], frames[-1][1]
-            if COUNTS in live:
-                keep = self._caps[COUNTS].take(len(samples), now, first)
-                self._log(COUNTS, counts_messages(samples[keep]), sample_t[keep])
-            if ESTIMATES in live:
-                keep = self._caps[ESTIMATES].take(len(estimates), now, first)
-                self._log(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
+            self._guarded(self._send_frames, frames, live)
         if ft and WRENCH in live:
             for batch in ft:
-                times = batch["host_time"]
-                kept = batch[self._caps[WRENCH].take(len(batch), float(times[-1]),
-                                                     float(times[0]))]  # fmt: skip
-                self._log(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
+                self._guarded(self._send_wrench, batch)
         if rows and ESTIMATES in live:
-            cap = self._caps[ESTIMATES]
-            rows = rows[cap.take(len(rows), float(rows[-1]["host_time"]),
-                                 float(rows[0]["host_time"]))]  # fmt: skip
-            self._log(ESTIMATES, [host_estimate_message(r) for r in rows],
-                      [float(r["host_time"]) for r in rows])  # fmt: skip
+            self._guarded(self._send_rows, rows)
+
+    def _send_frames(self, frames: list[tuple[bytes, float]], live: frozenset[str]) -> None:
+        samples, sample_t, estimates, estimate_t = split_frames(frames)
+        first, now = frames[0][1], frames[-1][1]
+        if COUNTS in live:
+            keep = self._caps[COUNTS].take(len(samples), now, first)
+            self._log(COUNTS, counts_messages(samples[keep]), sample_t[keep])
+        if ESTIMATES in live:
+            keep = self._caps[ESTIMATES].take(len(estimates), now, first)
+            self._log(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
+
+    def _send_wrench(self, batch: np.ndarray) -> None:
+        times = batch["host_time"]
+        kept = batch[self._caps[WRENCH].take(len(batch), float(times[-1]), float(times[0]))]
+        self._log(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
+
+    def _send_rows(self, rows: list[dict[str, Any]]) -> None:
+        cap = self._caps[ESTIMATES]
+        rows = rows[cap.take(len(rows), float(rows[-1]["host_time"]),
+                             float(rows[0]["host_time"]))]  # fmt: skip
+        self._log(ESTIMATES, [host_estimate_message(r) for r in rows],
+                  [float(r["host_time"]) for r in rows])  # fmt: skip
 
     def _log(self, topic: str, messages: list[bytes], host_times: list[float]) -> None:
         loop = self._loop

@@ -105,12 +105,13 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         "spectratac.Estimate",
         "Force, torque and contact region decoded from one sample, by the device's model "
         "(source 'device') or the host's decoder (source 'host'); `decoded` false: no "
-        "numbers (the axes are absent)",
+        "numbers (every axis absent)",
         {
             "source": {**_STRING, "description": "'device' or 'host'"},
             "sequence": {**_INT, "description": "the sample's sample_seq (host: estimate index)"},
             "t_end_us": {**_INT, "description": "the sample's end, device µs"},
-            "decoded": {**_BOOL, "description": "force and torque hold numbers"},
+            "decoded": {**_BOOL, "description": "a model decoded the sample: the axes it "
+                        "estimates hold numbers (the others are absent)"},  # fmt: skip
             "force": _vector("xyz", "N, board axes" + _ABSENT),
             "torque": _vector("xyz", "N·m, board axes" + _ABSENT),
             "region": {**_INT, "description": "1..9; 0 or -1: none"},
@@ -378,14 +379,14 @@ def estimate_message(
     invalid: bool,
 ) -> bytes:
     """One ESTIMATES message; None or NaN in force, torque or region_prob: not decoded
-    (left out; `decoded` says whether every force and torque axis is there)."""
+    (left out; `decoded` says whether any axis holds a number: a model decoded it)."""
     f, t = _xyz(force), _xyz(torque)
     return _dump(
         {
             "source": source,
             "sequence": int(sequence),
             "t_end_us": int(t_end_us),
-            "decoded": len(f) + len(t) == 6,
+            "decoded": bool(f or t),
             "force": f,
             "torque": t,
             "region": int(region),
