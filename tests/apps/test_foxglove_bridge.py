@@ -229,10 +229,12 @@ def _wrench_rows(n: int, fz: float) -> np.ndarray:
     return rows
 
 
-def _live_session_with_bridge(decoder: object, url: str) -> tuple[object, FoxgloveBridge]:
+def _live_session_with_bridge(
+    decoder: object, url: str, history_s: float = 120.0
+) -> tuple[object, FoxgloveBridge]:
     from spectratac.apps.live.session import LiveSession
 
-    session = LiveSession(decoder, url, ft_url=url)
+    session = LiveSession(decoder, url, ft_url=url, history_s=history_s)
     bridge = FoxgloveBridge(port=0).start()
     session.history.add_tap(bridge)
     return session, bridge
@@ -326,8 +328,10 @@ def _rss_mb() -> float:
 def test_memory_stays_flat_over_a_minute_at_speed_10_with_a_subscriber() -> None:
     """A minute of `speed=10` (10 kHz of simulated F/T) through a live session without a
     model into the bridge, a client subscribed to every channel: RSS after the first
-    10 s grows by less than 30 MB (it grew 70 MB a minute once the send thread died)."""
-    session, bridge = _live_session_with_bridge(None, PRESSES_URL + "&speed=10&ft=bota")
+    10 s grows by less than 30 MB (it grew 70 MB a minute once the send thread died). The
+    session's clip history keeps 5 s here, so that it is full before the measure starts."""
+    session, bridge = _live_session_with_bridge(None, PRESSES_URL + "&speed=10&ft=bota",
+                                                history_s=5.0)  # fmt: skip
     try:
         client = FoxgloveClient(bridge.url).connect(TOPICS)
         client.subscribe(*TOPICS)
