@@ -25,8 +25,9 @@ protobuf; CDR), so a test can show each channel's messages open too.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 
 class ChannelRejected(Exception):
@@ -56,9 +57,7 @@ def parse_json_schema(root: Any, root_type_name: str) -> Parsed:
         names: list[str] = []
         if not isinstance(schema, dict) or schema.get("type") != "object":
             got = _js_json(schema.get("type")) if isinstance(schema, dict) else "undefined"
-            raise ChannelRejected(
-                f'Expected "type": "object" for schema {type_name}, got {got}'
-            )
+            raise ChannelRejected(f'Expected "type": "object" for schema {type_name}, got {got}')
         properties = schema.get("properties")
         if not isinstance(properties, dict):  # Object.entries(undefined | null) throws
             raise ChannelRejected(
@@ -69,9 +68,7 @@ def parse_json_schema(root: Any, root_type_name: str) -> Parsed:
                 field_schema = {}
             one_of = field_schema.get("oneOf")
             if isinstance(one_of, list):
-                if all(
-                    isinstance(alt, dict) and _is_js_number(alt.get("const")) for alt in one_of
-                ):
+                if all(isinstance(alt, dict) and _is_js_number(alt.get("const")) for alt in one_of):
                     names += [str(alt.get("title")) for alt in one_of] + [name]
                     continue
                 raise ChannelRejected(
@@ -199,11 +196,10 @@ def parse_channel(
         if schema_encoding is None or not schema_data:
             return Parsed({}, lambda data: json.loads(data.decode()))
         schema = json.loads(schema_data.decode())
-        if not isinstance(schema, dict):  # typeof schema !== "object" (arrays pass it...)
-            if not isinstance(schema, list):
-                raise ChannelRejected(
-                    f"Invalid schema, expected JSON object, got {type(schema).__name__}"
-                )
+        if not isinstance(schema, (dict, list)):  # typeof []: "object", then refused below
+            raise ChannelRejected(
+                f"Invalid schema, expected JSON object, got {type(schema).__name__}"
+            )
         return parse_json_schema(schema, schema_name or "")
     if message_encoding == "flatbuffer":
         if schema_encoding != "flatbuffer":

@@ -179,8 +179,12 @@ def test_both_subprotocols_connect_and_every_channel_opens_in_lichtblick(
         client = FoxgloveClient(bridge.url, subprotocol=subprotocol).connect(TOPICS)
         assert set(client.channels) == set(TOPICS)
         for topic, channel in client.channels.items():  # as Lichtblick's player parses them
-            parsed = parse_channel(channel["encoding"], channel["schemaName"],
-                                   channel["schemaEncoding"], channel["schema"].encode())
+            parsed = parse_channel(
+                channel["encoding"],
+                channel["schemaName"],
+                channel["schemaEncoding"],
+                channel["schema"].encode(),
+            )
             assert parsed.datatypes, topic
         client.subscribe("/ft/wrench")
         bridge.ft(_wrench_rows(4, -2.0))
@@ -326,20 +330,32 @@ def _rss_mb() -> float:
 
 @pytest.mark.slow
 def test_memory_stays_flat_over_a_minute_at_speed_10_with_a_subscriber() -> None:
-    """A minute of `speed=10` (10 kHz of simulated F/T) through a live session without a
-    model into the bridge, a client subscribed to every channel: RSS after the first
-    10 s grows by less than 30 MB (it grew 70 MB a minute once the send thread died). The
-    session's clip history keeps 5 s here, so that it is full before the measure starts."""
-    session, bridge = _live_session_with_bridge(None, PRESSES_URL + "&speed=10&ft=bota",
-                                                history_s=5.0)  # fmt: skip
-    try:
+    """A minute of `speed=10` (10 kHz of simulated F/T) fed to the bridge as the live
+    session feeds it (history taps: device frames, F/T batches, rows without a model), a
+    client subscribed to every channel: RSS after the first 10 s grows by less than 30 MB
+    (it grew 70 MB a minute once the send thread died). The history keeps 5 s, so that it
+    is full before the measure starts; the sensor is drained as the session drains it."""
+    url = "sim://?scene=presses&seed=0&speed=10&ft=bota"
+    history = History(keep_s=5.0)
+    with FoxgloveBridge(port=0) as bridge, Sensor.open(url) as sensor, FTSensor.open(url) as ft:
+        history.add_tap(bridge)
+        sensor.add_listener(lambda frame, t: history.add_frame(frame.raw, t))
         client = FoxgloveClient(bridge.url).connect(TOPICS)
         client.subscribe(*TOPICS)
-        session.start(lambda _msg: None)
+        sensor.configure()
+        sensor.start()
+        ft.start()
         start = time.monotonic()
-        received, base = 0, None
+        received, key, base = 0, 0, None
         while time.monotonic() - start < 60:
-            received += len(client.receive(1.0))
+            history.add_ft(ft.read_available())
+            for sample in sensor.read(1 << 20, timeout=0):
+                history.add_row(key, {"host_time": float(sample["host_time"]),
+                                      "device_time_s": float(sample["device_time_us"]) / 1e6,
+                                      "region": None, "contact": None, "ood": None,
+                                      "invalid": None})  # fmt: skip
+                key += 1
+            received += len(client.receive(0.2))
             if base is None and time.monotonic() - start > 10:
                 base = _rss_mb()
         assert base is not None
@@ -348,6 +364,3 @@ def test_memory_stays_flat_over_a_minute_at_speed_10_with_a_subscriber() -> None
         assert growth < 30, f"RSS grew {growth:.1f} MB"
         assert received > 1000 and bridge.stats["errors"] == 0
         client.close()
-    finally:
-        session.stop()
-        bridge.close()

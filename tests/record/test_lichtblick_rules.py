@@ -87,8 +87,11 @@ def test_schemaless_json_and_our_wrapped_protobuf_open() -> None:
 
 
 def test_a_ros2msg_schema_with_a_dependency_opens_and_a_broken_one_does_not() -> None:
-    text = "std_msgs/Header header\n" + "=" * 80 + "\nMSG: std_msgs/Header\n" + (
-        "builtin_interfaces/Time stamp\nstring frame_id\n"
+    text = (
+        "std_msgs/Header header\n"
+        + "=" * 80
+        + "\nMSG: std_msgs/Header\n"
+        + ("builtin_interfaces/Time stamp\nstring frame_id\n")
     )
     parse_channel("cdr", "my_msgs/msg/Stamped", "ros2msg", text.encode())
     with pytest.raises(ChannelRejected, match="ros2msg"):

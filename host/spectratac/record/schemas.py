@@ -110,8 +110,11 @@ SCHEMAS: dict[str, dict[str, Any]] = {
             "source": {**_STRING, "description": "'device' or 'host'"},
             "sequence": {**_INT, "description": "the sample's sample_seq (host: estimate index)"},
             "t_end_us": {**_INT, "description": "the sample's end, device µs"},
-            "decoded": {**_BOOL, "description": "a model decoded the sample: the axes it "
-                        "estimates hold numbers (the others are absent)"},  # fmt: skip
+            "decoded": {
+                **_BOOL,
+                "description": "a model decoded the sample: the axes it "
+                "estimates hold numbers (the others are absent)",
+            },
             "force": _vector("xyz", "N, board axes" + _ABSENT),
             "torque": _vector("xyz", "N·m, board axes" + _ABSENT),
             "region": {**_INT, "description": "1..9; 0 or -1: none"},
@@ -178,8 +181,11 @@ _METADATA_FIELDS: dict[str, dict[str, Any]] = {
         "t_start": _HOST_S,
         "t_end": _HOST_S,
     },
-    EPOCH: {"epoch": _INT, "reason": {**_STRING, "description": "'start' or 'reconnect'"},
-            "host_time": _NUMBER},  # fmt: skip
+    EPOCH: {
+        "epoch": _INT,
+        "reason": {**_STRING, "description": "'start' or 'reconnect'"},
+        "host_time": _NUMBER,
+    },
 }
 
 
@@ -316,9 +322,7 @@ _TRUTH_FMT = (
 def _xyz(values: Sequence[float | None], axes: str = "xyz") -> dict[str, float]:
     """The finite values by axis; one that is None or not finite is left out (no NaN in JSON)."""
     return {
-        a: float(v)
-        for a, v in zip(axes, values, strict=True)
-        if v is not None and math.isfinite(v)
+        a: float(v) for a, v in zip(axes, values, strict=True) if v is not None and math.isfinite(v)
     }
 
 
