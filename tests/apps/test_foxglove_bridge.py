@@ -323,6 +323,26 @@ def test_the_queues_are_bounded_the_oldest_dropped_and_counted(
     assert len(kept) == 100 and kept[0][1] == 150.0  # the newest kept
 
 
+def test_drops_are_said_in_one_log_line_per_period(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    import spectratac.apps.foxglove_bridge as fb
+
+    monkeypatch.setattr(fb, "TAP_LIMIT", 10)
+    monkeypatch.setattr(fb, "DROP_REPORT_S", 0.2)
+    bridge = FoxgloveBridge(port=0)
+    for i in range(1000):  # before it starts: nothing drains them
+        bridge.frame(bytes([1, 0, 0x84, i % 256, 0]), float(i))
+    with bridge:
+        deadline = time.monotonic() + 10
+        while not any("dropped" in r.getMessage() for r in caplog.records):
+            assert time.monotonic() < deadline, "no log line about the drops"
+            time.sleep(0.05)
+        time.sleep(0.5)  # no new drops: no new line
+    lines = [r.getMessage() for r in caplog.records if "dropped" in r.getMessage()]
+    assert len(lines) == 1 and lines[0].startswith("Foxglove bridge: 990 messages dropped")
+
+
 def _rss_mb() -> float:
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20

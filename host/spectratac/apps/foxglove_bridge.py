@@ -73,6 +73,7 @@ SUBPROTOCOLS = ("foxglove.websocket.v1", "foxglove.sdk.v1")
 POLL_S = 0.02
 TAP_LIMIT = 20_000  # items per tap queue (frames, F/T batches, rows): minutes of a real sensor
 CLIENT_LIMIT = 50_000  # messages queued for one client that reads too slowly
+DROP_REPORT_S = 10.0  # how often the log may say that messages were dropped
 MAX_CLIENT_MESSAGE = 64 * 1024  # subscribe/unsubscribe requests are small
 MESSAGE_DATA = 0x01
 _DATA_HEADER = struct.Struct("<BIQ")  # opcode, subscription id, log time (ns)
@@ -351,8 +352,16 @@ class FoxgloveBridge:
 
     # ------------------------------------------------------------------ encoding
     def _pump(self) -> None:
+        reported, next_report = 0, time.monotonic() + DROP_REPORT_S
         while not self._stop.wait(POLL_S):
             self._send()
+            if time.monotonic() >= next_report:  # one line per period at most, not a flood
+                next_report += DROP_REPORT_S
+                dropped = self.stats["dropped"]
+                if dropped > reported:
+                    log.warning("Foxglove bridge: %d messages dropped so far (the oldest "
+                                "first: a client or the encoder fell behind)", dropped)  # fmt: skip
+                    reported = dropped
         self._send()
 
     def _guarded(self, work: Any, *args: Any) -> None:
