@@ -2,10 +2,11 @@
 specification (github.com/foxglove/ws-protocol): what Foxglove itself does on "Open
 connection". Nothing here imports spectratac.
 
-The foxglove SDK 0.30 speaks the protocol under the subprotocol name ``foxglove.sdk.v1``
-(its handshake refuses the older ``foxglove.websocket.v1``). Text frames are JSON
-(``serverInfo``, ``advertise``...); binary ``messageData`` frames are opcode 0x01, u32
-subscription id, u64 log time (ns), then the message in the channel's encoding.
+Lichtblick and every ``@foxglove/ws-protocol`` client offer the subprotocol
+``foxglove.websocket.v1`` alone; the foxglove SDK's clients ``foxglove.sdk.v1``: the client
+offers exactly one, as they do. Text frames are JSON (``serverInfo``, ``advertise``...);
+binary ``messageData`` frames are opcode 0x01, u32 subscription id, u64 log time (ns), then
+the message in the channel's encoding.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from typing import Any
 import websocket
 from jsonschema import Draft202012Validator
 
-SUBPROTOCOL = "foxglove.sdk.v1"
+SUBPROTOCOL = "foxglove.websocket.v1"  # Lichtblick's
 MESSAGE_DATA = 0x01
 _HEADER = struct.Struct("<BIQ")
 
@@ -34,6 +35,7 @@ class Received:
 @dataclass
 class FoxgloveClient:
     url: str
+    subprotocol: str = SUBPROTOCOL
     server_info: dict[str, Any] = field(default_factory=dict)
     channels: dict[str, dict[str, Any]] = field(default_factory=dict)  # by topic
     _ws: Any = None
@@ -42,8 +44,9 @@ class FoxgloveClient:
 
     def connect(self, topics: tuple[str, ...], timeout: float = 30.0) -> FoxgloveClient:
         """Connect; wait for serverInfo and the advertisement of every one of `topics`."""
-        self._ws = websocket.create_connection(self.url, subprotocols=[SUBPROTOCOL],
+        self._ws = websocket.create_connection(self.url, subprotocols=[self.subprotocol],
                                                timeout=timeout)  # fmt: skip
+        assert self._ws.getsubprotocol() == self.subprotocol
         deadline = time.monotonic() + timeout
         while not (self.server_info and set(topics) <= set(self.channels)):
             if time.monotonic() > deadline:

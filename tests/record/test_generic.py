@@ -1,6 +1,6 @@
 """A recording as a third party meets it: the plain `mcap` reader and each channel's schema,
-nothing of spectratac's reader (format 4: FORMAT.md, "Decoded channels"). Old files
-(format 3, written by the previous release: data/tour-v3.mcap) still read."""
+nothing of spectratac's reader (format 5: FORMAT.md, "Decoded channels"). Old files
+(format 3, written by an earlier release: data/tour-v3.mcap) still read."""
 
 from __future__ import annotations
 
@@ -39,8 +39,10 @@ def third_party_read(path: Path) -> dict[str, list[tuple[int, dict[str, Any]]]]:
     validators: dict[int, Draft202012Validator] = {}
     with open(path, "rb") as f:
         for schema, channel, message in make_reader(f).iter_messages():
-            if channel.topic in COMPACT:
-                assert schema is None and channel.message_encoding.startswith("spectratac.")
+            if channel.topic in COMPACT:  # protobuf-wrapped (format 5) or raw (before)
+                assert channel.message_encoding in ("protobuf", "spectratac.frame",
+                                                    "spectratac.ft_record",
+                                                    "spectratac.ground_truth")  # fmt: skip
                 continue
             assert schema is not None and schema.encoding == "jsonschema", channel.topic
             assert channel.message_encoding == "json"
@@ -58,7 +60,7 @@ def test_fz_and_counts_read_with_the_schema_alone(
     tour_session: tuple[RecordingSummary, Recording],
 ) -> None:
     summary, rec = tour_session
-    assert rec.session["version"] == VERSION == 4
+    assert rec.session["version"] == VERSION == 5
     found = third_party_read(rec.path)
     # the reference: /ft/wrench.force.z, exactly the compact rows; at speed=10 the simulated
     # Bota sends 10 kHz of host time: an even subset at RATE_CAP_HZ
@@ -87,18 +89,19 @@ def test_fz_and_counts_read_with_the_schema_alone(
     assert len(truth) == len(rec.ground_truth)
     assert [t["force_n"]["z"] for t in truth] == rec.ground_truth["force_n"][:, 2].tolist()
     assert [obj["region"] for _, obj in found["/labels"]] == [lb["region"] for lb in rec.labels]
-    assert found["/spectratac/session"][0][1]["version"] == 4
+    assert found["/spectratac/session"][0][1]["version"] == 5
 
 
-def test_every_channel_names_a_schema_or_is_a_compact_one(
+def test_every_channel_names_a_schema(
     tour_session: tuple[RecordingSummary, Recording],
 ) -> None:
     _, rec = tour_session
     with open(rec.path, "rb") as f:
         summary = make_reader(f).get_summary()
     assert summary is not None
-    schemaless = {c.topic for c in summary.channels.values() if c.schema_id == 0}
-    assert schemaless == COMPACT  # each with a decoded copy: frames, wrench, truth
+    assert all(c.schema_id != 0 for c in summary.channels.values())
+    compact = {c.topic for c in summary.channels.values() if c.message_encoding == "protobuf"}
+    assert compact == COMPACT  # each with a decoded copy: frames, wrench, truth
     titles = {summary.schemas[c.schema_id].name for c in summary.channels.values() if c.schema_id}
     assert {"spectratac.RawCounts", "spectratac.Wrench", "spectratac.Label"} <= titles
 
@@ -133,8 +136,9 @@ def test_a_clip_writer_stores_host_estimates_and_the_reader_returns_them(
     with RecordingWriter(path, {}, unix_minus_monotonic_ns=0) as w:
         w.estimates(rows)
     rec = read_recording(path)
-    assert [e["force"]["z"] for e in rec.estimates] == [-2.5, None]
-    assert rec.estimates[0]["torque"] == {"x": None, "y": None, "z": None}
+    assert [e["force"].get("z") for e in rec.estimates] == [-2.5, None]  # not finite: absent
+    assert rec.estimates[0]["torque"] == {} and rec.estimates[0]["decoded"]
+    assert not rec.estimates[1]["decoded"] and rec.estimates[1]["force"] == {}
     assert rec.estimates[1]["invalid"] and rec.estimates[0]["t_end_us"] == 50_000
     assert [t for t, _ in third_party_read(path)["/spectratac/estimates"]] == [10**9, 1_050 * 10**6]
 
@@ -183,7 +187,8 @@ def test_frames_decode_to_schema_messages(
     assert c["sequence"] == seq and c["t_end_us"] == 7
     [e] = [json.loads(b) for b in device_estimate_messages(estimates)]
     expect = [float(np.float32(v)) if math.isfinite(v) else None for v in force]
-    assert [e["force"][a] for a in "xyz"] == expect
+    assert [e["force"].get(a) for a in "xyz"] == expect
+    assert e["decoded"] == bool(e["force"] or e["torque"])
     assert e["contact"] == bool(flags & 1) and e["invalid"] == bool(flags & 2)
     assert e["ood"] == bool(flags & 4) and e["region"] == region and e["source"] == "device"
 
@@ -192,7 +197,7 @@ def test_an_estimate_message_never_holds_nan() -> None:
     data = estimate_message("host", 1, 2, [math.nan, None, 1.0], [math.inf] * 3, 0, math.nan,
                             contact=False, ood=False, invalid=True)  # fmt: skip
     obj = json.loads(data)
-    assert obj["force"] == {"x": None, "y": None, "z": 1.0} and obj["region_prob"] is None
+    assert obj["force"] == {"z": 1.0} and "region_prob" not in obj and obj["decoded"] is True
     assert b"NaN" not in data and b"Infinity" not in data  # JSON has neither
 
 
@@ -222,3 +227,12 @@ def test_the_rate_cap_leaves_a_real_sensors_rate_alone() -> None:
     cap = RateCap()
     taken = [len(range(10)[cap.take(10, i * 0.01)]) for i in range(1000)]  # 1 kHz, 10 s
     assert sum(taken) == 10_000
+
+
+def test_the_rate_cap_copies_a_1_khz_batch_of_ten_seconds_whole() -> None:
+    """A clip hands the writer its whole window at once: the span of the batch counts."""
+    t = np.arange(9_941) * 1e-3
+    assert len(range(9_941)[RateCap().take(9_941, float(t[-1]), float(t[0]))]) == 9_941
+    fast = np.arange(99_410) * 1e-4  # 10 kHz (speed=10): an even subset at the cap
+    kept = len(range(99_410)[RateCap().take(99_410, float(fast[-1]), float(fast[0]))])
+    assert 9_000 < kept <= RATE_CAP_HZ * (fast[-1] + 1)

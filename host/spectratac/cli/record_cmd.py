@@ -69,6 +69,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--guided-hold", type=float, default=3.0, metavar="S", help="hold time")
     p.add_argument("--guided-rest", type=float, default=2.0, metavar="S", help="rest time")
     p.add_argument("--guided-seed", type=int, default=None, help="seed of the prompt order")
+    p.add_argument(
+        "--estimates",
+        action="store_true",
+        help="keep the device's own estimates on /spectratac/estimates (a device that decodes "
+        "on board: see `spectratac model upload`)",
+    )
     p.add_argument("--sync-every", type=float, default=5.0, metavar="S", help="clock sync period")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--no-progress", action="store_true", help="no live progress display")
@@ -119,6 +125,7 @@ def _record(args: argparse.Namespace) -> int:
         sensitivity=args.sensitivity,
         leds=parse_leds(args.leds),
         sync_every_s=args.sync_every,
+        estimates=args.estimates,
     )
     options.validate()
     refuse_overwrite(args.output, args.force)

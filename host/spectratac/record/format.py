@@ -25,7 +25,11 @@ FORMAT = "spectratac.recording"
 #: "truth", where older files have "sim": a version-2 reader would take the file for hardware.
 #: 4 gave every JSON channel its own schema and wrote each compact row once more, decoded,
 #: with a JSON schema (spectratac.record.schemas): counts, estimates, wrench, truth.
-VERSION = 4
+#: 5 wrapped the compact channels' bytes in a one-field protobuf message (record.wrapped) so
+#: that players decode them, and kept every JSON schema inside Foxglove's parse rules
+#: (no null: a value that is not finite is absent). A version-4 reader would take the
+#: prefix for part of the frame.
+VERSION = 5
 
 # topic -> message encoding; JSON topics carry one JSON object per message.
 SESSION = "/spectratac/session"  # once, first: URLs, link facts, truth, clocks, versions
@@ -41,9 +45,18 @@ LABELS = "/labels"  # one region-label event per message
 GROUND_TRUTH = "/spectratac/ground_truth"  # truth of a batch of samples (simulated links)
 EPOCH = "/spectratac/epoch"  # a connection to the device began: its clock and seq start afresh
 
-FRAME_ENCODING = "spectratac.frame"
-FT_ENCODING = "spectratac.ft_record"
-GROUND_TRUTH_ENCODING = "spectratac.ground_truth"
+# Compact channels: (protobuf message name, what it holds); files before version 5 used the
+# encodings in LEGACY_ENCODINGS with no schema (record.wrapped says why that changed).
+COMPACT = {
+    FRAMES: ("Frame", "one device frame: header, payload, CRC-32C (protocol/SPEC.md)"),
+    FT_SAMPLES: ("FTRecords", "a batch of FT_RECORD rows, little-endian (dtype metadata)"),
+    GROUND_TRUTH: ("GroundTruthRecords", "a batch of GROUND_TRUTH_RECORD rows (dtype metadata)"),
+}
+LEGACY_ENCODINGS = {
+    FRAMES: "spectratac.frame",
+    FT_SAMPLES: "spectratac.ft_record",
+    GROUND_TRUTH: "spectratac.ground_truth",
+}
 JSON_TOPICS = (SESSION, INFO, CONFIG, TIME_SYNC, STATS, END, FT_INFO, LABELS, EPOCH)
 # What each JSON topic's message is (its JSON schema's title and description).
 JSON_TOPIC_DOCS = {

@@ -63,9 +63,12 @@ from spectratac.record.format import (
 )
 from spectratac.record.salvage import READ_ERRORS, salvage
 from spectratac.record.schemas import DECODED_TOPICS, ESTIMATES
+from spectratac.record.wrapped import ENCODING as WRAPPED
+from spectratac.record.wrapped import unwrap
 
 #: Decoded copies of the compact channels this reader reads: passed over unparsed
 _MIRRORS = frozenset(DECODED_TOPICS) - {ESTIMATES}
+_COMPACT = frozenset((FRAMES, FT_SAMPLES, GROUND_TRUTH))
 
 
 @dataclass
@@ -136,17 +139,26 @@ def read_recording(path: str | Path) -> Recording:
     ft_parts: list[bytes] = []
     truth_parts: list[bytes] = []
     unreadable: dict[str, int] = {}  # messages intact on disk that do not parse: counted, skipped
+    # compact channels of version 5 wrap their bytes in a one-field protobuf message
+    wrapped = {i for i, c in topics.items() if c.message_encoding == WRAPPED}
     for record in found.records:
         if not isinstance(record, Message) or record.channel_id not in topics:
             continue
         topic = topics[record.channel_id].topic
+        data = record.data
+        if topic in _COMPACT and record.channel_id in wrapped:
+            try:
+                data = unwrap(data)
+            except ValueError:
+                unreadable[topic] = unreadable.get(topic, 0) + 1
+                continue
         if topic == FRAMES:
-            rec.frames.append(record.data)
+            rec.frames.append(data)
             log_times.append(record.log_time)
         elif topic == FT_SAMPLES:
-            ft_parts.append(record.data)
+            ft_parts.append(data)
         elif topic == GROUND_TRUTH:
-            truth_parts.append(record.data)
+            truth_parts.append(data)
         elif topic in JSON_TOPICS or topic == ESTIMATES:
             try:
                 _take_json(rec, topic, json.loads(record.data))

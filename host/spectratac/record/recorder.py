@@ -75,6 +75,9 @@ class RecordOptions:
     sensitivity: Literal["high", "low"] = "high"
     leds: Sequence[Sequence[Sequence[int]]] | None = None  # steps x 3 LEDs x RGB permille
     settle_us: int = 1000
+    #: keep the device's own estimates (ESTIMATE frames beside the samples; a device that
+    #: decodes on board: `spectratac model upload`) on /spectratac/estimates
+    estimates: bool = False
     sync_every_s: float = 5.0
     sync_exchanges: int = 8
     flush_s: float = 1.0
@@ -296,6 +299,7 @@ class Recorder:
             sensitivity=opts.sensitivity,
             leds=None if opts.leds is None else np.asarray(opts.leds),
             settle_us=opts.settle_us,
+            estimates="beside" if opts.estimates else "off",
         )
         reply = self.sensor.get_config().to_dict()
         writer.json(

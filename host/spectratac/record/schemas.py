@@ -8,7 +8,10 @@ without a plug-in (`/ft/wrench.force.z`, `/spectratac/counts.s0.IR`). Foxglove's
 well-known schemas have no wrench, count or estimate type, hence JSON schemas. The live
 Foxglove bridge (`spectratac.apps.foxglove_bridge`) serves the same messages.
 
-Values that are not finite (an invalid estimate's NaN) become null: JSON has no NaN.
+Every schema stays inside what Foxglove/Lichtblick parses (FORMAT.md, "What Foxglove
+shows"): one `type` per field, `properties` on every object, no `null`, no bare `enum`.
+JSON has no NaN, so a value that is not finite (an invalid estimate's NaN) is left out of
+its object, and a boolean beside it says whether the numbers are there (`decoded`, `valid`).
 
 >>> import numpy as np
 >>> from spectratac.ft import FT_RECORD
@@ -33,7 +36,18 @@ from spectratac.protocol.bulk import payload_dtype
 from spectratac.protocol.framing import HEADER
 from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
-from spectratac.record.format import JSON_TOPIC_DOCS, LABELS
+from spectratac.record.format import (
+    CONFIG,
+    END,
+    EPOCH,
+    FT_INFO,
+    INFO,
+    JSON_TOPIC_DOCS,
+    LABELS,
+    SESSION,
+    STATS,
+    TIME_SYNC,
+)
 
 COUNTS = "/spectratac/counts"  # one message per SAMPLE frame: counts per sensor and channel
 ESTIMATES = "/spectratac/estimates"  # one per estimate: the device's ESTIMATE, or the host's
@@ -42,27 +56,27 @@ TRUTH = "/spectratac/truth"  # one per sample of a link with ground truth
 DECODED_TOPICS = (COUNTS, ESTIMATES, WRENCH, TRUTH)
 
 _NUMBER: dict[str, Any] = {"type": "number"}
-_NULLABLE: dict[str, Any] = {"type": ["number", "null"]}
 _INT: dict[str, Any] = {"type": "integer"}
+_BOOL: dict[str, Any] = {"type": "boolean"}
+_STRING: dict[str, Any] = {"type": "string"}
+_ABSENT = "; an axis that is not finite is absent"
 
 
-def _vector(axes: str, item: dict[str, Any], unit: str) -> dict[str, Any]:
-    return {
-        "type": "object",
-        "description": unit,
-        "properties": {a: item for a in axes},
-        "required": list(axes),
-    }
+def _vector(axes: str, unit: str) -> dict[str, Any]:
+    """x, y, z numbers; not required: a value that is not finite is left out (no NaN in JSON)."""
+    return {"type": "object", "description": unit, "properties": dict.fromkeys(axes, _NUMBER)}
 
 
-def _object(title: str, description: str, props: dict[str, Any]) -> dict[str, Any]:
+def _object(
+    title: str, description: str, props: dict[str, Any], optional: Sequence[str] = ()
+) -> dict[str, Any]:
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": title,
         "description": description,
         "type": "object",
         "properties": props,
-        "required": list(props),
+        "required": [k for k in props if k not in optional],
     }
 
 
@@ -90,19 +104,26 @@ SCHEMAS: dict[str, dict[str, Any]] = {
     ESTIMATES: _object(
         "spectratac.Estimate",
         "Force, torque and contact region decoded from one sample, by the device's model "
-        "(source 'device') or the host's decoder (source 'host'); null: not decoded",
+        "(source 'device') or the host's decoder (source 'host'); `decoded` false: no "
+        "numbers (every axis absent)",
         {
-            "source": {"enum": ["device", "host"]},
+            "source": {**_STRING, "description": "'device' or 'host'"},
             "sequence": {**_INT, "description": "the sample's sample_seq (host: estimate index)"},
             "t_end_us": {**_INT, "description": "the sample's end, device µs"},
-            "force": _vector("xyz", _NULLABLE, "N, board axes"),
-            "torque": _vector("xyz", _NULLABLE, "N·m, board axes"),
+            "decoded": {
+                **_BOOL,
+                "description": "a model decoded the sample: the axes it "
+                "estimates hold numbers (the others are absent)",
+            },
+            "force": _vector("xyz", "N, board axes" + _ABSENT),
+            "torque": _vector("xyz", "N·m, board axes" + _ABSENT),
             "region": {**_INT, "description": "1..9; 0 or -1: none"},
-            "region_prob": _NULLABLE,
-            "contact": {"type": "boolean"},
-            "ood": {"type": "boolean"},
-            "invalid": {"type": "boolean"},
+            "region_prob": {**_NUMBER, "description": "0..1; absent when not finite"},
+            "contact": _BOOL,
+            "ood": _BOOL,
+            "invalid": _BOOL,
         },
+        optional=("region_prob",),
     ),
     WRENCH: _object(
         "spectratac.Wrench",
@@ -110,10 +131,12 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         {
             "sensor_time": {**_NUMBER, "description": "s, on the F/T sensor's own clock"},
             "sequence": {**_INT, "description": "unwrapped; a jump of k = k - 1 lost"},
-            "force": _vector("xyz", _NUMBER, "N"),
-            "torque": _vector("xyz", _NUMBER, "N·m"),
+            "valid": {**_BOOL, "description": "every value finite (else they are absent)"},
+            "force": _vector("xyz", "N" + _ABSENT),
+            "torque": _vector("xyz", "N·m" + _ABSENT),
             "status": {**_INT, "description": "the device's status word, 0 = healthy"},
         },
+        optional=("sensor_time",),
     ),
     TRUTH: _object(
         "spectratac.GroundTruth",
@@ -123,37 +146,61 @@ SCHEMAS: dict[str, dict[str, Any]] = {
             "t_start_us": {**_INT, "description": "device µs, unwrapped"},
             "t_end_us": {**_INT, "description": "device µs, unwrapped"},
             "region": {**_INT, "description": "1..9 on a firm contact, else -1"},
-            "in_contact": {"type": "boolean"},
+            "in_contact": _BOOL,
             "press": {**_INT, "description": "index of the press under way, -1 between"},
-            "position_mm": _vector("xy", _NUMBER, "mm, board axes"),
-            "force_n": _vector("xyz", _NUMBER, "N: shear x, y and the normal load z"),
+            "valid": {**_BOOL, "description": "every value finite (else they are absent)"},
+            "position_mm": _vector("xy", "mm, board axes" + _ABSENT),
+            "force_n": _vector("xyz", "N: shear x, y and the normal load z" + _ABSENT),
         },
     ),
 }
 
 
-_LABEL = {
-    "source": {"type": "string", "description": "scene, guided, ..."},
-    "index": _INT,
-    "region": {**_INT, "description": "1..9; -1: none"},
-    "t_start": {**_NULLABLE, "description": "host monotonic s"},
-    "t_end": {**_NULLABLE, "description": "host monotonic s"},
+# The fields of the JSON topics that always have one type (FORMAT.md, "JSON messages");
+# the messages hold more (nested, or null when unknown): Foxglove shows those in its Raw
+# Message panel, and its Plot panel offers the fields listed here.
+_HOST_S = {**_NUMBER, "description": "host monotonic s; absent when not known"}
+_METADATA_FIELDS: dict[str, dict[str, Any]] = {
+    SESSION: {
+        "format": _STRING,
+        "version": _INT,
+        "library_version": _STRING,
+        "started_unix": _NUMBER,
+        "unix_minus_monotonic_ns": _INT,
+    },
+    INFO: {"unit_id": _STRING, "firmware": _STRING, "protocol": _STRING},
+    CONFIG: {"config_id": _INT},
+    TIME_SYNC: {},
+    STATS: {"samples": _INT, "ft_samples": _INT},
+    END: {"stopped_by": _STRING, "samples": _INT},
+    FT_INFO: {"url": _STRING},
+    LABELS: {
+        "source": {**_STRING, "description": "scene, guided, ..."},
+        "index": _INT,
+        "region": {**_INT, "description": "1..9; -1: none"},
+        "t_start": _HOST_S,
+        "t_end": _HOST_S,
+    },
+    EPOCH: {
+        "epoch": _INT,
+        "reason": {**_STRING, "description": "'start' or 'reconnect'"},
+        "host_time": _NUMBER,
+    },
 }
 
 
 def metadata_schema(topic: str) -> dict[str, Any]:
     """The JSON schema of one of the recording's JSON topics (format.JSON_TOPICS): an object
-    with a title and description; labels list their main fields. New keys may be added."""
+    with a title, a description and the fields that always have one type (none required,
+    none null: a label's unknown time is absent). New keys may be added."""
     title, what = JSON_TOPIC_DOCS[topic]
-    schema: dict[str, Any] = {
+    return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": title,
-        "description": f"{what} (spectratac/record/FORMAT.md)",
+        "description": f"{what}; more fields in spectratac/record/FORMAT.md",
         "type": "object",
+        "properties": _METADATA_FIELDS[topic],
     }
-    if topic == LABELS:
-        schema["properties"] = _LABEL
-    return schema
 
 
 def schema_bytes(schema: dict[str, Any]) -> bytes:
@@ -184,10 +231,17 @@ class RateCap:
         self._tokens = rate_hz  # one second's worth to start with
         self._last: float | None = None
 
-    def take(self, n: int, host_time: float) -> slice:
+    def take(self, n: int, host_time: float, first_time: float | None = None) -> slice:
+        """`first_time`: the batch's first row's host time, when a batch spans more than a
+        moment (a clip written at once): the bucket then also holds the span's worth, so a
+        1 kHz sensor's ten seconds are copied whole."""
+        span = 0.0 if first_time is None else max(0.0, host_time - first_time)
+        if self._last is None and first_time is not None:
+            self._last = first_time
         if self._last is not None:
             elapsed = max(0.0, host_time - self._last)
-            self._tokens = min(self.rate_hz, self._tokens + elapsed * self.rate_hz)
+            room = self.rate_hz * (1.0 + span)  # one second's burst, plus the batch's span
+            self._tokens = min(room, self._tokens + elapsed * self.rate_hz)
         self._last = host_time if self._last is None else max(self._last, host_time)
         if n <= self._tokens:
             self._tokens -= n
@@ -256,21 +310,24 @@ _COUNTS_FMT = (
     + "}"
 )
 _WRENCH_FMT = (
-    '{"sensor_time":%r,"sequence":%d,"force":{"x":%r,"y":%r,"z":%r},'
+    '{"sensor_time":%r,"sequence":%d,"valid":true,"force":{"x":%r,"y":%r,"z":%r},'
     '"torque":{"x":%r,"y":%r,"z":%r},"status":%d}'
 )
 _TRUTH_FMT = (
     '{"sequence":%d,"t_start_us":%d,"t_end_us":%d,"region":%d,"in_contact":%s,"press":%d,'
-    '"position_mm":{"x":%r,"y":%r},"force_n":{"x":%r,"y":%r,"z":%r}}'
+    '"valid":true,"position_mm":{"x":%r,"y":%r},"force_n":{"x":%r,"y":%r,"z":%r}}'
 )
 
 
-def _finite(v: float) -> float | None:
-    return v if math.isfinite(v) else None
+def _xyz(values: Sequence[float | None], axes: str = "xyz") -> dict[str, float]:
+    """The finite values by axis; one that is None or not finite is left out (no NaN in JSON)."""
+    return {
+        a: float(v) for a, v in zip(axes, values, strict=True) if v is not None and math.isfinite(v)
+    }
 
 
-def _xyz(values: Sequence[float], axes: str = "xyz") -> dict[str, float | None]:
-    return {a: _finite(float(v)) for a, v in zip(axes, values, strict=True)}
+def _finite_items(**values: float | None) -> dict[str, float]:
+    return {k: float(v) for k, v in values.items() if v is not None and math.isfinite(v)}
 
 
 def counts_messages(rows: np.ndarray) -> list[bytes]:
@@ -325,20 +382,19 @@ def estimate_message(
     ood: bool,
     invalid: bool,
 ) -> bytes:
-    """One ESTIMATES message; None or NaN in force, torque or region_prob: not decoded."""
-
-    def num(v: float | None) -> float:
-        return math.nan if v is None else float(v)
-
+    """One ESTIMATES message; None or NaN in force, torque or region_prob: not decoded
+    (left out; `decoded` says whether any axis holds a number: a model decoded it)."""
+    f, t = _xyz(force), _xyz(torque)
     return _dump(
         {
             "source": source,
             "sequence": int(sequence),
             "t_end_us": int(t_end_us),
-            "force": _xyz([num(v) for v in force]),
-            "torque": _xyz([num(v) for v in torque]),
+            "decoded": bool(f or t),
+            "force": f,
+            "torque": t,
             "region": int(region),
-            "region_prob": _finite(num(region_prob)),
+            **_finite_items(region_prob=region_prob),
             "contact": bool(contact),
             "ood": bool(ood),
             "invalid": bool(invalid),
@@ -348,19 +404,22 @@ def estimate_message(
 
 def host_estimate_message(row: dict[str, Any]) -> bytes:
     """An ESTIMATES message (source "host") from a decoded row of the live page's history
-    (`spectratac.apps.live.history.CSV_COLUMNS`: Fx..Tz, region, region_prob, flags)."""
+    (`spectratac.apps.live.history.CSV_COLUMNS`: Fx..Tz, region, region_prob, flags). A row
+    no model decoded (region and flags None) gives a message that says so: `decoded` false,
+    region -1, `invalid` true."""
     axes = vocab.FT_AXES
+    region = row.get("region")
     return estimate_message(
         "host",
         int(row.get("key", 0)),
         round(float(row["device_time_s"]) * 1e6),
         [row.get(a) for a in axes[:3]],
         [row.get(a) for a in axes[3:]],
-        int(row["region"]),
+        -1 if region is None else int(region),
         row.get("region_prob"),
-        contact=bool(row["contact"]),
-        ood=bool(row["ood"]),
-        invalid=bool(row["invalid"]),
+        contact=bool(row.get("contact")),
+        ood=bool(row.get("ood")),
+        invalid=region is None or bool(row.get("invalid")),
     )
 
 
@@ -379,8 +438,9 @@ def wrench_messages(rows: np.ndarray) -> list[bytes]:
         if ok:
             out.append((_WRENCH_FMT % (t, seq, *w, status)).encode())
         else:
-            out.append(_dump({"sensor_time": _finite(t), "sequence": seq, "force": _xyz(w[:3]),
-                              "torque": _xyz(w[3:]), "status": status}))  # fmt: skip
+            out.append(_dump({**_finite_items(sensor_time=t), "sequence": seq, "valid": False,
+                              "force": _xyz(w[:3]), "torque": _xyz(w[3:]),
+                              "status": status}))  # fmt: skip
     return out
 
 
@@ -406,5 +466,6 @@ def truth_messages(rows: np.ndarray) -> list[bytes]:
         else:
             out.append(_dump({"sequence": seq, "t_start_us": t0, "t_end_us": t1,
                               "region": region, "in_contact": contact, "press": press,
-                              "position_mm": _xyz(pos, "xy"), "force_n": _xyz(force)}))  # fmt: skip
+                              "valid": False, "position_mm": _xyz(pos, "xy"),
+                              "force_n": _xyz(force)}))  # fmt: skip
     return out

@@ -5,7 +5,9 @@ every `flush_s` seconds (`maybe_flush`), so a process killed with SIGKILL leaves
 every complete chunk is readable (`spectratac.record.reader` returns that prefix). Not
 thread-safe: one thread (the recorder's loop) writes.
 
-Beside each compact channel (frames, F/T batches, ground-truth batches) the writer puts
+The compact channels (frames, F/T batches, ground-truth batches) hold their bytes in a
+one-field protobuf message (`record.wrapped`), so players decode every channel. Beside each
+compact channel the writer puts
 every row once more, decoded, on a channel with a JSON schema (`spectratac.record.schemas`:
 `/spectratac/counts`, `/spectratac/estimates`, `/ft/wrench`, `/spectratac/truth`), so any
 MCAP tool plots the file: every row up to `schemas.RATE_CAP_HZ` rows per second of host
@@ -39,13 +41,11 @@ from mcap.writer import CompressionType, Writer
 from spectratac import __version__, host_clock
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
+    COMPACT,
     FORMAT,
-    FRAME_ENCODING,
     FRAMES,
-    FT_ENCODING,
     FT_SAMPLES,
     GROUND_TRUTH,
-    GROUND_TRUTH_ENCODING,
     GROUND_TRUTH_RECORD,
     JSON_TOPICS,
     LABELS,
@@ -70,9 +70,13 @@ from spectratac.record.schemas import (
     truth_messages,
     wrench_messages,
 )
+from spectratac.record.wrapped import ENCODING as WRAPPED
+from spectratac.record.wrapped import schema as wrapped_schema
+from spectratac.record.wrapped import wrap
 
 __all__ = ["LABELS", "RecordingWriter"]
 
+_LABEL_TIMES = ("t_start", "t_end")
 CHUNK_BYTES = 64 * 1024  # small chunks: little is lost to a crash, zstd still works well
 
 
@@ -116,19 +120,16 @@ class RecordingWriter:
                 self._channels[WRENCH] = self._json_channel(WRENCH, SCHEMAS[WRENCH])
             if ground_truth:
                 self._channels[TRUTH] = self._json_channel(TRUTH, SCHEMAS[TRUTH])
-        self._channels[FRAMES] = self._mcap.register_channel(
-            FRAMES, FRAME_ENCODING, 0, {"content": "COBS-decoded frame: header, payload, CRC-32C"}
+        self._channels[FRAMES] = self._compact_channel(
+            FRAMES, {"content": "COBS-decoded frame: header, payload, CRC-32C"}
         )
         if ft_dtype is not None:
-            self._channels[FT_SAMPLES] = self._mcap.register_channel(
-                FT_SAMPLES, FT_ENCODING, 0, {"dtype": dtype_to_json(ft_dtype)}
+            self._channels[FT_SAMPLES] = self._compact_channel(
+                FT_SAMPLES, {"dtype": dtype_to_json(ft_dtype)}
             )
         if ground_truth:
-            self._channels[GROUND_TRUTH] = self._mcap.register_channel(
-                GROUND_TRUTH,
-                GROUND_TRUTH_ENCODING,
-                0,
-                {"dtype": dtype_to_json(GROUND_TRUTH_RECORD)},
+            self._channels[GROUND_TRUTH] = self._compact_channel(
+                GROUND_TRUTH, {"dtype": dtype_to_json(GROUND_TRUTH_RECORD)}
             )
         self.ft_dtype = ft_dtype
         self.flush_s = flush_s
@@ -152,6 +153,12 @@ class RecordingWriter:
         schema_id = self._mcap.register_schema(schema["title"], "jsonschema", schema_bytes(schema))
         return self._mcap.register_channel(topic, "json", schema_id)
 
+    def _compact_channel(self, topic: str, metadata: dict[str, str]) -> int:
+        name, doc = COMPACT[topic]
+        full_name, descriptor = wrapped_schema(name)
+        schema_id = self._mcap.register_schema(full_name, WRAPPED, descriptor)
+        return self._mcap.register_channel(topic, WRAPPED, schema_id, {**metadata, "about": doc})
+
     # ------------------------------------------------------------------ messages
     def frames(self, frames: Sequence[tuple[bytes, float]]) -> None:
         """(decoded frame bytes, host receive time) pairs, one MCAP message each; SAMPLE
@@ -162,13 +169,14 @@ class RecordingWriter:
         for raw, t in frames:
             ns = round(t * 1e9) + offset
             # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
-            add(channel, ns, raw, ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
+            add(channel, ns, wrap(raw), ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
         self.frames_written += len(frames)
         if self.decoded and frames:
             samples, sample_t, estimates, estimate_t = split_frames(frames)
-            keep = self._caps[COUNTS].take(len(samples), frames[-1][1])
+            first, last = frames[0][1], frames[-1][1]
+            keep = self._caps[COUNTS].take(len(samples), last, first)
             self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep])
-            keep = self._caps[ESTIMATES].take(len(estimates), frames[-1][1])
+            keep = self._caps[ESTIMATES].take(len(estimates), last, first)
             self._decoded(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
 
     def _decoded(self, topic: str, messages: list[bytes], host_times: Sequence[float]) -> None:
@@ -181,7 +189,9 @@ class RecordingWriter:
 
     def estimates(self, rows: Sequence[dict[str, Any]]) -> None:
         """Estimates the host decoded (rows of the live page's history: host_time,
-        device_time_s, Fx..Tz, region, region_prob, contact, ood, invalid) on ESTIMATES."""
+        device_time_s, Fx..Tz, region, region_prob, contact, ood, invalid) on ESTIMATES;
+        rows no model decoded (region None) are not estimates and are left out."""
+        rows = [r for r in rows if r.get("region") is not None]
         if self.decoded:
             self._decoded(ESTIMATES, [host_estimate_message(r) for r in rows],
                           [float(r["host_time"]) for r in rows])  # fmt: skip
@@ -196,10 +206,11 @@ class RecordingWriter:
                 f"{self.ft_dtype}: open the writer with ft_dtype=FT_RECORD"
             )
         ns = self.clock.log_time(float(rows["host_time"][-1]))
-        self._mcap.add_message(self._channels[FT_SAMPLES], ns, rows.tobytes(), ns)
+        self._mcap.add_message(self._channels[FT_SAMPLES], ns, wrap(rows.tobytes()), ns)
         self.ft_rows_written += len(rows)
         if self.decoded:
-            kept = rows[self._caps[WRENCH].take(len(rows), float(rows["host_time"][-1]))]
+            times = rows["host_time"]
+            kept = rows[self._caps[WRENCH].take(len(rows), float(times[-1]), float(times[0]))]
             self._decoded(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
 
     def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
@@ -215,7 +226,7 @@ class RecordingWriter:
                 "dtype: open the writer with ground_truth=True and give GROUND_TRUTH_RECORD rows"
             )
         ns = self.clock.log_time(host_time)
-        self._mcap.add_message(channel, ns, rows.tobytes(), ns)
+        self._mcap.add_message(channel, ns, wrap(rows.tobytes()), ns)
         if self.decoded:
             kept = rows[self._caps[TRUTH].take(len(rows), host_time)]
             self._decoded(TRUTH, truth_messages(kept), [host_time] * len(kept))
@@ -223,6 +234,8 @@ class RecordingWriter:
     def json(self, topic: str, obj: Any, host_time: float) -> None:
         """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""
         ns = self.clock.log_time(host_time)
+        if topic == LABELS and isinstance(obj, dict):  # a time not known is absent, not null
+            obj = {k: v for k, v in obj.items() if not (v is None and k in _LABEL_TIMES)}
         data = json.dumps(obj, default=_jsonable).encode()
         self._mcap.add_message(self._channels[topic], ns, data, ns)
 
