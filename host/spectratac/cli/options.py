@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import UsageError
-from spectratac.cli.outputs import check_output
+from spectratac.cli.outputs import Kind, check_output
 
 DEVICE_URL_HELP = "serial port, socket://host:port, rfc2217://…, or sim://…"
 DEFAULT_TIMEOUT_S = 2.0
@@ -59,6 +59,7 @@ def refuse_overwrite(
     *,
     verb: str = "this verb",
     inputs: Sequence[Path | str | None] = (),
+    kind: Kind | None = None,
 ) -> None:
     """check_output for each of a verb's output files (spectratac.cli.outputs): raise
     OutputExistsError for an existing one unless `force`, and always for one that is an
@@ -73,7 +74,7 @@ def refuse_overwrite(
     spectratac.cli.outputs.OutputExistsError: file ... already exists; pass --force to ...
     """
     for path in [paths] if isinstance(paths, (str, Path)) else paths:
-        check_output(path, force, verb=verb, inputs=inputs)
+        check_output(path, force, verb=verb, inputs=inputs, kind=kind)
 
 
 def column_names(text: str | None) -> list[str] | None:

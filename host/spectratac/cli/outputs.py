@@ -24,6 +24,7 @@ import errno
 import json
 import os
 import shutil
+import zipfile
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
@@ -36,6 +37,41 @@ SHOWN = 6
 
 #: Which unmarked folders a verb still recognises as its own (e.g. made before the marker).
 Recognise = Callable[[list[str]], bool]
+#: Whether an existing file is of the kind a verb writes (so --force may replace it).
+Kind = Callable[[Path], bool]
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _zip_names(path: Path) -> list[str]:
+    try:
+        with zipfile.ZipFile(path) as z:
+            return z.namelist()
+    except (OSError, zipfile.BadZipFile, ValueError):
+        return []
+
+
+def is_mcap(path: Path) -> bool:
+    """An MCAP file (a recording or a clip), complete or not."""
+    with open(path, "rb") as f:
+        return f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+
+
+def is_npz(path: Path) -> bool:
+    """A NumPy .npz archive (a dataset, a twin session)."""
+    names = _zip_names(path)
+    return bool(names) and all(n.endswith(".npy") for n in names)
+
+
+def is_stac(path: Path) -> bool:
+    """A model file (.stac: a zip holding meta.json)."""
+    return "meta.json" in _zip_names(path)
+
+
+KINDS: dict[Kind, str] = {
+    is_mcap: "an MCAP recording",
+    is_npz: "a NumPy .npz archive",
+    is_stac: "a .stac model file",
+}
 
 
 class OutputExistsError(SpectraTacError):
@@ -91,15 +127,16 @@ def check_output(
     inputs: Iterable[str | Path | None] = (),
     folder: bool = False,
     recognise: Recognise | None = None,
+    kind: Kind | None = None,
 ) -> Path:
     """Refuse (typed, exit code 3) an output `verb` may not write; return it as a Path.
 
     Always refused: an output that is an input or holds one (`inputs`; a folder output also
     when it lies inside an input folder), a file output that is an existing directory, a
     folder output that is an existing file. Without `force`: an existing file or a folder
-    holding anything. With `force`, a non-empty folder only if marked as `verb`'s and holding
-    nothing else, or if `recognise(entry names)` says it is the verb's own (folders made
-    before the marker)."""
+    holding anything. With `force`: a non-empty file only of the `kind` the verb writes; a
+    non-empty folder only if marked as `verb`'s and holding nothing else, or if
+    `recognise(entry names)` says it is the verb's own (folders made before the marker)."""
     out = Path(path)
     where = _resolved(out)
     for given in inputs:
@@ -128,6 +165,12 @@ def check_output(
             raise OutputNotOursError(
                 f"-o {out} is not a regular file {verb} could have written; choose another "
                 f"-o/--output"
+            )
+        if kind is not None and out.stat().st_size and not kind(out):
+            raise OutputNotOursError(
+                f"--force replaces only a file {verb} wrote, and {out} is not one: it is not "
+                f"{KINDS.get(kind, 'of that kind')}; choose another -o/--output, or move that "
+                f"file away first"
             )
         return out
     if not out.is_dir() or out.is_symlink():

@@ -29,7 +29,7 @@ from spectratac.cli.options import (
     add_output,
     refuse_overwrite,
 )
-from spectratac.cli.outputs import temporary_name, url_input, writing
+from spectratac.cli.outputs import is_mcap, temporary_name, url_input, writing
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated.veml3328 import GAINS, INTEGRATION_MS
 
@@ -132,7 +132,9 @@ def _record(args: argparse.Namespace) -> int:
     )
     options.validate()
     out = Path(args.output)
-    refuse_overwrite(out, args.force, verb="record", inputs=(url_input(args.ft), args.url))
+    refuse_overwrite(
+        out, args.force, verb="record", inputs=(url_input(args.ft), args.url), kind=is_mcap
+    )
     # an existing recording (--force) is replaced once the new one is finished
     target = temporary_name(out, "recording") if out.exists() else out
     guided = None

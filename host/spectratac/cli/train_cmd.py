@@ -56,7 +56,7 @@ from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
-from spectratac.cli.outputs import new_file
+from spectratac.cli.outputs import is_stac, new_file
 
 RECIPES = ("paper", "best", "auto")
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
@@ -163,11 +163,13 @@ def _train(args: argparse.Namespace) -> int:
     if unknown:
         raise DecoderError(f"--export {','.join(unknown)}: choose from {', '.join(FORMATS)}")
     out = Path(args.output)
+    inputs = [*args.data, args.finetune]
+    refuse_overwrite(out, args.force, verb="train", inputs=inputs, kind=is_stac)
     refuse_overwrite(
-        [out, *(out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports)],
+        [out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports],
         args.force,
         verb="train",
-        inputs=[*args.data, args.finetune],
+        inputs=inputs,
     )
     given = column_names(args.targets)
     classes = None if args.classes is None else (column_names(args.classes) or [])

@@ -19,7 +19,7 @@ import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode, UsageError
 from spectratac.cli.options import add_duration, add_output, npz_name, refuse_overwrite
-from spectratac.cli.outputs import new_file
+from spectratac.cli.outputs import is_npz, new_file
 from spectratac.hardware.generated.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 from spectratac.sim.named_scenes import POPULATION_SCENES, SCENES
 
@@ -130,7 +130,7 @@ def _generate(args: argparse.Namespace) -> int:
         return ExitCode.OK
     if args.output is None:
         raise UsageError("the following arguments are required: -o/--output")
-    refuse_overwrite(npz_name(args.output), args.force, verb="twin generate")
+    refuse_overwrite(npz_name(args.output), args.force, verb="twin generate", kind=is_npz)
     duration = args.duration or None  # 0 or none: the scene's own length
     scene = named_scene(args.scene, args.seed, duration, open_ended_s=OPEN_ENDED_S)
     settings = scene_settings(args.scene)
@@ -188,7 +188,7 @@ def _population(args: argparse.Namespace) -> int:
     from spectratac.studies.cost_model import generation_estimate
 
     units = _unit_list(args.units)
-    refuse_overwrite(npz_name(args.output), args.force, verb="twin population")
+    refuse_overwrite(npz_name(args.output), args.force, verb="twin population", kind=is_npz)
     total = len(units) * max(args.sessions, 0)
     estimate = generation_estimate(total * args.duration, seed=args.seed)
     if not args.json:
