@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 from spectratac.cli import main
-from spectratac.cli.outputs import MARKER
+from spectratac.cli.outputs import MARKER, MCAP_MAGIC
 from spectratac.dataset import Dataset
 from spectratac.record import RecordOptions, record_url
 
@@ -160,14 +160,22 @@ def test_record_keeps_its_input_and_replaces_a_recording_only_when_finished(
 
 
 def test_record_that_could_not_start_leaves_no_file_and_keeps_the_old_one(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    from spectratac.device.errors import DeviceError
+    from spectratac.record.recorder import Recorder
+
+    def refuses(self: Recorder, writer: object) -> int:  # e.g. a device refusing the config
+        raise DeviceError("the device refused the configuration")
+
+    monkeypatch.setattr(Recorder, "_start", refuses)
     out = tmp_path / "s.mcap"
-    out.write_bytes(b"the old recording")
-    # a device that never answers: the session cannot start
-    argv = ["record", "sim://?fault=silent", "--timeout", "0.3", "--count", "5", "--no-progress"]
+    old = MCAP_MAGIC + b" the old recording"
+    out.write_bytes(old)
+    argv = ["record", "sim://?scene=idle&speed=max", "--count", "5", "--no-progress"]
     assert main([*argv, "-o", str(out), "--force"]) == 3
-    assert out.read_bytes() == b"the old recording"
+    assert "could not start" in capsys.readouterr().err
+    assert out.read_bytes() == old
     assert main([*argv, "-o", str(tmp_path / "new.mcap")]) == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.mcap"]
 
