@@ -183,8 +183,8 @@ def check_output(
         return out
     if not force:
         raise OutputExistsError(
-            f"folder {out} already exists and holds {_shown(names)}; pass --force to "
-            f"replace it, or choose another -o/--output"
+            f"folder {out} already exists; pass --force to replace it (if {verb} wrote it), "
+            f"or choose another -o/--output; it holds {_shown(names)}"
         )
     if not is_own_folder(out, verb, recognise):
         mark, entries = marked_by(out)
