@@ -214,10 +214,20 @@ def is_own_folder(folder: Path, verb: str, recognise: Recognise | None = None) -
 
 
 @contextlib.contextmanager
-def writing(path: Path) -> Iterator[None]:
-    """OSError while writing `path` as OutputWriteError saying what to do."""
+def writing(path: Path, temporary: Path | None = None) -> Iterator[None]:
+    """OSError while writing `path` as OutputWriteError saying what to do; a typed error
+    naming the `temporary` name is said again naming `path` (what the user gave)."""
     try:
         yield
+    except SpectraTacError as exc:
+        text = str(exc)
+        if temporary is None or str(temporary) not in text or isinstance(exc, OutputExistsError):
+            raise
+        try:
+            renamed = type(exc)(text.replace(str(temporary), str(path)))
+        except TypeError:  # an error type made of more than a message: as it is
+            raise exc from None
+        raise renamed from None
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
             what = "the disk is full"
@@ -242,7 +252,7 @@ def new_file(path: str | Path) -> Iterator[Path]:
     removed on any error, and OSErrors become OutputWriteError."""
     final = Path(path)
     tmp = temporary_name(final)
-    with writing(final):
+    with writing(final, tmp):
         try:
             yield tmp
             os.replace(tmp, final)
@@ -262,7 +272,7 @@ def new_folder(path: str | Path, verb: str, recognise: Recognise | None = None) 
     hidden = final.with_name(f".{final.name}.partial-{os.getpid()}")
     staged = hidden / final.name
     old = final.with_name(f".{final.name}.old-{os.getpid()}")
-    with writing(final):
+    with writing(final, staged):
         try:
             hidden.mkdir(parents=True, exist_ok=True)
             yield staged

@@ -71,10 +71,13 @@ def write_model(dec: DecoderParts, path: str | Path) -> Path:
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     tmp = path.with_name(path.name + ".tmp")
-    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        z.writestr("meta.json", json.dumps(meta, indent=1, allow_nan=True))
-        z.writestr("arrays.npz", buf.getvalue())
-    tmp.replace(path)  # never leave a half-written model under the real name
+    try:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
+            z.writestr("meta.json", json.dumps(meta, indent=1, allow_nan=True))
+            z.writestr("arrays.npz", buf.getvalue())
+        tmp.replace(path)  # never leave a half-written model under the real name
+    finally:
+        tmp.unlink(missing_ok=True)  # a full disk or a read-only folder: no half model left
     return path
 
 
