@@ -116,6 +116,18 @@ def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="do not configure the sensor; decode only if its configuration matches",
     )
+    add_unit_checks(parser)
+    parser.add_argument(
+        "--tare",
+        action="store_true",
+        help="zero the drift baseline on the first sample (nothing may touch the skin then); "
+        "without it the baseline finds rest itself and flags estimates (no_rest) until it has",
+    )
+
+
+def add_unit_checks(parser: argparse.ArgumentParser) -> None:
+    """--unit and --strict-unit: the verbs that put a model to work on a sensor (decode, live,
+    snake, model upload) compare the model's unit with the sensor's."""
     parser.add_argument(
         "--unit",
         help="unit id of the sensor (warns if the model is another unit's); the sensor's own "
@@ -126,34 +138,35 @@ def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="refuse (exit code 3) to decode a sensor that is another unit than the model's",
     )
-    parser.add_argument(
-        "--tare",
-        action="store_true",
-        help="zero the drift baseline on the first sample (nothing may touch the skin then); "
-        "without it the baseline finds rest itself and flags estimates (no_rest) until it has",
-    )
 
 
 def load_decoder(args: argparse.Namespace) -> Any:
     """The decoder of a decoding verb, set up from add_decoding_checks' options."""
     from spectratac.decode import Decoder
-    from spectratac.decode.unit_check import unit_mismatch
 
     decoder = Decoder.load(args.model)
-    if args.unit is not None:  # the user's word about the unit, checked before open
-        msg = unit_mismatch(decoder.unit_id, (args.unit,))
-        if msg is not None and args.strict_unit:
-            from spectratac.decode.errors import DecoderUnitError
-
-            raise DecoderUnitError(msg + " (or drop --strict-unit to decode anyway)")
-        if msg is not None:
-            warn(msg)
-            decoder.unit_policy = "off"  # said once is enough
+    if given_unit_differs(decoder.unit_id, args):
+        decoder.unit_policy = "off"  # said once is enough
     if args.strict_unit:
         decoder.unit_policy = "strict"
     if args.tare:
         decoder.tare()  # no stream runs yet: the next one zeroes on its first sample
     return decoder
+
+
+def given_unit_differs(model_unit: str | None, args: argparse.Namespace) -> bool:
+    """Compare the user's --unit with the model's before any device is opened: a warning
+    (True: said), or DecoderUnitError with --strict-unit."""
+    from spectratac.decode.unit_check import unit_mismatch
+
+    msg = None if args.unit is None else unit_mismatch(model_unit, (args.unit,))
+    if msg is not None and args.strict_unit:
+        from spectratac.decode.errors import DecoderUnitError
+
+        raise DecoderUnitError(msg + " (or drop --strict-unit to go on anyway)")
+    if msg is not None:
+        warn(msg)
+    return msg is not None
 
 
 def warn(message: str) -> None:
