@@ -4,6 +4,7 @@ message naming the input), and the verb's own --force rerun still replaces its o
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -177,6 +178,27 @@ def test_record_that_could_not_start_leaves_no_file_and_keeps_the_old_one(
     assert "could not start" in capsys.readouterr().err
     assert out.read_bytes() == old
     assert main([*argv, "-o", str(tmp_path / "new.mcap")]) == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.mcap"]
+
+
+def test_record_that_records_nothing_keeps_the_old_recording(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from spectratac.record.recorder import Recorder
+
+    real = Recorder.run
+
+    def stopped_at_once(self: Recorder, *args: Any) -> Any:  # Ctrl-C before the first sample
+        return dataclasses.replace(real(self, *args), samples=0, stopped_by="interrupt")
+
+    monkeypatch.setattr(Recorder, "run", stopped_at_once)
+    out = tmp_path / "s.mcap"
+    old = MCAP_MAGIC + b" the old recording"
+    out.write_bytes(old)
+    argv = ["record", "sim://?scene=idle&speed=max", "--count", "5", "--no-progress"]
+    assert main([*argv, "-o", str(out), "--force"]) == 0
+    assert "no sample was recorded" in capsys.readouterr().err
+    assert out.read_bytes() == old
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.mcap"]
 
 

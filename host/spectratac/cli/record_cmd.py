@@ -28,6 +28,7 @@ from spectratac.cli.options import (
     add_duration,
     add_output,
     refuse_overwrite,
+    warn,
 )
 from spectratac.cli.outputs import is_mcap, temporary_name, url_input, writing
 from spectratac.errors import SpectraTacError
@@ -206,8 +207,9 @@ def _record(args: argparse.Namespace) -> int:
 
 
 def _record_into(target: Path, out: Path, record: Any) -> Any:
-    """record(target), then `target` renamed onto `out` when they differ; a session that
-    could not start (RecordingError: nothing recorded) leaves no file of its own behind."""
+    """record(target), then `target` renamed onto `out` when they differ (unless it holds no
+    sample: the old recording is kept); a session that could not start (RecordingError:
+    nothing recorded) leaves no file of its own behind."""
     from spectratac.record import RecordingError
 
     try:
@@ -217,10 +219,16 @@ def _record_into(target: Path, out: Path, record: Any) -> Any:
             target.unlink()
         raise
     except BaseException:  # Ctrl-C and the like: the recorder finished the file; keep it
-        if target != out:
+        if target != out and target.exists():
             with writing(out):
                 os.replace(target, out)
         raise
+    if target != out and summary.samples == 0:  # stopped before any sample: keep the old one
+        with contextlib.suppress(OSError):
+            target.unlink()
+        warn(f"no sample was recorded: {out} is left as it was")
+        summary.path = out
+        return summary
     if target != out:
         with writing(out):
             os.replace(target, out)
