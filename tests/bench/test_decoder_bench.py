@@ -40,9 +40,7 @@ def test_one_point_of_the_grid(run_bench, tmp_path: Path) -> None:
     [(["--models", "cnn"], "unknown models"), (["--integration", "75"], "choose one of")],
 )
 def test_a_bad_setting_is_a_usage_error(
-    monkeypatch: pytest.MonkeyPatch,
-    capsys: pytest.CaptureFixture[str],
-    option: list[str],
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], option: list[str],
     message: str,
 ) -> None:
     from tools.bench import decoder

@@ -8,7 +8,8 @@ pytestmark = pytest.mark.train
 
 
 def test_decoder_runtime_bench_json(run_bench) -> None:
-    figures = run_bench("decoder_runtime", "--calls", "200", "--samples", "1000", "--epochs", "1")
+    figures = run_bench("decoder_runtime", "--calls", "200", "--samples", "1000", "--epochs", "1"
+    )
     p99 = figures["paper decoder single sample p99 (NumPy)"]
     assert p99["extra"]["torch_imported"] is False and p99["extra"]["params"] == 106_383
     assert p99["value"] > 0 and p99["reference_value"] > 0

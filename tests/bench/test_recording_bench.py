@@ -4,8 +4,7 @@ from __future__ import annotations
 
 
 def test_recording_bench_json(run_bench) -> None:
-    figures = run_bench(
-        "recording",
+    figures = run_bench("recording",
         "--samples",
         "2000",
         "--ft-rate",

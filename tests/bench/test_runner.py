@@ -122,8 +122,7 @@ def test_compare_gives_the_ratio_of_ratios_per_figure(
     assert runner.main(["compare", str(a), str(b), "--json"]) == 0
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [(r["bench"], r["figure"], r["headline"]) for r in rows] == [
-        ("twin", "gen", True),
-        ("twin", "pop", False),
+        ("twin", "gen", True), ("twin", "pop", False)
     ]  # only what both measured, headline first
     assert rows[0]["b_over_a"] == 0.5 and rows[1]["b_over_a"] == 1.25
     # commits are found in the results folder by name; none kept is an error that says so

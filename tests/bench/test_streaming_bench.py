@@ -4,8 +4,7 @@ from __future__ import annotations
 
 
 def test_streaming_bench_json(run_bench) -> None:
-    figures = run_bench(
-        "streaming",
+    figures = run_bench("streaming",
         "--frames",
         "50",
         "--samples",

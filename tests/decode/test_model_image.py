@@ -166,7 +166,6 @@ def test_the_layout_definition_refuses_padding_and_wrong_sizes(
     fields that do not fill the declared header, are refused when generating; so is a
     target_map that does not hold every F/T axis of the vocabulary beside it."""
     from tools.codegen import model_image_backend as backend
-
     definitions = REPO / "hardware" / "definitions"
     layout = backend.load(definitions / "model_image.toml")
     assert layout.offset("n_sections") == 50 and layout.struct_format() == mi.HEADER.format

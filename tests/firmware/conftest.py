@@ -25,6 +25,7 @@ USB_ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
 BUILD_TIMEOUT_S = 600
 
 
+
 def need(tool: str, package: str) -> None:
     if shutil.which(tool) is None:
         pytest.skip(f"{tool} not installed (apt install {package}; .ci/run installs it)")

@@ -70,10 +70,9 @@ def test_vocabulary_agrees_with_board_and_protocol() -> None:
     assert len(v.LED_COLOURS) == messages.COLOURS
     assert len(v.CHANNELS) == messages.CHANNELS
     assert v.CHANNELS[: len(v.DECODED_CHANNELS)] == v.DECODED_CHANNELS
-    assert (
-        tuple(f"s{s}.{c}" for s in range(v.N_SENSORS) for c in v.DECODED_CHANNELS)
-        == v.DECODED_INPUTS
-    )
+    assert tuple(
+        f"s{s}.{c}" for s in range(v.N_SENSORS) for c in v.DECODED_CHANNELS
+    ) == v.DECODED_INPUTS
     assert v.FT_AXES == v.FORCE_AXES + v.TORQUE_AXES
     assert set(v.AXIS_UNITS) == set(v.FT_AXES)
 
