@@ -11,6 +11,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 from spectratac.cli import main
+from spectratac.cli.outputs import MARKER
 from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import session_datasets
 from spectratac.decode import Decoder
@@ -124,7 +125,8 @@ def test_the_human_output_names_topics_and_how_to_play(
     assert f"wrote {out} (sqlite3):" in text
     assert "/spectratac/reference/wrench       geometry_msgs/msg/WrenchStamped" in text
     assert f"play it: ros2 bag play {out}" in text
-    assert sorted(p.name for p in out.iterdir()) == ["bag.db3", "metadata.yaml"]
+    # the bag and the marker that lets `--force` replace it (ROS ignores other files)
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, "bag.db3", "metadata.yaml"]
     assert [p.name for p in tmp_path.iterdir()] == ["bag"]  # no staging folder left
 
 
@@ -152,8 +154,13 @@ def test_an_existing_bag_is_replaced_only_with_force(
     argv = ["export", "rosbag", str(recording), "-o", str(out)]
     assert main(argv) == 3
     assert "already exists; pass --force" in capsys.readouterr().err
+    assert main([*argv, "--force"]) == 3  # --force replaces only a bag this verb wrote
+    assert "keep.txt" in capsys.readouterr().err
+    assert (out / "keep.txt").read_text() == "the user's work"
+    (out / "keep.txt").unlink()
+    assert main(argv) == 0  # an empty folder holds nothing to lose
     assert main([*argv, "--force"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["bag.db3", "metadata.yaml"]
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, "bag.db3", "metadata.yaml"]
 
 
 def test_a_failed_write_leaves_no_half_bag(

@@ -61,6 +61,8 @@ def best_spec(epochs: int, seed: int) -> Any:
 @dataclass
 class DemoOptions:
     out: Path = Path("demo-output")
+    # the folder the outputs are named by when `out` is a staging folder renamed onto it later
+    named: Path | None = None
     scene_s: float = 600.0  # scene seconds of the calibration protocol
     speed: float = DEMO_SPEED  # scene seconds per wall second while recording
     seed: int = 0
@@ -73,6 +75,11 @@ class DemoOptions:
     timings: dict[str, float] = field(default_factory=dict)
     # estimated seconds per stage ("record", "dataset", "train + evaluate"), said as each starts
     estimates: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def final(self) -> Path:
+        """Where the outputs end up (what messages and reports name)."""
+        return self.out if self.named is None else self.named
 
     def about(self, stage: str) -> str:
         """' (estimated 40 s)' for a stage with an estimate, else ''."""
@@ -108,10 +115,10 @@ def run_demo(opts: DemoOptions, say: Say = print) -> dict[str, Any]:
     return {
         "url": opts.url,
         "recording": rec,
-        "dataset": {"path": str(opts.out / "data.npz"), "samples": dataset.n},
+        "dataset": {"path": str(opts.final / "data.npz"), "samples": dataset.n},
         "results": results,
         "timings_s": {k: round(v, 1) for k, v in opts.timings.items()},
-        "out": str(opts.out),
+        "out": str(opts.final),
     }
 
 
@@ -144,8 +151,9 @@ def _record(opts: DemoOptions, say: Say) -> dict[str, Any]:
     say(
         f"      {s['samples']} samples ({s['lost']} lost), {s['ft_samples']} F/T samples "
         f"({s['ft_lost']} lost{_on_purpose(s['ft_simulated_loss'])}), {s['labels']} labels -> "
-        f"{path} ({s['file_bytes'] / 1e6:.1f} MB)"
+        f"{opts.final / path.name} ({s['file_bytes'] / 1e6:.1f} MB)"
     )
+    s["path"] = str(opts.final / path.name)
     return {
         k: s[k]
         for k in (
@@ -241,8 +249,12 @@ def _train_and_evaluate(
             write_report(
                 res.evaluation,
                 opts.out / f"report-{name}",
-                {"path": str(opts.out / "data.npz"), "samples": dataset.n},
-                {"path": ", ".join(f"{f} ({kind} split)" for kind, f in files.items())},
+                {"path": str(opts.final / "data.npz"), "samples": dataset.n},
+                {
+                    "path": ", ".join(
+                        f"{opts.final / f.name} ({kind} split)" for kind, f in files.items()
+                    )
+                },
                 dataset,
             )
             out[name] = {kind: _scores(section) for kind, section in res.sections.items()} | {
@@ -257,7 +269,7 @@ def _train_and_evaluate(
     say("[4/4] results (MAE in N and N·m; held-out rows only)")
     for line in results_table(out):
         say("      " + line)
-    say(f"      reports and Fig. 3 panels: {opts.out}/report-paper, {opts.out}/report-best")
+    say(f"      reports and Fig. 3 panels: {opts.final}/report-paper, {opts.final}/report-best")
     return out
 
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, npz_name, refuse_overwrite
+from spectratac.cli.outputs import is_npz, new_file, url_input
 from spectratac.errors import printable
 
 #: Recordings at least this large (about two minutes of a session with F/T) get an estimate:
@@ -69,6 +70,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
 
 
+VERB = "dataset build"
+
+
 def _build(args: argparse.Namespace) -> int:
     from spectratac.cli.eta import ClockBar, announce
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
@@ -77,8 +81,9 @@ def _build(args: argparse.Namespace) -> int:
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:
         raise SpectraTacError("--max-gap-ms must be > 0")
+    inputs = [*args.recordings, url_input(args.ft)]
     if not args.split:  # refuse before the work; --split's names are known only after it
-        refuse_overwrite(npz_name(args.output), args.force)
+        refuse_overwrite(npz_name(args.output), args.force, verb=VERB, inputs=inputs, kind=is_npz)
     external = None
     if args.ft:
         from spectratac.dataset.external_ft import load_external_ft
@@ -124,10 +129,13 @@ def _build(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"warning: {note}", file=sys.stderr)
     paths = split_paths(args.output, datasets)
-    refuse_overwrite([npz_name(p) for p in paths], args.force)
+    refuse_overwrite(
+        [npz_name(p) for p in paths], args.force, verb=VERB, inputs=inputs, kind=is_npz
+    )
     written = []
     for ds, path in zip(datasets, paths, strict=True):
-        ds.save(path)
+        with new_file(npz_name(path)) as tmp:
+            ds.save(tmp)
         written.append({"path": str(path), **summary(ds)})
     damaged = [
         {"path": w.message.path, "chunks": w.message.chunks, "lost": w.message.lost}

@@ -1,7 +1,11 @@
 """`spectratac demo`: the full job on the built-in simulated sensor (record a calibration
 session with a simulated reference F/T sensor, build the dataset, train and evaluate the
 decoders; see spectratac.apps.calibration_demo). `spectratac demo --live` instead streams the
-simulated sensor live while a scene presses each of the nine regions in turn."""
+simulated sensor live while a scene presses each of the nine regions in turn.
+
+The output folder (demo-output) is written beside its target and renamed into place, marked as
+the demo's; --force (`make demo`) replaces only such a folder, or one holding exactly the
+demo's own files (DEMO_FILES: folders made before the marker existed)."""
 
 from __future__ import annotations
 
@@ -15,8 +19,21 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_duration, add_output, refuse_overwrite
+from spectratac.cli.options import add_duration, add_output
 from spectratac.cli.output import Table
+from spectratac.cli.outputs import check_output, new_folder
+
+VERB = "demo"
+#: What a demo folder holds: recognised as the demo's own even without the marker.
+DEMO_FILES = frozenset(
+    {"session.mcap", "data.npz", "paper.stac", "paper.random.stac", "best.stac",
+     "best.random.stac", "report-paper", "report-best"}
+)  # fmt: skip
+
+
+def demo_files(names: list[str]) -> bool:
+    """Whether an unmarked folder holds only what an earlier demo wrote (and its recording)."""
+    return "session.mcap" in names and set(names) <= DEMO_FILES
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -47,7 +64,7 @@ def _dispatch(args: argparse.Namespace) -> int:
     from spectratac.studies.cost_model import demo_estimate
     from spectratac.studies.oracle_floor import OracleFloor
 
-    refuse_overwrite(args.output, args.force)
+    out = check_output(args.output, args.force, verb=VERB, folder=True, recognise=demo_files)
     if not args.json:
         print("estimating how long the demo takes on this machine…", file=sys.stderr, flush=True)
     estimate = demo_estimate(
@@ -60,7 +77,7 @@ def _dispatch(args: argparse.Namespace) -> int:
     if not args.json:
         announce("the demo", estimate)
     opts = DemoOptions(
-        out=args.output,
+        out=out,
         scene_s=args.duration or 600.0,
         speed=float(args.speed or DEMO_SPEED),
         seed=0 if args.seed is None else args.seed,
@@ -69,7 +86,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         progress=not (args.no_progress or args.json),
         estimates=dict(estimate.parts_s),
     )
-    summary = run_demo(opts, say=(lambda _: None) if args.json else print)
+    with new_folder(out, VERB, recognise=demo_files) as staged:
+        opts.out, opts.named = staged, out
+        summary = run_demo(opts, say=(lambda _: None) if args.json else print)
+    opts.out = out
     summary["estimate"] = estimate.as_dict()
     if args.json:
         print(json.dumps(summary))

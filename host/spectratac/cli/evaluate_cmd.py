@@ -20,7 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output, column_names, refuse_overwrite
+from spectratac.cli.options import add_output, column_names
+from spectratac.cli.outputs import check_output, new_folder
 from spectratac.evaluate.metrics import COVERAGE_LEVELS
 
 
@@ -63,6 +64,17 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
+VERB = "evaluate"
+
+
+def report_files(names: list[str]) -> bool:
+    """Whether an unmarked folder holds only an earlier report (made before the marker):
+    report.json, report.md and its panels."""
+    return {"report.json", "report.md"} <= set(names) and all(
+        n in ("report.json", "report.md") or n.endswith(".png") for n in names
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -82,7 +94,14 @@ def run(args: argparse.Namespace) -> int:
 
         raise SpectraTacError("--oracle-samples must be >= 0")
     sessions = None if args.holdout_sessions is None else parse_sessions(args.holdout_sessions)
-    refuse_overwrite(args.output, args.force)
+    out = check_output(
+        args.output,
+        args.force,
+        verb=VERB,
+        inputs=(args.model, args.data, args.baseline),
+        folder=True,
+        recognise=report_files,
+    )
     model = Decoder.load(args.model)
     inputs = column_names(args.inputs) or list(model.layout.channels)
     classes = None if args.classes is None else (column_names(args.classes) or [])
@@ -142,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
         "baseline": args.baseline,
         "finetuned_from": (model.meta or {}).get("finetuned_from"),
     }
-    rep = write_report(ev, args.output, dataset_info, model_info, dataset)
+    with new_folder(out, VERB, recognise=report_files) as staged:
+        rep = write_report(ev, staged, dataset_info, model_info, dataset)
     rep["estimate"] = estimate.as_dict()
     if args.json:
         print(json.dumps(rep))

@@ -6,7 +6,9 @@ Estimates: decoded with --model, else the estimates the recording holds (an on-d
 or the live page's in a clip), else none.
 
 Topics, stamps and frames: `spectratac.ros2.export`. An existing non-empty DIR is refused
-(exit code 3) unless --force; a truncated recording exports its readable part with a warning.
+(exit code 3) unless --force, and --force replaces only a bag folder this verb wrote (marked:
+spectratac.cli.outputs), never one holding the recording or anything else; a truncated
+recording exports its readable part with a warning.
 """
 
 from __future__ import annotations
@@ -18,7 +20,10 @@ import warnings
 from datetime import UTC, datetime
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import add_output, refuse_overwrite
+from spectratac.cli.options import add_output
+from spectratac.cli.outputs import check_output, new_folder
+
+VERB = "export rosbag"
 
 #: Bags of fewer messages are written too fast for a progress bar to help.
 PROGRESS_FROM = 100_000
@@ -60,7 +65,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _rosbag(args: argparse.Namespace) -> int:
     from spectratac.ros2 import export_rosbag
 
-    refuse_overwrite(args.output, args.force)
+    out = check_output(
+        args.output, args.force, verb=VERB, inputs=(args.recording, args.model), folder=True
+    )
     decoder = None
     if args.model:
         from spectratac.decode import Decoder
@@ -81,14 +88,15 @@ def _rosbag(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            summary = export_rosbag(
-                args.recording,
-                args.output,
-                decoder=decoder,
-                storage=args.storage,
-                replace=True,
-                progress=progress,
-            )
+            with new_folder(out, VERB) as staged:
+                summary = export_rosbag(
+                    args.recording,
+                    staged,
+                    decoder=decoder,
+                    storage=args.storage,
+                    progress=progress,
+                )
+            summary.path = out
         finally:
             if bar is not None:
                 bar.close()

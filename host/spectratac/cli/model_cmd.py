@@ -14,7 +14,12 @@ import sys
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.options import DEVICE_URL_HELP, add_device_url
+from spectratac.cli.options import (
+    DEVICE_URL_HELP,
+    add_device_url,
+    add_unit_checks,
+    given_unit_differs,
+)
 
 WEIGHTS = ("f32", "f16", "i8")
 URL_HELP = (
@@ -54,6 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="data file (any format `train` reads): measure what --weights f16/i8 cost in "
         "accuracy against f32 on it before uploading",
     )
+    add_unit_checks(up)
     up.add_argument("--json", action="store_true", help="machine-readable output")
     up.set_defaults(func=_upload)
     clear = sub.add_parser("clear", help="erase the uploaded model (a built-in one takes over)")
@@ -164,9 +170,11 @@ def _differs(info: Any) -> str:
 def _upload(args: argparse.Namespace) -> int:
     from spectratac.decode import Decoder
     from spectratac.decode.export import model_image
+    from spectratac.decode.unit_check import check_sensor_unit
     from spectratac.device import Sensor
 
     dec = Decoder.load(args.model)
+    said = given_unit_differs(dec.unit_id, args)
     image = model_image.encode(dec, weights=args.weights)
     model_id = model_image.model_id(image)
     error = _weight_error(dec, args) if args.data else None
@@ -184,6 +192,9 @@ def _upload(args: argparse.Namespace) -> int:
             print(f"\r  uploading {done}/{total} B", end="", file=sys.stderr, flush=True)
 
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
+        # as decode does on open: another unit's model warns, or is refused before any write
+        policy = "strict" if args.strict_unit else "off" if said else "warn"
+        check_sensor_unit(dec.unit_id, sensor, policy)
         try:
             info = sensor.upload_model(image, model_id, progress=progress)
         finally:

@@ -2,7 +2,8 @@
 path (-o/--output) with its --force, and the row formats of the streaming verbs.
 
 A verb never overwrites what a user may care about: an existing output file, or an output
-folder that already holds files, is refused (OutputExistsError, exit code 3) unless --force.
+folder that already holds files, is refused (OutputExistsError, exit code 3) unless --force,
+and --force replaces only what the verb wrote (spectratac.cli.outputs).
 
 >>> p = argparse.ArgumentParser(prog="spectratac x")
 >>> add_output(p, help="file to write")
@@ -19,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import UsageError
-from spectratac.errors import SpectraTacError
+from spectratac.cli.outputs import Kind, check_output
 
 DEVICE_URL_HELP = "serial port, socket://host:port, rfc2217://…, or sim://…"
 DEFAULT_TIMEOUT_S = 2.0
@@ -42,43 +43,38 @@ def add_output(
     add_force(parser)
 
 
-class OutputExistsError(SpectraTacError):
-    """The output file (or a non-empty output folder) is already there and --force was not
-    given; nothing was written."""
-
-
 def add_force(parser: argparse._ActionsContainer) -> None:
     """--force: let a verb overwrite its existing output (see refuse_overwrite)."""
     parser.add_argument(
-        "--force", action="store_true", help="overwrite the output if it already exists"
+        "--force",
+        action="store_true",
+        help="replace the output if it exists and this verb wrote it (never an input, never a "
+        "folder holding other files)",
     )
 
 
-def refuse_overwrite(paths: Path | str | Sequence[Path | str], force: bool) -> None:
-    """Raise OutputExistsError for an existing file, or a folder holding anything, among
-    `paths`, unless `force`.
+def refuse_overwrite(
+    paths: Path | str | Sequence[Path | str],
+    force: bool,
+    *,
+    verb: str = "this verb",
+    inputs: Sequence[Path | str | None] = (),
+    kind: Kind | None = None,
+) -> None:
+    """check_output for each of a verb's output files (spectratac.cli.outputs): raise
+    OutputExistsError for an existing one unless `force`, and always for one that is an
+    input or an existing directory.
 
     >>> import tempfile
     >>> folder = Path(tempfile.mkdtemp())
-    >>> refuse_overwrite(folder, force=False)  # an empty folder holds nothing to lose
     >>> _ = (folder / "model.stac").write_text("weights")
     >>> refuse_overwrite(folder / "model.stac", force=False)
     Traceback (most recent call last):
     ...
-    spectratac.cli.options.OutputExistsError: file ... already exists; pass --force to ...
+    spectratac.cli.outputs.OutputExistsError: file ... already exists; pass --force to ...
     """
-    if force:
-        return
     for path in [paths] if isinstance(paths, (str, Path)) else paths:
-        path = Path(path)
-        if path.is_dir() and not any(path.iterdir()):
-            continue
-        if path.exists() or path.is_symlink():
-            what = "folder" if path.is_dir() else "file"
-            raise OutputExistsError(
-                f"{what} {path} already exists; pass --force to overwrite it, or choose "
-                f"another -o/--output"
-            )
+        check_output(path, force, verb=verb, inputs=inputs, kind=kind)
 
 
 def column_names(text: str | None) -> list[str] | None:
@@ -120,6 +116,18 @@ def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="do not configure the sensor; decode only if its configuration matches",
     )
+    add_unit_checks(parser)
+    parser.add_argument(
+        "--tare",
+        action="store_true",
+        help="zero the drift baseline on the first sample (nothing may touch the skin then); "
+        "without it the baseline finds rest itself and flags estimates (no_rest) until it has",
+    )
+
+
+def add_unit_checks(parser: argparse.ArgumentParser) -> None:
+    """--unit and --strict-unit: the verbs that put a model to work on a sensor (decode, live,
+    snake, model upload) compare the model's unit with the sensor's."""
     parser.add_argument(
         "--unit",
         help="unit id of the sensor (warns if the model is another unit's); the sensor's own "
@@ -130,34 +138,35 @@ def add_decoding_checks(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="refuse (exit code 3) to decode a sensor that is another unit than the model's",
     )
-    parser.add_argument(
-        "--tare",
-        action="store_true",
-        help="zero the drift baseline on the first sample (nothing may touch the skin then); "
-        "without it the baseline finds rest itself and flags estimates (no_rest) until it has",
-    )
 
 
 def load_decoder(args: argparse.Namespace) -> Any:
     """The decoder of a decoding verb, set up from add_decoding_checks' options."""
     from spectratac.decode import Decoder
-    from spectratac.decode.unit_check import unit_mismatch
 
     decoder = Decoder.load(args.model)
-    if args.unit is not None:  # the user's word about the unit, checked before open
-        msg = unit_mismatch(decoder.unit_id, (args.unit,))
-        if msg is not None and args.strict_unit:
-            from spectratac.decode.errors import DecoderUnitError
-
-            raise DecoderUnitError(msg + " (or drop --strict-unit to decode anyway)")
-        if msg is not None:
-            warn(msg)
-            decoder.unit_policy = "off"  # said once is enough
+    if given_unit_differs(decoder.unit_id, args):
+        decoder.unit_policy = "off"  # said once is enough
     if args.strict_unit:
         decoder.unit_policy = "strict"
     if args.tare:
         decoder.tare()  # no stream runs yet: the next one zeroes on its first sample
     return decoder
+
+
+def given_unit_differs(model_unit: str | None, args: argparse.Namespace) -> bool:
+    """Compare the user's --unit with the model's before any device is opened: a warning
+    (True: said), or DecoderUnitError with --strict-unit."""
+    from spectratac.decode.unit_check import unit_mismatch
+
+    msg = None if args.unit is None else unit_mismatch(model_unit, (args.unit,))
+    if msg is not None and args.strict_unit:
+        from spectratac.decode.errors import DecoderUnitError
+
+        raise DecoderUnitError(msg + " (or drop --strict-unit to go on anyway)")
+    if msg is not None:
+        warn(msg)
+    return msg is not None
 
 
 def warn(message: str) -> None:

@@ -2,14 +2,23 @@
 
 spectratac record sim://?scene=tour&seed=1&speed=10&ft=bota -o s.mcap --duration 30
 spectratac record /dev/ttyACM0 --ft netft://192.168.1.1 -o s.mcap --guided 27
+
+A new file is recorded under its own name (the MCAP is crash-safe as it grows). With --force
+over an existing recording, the new one grows under a hidden name beside it (equally
+crash-safe) and replaces the old one only once finished, so a crash or kill keeps the old
+recording whole and the new one readable under the hidden name. A session that could not
+start leaves no file behind.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import signal
 import sys
+from pathlib import Path
 from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
@@ -19,7 +28,9 @@ from spectratac.cli.options import (
     add_duration,
     add_output,
     refuse_overwrite,
+    warn,
 )
+from spectratac.cli.outputs import is_mcap, temporary_name, url_input, writing
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated.veml3328 import GAINS, INTEGRATION_MS
 
@@ -128,7 +139,12 @@ def _record(args: argparse.Namespace) -> int:
         estimates=args.estimates,
     )
     options.validate()
-    refuse_overwrite(args.output, args.force)
+    out = Path(args.output)
+    refuse_overwrite(
+        out, args.force, verb="record", inputs=(url_input(args.ft), args.url), kind=is_mcap
+    )
+    # an existing recording (--force) is replaced once the new one is finished
+    target = temporary_name(out, "recording") if out.exists() else out
     guided = None
     if args.guided is not None:
         guided = GuidedProtocol(
@@ -164,16 +180,20 @@ def _record(args: argparse.Namespace) -> int:
             StopRequest() as stop,
             stopping_on(stop, STOP_SIGNALS, "\nstopping: finishing the file…\n"),
         ):
-            summary = record_url(
-                args.url,
-                args.output,
-                options,
-                ft_url=args.ft,
-                guided=guided,
-                stop=stop,
-                progress=progress,
-                sensor_options={"timeout": args.timeout},
-                on_open=note,
+            summary = _record_into(
+                target,
+                out,
+                lambda path: record_url(
+                    args.url,
+                    path,
+                    options,
+                    ft_url=args.ft,
+                    guided=guided,
+                    stop=stop,
+                    progress=progress,
+                    sensor_options={"timeout": args.timeout},
+                    on_open=note,
+                ),
             )
     finally:
         if bar is not None:
@@ -191,6 +211,36 @@ def _record(args: argparse.Namespace) -> int:
         if s.error:
             print(f"the session ended early: {s.error}", file=sys.stderr)
     return ExitCode.ERROR if summary.stopped_by == "error" else ExitCode.OK
+
+
+def _record_into(target: Path, out: Path, record: Any) -> Any:
+    """record(target), then `target` renamed onto `out` when they differ (unless it holds no
+    sample: the old recording is kept); a session that could not start (RecordingError:
+    nothing recorded) leaves no file of its own behind."""
+    from spectratac.record import RecordingError
+
+    try:
+        summary = record(target)
+    except RecordingError:
+        with contextlib.suppress(OSError):
+            target.unlink()
+        raise
+    except BaseException:  # Ctrl-C and the like: the recorder finished the file; keep it
+        if target != out and target.exists():
+            with writing(out):
+                os.replace(target, out)
+        raise
+    if target != out and summary.samples == 0:  # stopped before any sample: keep the old one
+        with contextlib.suppress(OSError):
+            target.unlink()
+        warn(f"no sample was recorded: {out} is left as it was")
+        summary.path = out
+        return summary
+    if target != out:
+        with writing(out):
+            os.replace(target, out)
+        summary.path = out
+    return summary
 
 
 class _LazyBar:

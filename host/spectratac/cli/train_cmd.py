@@ -56,6 +56,7 @@ from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
+from spectratac.cli.outputs import is_stac, new_file
 
 RECIPES = ("paper", "best", "auto")
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
@@ -162,9 +163,13 @@ def _train(args: argparse.Namespace) -> int:
     if unknown:
         raise DecoderError(f"--export {','.join(unknown)}: choose from {', '.join(FORMATS)}")
     out = Path(args.output)
+    inputs = [*args.data, args.finetune]
+    refuse_overwrite(out, args.force, verb="train", inputs=inputs, kind=is_stac)
     refuse_overwrite(
-        [out, *(out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports)],
+        [out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports],
         args.force,
+        verb="train",
+        inputs=inputs,
     )
     given = column_names(args.targets)
     classes = None if args.classes is None else (column_names(args.classes) or [])
@@ -215,11 +220,14 @@ def _train(args: argparse.Namespace) -> int:
     if trained.search is not None and not args.json:
         print(trained.search.text())
     dec = trained.decoder
-    dec.save(out)
+    with new_file(out) as tmp:
+        dec.save(tmp)
     written = {"model": str(out)}
     for fmt in exports:
         path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
-        written[fmt] = str(dec.export(fmt, path))
+        with new_file(path) as tmp:
+            dec.export(fmt, tmp)
+        written[fmt] = str(path)
     summary = trained.report(written)
     if estimate is not None:
         summary["estimate"] = estimate.as_dict()

@@ -19,6 +19,7 @@ import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode, UsageError
 from spectratac.cli.options import add_duration, add_output, npz_name, refuse_overwrite
+from spectratac.cli.outputs import is_npz, new_file
 from spectratac.hardware.generated.veml3328 import DIGITAL_GAINS, GAINS, INTEGRATION_MS
 from spectratac.sim.named_scenes import POPULATION_SCENES, SCENES
 
@@ -129,7 +130,7 @@ def _generate(args: argparse.Namespace) -> int:
         return ExitCode.OK
     if args.output is None:
         raise UsageError("the following arguments are required: -o/--output")
-    refuse_overwrite(npz_name(args.output), args.force)
+    refuse_overwrite(npz_name(args.output), args.force, verb="twin generate", kind=is_npz)
     duration = args.duration or None  # 0 or none: the scene's own length
     scene = named_scene(args.scene, args.seed, duration, open_ended_s=OPEN_ENDED_S)
     settings = scene_settings(args.scene)
@@ -146,7 +147,8 @@ def _generate(args: argparse.Namespace) -> int:
     with ClockBar(estimate.total_s, "generating", enabled=not args.json):
         s = generate_session(scene, seed=args.seed, **settings)
     gen_s = time.perf_counter() - t0
-    s.save_npz(args.output)
+    with new_file(npz_name(args.output)) as tmp:
+        s.save_npz(tmp)
     summary = {
         "out": str(args.output),
         "scene": scene.name,
@@ -186,7 +188,7 @@ def _population(args: argparse.Namespace) -> int:
     from spectratac.studies.cost_model import generation_estimate
 
     units = _unit_list(args.units)
-    refuse_overwrite(npz_name(args.output), args.force)
+    refuse_overwrite(npz_name(args.output), args.force, verb="twin population", kind=is_npz)
     total = len(units) * max(args.sessions, 0)
     estimate = generation_estimate(total * args.duration, seed=args.seed)
     if not args.json:
@@ -211,7 +213,9 @@ def _population(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     gen_s = time.perf_counter() - t0
-    path = ds.save(args.output)
+    path = npz_name(args.output)
+    with new_file(path) as tmp:
+        ds.save(tmp)
     minutes = len(units) * args.sessions * args.duration / 60.0
     summary = {
         "out": str(path),

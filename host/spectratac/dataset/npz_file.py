@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.bounds import check_members
+
 #: What NumPy and zipfile raise on a damaged archive (see the module docstring).
 DAMAGE = (
     OSError,
@@ -51,13 +53,22 @@ class NpzDamageError(ValueError):
     """The archive cannot be read; the message says why (its cause is NumPy's error)."""
 
 
-def read_npz(source: str | Path | io.BytesIO) -> dict[str, NDArray[Any]]:
-    """Every array of an .npz archive (no pickles), or NpzDamageError."""
+def read_npz(
+    source: str | Path | io.BytesIO, max_bytes: int | None = None
+) -> dict[str, NDArray[Any]]:
+    """Every array of an .npz archive (no pickles), or NpzDamageError; with `max_bytes`,
+    an archive whose members declare more inflated is refused before any is read."""
     try:
+        if max_bytes is not None:
+            check_members(source, max_bytes, "the archive")
         with np.load(source, allow_pickle=False) as z:
             arrays = {k: np.asarray(z[k]) for k in z.files}
     except DAMAGE as exc:
         raise NpzDamageError(str(exc) or type(exc).__name__) from exc
+    except MemoryError:  # an array header declaring more than this machine holds
+        raise NpzDamageError(
+            "an array declares more data than fits in memory: the file is damaged"
+        ) from None
     except RuntimeError as exc:  # zipfile's only RuntimeError here: a member flagged encrypted
         raise NpzDamageError(
             f"{exc}: NumPy archives are never encrypted, so the file is damaged; build or "

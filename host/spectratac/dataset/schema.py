@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.bounds import loads_bounded
 from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
@@ -198,8 +199,8 @@ class Dataset:
         try:
             arrays = read_npz(path)
             meta_text = arrays.pop("meta", None)
-            meta = json.loads(str(meta_text)) if meta_text is not None else None
-        except (NpzDamageError, ValueError) as exc:  # ValueError: meta is not JSON
+            meta = loads_bounded(str(meta_text), what="its meta") if meta_text is not None else None
+        except (NpzDamageError, ValueError) as exc:  # ValueError: meta is not JSON or too deep
             raise DatasetError(f"cannot read dataset {path}: {exc}") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise DatasetError(

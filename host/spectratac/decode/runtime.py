@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from spectratac.bounds import loads_bounded
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.feature_matrices import FeatureSet
 from spectratac.decode.heads import Heads, postprocess
@@ -262,7 +263,8 @@ class Runtime:
         if "header" not in arrays:
             raise DecoderFileError(f"{path} is not a SpectraTac runtime file (no header)")
         try:
-            return cls.from_parts(json.loads(str(arrays.pop("header"))), arrays)
+            header = loads_bounded(str(arrays.pop("header")), what=f"{path}: header")
+            return cls.from_parts(header, arrays)
         except DecoderFileError as exc:
             raise DecoderFileError(f"{path}: {exc}") from None
         except (KeyError, IndexError, ValueError, TypeError, AttributeError) as exc:

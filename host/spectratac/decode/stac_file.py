@@ -24,6 +24,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from spectratac.bounds import MAX_JSON_BYTES, BoundsError, loads_bounded, read_member
 from spectratac.dataset.npz_file import NpzDamageError, read_npz
 from spectratac.decode.errors import DecoderFileError
 from spectratac.decode.guard import Guard
@@ -40,6 +41,9 @@ VERSION = "1.0"
 #: What reading a damaged zip, npz or JSON part can raise (all become DecoderFileError).
 _DAMAGE = (OSError, EOFError, KeyError, IndexError, ValueError, TypeError, AttributeError,
            NotImplementedError, zipfile.BadZipFile, zlib.error, NpzDamageError)  # fmt: skip
+#: Bytes a model's arrays may inflate to (a large decoder is a few MB): a zip bomb is refused
+#: from the zip's directory, before anything is inflated.
+MAX_ARRAYS_BYTES = 256 * 2**20
 #: Torque names of generic datasets before Tx Ty Tz became the only spelling.
 RETIRED_TORQUE_NAMES = ("Mx", "My", "Mz")
 
@@ -71,10 +75,13 @@ def write_model(dec: DecoderParts, path: str | Path) -> Path:
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     tmp = path.with_name(path.name + ".tmp")
-    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        z.writestr("meta.json", json.dumps(meta, indent=1, allow_nan=True))
-        z.writestr("arrays.npz", buf.getvalue())
-    tmp.replace(path)  # never leave a half-written model under the real name
+    try:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
+            z.writestr("meta.json", json.dumps(meta, indent=1, allow_nan=True))
+            z.writestr("arrays.npz", buf.getvalue())
+        tmp.replace(path)  # never leave a half-written model under the real name
+    finally:
+        tmp.unlink(missing_ok=True)  # a full disk or a read-only folder: no half model left
     return path
 
 
@@ -82,9 +89,12 @@ def read_meta(path: str | Path) -> dict[str, Any]:
     """Only the JSON part of a model file (fast: no arrays)."""
     try:
         with zipfile.ZipFile(path) as z:
-            meta = json.loads(z.read("meta.json"))
+            text = read_member(z, "meta.json", MAX_JSON_BYTES, f"{path}")
+        meta = loads_bounded(text, what=f"{path}: meta.json")
     except FileNotFoundError:
         raise DecoderFileError(f"no model file at {path}") from None
+    except (BoundsError, RecursionError) as exc:
+        raise DecoderFileError(f"{exc}: not a model file `spectratac train` wrote") from None
     except _DAMAGE as exc:
         raise DecoderFileError(
             f"{path} is not a SpectraTac model file ({exc}); train one with `spectratac train`"
@@ -108,8 +118,8 @@ def read_model(path: str | Path, build: Build[D]) -> D:
     meta = read_meta(path)
     try:
         with zipfile.ZipFile(path) as z:
-            data = z.read("arrays.npz")
-        arrays = read_npz(io.BytesIO(data))
+            data = read_member(z, "arrays.npz", MAX_ARRAYS_BYTES, f"{path}")
+        arrays = read_npz(io.BytesIO(data), max_bytes=MAX_ARRAYS_BYTES)
         runtime = Runtime.from_parts(meta["runtime"], arrays)
         guard = Guard.from_parts(
             meta["guard"], {k[6:]: v for k, v in arrays.items() if k.startswith("guard/")}
@@ -124,6 +134,8 @@ def read_model(path: str | Path, build: Build[D]) -> D:
         old = [n for n in runtime.heads.regression if n in RETIRED_TORQUE_NAMES]
     except DecoderFileError as exc:
         raise DecoderFileError(f"{path}: {exc}") from None
+    except BoundsError as exc:
+        raise DecoderFileError(f"{exc}: not a model file `spectratac train` wrote") from None
     except _DAMAGE as exc:
         raise DecoderFileError(f"{path} is damaged ({exc!r}): retrain or re-copy it") from None
     if old:

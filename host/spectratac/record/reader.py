@@ -27,7 +27,6 @@ the other is not.
 
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +35,7 @@ from typing import Any
 import numpy as np
 from mcap.records import Channel, Message
 
+from spectratac.bounds import loads_bounded
 from spectratac.device.link_info import LinkInfo
 from spectratac.record.errors import (
     CorruptedRecordingWarning,
@@ -161,7 +161,7 @@ def read_recording(path: str | Path) -> Recording:
             truth_parts.append(data)
         elif topic in JSON_TOPICS or topic == ESTIMATES:
             try:
-                _take_json(rec, topic, json.loads(record.data))
+                _take_json(rec, topic, loads_bounded(record.data, what=topic))
             except (*READ_ERRORS, TypeError, AttributeError):
                 unreadable[topic] = unreadable.get(topic, 0) + 1
         # the other decoded channels copy compact ones; other topics come from a newer

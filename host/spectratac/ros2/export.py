@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sqlite3
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -99,20 +100,20 @@ def export_rosbag(
     *,
     decoder: Decoder | None = None,
     storage: Storage = "sqlite3",
-    replace: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> ExportSummary:
     """Write `recording` as a ROS 2 bag folder `out_dir` (see the module documentation).
 
-    `replace` lets an existing `out_dir` be replaced once the new bag is complete. Raises
+    `out_dir` must not exist yet (or be an empty folder): nothing is ever deleted here
+    (`spectratac export rosbag --force` replaces only a bag folder it wrote). Raises
     RecordingError for a file that is no recording, BagExportError when there is nothing to
     export or writing fails, DecoderConfigError when `decoder` does not fit the recording.
     `progress(done, total)` is called as messages are written."""
     if storage not in ("sqlite3", "mcap"):
         raise BagExportError(f"storage {storage!r}: use sqlite3 or mcap")
     out = Path(out_dir)
-    if out.exists() and not replace:
-        raise BagExportError(f"{out} exists; choose another folder or replace it")
+    if out.exists() and not (out.is_dir() and not any(out.iterdir())):
+        raise BagExportError(f"{out} exists; choose another folder")
     rec = read_recording(recording)
     topics, notes = _topics(rec, decoder)
     if not any(len(t.stamps) for t in topics):
@@ -279,10 +280,13 @@ def _write(
                 writer.write(conns[t], int(stamps[k]), topics[t].payloads[i])
                 if progress is not None and (done % _PROGRESS_EVERY == 0 or done == total):
                     progress(done, total)
-        if out.exists():
-            shutil.rmtree(out) if out.is_dir() else out.unlink()
+        if out.is_dir():
+            out.rmdir()  # empty (checked above); fails rather than delete anything else
         bag.rename(out)
-    except (WriterError, OSError) as exc:
-        raise BagExportError(f"cannot write the bag {out}: {exc}") from None
+    except (WriterError, OSError, sqlite3.Error) as exc:
+        raise BagExportError(
+            f"cannot write the bag {out}: {exc}; a read-only folder or a full disk? choose "
+            f"a folder with room you may write to (-o)"
+        ) from None
     finally:
         shutil.rmtree(staging, ignore_errors=True)
