@@ -76,8 +76,11 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
         finally:
             processes.kill_group(proc.pid)
             proc.wait()
-        if proc.returncode != 0:
-            raise subprocess.CalledProcessError(proc.returncode, cmd, out, err)
+        if proc.returncode != 0:  # what failed is on its stderr (the soak names devices)
+            raise AssertionError(
+                f"{module} {' '.join(args)} exited {proc.returncode}; its stderr (end):\n"
+                f"{err[-6000:]}"
+            )
         return {f["name"]: f for f in map(json.loads, out.splitlines())}
 
     return run

@@ -67,6 +67,7 @@ class DeviceTally:
     unplugs: int = 0
     reconnects: int = 0
     stuck: bool = False  # stopped sending for STUCK_S of wall time (streaming not restored)
+    error: str = ""  # what went wrong ending its stream (it is then not tallied complete)
 
     @property
     def unaccounted(self) -> int:
@@ -92,6 +93,7 @@ class RecordingTally:
     read_ft_samples: int = 0
     dataset_samples: int = 0
     complete: bool = False
+    error: str = ""  # an exception recording or reading back
 
 
 @dataclass
@@ -148,6 +150,7 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
     delivered = [0] * n
     target = int(seconds * RATE_HZ)
     stuck: list[str] = []
+    errors: dict[str, str] = {}
     try:
         for s in sensors:
             _retry(lambda s=s: s.configure(integration_ms=INTEGRATION_MS, leds=WHITE))
@@ -165,7 +168,10 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
                     stuck.append(u)  # streaming did not come back: tallied, and reported
                 if sent >= target or u in stuck:
                     ledger(u).paused = True  # end cleanly: no fault hides the last samples
-                    _stop(s)
+                    try:
+                        _stop(s)
+                    except Exception as exc:  # reported with the device, the others go on
+                        errors[u] = f"{type(exc).__name__}: {exc}"
                     delivered[k] += _drain(s)
                     running.discard(k)
             time.sleep(0.01)
@@ -189,6 +195,7 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
                 unplugs=book.unplugs,
                 reconnects=st.reconnects,
                 stuck=u in stuck,
+                error=errors.get(u, ""),
             )
         )
     return tallies
@@ -278,9 +285,46 @@ def run(devices: int, seconds: float, seed: int) -> Soak:
     soak = Soak(seconds=seconds)
     soak.devices = soak_devices(devices, seconds, seed)
     with tempfile.TemporaryDirectory() as tmp:
-        soak.recording = soak_recording(seconds, seed, Path(tmp))
+        try:
+            soak.recording = soak_recording(seconds, seed, Path(tmp))
+        except Exception as exc:  # reported as the recording's failure, with the devices'
+            soak.recording = RecordingTally(error=f"{type(exc).__name__}: {exc}")
     soak.wall_s = time.monotonic() - started
     return soak
+
+
+def problems(s: dict[str, Any]) -> list[str]:
+    """What failed, device by device and for the recording, and how: one line each (empty
+    when the soak passed)."""
+    out = []
+    for d in s["per_device"]:
+        how = []
+        if d["unaccounted"]:
+            how.append(
+                f"{d['unaccounted']} samples unaccounted (sent {d['sent']} = delivered "
+                f"{d['delivered']} + gaps {d['sample_gaps']} + overflows "
+                f"{d['buffer_overflows']} + lost at unplug {d['lost_at_unplug']} + "
+                f"{d['unaccounted']}; {d['unplugs']} unplugs, {d['reconnects']} reconnects)"
+            )
+        if d["stuck"]:
+            how.append(f"stuck: no new sample for {STUCK_S:g} s of wall time")
+        if d["error"]:
+            how.append(f"ending its stream raised {d['error']}")
+        if how:
+            out.append(f"device {d['url']}: {'; '.join(how)}")
+    rec = s["recording"]
+    if not rec["complete"]:
+        if rec["error"]:
+            how = [f"raised {rec['error']}"]
+        else:
+            how = [f"{what} {rec['read_' + key]} read back of {rec[key]} written"
+                   for key, what in (("frames", "frames"), ("samples", "samples"),
+                                     ("ft_samples", "F/T rows"))
+                   if rec["read_" + key] != rec[key]]  # fmt: skip
+            how += ["no dataset built"] if not rec["dataset_samples"] else []
+            how = how or ["no end record, or truncated"]
+        out.append(f"recording: incomplete: {'; '.join(how)}")
+    return out
 
 
 def table(s: dict[str, Any]) -> str:
@@ -343,12 +387,10 @@ def main() -> int:
         ))))  # fmt: skip
     else:
         print(table(summary))
-    ok = (
-        summary["samples"]["unaccounted"] == 0
-        and summary["faults"]["stuck_devices"] == 0
-        and summary["recording"]["complete"]
-    )
-    return 0 if ok else 1
+    failed = problems(summary)
+    for line in failed:  # stderr: beside the figures, in a test's failure report
+        print(f"soak FAILED: {line}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
