@@ -10,7 +10,7 @@ import time
 
 import pytest
 from spectratac.device import Sensor
-from spectratac.device.errors import DeviceError
+from spectratac.device.errors import DeviceError, DeviceTimeoutError
 from spectratac.device.link import Link
 from spectratac.protocol.framing import FrameError, decode_frame
 from spectratac.protocol.generated import messages as m
@@ -99,3 +99,33 @@ def test_stop_during_a_resume_is_not_undone(monkeypatch: pytest.MonkeyPatch) -> 
         assert reconnector is not None
         reconnector.join(HANG_GUARD_S)  # the resume has finished either way
         assert not sensor.status().streaming
+
+
+def test_a_resume_whose_reply_is_late_is_asked_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A reply the resume waits for does not come in time (a loaded host, a damaged frame):
+    the link is up, so the resume asks again; given up, the device never streamed again and
+    nothing said so (the soak's "stuck" device beside busy loops)."""
+    url = "sim://?scene=idle&seed=7&speed=10&fault=unplug&fault_unplug=2"
+    monkeypatch.setattr(faults, "_LEDGERS", {})
+    handshake = Link.handshake
+    timed_out = threading.Event()
+
+    def late_once(self: Link) -> m.Info:
+        if self.epoch >= 1 and not timed_out.is_set():
+            ledger(url).paused = True  # no further unplug
+            timed_out.set()
+            raise DeviceTimeoutError(f"no reply to GET_INFO from {url} within 5.0 s")
+        return handshake(self)
+
+    monkeypatch.setattr(Link, "handshake", late_once)
+    deadline = time.monotonic() + HANG_GUARD_S
+    with Sensor.open(url, reconnect=True, timeout=5.0) as sensor:
+        sensor.configure(integration_ms=50)
+        sensor.start()
+        resumed = 0
+        while not resumed:
+            assert time.monotonic() < deadline, "the stream never came back after the reconnect"
+            got = sensor.read(1 << 16, timeout=0.2)
+            resumed = int((got["epoch"] >= 1).sum())
+        sensor.stop()
+    assert timed_out.is_set()
