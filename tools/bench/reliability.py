@@ -51,6 +51,7 @@ WHITE = [[[500, 500, 500]] * 3]
 DEVICE_FAULTS = "fault=corrupt,stall,unplug&fault_rate=1e-4&fault_stall=0.05&fault_every=2"
 SPEED = 10  # simulated seconds per wall second: 16 devices at 10x fit one loaded core
 STUCK_S = 15.0  # wall seconds without a new sample before a device counts as stuck
+STOP_S = 60.0  # wall seconds to get a device stopped (reconnects included) before it fails
 
 
 @dataclass
@@ -214,16 +215,21 @@ def _retry(command: Callable[[], object]) -> None:
 
 
 def _stop(s: Sensor) -> None:
-    """STOP, retried: a reconnect may be under way, and its resume restarts streaming."""
-    for _ in range(20):
+    """STOP, asked again until STATUS confirms it: a reconnect may be under way (its resume
+    restarts streaming), which a loaded host may take seconds to finish."""
+    deadline = time.monotonic() + STOP_S
+    last = "no attempt"
+    while time.monotonic() < deadline:
         try:
             s.stop()
             time.sleep(0.2)
             if not s.status().streaming:
                 return
-        except DeviceError:  # the link is coming back: ask again
+            last = "STATUS said streaming after STOP's ACK"
+        except DeviceError as exc:  # the link is coming back: ask again
+            last = f"{type(exc).__name__}: {exc}"
             time.sleep(0.2)
-    raise RuntimeError(f"{s.url} would not stop streaming")
+    raise RuntimeError(f"{s.url} would not stop streaming within {STOP_S:g} s (last: {last})")
 
 
 def _drain(s: Sensor) -> int:
