@@ -51,9 +51,9 @@ COMPOSER = "cli"
 BESIDE = ("twin", "sim", "studies")
 #: Modules every part may import, and which import no part themselves: the shared errors, the
 #: URL-scheme registry, `hardware` (constants generated from the part and board definitions), and
-#: `threads` (the thread policy every process applies) and `host_clock` (Unix minus monotonic,
-#: read tightly).
-SHARED = frozenset({"errors", "url_schemes", "hardware", "threads", "host_clock"})
+#: `threads` (the thread policy every process applies), `host_clock` (Unix minus monotonic,
+#: read tightly) and `progress` (the progress bars, on a terminal only).
+SHARED = frozenset({"errors", "url_schemes", "hardware", "threads", "host_clock", "progress"})
 
 
 def _up_to(part: str) -> set[str]:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -64,8 +63,6 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     from spectratac.apps.estimates import evaluation_estimate
     from spectratac.cli.eta import announce
     from spectratac.dataset.generic_io import load_data
@@ -73,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
+    from spectratac.progress import bar as progress_bar
     from spectratac.studies.cost_model import with_oracle
     from spectratac.studies.oracle_floor import OracleFloor
     from spectratac.train.holdout import fingerprint, parse_sessions
@@ -99,14 +97,10 @@ def run(args: argparse.Namespace) -> int:
     estimate = with_oracle(estimate, dataset, len(kinds) * args.oracle_samples)
     if not args.json:
         announce("evaluate", estimate)
-    bar = tqdm(
-        total=len(kinds) * per,
-        desc="evaluate",
-        unit="step",
-        file=sys.stderr,
-        leave=False,
-        disable=args.no_progress,
-    )
+    bar = progress_bar(
+        total=len(kinds) * per, desc="evaluate", unit="step", leave=False,
+        enabled=not args.no_progress,
+    )  # fmt: skip
 
     def tick(stage: str) -> None:
         bar.set_postfix_str(stage)
