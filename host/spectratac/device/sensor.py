@@ -209,6 +209,12 @@ class Sensor:
         return self._link.reconnect
 
     @property
+    def streaming(self) -> bool:
+        """True from start() (or configure(stream=True)) until stop(): the host asked the
+        device to stream (a reconnect resumes it)."""
+        return self._streaming
+
+    @property
     def buffered(self) -> int:
         return self._samples.buffered
 
