@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
     }
     rep = write_report(ev, args.output, dataset_info, model_info, dataset)
     rep["estimate"] = estimate.as_dict()
+    training = rep["sections"].get("training")
+    if training is not None:  # in the terminal too, not only in report.md
+        print(f"warning: evaluated on the model's own training rows: {training['note']}",
+              file=sys.stderr)  # fmt: skip
     if args.json:
         print(json.dumps(rep))
     else:
