@@ -268,19 +268,18 @@ class Decoder:
         baseline has not yet seen the skin at rest; `tare()` zeroes it on the next sample.
 
         The sensor must stream: one open but not started (or stopped) raises
-        SensorNotStreamingError here, at once, instead of waiting for samples that never
-        come; the stream's start and stop stay the caller's.
+        SensorNotStreamingError at the first estimate asked for, at once (after the checks
+        above), instead of waiting for samples that never come; the stream's start and stop
+        stay the caller's.
         """
-        require_streaming(sensor)
-        return self._stream(sensor, check_config)
-
-    def _stream(self, sensor: SampleStream, check_config: bool) -> Iterator[Estimate]:
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         check_sensor_unit(self.unit_id, sensor, self.unit_policy)
         same = self.unit_id is not None and self.unit_id in device_unit_ids(sensor)
-        if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
-            yield from self._device_estimates(sensor, check_config)
+        on_device = isinstance(sensor, EstimateStream) and self._decoded_by(sensor)
+        require_streaming(sensor)
+        if on_device:
+            yield from self._device_estimates(sensor, check_config)  # type: ignore[arg-type]
             return
         config_id = None
         asm = Assembler(self.layout, same_unit=same)
