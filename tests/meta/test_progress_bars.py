@@ -11,11 +11,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from spectratac.dataset import SPECTRATAC_INPUTS, Dataset
 from spectratac.decode import Decoder
 from spectratac.progress import bar
 
 from tests.terminal import run_in_terminal, screen
+
+pytestmark = pytest.mark.subprocess  # verbs on a pty and into a log file
 
 PACKAGE = Path(__file__).resolve().parents[2] / "host" / "spectratac"
 

@@ -26,6 +26,8 @@ from wsproto.extensions import PerMessageDeflate
 from tests.apps.live.clients import WsClient
 from tests.apps.live.fake_session import FakeSession
 
+pytestmark = pytest.mark.subprocess  # one test runs `spectratac live`
+
 HANG_GUARD_S = 60.0
 
 
