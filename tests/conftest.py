@@ -69,8 +69,10 @@ def run_bench(repo: Path) -> Callable[..., Figures]:
                 f"{module} {' '.join(args)} ran over {BENCH_TIMEOUT_S} s (stopped, with "
                 f"every process it started)"
             ) from None
-        if code != 0:
-            raise subprocess.CalledProcessError(code, cmd, out, err)
+        if code != 0:  # what failed is on its stderr (the soak names devices)
+            raise AssertionError(
+                f"{module} {' '.join(args)} exited {code}; its stderr (end):\n{err[-6000:]}"
+            )
         return {f["name"]: f for f in map(json.loads, out.splitlines())}
 
     return run

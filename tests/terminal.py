@@ -4,10 +4,19 @@ checks that an estimate is said before any work shows progress (issue 26)."""
 
 from __future__ import annotations
 
+import fcntl
+import os
+import pty
 import re
+import struct
 import subprocess
+import sys
+import termios
+import threading
+import tty
 
 import pyte
+import pytest
 
 #: tqdm's time column while it runs: [elapsed<remaining], e.g. [00:03<00:12].
 ETA = re.compile(r"\[\d\d:\d\d<\d\d:\d\d")
@@ -34,14 +43,49 @@ def assert_estimate_first(stderr: str, what: str) -> str:
 
 
 def run_in_terminal(argv: list[str], timeout: float) -> subprocess.CompletedProcess[str]:
-    """Run a verb and keep its output as a terminal receives it: bytes decoded without
-    universal newlines, so a progress bar's carriage returns redraw in place in `screen`
-    (text=True would turn each redraw into a line, and a bar that redraws for longer on a
-    busy machine would scroll the estimate off the screen)."""
-    run = subprocess.run(argv, capture_output=True, timeout=timeout)
+    """Run a verb with its stderr on a terminal (a pty, as a person's shell gives it: progress
+    bars show only there) and keep that output as the terminal receives it: bytes decoded
+    without universal newlines, so a progress bar's carriage returns redraw in place in
+    `screen` (text=True would turn each redraw into a line, and a bar that redraws for longer
+    on a busy machine would scroll the estimate off the screen)."""
+    master, slave = pty.openpty()
+    tty.setraw(slave)  # the bytes as written: no newline translation
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 50, 200, 0, 0))
+    chunks: list[bytes] = []
+
+    def drain() -> None:
+        while True:
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # EIO: every holder of the terminal's other end has closed it
+                return
+            if not data:
+                return
+            chunks.append(data)
+
+    reader = threading.Thread(target=drain, daemon=True)
+    reader.start()
+    try:
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=slave)
+        os.close(slave)
+        slave = -1
+        try:
+            out, _ = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            raise
+        reader.join(timeout=30)
+    finally:
+        if slave >= 0:
+            os.close(slave)
+        os.close(master)
     return subprocess.CompletedProcess(
-        run.args,
-        run.returncode,
-        run.stdout.decode(errors="replace"),
-        run.stderr.decode(errors="replace"),
-    )
+        proc.args, proc.returncode, out.decode(errors="replace"),
+        b"".join(chunks).decode(errors="replace"),
+    )  # fmt: skip
+
+
+def pretend_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """In-process runs (capsys): stderr says it is a terminal, so progress bars show."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)

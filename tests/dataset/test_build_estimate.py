@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 from spectratac.cli import main
 
-from tests.terminal import assert_estimate_first
+from tests.terminal import assert_estimate_first, pretend_terminal
 
 pytestmark = pytest.mark.subprocess  # the recording comes from the simulated device
 
@@ -43,8 +43,9 @@ def probe_everything(monkeypatch: pytest.MonkeyPatch) -> list[bytes]:
 
 
 def test_dataset_build_probes_its_own_recording_then_counts_down(
-    tour_mcap: Path, tmp_path: Path, probe_everything: list[bytes], capsys
+    tour_mcap: Path, tmp_path: Path, probe_everything: list[bytes], capsys, monkeypatch
 ) -> None:
+    pretend_terminal(monkeypatch)
     size = tour_mcap.stat().st_size
     assert size > 2 * 256 * 1024  # the probe is a part of the file, not all of it
     out = tmp_path / "d.npz"

@@ -127,11 +127,12 @@ def test_evaluate_errors_exit_3(trained, tmp_path, capsys) -> None:
     assert "inputs" in capsys.readouterr().err
 
 
-def test_evaluate_says_its_time_before_it_starts(trained, tmp_path, capsys) -> None:
+def test_evaluate_says_its_time_before_it_starts(trained, tmp_path, capsys, monkeypatch) -> None:
     """Issue 26: the estimate (prediction and the twin's inverse, rates measured now) is on
     stderr before the progress bar, which then shows the time left; --json carries it."""
-    from tests.terminal import assert_estimate_first
+    from tests.terminal import assert_estimate_first, pretend_terminal
 
+    pretend_terminal(monkeypatch)
     model, data, _ = trained
     assert main(["evaluate", str(model), str(data), "-o", str(tmp_path / "a"),
                  "--oracle-samples", "30"]) == 0  # fmt: skip

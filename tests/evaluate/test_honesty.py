@@ -116,3 +116,21 @@ def test_fit_without_holdout_records_the_dataset() -> None:
     assert h.status == "training" and h.rows is not None and h.rows.size == ds.n
     assert resolve(dec.meta, _generic(seed=3)).status == "other"
     assert isinstance(Decoder, type)
+
+
+def test_training_rows_are_warned_of_in_the_terminal(
+    ridge_csv: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """On stderr beside the table, not only in report.md (issue 33); held-out data not."""
+    model, data = ridge_csv
+    capsys.readouterr()
+    assert main(["evaluate", str(model), str(data), "-o", str(tmp_path / "r"),
+                 "--no-progress"]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    warned = [line for line in err.splitlines() if line.startswith("warning:")]
+    assert len(warned) == 1 and "own training rows" in warned[0]
+    assert "training error" in warned[0]
+    other = _csv(_generic(seed=1), tmp_path / "other.csv")
+    assert main(["evaluate", str(model), str(other), "-o", str(tmp_path / "o"),
+                 "--no-progress"]) == 0  # fmt: skip
+    assert "training rows" not in capsys.readouterr().err

@@ -52,8 +52,11 @@ BESIDE = ("twin", "sim", "studies")
 #: Modules every part may import, and which import no part themselves: the shared errors, the
 #: URL-scheme registry, `hardware` (constants generated from the part and board definitions), and
 #: `threads` (the thread policy every process applies), `host_clock` (Unix minus monotonic,
-#: read tightly) and `bounds` (the size and depth limits of every reader of users' files).
-SHARED = frozenset({"errors", "url_schemes", "hardware", "threads", "host_clock", "bounds"})
+#: read tightly), `bounds` (the size and depth limits of every reader of users' files) and
+#: `progress` (the progress bars, on a terminal only).
+SHARED = frozenset(
+    {"errors", "url_schemes", "hardware", "threads", "host_clock", "bounds", "progress"}
+)
 
 
 def _up_to(part: str) -> set[str]:

@@ -135,6 +135,9 @@ def test_a_long_export_shows_progress_unless_told_not_to(
 ) -> None:
     from spectratac.cli import export_cmd
 
+    from tests.terminal import pretend_terminal
+
+    pretend_terminal(monkeypatch)  # bars show on a terminal only
     monkeypatch.setattr(export_cmd, "PROGRESS_FROM", 1)
     monkeypatch.setattr("spectratac.ros2.export._PROGRESS_EVERY", 500)
     assert main(["export", "rosbag", str(recording), "-o", str(tmp_path / "a")]) == 0

@@ -51,6 +51,7 @@ WHITE = [[[500, 500, 500]] * 3]
 DEVICE_FAULTS = "fault=corrupt,stall,unplug&fault_rate=1e-4&fault_stall=0.05&fault_every=2"
 SPEED = 10  # simulated seconds per wall second: 16 devices at 10x fit one loaded core
 STUCK_S = 15.0  # wall seconds without a new sample before a device counts as stuck
+STOP_S = 60.0  # wall seconds to get a device stopped (reconnects included) before it fails
 
 
 @dataclass
@@ -67,6 +68,7 @@ class DeviceTally:
     unplugs: int = 0
     reconnects: int = 0
     stuck: bool = False  # stopped sending for STUCK_S of wall time (streaming not restored)
+    error: str = ""  # what went wrong ending its stream (it is then not tallied complete)
 
     @property
     def unaccounted(self) -> int:
@@ -92,6 +94,7 @@ class RecordingTally:
     read_ft_samples: int = 0
     dataset_samples: int = 0
     complete: bool = False
+    error: str = ""  # an exception recording or reading back
 
 
 @dataclass
@@ -148,6 +151,7 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
     delivered = [0] * n
     target = int(seconds * RATE_HZ)
     stuck: list[str] = []
+    errors: dict[str, str] = {}
     try:
         for s in sensors:
             _retry(lambda s=s: s.configure(integration_ms=INTEGRATION_MS, leds=WHITE))
@@ -165,7 +169,10 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
                     stuck.append(u)  # streaming did not come back: tallied, and reported
                 if sent >= target or u in stuck:
                     ledger(u).paused = True  # end cleanly: no fault hides the last samples
-                    _stop(s)
+                    try:
+                        _stop(s)
+                    except Exception as exc:  # reported with the device, the others go on
+                        errors[u] = f"{type(exc).__name__}: {exc}"
                     delivered[k] += _drain(s)
                     running.discard(k)
             time.sleep(0.01)
@@ -189,6 +196,7 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
                 unplugs=book.unplugs,
                 reconnects=st.reconnects,
                 stuck=u in stuck,
+                error=errors.get(u, ""),
             )
         )
     return tallies
@@ -207,16 +215,21 @@ def _retry(command: Callable[[], object]) -> None:
 
 
 def _stop(s: Sensor) -> None:
-    """STOP, retried: a reconnect may be under way, and its resume restarts streaming."""
-    for _ in range(20):
+    """STOP, asked again until STATUS confirms it: a reconnect may be under way (its resume
+    restarts streaming), which a loaded host may take seconds to finish."""
+    deadline = time.monotonic() + STOP_S
+    last = "no attempt"
+    while time.monotonic() < deadline:
         try:
             s.stop()
             time.sleep(0.2)
             if not s.status().streaming:
                 return
-        except DeviceError:  # the link is coming back: ask again
+            last = "STATUS said streaming after STOP's ACK"
+        except DeviceError as exc:  # the link is coming back: ask again
+            last = f"{type(exc).__name__}: {exc}"
             time.sleep(0.2)
-    raise RuntimeError(f"{s.url} would not stop streaming")
+    raise RuntimeError(f"{s.url} would not stop streaming within {STOP_S:g} s (last: {last})")
 
 
 def _drain(s: Sensor) -> int:
@@ -278,9 +291,46 @@ def run(devices: int, seconds: float, seed: int) -> Soak:
     soak = Soak(seconds=seconds)
     soak.devices = soak_devices(devices, seconds, seed)
     with tempfile.TemporaryDirectory() as tmp:
-        soak.recording = soak_recording(seconds, seed, Path(tmp))
+        try:
+            soak.recording = soak_recording(seconds, seed, Path(tmp))
+        except Exception as exc:  # reported as the recording's failure, with the devices'
+            soak.recording = RecordingTally(error=f"{type(exc).__name__}: {exc}")
     soak.wall_s = time.monotonic() - started
     return soak
+
+
+def problems(s: dict[str, Any]) -> list[str]:
+    """What failed, device by device and for the recording, and how: one line each (empty
+    when the soak passed)."""
+    out = []
+    for d in s["per_device"]:
+        how = []
+        if d["unaccounted"]:
+            how.append(
+                f"{d['unaccounted']} samples unaccounted (sent {d['sent']} = delivered "
+                f"{d['delivered']} + gaps {d['sample_gaps']} + overflows "
+                f"{d['buffer_overflows']} + lost at unplug {d['lost_at_unplug']} + "
+                f"{d['unaccounted']}; {d['unplugs']} unplugs, {d['reconnects']} reconnects)"
+            )
+        if d["stuck"]:
+            how.append(f"stuck: no new sample for {STUCK_S:g} s of wall time")
+        if d["error"]:
+            how.append(f"ending its stream raised {d['error']}")
+        if how:
+            out.append(f"device {d['url']}: {'; '.join(how)}")
+    rec = s["recording"]
+    if not rec["complete"]:
+        if rec["error"]:
+            how = [f"raised {rec['error']}"]
+        else:
+            how = [f"{what} {rec['read_' + key]} read back of {rec[key]} written"
+                   for key, what in (("frames", "frames"), ("samples", "samples"),
+                                     ("ft_samples", "F/T rows"))
+                   if rec["read_" + key] != rec[key]]  # fmt: skip
+            how += ["no dataset built"] if not rec["dataset_samples"] else []
+            how = how or ["no end record, or truncated"]
+        out.append(f"recording: incomplete: {'; '.join(how)}")
+    return out
 
 
 def table(s: dict[str, Any]) -> str:
@@ -343,12 +393,10 @@ def main() -> int:
         ))))  # fmt: skip
     else:
         print(table(summary))
-    ok = (
-        summary["samples"]["unaccounted"] == 0
-        and summary["faults"]["stuck_devices"] == 0
-        and summary["recording"]["complete"]
-    )
-    return 0 if ok else 1
+    failed = problems(summary)
+    for line in failed:  # stderr: beside the figures, in a test's failure report
+        print(f"soak FAILED: {line}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

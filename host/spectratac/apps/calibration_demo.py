@@ -406,6 +406,6 @@ TWIN_INVERSE_NOTE = (
 def _bar(opts: DemoOptions, total: float, unit: str, desc: str) -> Any:
     if not opts.progress:
         return None
-    from tqdm import tqdm
+    from spectratac.progress import bar
 
-    return tqdm(total=total, unit=unit, desc="      " + desc, leave=False)
+    return bar(total=total, unit=unit, desc="      " + desc, leave=False)

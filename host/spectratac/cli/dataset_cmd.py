@@ -97,9 +97,9 @@ def _build(args: argparse.Namespace) -> int:
     bar = None
     quiet = args.no_progress or args.json
     if not quiet and len(args.recordings) > 1:
-        from tqdm import tqdm
+        from spectratac.progress import bar as progress_bar
 
-        bar = tqdm(total=len(args.recordings), desc="sessions", unit="file", file=sys.stderr)
+        bar = progress_bar(total=len(args.recordings), desc="sessions", unit="file")
 
     def progress(path: str) -> None:
         if bar is not None:

@@ -58,16 +58,18 @@ class ClockBar:
 
     def __enter__(self) -> ClockBar:
         if self.enabled:
-            from tqdm import tqdm
+            from spectratac.progress import bar
 
-            self._bar = tqdm(
+            self._bar = bar(
                 total=round(self.seconds, 1),
                 desc=self.desc,
                 unit="s",
-                file=sys.stderr,
                 leave=False,
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]",
             )
+            if self._bar.disable:  # stderr is not a terminal: no bar, no clock thread
+                self._bar = None
+                return self
             self._t0 = time.monotonic()
             self._thread = threading.Thread(target=self._run, name="clock-bar", daemon=True)
             self._thread.start()

@@ -76,8 +76,6 @@ def report_files(names: list[str]) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     from spectratac.apps.estimates import evaluation_estimate
     from spectratac.cli.eta import announce
     from spectratac.dataset.generic_io import load_data
@@ -85,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.evaluate.fit_both_splits import load_companions
     from spectratac.evaluate.report import write_report
     from spectratac.evaluate.run import evaluate_model, with_model_classes
+    from spectratac.progress import bar as progress_bar
     from spectratac.studies.cost_model import with_oracle
     from spectratac.studies.oracle_floor import OracleFloor
     from spectratac.train.holdout import fingerprint, parse_sessions
@@ -118,14 +117,10 @@ def run(args: argparse.Namespace) -> int:
     estimate = with_oracle(estimate, dataset, len(kinds) * args.oracle_samples)
     if not args.json:
         announce("evaluate", estimate)
-    bar = tqdm(
-        total=len(kinds) * per,
-        desc="evaluate",
-        unit="step",
-        file=sys.stderr,
-        leave=False,
-        disable=args.no_progress,
-    )
+    bar = progress_bar(
+        total=len(kinds) * per, desc="evaluate", unit="step", leave=False,
+        enabled=not args.no_progress,
+    )  # fmt: skip
 
     def tick(stage: str) -> None:
         bar.set_postfix_str(stage)
@@ -164,6 +159,10 @@ def run(args: argparse.Namespace) -> int:
     with new_folder(out, VERB, recognise=report_files) as staged:
         rep = write_report(ev, staged, dataset_info, model_info, dataset)
     rep["estimate"] = estimate.as_dict()
+    training = rep["sections"].get("training")
+    if training is not None:  # in the terminal too, not only in report.md
+        print(f"warning: evaluated on the model's own training rows: {training['note']}",
+              file=sys.stderr)  # fmt: skip
     if args.json:
         print(json.dumps(rep))
     else:

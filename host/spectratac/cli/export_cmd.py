@@ -80,9 +80,9 @@ def _rosbag(args: argparse.Namespace) -> int:
         if args.no_progress or args.json or total < PROGRESS_FROM:
             return
         if bar is None:
-            from tqdm import tqdm
+            from spectratac.progress import bar as progress_bar
 
-            bar = tqdm(total=total, desc="messages", unit="msg", file=sys.stderr)
+            bar = progress_bar(total=total, desc="messages", unit="msg")
         bar.update(done - bar.n)
 
     with warnings.catch_warnings(record=True) as caught:

@@ -187,9 +187,12 @@ def _upload(args: argparse.Namespace) -> int:
             print(f"  {args.weights} weights round the network's weights; add --data FILE to "
                   "measure what that costs against f32", file=sys.stderr)  # fmt: skip
 
+    from spectratac.progress import bar as progress_bar
+
+    bar = progress_bar(total=len(image), desc="uploading", unit="B", enabled=not args.json)
+
     def progress(done: int, total: int) -> None:
-        if not args.json:
-            print(f"\r  uploading {done}/{total} B", end="", file=sys.stderr, flush=True)
+        bar.update(done - bar.n)
 
     with Sensor.open(args.url, timeout=args.timeout) as sensor:
         # as decode does on open: another unit's model warns, or is refused before any write
@@ -198,8 +201,7 @@ def _upload(args: argparse.Namespace) -> int:
         try:
             info = sensor.upload_model(image, model_id, progress=progress)
         finally:
-            if not args.json:
-                print(file=sys.stderr)
+            bar.close()
         retries = sensor.stats.model_upload_retries
     if args.json:
         print(

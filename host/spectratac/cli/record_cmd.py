@@ -253,9 +253,9 @@ class _LazyBar:
 
     def get(self) -> Any:
         if self.bar is None:
-            from tqdm import tqdm
+            from spectratac.progress import bar
 
-            self.bar = tqdm(**self.kwargs)
+            self.bar = bar(**self.kwargs)
         return self.bar
 
     def close(self) -> None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from typing import Any
 
@@ -93,14 +92,10 @@ def _report(args: argparse.Namespace) -> int:
         announce("twin report", estimate)
     bar = None
     if not args.no_progress:
-        from tqdm import tqdm
+        from spectratac.progress import bar as progress_bar
 
-        bar = tqdm(
-            total=1 + 2 * (cfg.epochs + 1),
-            desc="twin report",
-            unit="step",
-            file=sys.stderr,
-            leave=False,
+        bar = progress_bar(
+            total=1 + 2 * (cfg.epochs + 1), desc="twin report", unit="step", leave=False
         )
 
     def progress(stage: str, n: int) -> None:
@@ -195,9 +190,9 @@ def _population(args: argparse.Namespace) -> int:
         announce(f"twin population ({total} sessions of {args.duration:g} s)", estimate)
     bar = None
     if not args.no_progress:
-        from tqdm import tqdm
+        from spectratac.progress import bar as progress_bar
 
-        bar = tqdm(total=total, desc="twin population", unit="session", file=sys.stderr)
+        bar = progress_bar(total=total, desc="twin population", unit="session")
 
     def progress(done: int, total: int) -> None:
         if bar is not None:

@@ -23,6 +23,7 @@ from spectratac.decode.errors import (
     DecoderError,
     DecoderFileError,
     DecoderUnitWarning,
+    SensorNotStreamingError,
 )
 from spectratac.decode.estimates import Estimate, Estimates
 from spectratac.decode.paper_features import (
@@ -48,6 +49,7 @@ __all__ = [
     "Estimates",
     "FeatureError",
     "Runtime",
+    "SensorNotStreamingError",
     "Standardizer",
     "ZeroAnchoredScaler",
     "features33",

@@ -24,7 +24,11 @@ from numpy.typing import ArrayLike, NDArray
 from spectratac.dataset.schema import Dataset
 from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
-from spectratac.decode.errors import DecoderConfigError, DecoderUnitWarning
+from spectratac.decode.errors import (
+    DecoderConfigError,
+    DecoderUnitWarning,
+    SensorNotStreamingError,
+)
 from spectratac.decode.estimates import CONTACT_FORCE_N, FORCE, TORQUE, Estimate, Estimates
 from spectratac.decode.export import export as export_to
 from spectratac.decode.export import model_image
@@ -262,13 +266,20 @@ class Decoder:
         compares the sensor's unit with the model's on open (`unit_policy`: warns, or raises
         DecoderUnitError when "strict"). With a drift baseline, each estimate's `no_rest` says the
         baseline has not yet seen the skin at rest; `tare()` zeroes it on the next sample.
+
+        The sensor must stream: one open but not started (or stopped) raises
+        SensorNotStreamingError at the first estimate asked for, at once (after the checks
+        above), instead of waiting for samples that never come; the stream's start and stop
+        stay the caller's.
         """
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         check_sensor_unit(self.unit_id, sensor, self.unit_policy)
         same = self.unit_id is not None and self.unit_id in device_unit_ids(sensor)
-        if isinstance(sensor, EstimateStream) and self._decoded_by(sensor):
-            yield from self._device_estimates(sensor, check_config)
+        on_device = isinstance(sensor, EstimateStream) and self._decoded_by(sensor)
+        require_streaming(sensor)
+        if on_device:
+            yield from self._device_estimates(sensor, check_config)  # type: ignore[arg-type]
             return
         config_id = None
         asm = Assembler(self.layout, same_unit=same)
@@ -466,3 +477,20 @@ class Decoder:
             "unit_id": dataset.meta.get("unit_id"),
         }
         return cls(rt, layout, guard, meta)
+
+
+def require_streaming(sensor: object) -> None:
+    """Raise SensorNotStreamingError if `sensor` (a `spectratac.device.Sensor`) is open but
+    not streaming. The host's belief (`Sensor.streaming`) is confirmed with the device's
+    STATUS first: a device left streaming by an earlier session is fine. Sample streams
+    that know nothing of starting (recordings, taps, test doubles) pass."""
+    if getattr(sensor, "streaming", True):
+        return
+    status = getattr(sensor, "status", None)
+    if callable(status) and status().streaming:
+        return
+    name = getattr(sensor, "url", "the sensor")
+    raise SensorNotStreamingError(
+        f"{name} is open but not streaming, so no sample would come: call sensor.start() "
+        "before decoder.stream(sensor) (and sensor.stop() when done)"
+    )

@@ -32,3 +32,8 @@ class DecoderUnitWarning(UserWarning):
 class DecoderUnitError(DecoderError):
     """The sensor is another unit than the decoder was calibrated on, and the caller asked
     for the same unit (strict unit checking, `--strict-unit`)."""
+
+
+class SensorNotStreamingError(DecoderError):
+    """`Decoder.stream` was given a sensor that is open but not streaming: no sample would
+    ever come. Call `sensor.start()` first."""

@@ -16,6 +16,7 @@ import collections
 import contextlib
 import dataclasses
 import functools
+import itertools
 import logging
 import threading
 import time
@@ -451,7 +452,7 @@ class Link:
                 self._lost = None
                 self.stats.reconnects += 1
                 self._start_reader()
-            self._resume()
+            self._resume(transport)
             return
 
     def _new_epoch(self) -> None:
@@ -468,10 +469,27 @@ class Link:
                 log.exception("%s: epoch listener %r failed; removed", self.url, listener)
                 self.remove_epoch_listener(listener)
 
-    def _resume(self) -> None:
-        """After a reconnect: handshake again, then the owner restores its state."""
-        try:
-            self.handshake()
-            self._on_resume()
-        except Exception as exc:  # the reader reports the next loss; log why resuming failed
-            log.warning("%s: resuming after reconnect failed: %s", self.url, exc)
+    def _resume(self, transport: Transport) -> None:
+        """After a reconnect: handshake again, then the owner restores its state. A reply
+        that does not come (a loaded host, a damaged frame) is asked again while the link
+        stays up: given up, the device would never stream again and nothing would say so.
+        A loss meanwhile ends it (that loss's reconnect resumes); another failure (a refusal)
+        is logged and the link stays as it is."""
+        delay = 0.1
+        for attempt in itertools.count():
+            try:
+                self.handshake()
+                self._on_resume()
+                return
+            except DeviceTimeoutError as exc:
+                if self._closed or self._lost is not None or self._transport is not transport:
+                    return
+                if attempt == 0:  # one line, not one per attempt
+                    log.warning("%s: resuming after reconnect: %s; asking again", self.url, exc)
+            except Exception as exc:
+                if not (self._closed or self._lost is not None):
+                    log.warning("%s: resuming after reconnect failed: %s", self.url, exc)
+                return
+            if self._closing.wait(delay):
+                return
+            delay = min(delay * 2, 2.0)

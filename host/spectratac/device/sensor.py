@@ -98,6 +98,9 @@ class Sensor:
         self._unwrap = Unwrapper()
         self._last_sample_seq: int | None = None
         self._streaming = False
+        # start/stop against a reconnect's resume: a STOP never lands between the resume's
+        # check of `_streaming` and its START (which would restart a stream stopped here)
+        self._stream_lock = threading.RLock()
         self._configure_msg: m.Configure | None = None
         self.config_id = 0
         self._link = Link(
@@ -206,6 +209,12 @@ class Sensor:
         return self._link.reconnect
 
     @property
+    def streaming(self) -> bool:
+        """True from start() (or configure(stream=True)) until stop(): the host asked the
+        device to stream (a reconnect resumes it)."""
+        return self._streaming
+
+    @property
     def buffered(self) -> int:
         return self._samples.buffered
 
@@ -279,20 +288,23 @@ class Sensor:
 
     def start(self) -> None:
         """Start streaming; samples then arrive in the buffer."""
-        if not self._streaming:
-            # a new stream counts from sample_seq 0 (SPEC): a lost first sample is a gap too
-            with self._lock:
-                self._last_sample_seq = -1
-                self._estimate_gaps.restart()
-        self._link.command(m.Start())
-        self._streaming = True
+        with self._stream_lock:
+            if not self._streaming:
+                # a new stream counts from sample_seq 0 (SPEC): a lost first sample is a gap
+                with self._lock:
+                    self._last_sample_seq = -1
+                    self._estimate_gaps.restart()
+            self._link.command(m.Start())
+            self._streaming = True
 
     def stop(self) -> None:
         """Stop streaming; no sample is produced after the device's acknowledgement.
         Idempotent: it always asks the device (a device may stream although the host
-        thinks it stopped), and a reconnect never restarts a stream stopped here."""
-        self._streaming = False
-        self._link.command(m.Stop())
+        thinks it stopped), and a reconnect never restarts a stream stopped here (a resume
+        under way finishes first)."""
+        with self._stream_lock:
+            self._streaming = False
+            self._link.command(m.Stop())
 
     def status(self) -> m.Status:
         """The device's STATUS: its counters, state and health."""
@@ -460,11 +472,17 @@ class Sensor:
             self._estimate_gaps.restart()
 
     def _on_resume(self) -> None:
-        """After a reconnect's handshake: restore configuration and streaming."""
-        if self._configure_msg is not None:
-            self.config_id = self._link.command(self._configure_msg).config_id
-        if self._streaming:
-            self._link.command(m.Start())
+        """After a reconnect's handshake: restore configuration and streaming. A device that
+        is not streaming (it restarted) counts its resumed stream from sample_seq 0, so a lost
+        first sample is a gap, as after start(); one that streamed on continues its count."""
+        with self._stream_lock:
+            if self._streaming and not self._link.request(m.GetStatus(), m.Status).streaming:
+                with self._lock:
+                    self._last_sample_seq = -1
+            if self._configure_msg is not None:
+                self.config_id = self._link.command(self._configure_msg).config_id
+            if self._streaming:
+                self._link.command(m.Start())
 
 
 def _samples_array(batches: list[Sequence[Sample]]) -> np.ndarray:

@@ -163,7 +163,10 @@ class FaultLayer:
         self._unplug_after_us = int(self._rng.expovariate(1 / mean_unplug_us))
         self._unplug_at_us: int | None = None  # counted from the boot's first frame
         self._unplugged = False
-        self._tail_corrupted = 0  # sample frames corrupted since the last intact one
+        self._tail_corrupted = 0  # sample frames lost on the wire since the last intact one
+        # the last frame's closing 0x00 was flipped: the host reads the next frame as part of
+        # it, so that one is lost too however intact its own bytes
+        self._merges_next = False
         self._pending = b""  # device bytes of a frame not yet complete
         self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
         self._next_stall = time.monotonic() + self.stall_every
@@ -196,10 +199,14 @@ class FaultLayer:
             wire = self._rewrite(encoded) if self._rewrites else encoded + b"\x00"
             if wire is None:
                 continue
+            merged, self._merges_next = self._merges_next, False
+            hit = False
             if active and "corrupt" in self.faults:
-                wire = self._corrupt(wire, is_sample)
-            elif is_sample:
-                self._tail_corrupted = 0
+                damaged = self._corrupt(wire)
+                hit, wire = damaged != wire, damaged
+                self._merges_next = not wire.endswith(b"\x00")
+            if is_sample:
+                self._tail_corrupted = self._tail_corrupted + 1 if hit or merged else 0
             out += wire
         if not out:
             return True
@@ -221,9 +228,9 @@ class FaultLayer:
             return True
         return False
 
-    def _corrupt(self, wire: bytes, is_sample: bool) -> bytes:
+    def _corrupt(self, wire: bytes) -> bytes:
         """Flip bits at `rate` per byte (the gaps between flips are geometric: one draw per
-        flip, not one per byte); keeps the tally of corrupted samples since the last intact."""
+        flip, not one per byte)."""
         rng, out, hits = self._rng, bytearray(wire), 0
         i = int(rng.expovariate(self.rate)) if self.rate > 0 else len(out)
         while i < len(out):
@@ -233,8 +240,6 @@ class FaultLayer:
         if hits:
             self.ledger.bytes_corrupted += hits
             self.ledger.frames_corrupted += 1
-        if is_sample:
-            self._tail_corrupted = self._tail_corrupted + 1 if hits else 0
         return bytes(out)
 
     def _rewrite(self, encoded: bytes) -> bytes | None:

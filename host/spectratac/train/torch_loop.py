@@ -26,7 +26,6 @@ context, `region_history_swap` teaches the class head on rows given another row'
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -194,9 +193,9 @@ def fit_network(
     )
     bar = None
     if progress is True:
-        from tqdm import tqdm
+        from spectratac.progress import bar as progress_bar
 
-        bar = tqdm(total=spec.epochs, desc="train", unit="epoch", file=sys.stderr, leave=False)
+        bar = progress_bar(total=spec.epochs, desc="train", unit="epoch", leave=False)
     history: list[float] = []
     val_history: list[float] = []
     best: dict[str, Any] | None = None

@@ -12,6 +12,9 @@ send requests there. Two checks keep other sites out:
   ``POST /api/save`` (a custom header also makes any cross-site request preflighted, and
   the server answers no preflight) and the ``token`` query parameter of ``/ws`` for the
   control messages (``latency``, ``pong``, ``snake_restart``).
+
+Every HTTP answer also says that no other page may frame this one and that the page loads
+and connects to nothing but this server (`security_headers`).
 """
 
 from __future__ import annotations
@@ -46,19 +49,40 @@ def refusal(status: int, code: str, message: str) -> JSONResponse:
     return JSONResponse({"error": message, "code": code}, status)
 
 
+def security_headers(port: int) -> list[tuple[bytes, bytes]]:
+    """What every HTTP answer carries: no other page may frame this one (clickjacking on Save
+    or Tare), and the page may load and connect to nothing but this server (it loads nothing
+    from the internet: uPlot ships in the package)."""
+    sockets = " ".join(f"ws://{h}:{port}" for h in ("127.0.0.1", "localhost"))
+    csp = (
+        "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+        f"connect-src 'self' {sockets}; base-uri 'none'; form-action 'none'; "
+        "frame-ancestors 'none'"
+    )
+    return [
+        (b"x-frame-options", b"DENY"),
+        (b"content-security-policy", csp.encode()),
+        (b"x-content-type-options", b"nosniff"),
+        (b"referrer-policy", b"no-referrer"),
+    ]
+
+
 class Guard:
     """Refuse every HTTP and WebSocket request whose Host or Origin is not the served
-    address (``127.0.0.1:PORT`` or ``localhost:PORT``)."""
+    address (``127.0.0.1:PORT`` or ``localhost:PORT``); put `security_headers` on every
+    HTTP answer (refusals included)."""
 
     def __init__(self, app: ASGIApp, port: int) -> None:
         self.app = app
         self.hosts = frozenset({f"127.0.0.1:{port}", f"localhost:{port}"})
         self.origins = frozenset(f"http://{h}" for h in self.hosts)
+        self.headers = security_headers(port)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
+        send = self._with_headers(send)
         why = self.refuse_reason(_headers(scope))
         if why is None:
             await self.app(scope, receive, send)
@@ -66,6 +90,14 @@ class Guard:
         if scope["type"] == "websocket":
             await receive()  # websocket.connect: then deny the handshake with an HTTP answer
         await refusal(403, *why)(scope, receive, send)
+
+    def _with_headers(self, send: Send) -> Send:
+        async def sending(message: Message) -> None:
+            if message["type"] in ("http.response.start", "websocket.http.response.start"):
+                message = {**message, "headers": [*message.get("headers", ()), *self.headers]}
+            await send(message)
+
+        return sending
 
     def refuse_reason(self, headers: dict[str, str]) -> tuple[str, str] | None:
         host = headers.get("host")

@@ -11,7 +11,7 @@ Every WebSocket message is one of::
     {"type": "tare"}                           # zero the drift baseline (nothing touches the skin)
 
 Anything else (not JSON, NaN/Infinity, ``1e999``, huge integers, deep nesting, wrong types,
-too long) raises `BadMessage`, which the server answers with
+too long, a binary message: `refuse_binary`) raises `BadMessage`, which the server answers with
 ``{"type": "refused", "code": ..., "message": ...}`` instead of acting on it. Only a
 benchmark's page sends ``latency`` and ``pong`` (`LiveSession(benchmark=True)`); another
 server refuses them (code ``not_measuring``).
@@ -29,7 +29,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 from spectratac.errors import SpectraTacError
 
@@ -100,6 +100,15 @@ def parse(text: str) -> ClientMessage:
         return Tare()
     raise BadMessage(
         f"unknown message type {_show(kind)}: send latency, pong, snake_restart or tare"
+    )
+
+
+def refuse_binary(size: int) -> NoReturn:
+    """A binary WebSocket message: the page sends only JSON text."""
+    raise BadMessage(
+        f"a binary message of {size} bytes: send JSON text messages (latency, pong, "
+        "snake_restart or tare)",
+        "binary",
     )
 
 

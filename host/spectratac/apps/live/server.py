@@ -8,10 +8,17 @@ then every message it publishes, and takes the messages of `spectratac.apps.live
 the link's figures as JSON.
 
 Only the served page may use it (`spectratac.apps.live.guard`): Host and Origin are checked
-on every request, and writing or controlling needs the token written into the served page.
+on every request, writing or controlling needs the token written into the served page, and
+every answer forbids framing and loading from elsewhere (X-Frame-Options, a CSP).
 Inputs are bounded: WebSocket messages (uvicorn closes the socket with 1009 beyond
-`MAX_MESSAGE_BYTES`, before buffering more) and POST bodies (413 beyond `MAX_BODY_BYTES`);
-a message over `INLINE_BYTES` is parsed on a worker thread, so no client stalls the others.
+`MAX_MESSAGE_BYTES`, before buffering more; no permessage-deflate, so a small compressed frame
+cannot inflate far past it first; binary messages get a typed refusal) and POST bodies (413
+beyond `MAX_BODY_BYTES`); a message over `INLINE_BYTES` is parsed on a worker thread, so no
+client stalls the others. Connections are bounded too (`spectratac.apps.live.limits`: request
+headers within a timeout, a cap on open connections).
+
+A session that dies (the device unplugged, the stream ended with an error) stays on the page
+as a banner, and `run()` (the CLI) says so once on stderr.
 
 Messages cross from the session's worker thread into the event loop with
 `call_soon_threadsafe`; each client has a bounded queue, whose messages queued in one turn
@@ -36,6 +43,7 @@ import asyncio
 import contextlib
 import json
 import socket
+import sys
 import threading
 import time
 from collections.abc import AsyncIterator
@@ -53,6 +61,7 @@ from spectratac.apps.live.guard import (
     token_matches,
 )
 from spectratac.apps.live.latency import Stages, unix_ms
+from spectratac.apps.live.limits import Limits
 from spectratac.apps.live.session import LiveSession
 from spectratac.errors import SpectraTacError
 from starlette.applications import Starlette
@@ -184,8 +193,10 @@ def create_app(session: LiveSession, hub: Hub, *, port: int, token: str) -> Guar
         sender = asyncio.create_task(_send(websocket, queue, hub.stages))
         try:
             while True:
-                text = await websocket.receive_text()
-                reply = await _receive(session, hub, text, control=given is not None)
+                message = await websocket.receive()
+                if message["type"] == "websocket.disconnect":
+                    break
+                reply = await _receive(session, hub, message, control=given is not None)
                 if reply is not None:
                     _put(queue, (json.dumps(reply), None))
         except (WebSocketDisconnect, RuntimeError):
@@ -222,11 +233,15 @@ async def _read_body(request: Request, limit: int) -> bytes | None:
 
 
 async def _receive(
-    session: LiveSession, hub: Hub, text: str, *, control: bool
+    session: LiveSession, hub: Hub, message: dict[str, Any], *, control: bool
 ) -> dict[str, Any] | None:
-    """Act on one client message; the typed refusal to send back, if any."""
+    """Act on one client message (an ASGI websocket.receive); the typed refusal to send
+    back, if any."""
+    text = message.get("text")
     try:
-        if len(text) > INLINE_BYTES:
+        if text is None:
+            inbound.refuse_binary(len(message.get("bytes") or b""))
+        elif len(text) > INLINE_BYTES:
             msg = await asyncio.to_thread(inbound.parse, text)
         else:
             msg = inbound.parse(text)
@@ -324,22 +339,27 @@ class LiveServer:
     `start()` (serves from a background thread until `stop()`: tests, benchmarks) first
     start the session, so that a device that cannot be opened fails before serving."""
 
-    def __init__(self, session: LiveSession, sock: socket.socket) -> None:
+    def __init__(
+        self, session: LiveSession, sock: socket.socket, limits: Limits | None = None
+    ) -> None:
         self.session = session
         self.sock = sock
         host, port = sock.getsockname()[:2]
         self.url = f"http://{host}:{port}/"
         self.hub = Hub(benchmark=session.benchmark)
         self.token = new_token()
+        self.limits = limits or Limits()
+        self._told_death = False
         app = create_app(session, self.hub, port=port, token=self.token)
-        config = uvicorn.Config(app, ws="wsproto", ws_max_size=MAX_MESSAGE_BYTES,
+        config = uvicorn.Config(app, http=self.limits.protocol(), ws="wsproto",
+                                ws_max_size=MAX_MESSAGE_BYTES, ws_per_message_deflate=False,
                                 log_level="warning", lifespan="on")  # fmt: skip
         self.server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
         self._tuning = contextlib.ExitStack()
 
     def run(self) -> None:
-        self.session.start(self.hub.publish)
+        self.session.start(self._publish_telling_death)
         try:
             with tuning.serving():
                 self.server.run(sockets=[self.sock])
@@ -347,6 +367,15 @@ class LiveServer:
             self.session.stop()
         if self.session.error:
             raise SpectraTacError(self.session.error)
+
+    def _publish_telling_death(self, msg: dict[str, Any]) -> None:
+        """Publish; the first message of a dead session is also said once on stderr (the
+        page shows it as long as it is served)."""
+        if msg.get("type") == "error" and not self._told_death:
+            self._told_death = True
+            print(f"spectratac live: the session ended: {msg['message']} (the page says so; "
+                  "Ctrl-C to stop serving it)", file=sys.stderr, flush=True)  # fmt: skip
+        self.hub.publish(msg)
 
     def start(self, timeout: float = 30.0) -> LiveServer:
         self.session.start(self.hub.publish)

@@ -172,6 +172,7 @@ class LiveSession:
             "threshold_n": det.threshold_n,
             "release_n": det.release_n,
             "benchmark": self.benchmark,  # the page reports its latencies only then
+            "error": self.error,  # a dead session: why (the page shows it)
         }
 
     def tare(self) -> None:
@@ -254,15 +255,32 @@ class LiveSession:
 
     # ------------------------------------------------------------------ the worker
     def _run(self, publish: Publish) -> None:
+        """Decode until stopped. A stream that ends otherwise (the device unplugged, an
+        error) leaves a dead session: `error` says why, and one "error" message tells the
+        pages (a page that joins later gets it in the meta)."""
+        why = "the device's stream ended"
         try:
             self._decode(publish)
+            why = self._end_reason() or why
         except SpectraTacError as exc:
-            if not self._stop.is_set():
-                self.error = str(exc)
-                publish({"type": "error", "message": str(exc)})
+            why = str(exc)
+        except Exception as exc:  # a bug must not leave a page that silently stops moving
+            why = f"the session failed: {type(exc).__name__}: {exc}"
         finally:
             if not self._stop.is_set():
+                self.error = why
+                publish({"type": "error", "message": why})
                 publish(self.stats())
+
+    def _end_reason(self) -> str | None:
+        """Why the sensor's samples ended (they end quietly when the link is lost; a read
+        then raises the loss)."""
+        try:
+            if self.sensor is not None:
+                self.sensor.read(1, timeout=0)
+        except SpectraTacError as exc:
+            return str(exc)
+        return None
 
     def _samples(self) -> Iterator[tuple[Any, Any | None]]:
         """(sample, its estimate or None without a model), as they arrive."""

@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -31,16 +30,15 @@ def run_with_progress(
 ) -> dict[str, Any]:
     """`speed_bench` (or, with `variants`, `variants_bench`) writing into `out`, with a tqdm
     bar on stderr unless `show` is False; returns the benchmark's JSON dict."""
-    from tqdm import tqdm
+    from spectratac.progress import bar as progress_bar
 
     points = len({"paper", *cfg.variants}) if variants else len(planned_points(cfg))
-    bar = tqdm(
+    bar = progress_bar(
         total=points + 1,  # + the latency / oracle stage
         desc="decoder bench",
         unit="model",
-        file=sys.stderr,
         leave=False,
-        disable=not show,
+        enabled=show,
     )
 
     def tick(stage: str) -> None:

@@ -22,7 +22,7 @@ const stac = {  // the page's state; window.stac for tests and for a look from t
   xs: [], seqs: [], steps: [], pred: AXES.map(() => []), ref: AXES.map(() => []), counts: [],
   rawStep: null, rawSteps: [], latency: [], latencyBatch: [], bare: [], bareBatch: [], handleBatch: [], redrawBatch: [], pending: [], lastSeq: -1, batches: 0, arrivals: [], raw: {}, last: null,
   snake: null, snakeSteps: 0, litRegion: null, plots: {}, dirty: false, refsReceived: 0,
-  stats: null, yRanges: {}, duplicates: 0, refused: [],
+  stats: null, yRanges: {}, duplicates: 0, refused: [], dead: null,
 };
 window.stac = stac;
 
@@ -569,13 +569,22 @@ function onMeta(meta) {
   buildFace(meta.geometry);
   buildKeypad(meta);
   showSnake(meta.snake);
+  if (meta.error) showDead(meta.error);
+}
+// A dead session (the device unplugged, the stream ended with an error): said in a banner
+// and on the connection badge; the server stays up, so the page keeps what it plotted.
+function showDead(why) {
+  stac.dead = why;
+  $("dead-why").textContent = why;
+  $("dead").hidden = false;
+  $("conn").textContent = "ended"; $("conn").className = "badge off";
 }
 
 let socket = null;
 function send(obj) { if (socket && socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(obj)); }
 function connect() {
   socket = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(TOKEN)}`);
-  socket.onopen = () => { $("conn").textContent = "live"; $("conn").className = "badge on"; };
+  socket.onopen = () => { if (!stac.dead) { $("conn").textContent = "live"; $("conn").className = "badge on"; } };
   socket.onclose = () => { $("conn").textContent = "offline"; $("conn").className = "badge off"; setTimeout(connect, 1000); };
   socket.onmessage = (ev) => {
     const arrived = performance.timeOrigin + performance.now();
@@ -592,7 +601,7 @@ function onMessage(msg, arrived) {
     case "meta": handlePending(); onMeta(msg); break;  // queued estimates first: in order
     case "snake": handlePending(); showSnake(msg.snake); break;
     case "refused": stac.refused.push(msg); console.warn("server refused a message:", msg.message); break;
-    case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; break;
+    case "error": stac.stats = { ...(stac.stats || {}), error: msg.message }; showDead(msg.message); break;
   }
 }
 // A benchmark's page (meta.benchmark: tools/bench/live.py) reports its latencies once a
