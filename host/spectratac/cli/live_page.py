@@ -23,7 +23,7 @@ def add_device_options(p: argparse.ArgumentParser, *, model_optional: bool = Fal
                        "and the reference only")  # fmt: skip
     else:
         p.add_argument("model", help="decoder file (.stac)")
-    add_device_url(p)
+    add_device_url(p, stalls=True)
     add_decoding_checks(p)
 
 
@@ -104,6 +104,7 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
         ft_url=getattr(args, "ft", None),  # None: the F/T the link pairs, if any
         keep_config=args.keep_config,
         timeout=args.timeout,
+        stall_timeout=args.stall_timeout,
         history_s=getattr(args, "history", 120.0),
         snake=controller,
         out_dir=getattr(args, "output", Path("live-clips")),

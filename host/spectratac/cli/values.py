@@ -117,6 +117,7 @@ def _clip(value: str) -> str:
 #: The range of every numeric option, by spelling; "VERB --option" overrides for one verb.
 RANGES: dict[str, Number] = {
     "--timeout": seconds(0.0, 3600.0, above=True),
+    "--stall-timeout": seconds(0.0, 86400.0, above=True),
     "--duration": seconds(),
     "live --duration": seconds(inf_ok=True),  # inf: until Ctrl-C, as 0 and leaving it out
     "snake --duration": seconds(inf_ok=True),

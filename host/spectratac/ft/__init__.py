@@ -13,6 +13,7 @@ from spectratac.ft.base import FTSensor
 from spectratac.ft.errors import (
     FTConfigError,
     FTDisconnectedError,
+    FTStalledError,
     FTError,
     FTNotFoundError,
     FTProtocolError,
@@ -30,6 +31,7 @@ __all__ = [
     "FT_RECORD",
     "FTConfigError",
     "FTDisconnectedError",
+    "FTStalledError",
     "FTError",
     "FTInfo",
     "FTNotFoundError",

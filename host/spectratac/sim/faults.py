@@ -167,6 +167,7 @@ class FaultLayer:
         self._pending = b""  # device bytes of a frame not yet complete
         self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
         self._next_stall = time.monotonic() + self.stall_every
+        self._closed = threading.Event()
         # late_stop: the STOP and every host byte after it, held until device time _stop_due_us
         self._held_stop: bytearray | None = None
         self._stop_due_us: int | None = None
@@ -205,7 +206,7 @@ class FaultLayer:
             return True
         if active and "stall" in self.faults and time.monotonic() >= self._next_stall:
             self.ledger.stalls += 1
-            time.sleep(self.stall_s)  # the link holds everything; the device waits
+            self._closed.wait(self.stall_s)  # the link holds everything; the device waits
             self._next_stall = time.monotonic() + self.stall_every
         return self._to_host(bytes(out), t)
 
@@ -386,6 +387,7 @@ class FaultLayer:
             self._to_device(held)  # under the lock: no newer host write overtakes it
 
     def close(self) -> None:
+        self._closed.set()  # a stall in progress ends: the device is being closed
         with self._stop_lock:
             self._held_stop = None
 
