@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import threading
 import webbrowser
 from pathlib import Path
@@ -93,8 +94,8 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     from spectratac.apps.live.server import LiveServer, bind
     from spectratac.apps.live.session import NO_MODEL, TRAIN_HINT, LiveSession
 
-    if args.duration < 0:
-        raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
+    if not args.duration >= 0:  # nan too (the option's type refuses it already)
+        raise SpectraTacError("--duration must be >= 0 (0 or inf: until Ctrl-C)")
     if args.model is None and args.url.endswith(".stac"):
         raise SpectraTacError(f"{args.url} is a model: give the device URL after it")
     decoder = None if args.model is None else load_decoder(args)
@@ -113,9 +114,13 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     server = LiveServer(session, bind(args.port))
     url = server.url + ("#snake" if tab == "snake" else "")
     bridge = _foxglove_bridge(getattr(args, "foxglove", None), session)
+    timer: threading.Timer | None = None
     try:
-        if args.duration:
-            threading.Timer(args.duration, setattr, (server.server, "should_exit", True)).start()
+        if args.duration and math.isfinite(args.duration):  # inf, like 0: until Ctrl-C
+            # a daemon timer, cancelled below: Ctrl-C never waits for it to fire
+            timer = threading.Timer(args.duration, setattr, (server.server, "should_exit", True))
+            timer.daemon = True
+            timer.start()
         if getattr(args, "json", False):
             line = {"url": url, "model": session.model_path}
             print(json.dumps(line | ({"foxglove": bridge.url} if bridge else {})), flush=True)
@@ -126,9 +131,13 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
             if bridge is not None:
                 print(f"Foxglove bridge: {bridge.url}  (Foxglove: Open connection)", flush=True)
         if not args.no_browser:
-            threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+            opener = threading.Timer(0.5, webbrowser.open, args=(url,))
+            opener.daemon = True
+            opener.start()
         server.run()
     finally:
+        if timer is not None:
+            timer.cancel()
         if bridge is not None:
             bridge.close()
     return ExitCode.OK

@@ -120,7 +120,6 @@ RANGES: dict[str, Number] = {
     "--stall-timeout": seconds(0.0, 86400.0, above=True),
     "--duration": seconds(),
     "live --duration": seconds(inf_ok=True),  # inf: until Ctrl-C, as 0 and leaving it out
-    "snake --duration": seconds(inf_ok=True),
     "--count": integer(0, 10**9),
     "--port": port,
     "--foxglove": port,

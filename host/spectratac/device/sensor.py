@@ -171,7 +171,11 @@ class Sensor:
     def attach(cls, transport: Transport, **options: Unpack[SensorOptions]) -> Sensor:
         """Like open(), over a transport you opened yourself (a custom link, or one wrapped
         for fault injection). The sensor owns it from now on and closes it."""
-        sensor = cls(transport, **options)
+        try:
+            sensor = cls(transport, **options)
+        except BaseException:  # a bad option: the transport opened for it is closed
+            transport.close()
+            raise
         try:
             sensor._link.handshake()
         except BaseException:
