@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import time
+from pathlib import Path
 from collections.abc import Callable
 from typing import TypeVar
 
@@ -106,3 +107,34 @@ def test_the_default_is_ten_sequence_periods_in_host_time() -> None:
 def test_a_bad_stall_timeout_is_refused_before_anything_opens(bad: float) -> None:
     with pytest.raises(ValueError, match="stall_timeout"):
         Sensor.open("sim://?scene=idle&speed=max", stall_timeout=bad)
+
+
+# ------------------------------------------------------------------ the streaming verbs
+def test_stream_ends_with_exit_3_naming_the_device_and_the_option(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from spectratac.cli import main
+
+    argv = ["stream", STALLS, "--count", "100", "--timeout", "5", "--stall-timeout", "0.5"]
+    assert bounded(lambda: main(argv)) == 3
+    out, err = capsys.readouterr()
+    assert len(out.splitlines()) >= 2  # the header and the rows before the stall
+    assert f"spectratac stream: error: {STALLS} sent no data" in err
+    assert "--stall-timeout S" in err and "Traceback" not in err
+
+
+def test_record_keeps_what_came_before_the_stall(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from spectratac.cli import main
+    from spectratac.record.reader import read_recording
+
+    out = tmp_path / "r.mcap"
+    argv = ["record", STALLS, "-o", str(out), "--duration", "60", "--timeout", "5",
+            "--stall-timeout", "0.5", "--no-progress"]  # fmt: skip
+    assert bounded(lambda: main(argv)) == 3
+    assert "stalled" in capsys.readouterr().err
+    recording = read_recording(out)
+    assert recording.end is not None and recording.end["stopped_by"] == "error"
+    assert recording.end["samples"] >= 1 and len(recording.frames) >= recording.end["samples"]
+    assert not recording.truncated
