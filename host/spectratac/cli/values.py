@@ -109,6 +109,17 @@ def path(value: str) -> Path:
     return Path(text(value))
 
 
+def speed(value: str) -> str:
+    """A simulated device's time scale: 'max' or a number in spectratac.sim.url.SPEED_RANGE
+    (kept as text: it goes into a sim:// URL)."""
+    from spectratac.sim.url import SPEED_RANGE
+
+    if value == "max":
+        return value
+    Number(*SPEED_RANGE)(value)  # the same range as sim://?speed=
+    return value
+
+
 def _clip(value: str) -> str:
     shown = value if len(value) <= 40 else value[:40] + "..."
     return shown.encode("utf-8", "backslashreplace").decode("utf-8")
