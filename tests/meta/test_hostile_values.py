@@ -184,7 +184,7 @@ def _run(argv: list[str], parse_only: bool) -> tuple[int | None, str]:
             code = exc.code if isinstance(exc.code, int) else ExitCode.USAGE
         except Hang:
             return -1, "hung"
-        except BaseException as exc:  # noqa: BLE001 - the walk reports what escaped main
+        except BaseException as exc:
             return -2, f"{type(exc).__name__}: {exc}"
     return code, err.getvalue()
 
@@ -283,7 +283,7 @@ def _sim_cases() -> Iterator[tuple[str, str, str]]:
 def _in_range(key: str, value: str) -> bool:
     """Whether the guide's range admits `value` (an oracle apart from the parser's code)."""
     param = SIM_PARAMS[key]
-    if len(value) > MAX_URL_CHARS or not value.isascii() and "\udcff" in value:
+    if len(value) > MAX_URL_CHARS or (not value.isascii() and "\udcff" in value):
         return False
     if param.kind == "text":
         return True
@@ -346,8 +346,13 @@ def test_ft_urls_refuse_hostile_values_typed(url: str) -> None:
 
 
 @pytest.mark.parametrize(
-    "url", ["socket://" + "h" * 100_000 + ":5", "socket://127.0.0.1:70000",
-            "socket://127.0.0.1:-1", os.fsdecode(b"/dev/tty\xff")],  # fmt: skip
+    "url",
+    [
+        "socket://" + "h" * 100_000 + ":5",
+        "socket://127.0.0.1:70000",
+        "socket://127.0.0.1:-1",
+        os.fsdecode(b"/dev/tty\xff"),
+    ],
     ids=lambda u: u[:30],
 )
 def test_device_urls_refuse_hostile_values_typed(url: str) -> None:

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.cli.values import speed
 from spectratac.cli.options import add_duration, add_output, refuse_overwrite
 from spectratac.cli.output import Table
+from spectratac.cli.values import speed
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

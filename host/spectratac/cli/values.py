@@ -140,7 +140,7 @@ RANGES: dict[str, Number] = {
     "--guided-seed": SEED,
     "--split-seed": SEED,
     "--epochs": integer(1, 100_000),
-    "--oracle-samples": integer(1, 10**7),
+    "--oracle-samples": integer(0, 10**7),  # 0: no oracle
     "--every": integer(1, 10**6),
     "--integration-ms": integer(1, 1000),
     "--duty": finite_float(0, 1000),
@@ -224,4 +224,3 @@ def _takes_text(action: argparse.Action) -> bool:
             argparse._VersionAction,
         ),
     )
-

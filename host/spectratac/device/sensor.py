@@ -435,8 +435,11 @@ class Sensor:
         return self._estimates.read(n, self.timeout if timeout is None else timeout)
 
     def iter_estimates(self) -> Iterator[EstimateRow]:
-        """On-device estimates one by one until the link is lost or the sensor closed."""
-        return iter(self._estimates)
+        """On-device estimates one by one until the link is lost or the sensor closed; after
+        a stall, every estimate received before it, then DeviceStalledError."""
+        yield from self._estimates
+        if self._stall_error is not None and not self._closing.is_set():
+            raise self._stall_error
 
     def __iter__(self) -> Iterator[Sample]:
         """Samples one by one until the link is lost or the sensor closed; after a stall,

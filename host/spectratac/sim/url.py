@@ -42,8 +42,7 @@ SPEED_RANGE = (0.01, 1000.0)
 SIM_PARAMS: dict[str, Param] = {
     "scene": Param("text", meaning="scene name (spectratac twin generate --list)"),
     "seed": Param("integer", 0, 2**32 - 1, "the unit and its noise"),
-    "speed": Param("number", *SPEED_RANGE, "time scale: 1 real time, 10 ten times faster, "
-                   "or max"),  # fmt: skip
+    "speed": Param("number", *SPEED_RANGE, "time scale: 1 real time, 10 ten times faster, or max"),
     "absent": Param("choice", meaning="sensors that do not answer", choices=("0", "1", "2")),
     "model_store": Param("text", meaning="file of the device's model store"),
     "fault": Param("choice", meaning="faults of the device", choices=tuple(FAULTS)),
