@@ -138,3 +138,17 @@ def test_record_keeps_what_came_before_the_stall(
     assert recording.end is not None and recording.end["stopped_by"] == "error"
     assert recording.end["samples"] >= 1 and len(recording.frames) >= recording.end["samples"]
     assert not recording.truncated
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
+def test_a_bad_reply_timeout_is_refused_before_anything_opens(bad: float) -> None:
+    with pytest.raises(ValueError, match="timeout"):
+        Sensor.open("sim://?scene=idle&speed=max", timeout=bad)
+
+
+def test_a_read_with_an_endless_timeout_does_not_overflow() -> None:
+    with Sensor.open("sim://?scene=idle&speed=max", timeout=5.0) as sensor:
+        sensor.configure(integration_ms=50)
+        sensor.start()
+        batch = bounded(lambda: sensor.read(10, timeout=float("inf")))  # no OverflowError
+        assert len(batch) == 10

@@ -119,6 +119,8 @@ class Sensor:
             math.isfinite(stall_timeout) and 0 < stall_timeout <= 1e7
         ):
             raise ValueError(f"stall_timeout={stall_timeout}: give seconds in (0, 1e7] or None")
+        if not (math.isfinite(timeout) and 0 < timeout <= 1e7):  # inf overflows a wait
+            raise ValueError(f"timeout={timeout}: give seconds in (0, 1e7]")
         self.stats = SensorStats()
         self.time_sync: list[TimeSyncExchange] = []
         self._samples: RecordQueue[Sample] = RecordQueue(
