@@ -116,7 +116,10 @@ def speed(value: str) -> str:
 
     if value == "max":
         return value
-    Number(*SPEED_RANGE)(value)  # the same range as sim://?speed=
+    try:
+        Number(*SPEED_RANGE)(value)  # the same range as sim://?speed=
+    except argparse.ArgumentTypeError as exc:
+        raise argparse.ArgumentTypeError(f"{exc}, or max") from None
     return value
 
 
@@ -174,6 +177,8 @@ RANGES: dict[str, Number] = {
     "--sessions": integer(1, 100_000),
 }
 
+#: Text options with a check of their own, by spelling.
+TEXT_CHECKS = {"--speed": speed}
 _BUILTIN = {float: "number", int: "integer"}
 
 
@@ -207,7 +212,8 @@ def check_values(parser: argparse.ArgumentParser, verb: str = "") -> None:
                 shown = f"range {checker.describe()}"
                 action.help = f"{action.help} ({shown})" if action.help else shown
         elif kind is None and action.nargs != 0 and _takes_text(action):
-            action.type = text
+            special = [TEXT_CHECKS[o] for o in action.option_strings if o in TEXT_CHECKS]
+            action.type = special[0] if special else text
         elif kind is Path:
             action.type = path
 
