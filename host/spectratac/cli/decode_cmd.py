@@ -132,9 +132,7 @@ def run(args: argparse.Namespace) -> int:
     settings = None if args.keep_config else sensor_settings(decoder.config)
     counts = {"estimates": 0, "invalid": 0, "ood": 0, "contact": 0, "no_rest": 0}
     t0 = time.monotonic()
-    with Sensor.open(
-        args.url, timeout=args.timeout, stall_timeout=args.stall_timeout
-    ) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout, stall_timeout=args.stall_timeout) as sensor:
         if settings is not None:
             sensor.configure(**settings)
         writer = RowWriter(COLUMNS, args.format, width=8)
