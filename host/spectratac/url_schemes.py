@@ -17,15 +17,33 @@ never imports the packages that plug into it: ``spectratac.sim`` registers ``sim
 ... except SchemeConflictError as exc:
 ...     print(exc)
 example scheme 'demo' is registered already; pass replace=True to replace it
+
+The URL parameters of a scheme are checked in one place too: a scheme lists its keys in a
+table of `Param`s (kind, range, meaning) and `parse_params` parses, range-checks and refuses
+keys the table does not know, naming the ones it does; `check_url` bounds the URL itself.
+
+>>> table = {"speed": Param("number", 1e-3, 1e3, "time scale"), "seed": Param("integer", 0)}
+>>> parse_params("sim://?speed=2", {"speed": "2"}, table, ValueError)
+{'speed': 2.0}
+>>> parse_params("sim://?colour=red", {"colour": "red"}, table, ValueError)
+Traceback (most recent call last):
+...
+ValueError: sim://?colour=red: unknown parameter colour; known: seed, speed
+>>> parse_params("sim://?speed=nan", {"speed": "nan"}, table, ValueError)
+Traceback (most recent call last):
+...
+ValueError: sim://?speed=nan: speed=nan must be a finite number in [0.001, 1000] (time scale)
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 import threading
 from collections.abc import Mapping
+from dataclasses import dataclass
 from importlib.metadata import entry_points
-from typing import Generic, TypeVar
+from typing import Generic, Literal, TypeVar
 
 from spectratac.errors import SpectraTacError
 
@@ -87,3 +105,92 @@ class SchemeRegistry(Generic[Opener]):
             names = set(self._openers) | set(self._builtin)
         names |= {ep.name for ep in entry_points(group=self.group)}
         return sorted(names)
+
+
+#: Longest URL (and parameter value) any scheme takes: a path or host name is far shorter;
+#: a longer one is a mistake, and refusing it early keeps it out of OS calls and messages.
+MAX_URL_CHARS = 4096
+
+
+def check_url(url: str, error: type[Exception]) -> None:
+    """Raise `error` for a URL that is too long or not valid UTF-8 text (a surrogate escape
+    of undecodable bytes from the command line), before any scheme parses it."""
+    if len(url) > MAX_URL_CHARS:
+        raise error(
+            f"a URL of {len(url)} characters ({url[:40]!r}...): the limit is {MAX_URL_CHARS}"
+        )
+    try:
+        url.encode("utf-8")
+    except UnicodeEncodeError:
+        raise error(f"{url.encode('utf-8', 'backslashreplace').decode()!r} is not UTF-8 "
+                    "text: spell the URL in UTF-8") from None  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Param:
+    """One URL parameter: its kind, its range (numbers and integers: inclusive bounds,
+    None for none; text: lo/hi unused), the words it may be (kind "choice"), a meaning for
+    messages and guides."""
+
+    kind: Literal["number", "numbers", "integer", "text", "choice"]
+    lo: float | None = None
+    hi: float | None = None
+    meaning: str = ""
+    choices: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        """The range in words: [lo, hi], >= lo, one of a|b..."""
+        if self.kind == "choice":
+            return "one of " + "|".join(self.choices)
+        if self.kind == "text":
+            return "text"
+        lo, hi = self.lo, self.hi
+        if lo is not None and hi is not None:
+            return f"[{lo:g}, {hi:g}]"
+        if lo is not None:
+            return f">= {lo:g}"
+        return f"<= {hi:g}" if hi is not None else "any"
+
+    def check(self, url: str, name: str, raw: str, error: type[Exception]) -> object:
+        """`raw` parsed and range-checked, else `error` naming the parameter and its range."""
+        why = f" ({self.meaning})" if self.meaning else ""
+        if len(raw) > MAX_URL_CHARS:
+            raise error(f"{url[:60]}...: {name} has {len(raw)} characters; at most {MAX_URL_CHARS}")
+        if self.kind == "text":
+            return raw
+        if self.kind == "numbers":  # a comma list, each a number in range: force=2,0.5
+            items = [t for t in raw.split(",") if t] or [raw]
+            one = Param("number", self.lo, self.hi, self.meaning)
+            return [one.check(url, name, item, error) for item in items]
+        if self.kind == "choice":
+            words = [w for w in raw.split(",") if w]
+            bad = [w for w in words if w not in self.choices]
+            if bad or not words:
+                raise error(f"{url}: {name}={raw} must be {self.describe()}{why}")
+            return ",".join(words)
+        try:
+            value: float = int(raw) if self.kind == "integer" else float(raw)
+        except ValueError:
+            kind = "an integer" if self.kind == "integer" else "a number"
+            raise error(f"{url}: {name}={raw} is not {kind}; give {self.describe()}{why}") from None
+        if (
+            not math.isfinite(value)
+            or (self.lo is not None and value < self.lo)
+            or (self.hi is not None and value > self.hi)
+        ):
+            finite = "a finite number" if self.kind == "number" else "an integer"
+            raise error(f"{url}: {name}={raw} must be {finite} in {self.describe()}{why}")
+        return value
+
+
+def parse_params(
+    url: str, query: Mapping[str, str], table: Mapping[str, Param], error: type[Exception]
+) -> dict[str, object]:
+    """The parameters of `query` (name -> raw text) parsed by `table`; `error` for an unknown
+    name (listing the known ones) or a value out of its range."""
+    unknown = sorted(set(query) - set(table))
+    if unknown:
+        raise error(
+            f"{url}: unknown parameter {', '.join(unknown)}; known: {', '.join(sorted(table))}"
+        )
+    return {name: table[name].check(url, name, raw, error) for name, raw in query.items()}

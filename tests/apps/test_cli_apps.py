@@ -55,11 +55,19 @@ def test_snake_json_prints_commands_then_the_outcome(press_model, capsys, speed)
 @pytest.mark.parametrize(
     ("args", "message"),
     [(["--grid", "4by4"], "--grid"), (["--map", "1=north"], "direction"),
-     (["--threshold", "-1"], "threshold"), (["--tick", "0"], "--tick"), ([], "terminal")],
+     ([], "terminal")],
 )  # fmt: skip
 def test_snake_bad_input_exits_3_saying_what_to_do(press_model, capsys, args, message) -> None:
     assert main(["snake", str(press_model), PRESSES_URL, *args]) == 3  # stdout is no terminal
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("args", "message"), [(["--threshold", "-1"], "--threshold: -1 is"),
+                                               (["--tick", "0"], "--tick: 0 is")])  # fmt: skip
+def test_snake_values_out_of_range_are_usage_errors(capsys, args, message) -> None:
+    with pytest.raises(SystemExit) as exit_:  # refused by cli.values before the model loads
+        main(["snake", "model.stac", PRESSES_URL, *args])
+    assert exit_.value.code == 2 and message in capsys.readouterr().err
 
 
 def test_live_refuses_a_missing_model(tmp_path, capsys) -> None:

@@ -120,7 +120,9 @@ def test_evaluate_errors_exit_3(trained, tmp_path, capsys) -> None:
     model, data, _ = trained
     assert main(["evaluate", str(model), str(tmp_path / "none.npz"), "-o", "x"]) == 3
     assert "cannot read dataset" in capsys.readouterr().err
-    assert main(["evaluate", str(model), str(data), "-o", "x", "--oracle-samples", "-1"]) == 3
+    with pytest.raises(SystemExit) as exit_:  # a usage error (cli.values), before any work
+        main(["evaluate", str(model), str(data), "-o", "x", "--oracle-samples", "-1"])
+    assert exit_.value.code == 2 and "--oracle-samples: -1 is" in capsys.readouterr().err
     generic = Dataset.generic(np.ones((10, 2)), np.zeros(10), ["a", "b"], ["Fz"])
     g = generic.save(tmp_path / "g.npz")
     assert main(["evaluate", str(model), str(g), "-o", str(tmp_path / "g")]) == 3

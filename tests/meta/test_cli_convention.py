@@ -16,6 +16,7 @@ import pytest
 from spectratac.cli import build_parser, main
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import ROW_FORMATS
+from spectratac.cli.values import RANGES
 
 CLI = Path(__file__).resolve().parents[2] / "host" / "spectratac" / "cli"
 # Spellings that name an output path in other tools; here it is always -o/--output.
@@ -140,7 +141,7 @@ def test_verbs_that_open_a_device_take_url_and_timeout(verb: str) -> None:
         assert not dests["url"].option_strings, f"{verb}: the URL is positional"
         timeout = dests.get("timeout")
         assert timeout is not None and timeout.option_strings == ["--timeout"], verb
-        assert timeout.type is float and timeout.default > 0
+        assert timeout.type is RANGES["--timeout"] and timeout.default > 0  # cli.values
 
 
 def test_one_spelling_per_setting_across_verbs() -> None:

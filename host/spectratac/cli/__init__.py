@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from spectratac import __version__, threads
 from spectratac.cli.exit_codes import ExitCode, exit_code_for
 from spectratac.cli.options import show_defaults
+from spectratac.cli.values import check_values
 from spectratac.errors import SpectraTacError
 
 # Verb modules under spectratac.cli, in the order they appear in --help.
@@ -50,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="verb", metavar="<verb>")
     for name in VERB_MODULES:
         importlib.import_module(f"spectratac.cli.{name}").register(subparsers)
+    check_values(parser)  # every option's range and text checks, in one place
     show_defaults(parser)
     _full_spellings_only(parser)
     return parser

@@ -50,7 +50,7 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="decoder file (.stac)")
-    add_device_url(p)
+    add_device_url(p, stalls=True)
     add_count(p, 0, "estimates to print (0: no limit)")
     add_duration(p, 0.0, "stop after S seconds of the sensor's clock (0: never)")
     add_row_format(p)
@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     settings = None if args.keep_config else sensor_settings(decoder.config)
     counts = {"estimates": 0, "invalid": 0, "ood": 0, "contact": 0, "no_rest": 0}
     t0 = time.monotonic()
-    with Sensor.open(args.url, timeout=args.timeout) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout, stall_timeout=args.stall_timeout) as sensor:
         if settings is not None:
             sensor.configure(**settings)
         writer = RowWriter(COLUMNS, args.format, width=8)

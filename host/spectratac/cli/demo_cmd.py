@@ -22,6 +22,7 @@ from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_duration, add_output
 from spectratac.cli.output import Table
 from spectratac.cli.outputs import check_output, new_folder
+from spectratac.cli.values import speed
 
 VERB = "demo"
 #: What a demo folder holds: recognised as the demo's own even without the marker.
@@ -42,7 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_output(p, type=Path, default=Path("demo-output"), help="output folder")
     add_duration(p, None, "scene length (default 600: the calibration; --live: 10)")
-    p.add_argument("--speed", default=None, help="time scale (default 60; --live: 1 or 'max')")
+    p.add_argument("--speed", default=None, type=speed,
+                   help="time scale (default 60; --live: 1 or 'max')")  # fmt: skip
     p.add_argument("--epochs", type=int, default=40, help="training epochs per decoder")
     p.add_argument("--oracle-samples", type=int, default=300, help="rows the oracle decodes")
     p.add_argument("--live", action="store_true", help="only stream live (the first demo)")

@@ -32,7 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     stream = subparsers.add_parser("stream", help="stream samples to the terminal")
-    add_device_url(stream)
+    add_device_url(stream, stalls=True)
     add_count(stream, None, "samples to print (0: forever; default 20 unless --duration)")
     add_duration(stream, None, "stop after S seconds of the sensor's clock")
     add_row_format(stream)
@@ -107,7 +107,9 @@ def _stream(args: argparse.Namespace) -> int:
     else:
         columns = [*SAMPLE_COLUMNS, "status", *(ESTIMATE_COLUMNS if mode == "beside" else [])]
     printed = 0
-    with Sensor.open(args.url, timeout=args.timeout) as sensor:
+    with Sensor.open(
+        args.url, timeout=args.timeout, stall_timeout=args.stall_timeout
+    ) as sensor:
         sensor.configure(
             integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3], estimates=mode
         )

@@ -42,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     info.add_argument("--json", action="store_true", help="machine-readable output")
     info.set_defaults(func=_info)
     stream = verbs.add_parser("stream", help="print F/T records")
-    add_device_url(stream, URL_HELP)
+    add_device_url(stream, URL_HELP, stalls=True)
     add_count(stream, None, "records to print (0: forever; default 20 unless --duration)")
     add_duration(stream, None, "stop after S seconds of the F/T sensor's clock")
     add_row_format(stream)
@@ -94,17 +94,20 @@ def _check(rows: np.ndarray) -> dict[str, Any]:
 
 
 def _stream(args: argparse.Namespace) -> int:
-    from spectratac.ft import FTTimeoutError, open_ft
+    from spectratac.device.sensor import STALL_FLOOR_S
+    from spectratac.ft import FTStalledError, FTTimeoutError, open_ft
 
     count = stop_count(args.count, args.duration)
     printed = 0
     first: float | None = None
     with open_ft(args.url, timeout=args.timeout) as ft:
         writer = RowWriter(COLUMNS, args.format, width=10, table_cell=_rounded)
+        # a quiet stream ends within the stall timeout: ten periods of the sensor, at least 5 s
+        stall = args.stall_timeout or max(STALL_FLOOR_S, 10 / max(ft.info.rate_hz, 1e-3))
         try:
             while count == 0 or printed < count:
                 want = 256 if count == 0 else min(256, count - printed)
-                rows = ft.read(want, timeout=args.timeout)
+                rows = ft.read(want, timeout=args.timeout if printed == 0 else stall)
                 if len(rows) and args.duration is not None:
                     first = float(rows["sensor_time"][0]) if first is None else first
                     ended = rows["sensor_time"] - first >= args.duration  # the F/T's clock
@@ -115,6 +118,12 @@ def _stream(args: argparse.Namespace) -> int:
                     if printed == 0:
                         raise FTTimeoutError(
                             f"no F/T records from {args.url} within {args.timeout:.1f} s"
+                        )
+                    if ft.streaming and not ft.ended:
+                        raise FTStalledError(
+                            f"{args.url} sent no F/T records for {stall:g} s after {printed}; "
+                            f"check the sensor and its link, or allow a longer quiet with "
+                            f"--stall-timeout S"
                         )
                     break
                 for r in rows:

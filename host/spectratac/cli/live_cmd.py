@@ -60,7 +60,7 @@ def register(subparsers: Any) -> None:
         default=120.0,
         help="seconds kept for 'save the last N seconds' (default: %(default)s)",
     )
-    add_duration(p, 0.0, "serve for this long, then stop (0: until Ctrl-C)")
+    add_duration(p, 0.0, "serve for this long, then stop (0 or inf: until Ctrl-C)")
     p.add_argument("--json", action="store_true", help="print the page's URL as a JSON line")
     add_game_options(p)
     p.set_defaults(func=run)

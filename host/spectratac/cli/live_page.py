@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import threading
 import webbrowser
 from pathlib import Path
@@ -23,7 +24,7 @@ def add_device_options(p: argparse.ArgumentParser, *, model_optional: bool = Fal
                        "and the reference only")  # fmt: skip
     else:
         p.add_argument("model", help="decoder file (.stac)")
-    add_device_url(p)
+    add_device_url(p, stalls=True)
     add_decoding_checks(p)
 
 
@@ -93,8 +94,8 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     from spectratac.apps.live.server import LiveServer, bind
     from spectratac.apps.live.session import NO_MODEL, TRAIN_HINT, LiveSession
 
-    if args.duration < 0:
-        raise SpectraTacError("--duration must be >= 0 (0: until Ctrl-C)")
+    if not args.duration >= 0:  # nan too (the option's type refuses it already)
+        raise SpectraTacError("--duration must be >= 0 (0 or inf: until Ctrl-C)")
     if args.model is None and args.url.endswith(".stac"):
         raise SpectraTacError(f"{args.url} is a model: give the device URL after it")
     decoder = None if args.model is None else load_decoder(args)
@@ -104,6 +105,7 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
         ft_url=getattr(args, "ft", None),  # None: the F/T the link pairs, if any
         keep_config=args.keep_config,
         timeout=args.timeout,
+        stall_timeout=args.stall_timeout,
         history_s=getattr(args, "history", 120.0),
         snake=controller,
         out_dir=getattr(args, "output", Path("live-clips")),
@@ -112,9 +114,13 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
     server = LiveServer(session, bind(args.port))
     url = server.url + ("#snake" if tab == "snake" else "")
     bridge = _foxglove_bridge(getattr(args, "foxglove", None), session)
+    timer: threading.Timer | None = None
     try:
-        if args.duration:
-            threading.Timer(args.duration, setattr, (server.server, "should_exit", True)).start()
+        if args.duration and math.isfinite(args.duration):  # inf, like 0: until Ctrl-C
+            # a daemon timer, cancelled below: Ctrl-C never waits for it to fire
+            timer = threading.Timer(args.duration, setattr, (server.server, "should_exit", True))
+            timer.daemon = True
+            timer.start()
         if getattr(args, "json", False):
             line = {"url": url, "model": session.model_path}
             print(json.dumps(line | ({"foxglove": bridge.url} if bridge else {})), flush=True)
@@ -125,9 +131,13 @@ def serve(args: argparse.Namespace, controller: Any, tab: str) -> int:
             if bridge is not None:
                 print(f"Foxglove bridge: {bridge.url}  (Foxglove: Open connection)", flush=True)
         if not args.no_browser:
-            threading.Timer(0.5, webbrowser.open, args=(url,)).start()
+            opener = threading.Timer(0.5, webbrowser.open, args=(url,))
+            opener.daemon = True
+            opener.start()
         server.run()
     finally:
+        if timer is not None:
+            timer.cancel()
         if bridge is not None:
             bridge.close()
     return ExitCode.OK

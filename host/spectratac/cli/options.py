@@ -94,10 +94,15 @@ def npz_name(path: Path | str) -> Path:
 
 
 def add_device_url(
-    parser: argparse.ArgumentParser, help: str = DEVICE_URL_HELP, waits_for: str = "the device"
+    parser: argparse.ArgumentParser,
+    help: str = DEVICE_URL_HELP,
+    waits_for: str = "the device",
+    *,
+    stalls: bool = False,
 ) -> None:
     """The device URL positional and --timeout, which every verb that opens a device takes
-    (`waits_for` names what the timeout bounds, e.g. also a reference F/T sensor)."""
+    (`waits_for` names what the timeout bounds, e.g. also a reference F/T sensor); with
+    `stalls` (the streaming verbs) also --stall-timeout."""
     parser.add_argument("url", help=help)
     parser.add_argument(
         "--timeout",
@@ -106,6 +111,16 @@ def add_device_url(
         metavar="S",
         help=f"seconds to wait for {waits_for} (default {DEFAULT_TIMEOUT_S:g})",
     )
+    if stalls:
+        parser.add_argument(
+            "--stall-timeout",
+            type=float,
+            default=None,
+            metavar="S",
+            help="end with an error (exit code 3) when a streaming device sends nothing for "
+            "S seconds; what came before is kept (default: ten LED-sequence periods, at "
+            "least 5 s)",
+        )
 
 
 def add_decoding_checks(parser: argparse.ArgumentParser) -> None:

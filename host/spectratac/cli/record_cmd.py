@@ -48,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         p,
         "serial port, socket://host:port, or sim://?scene=…&ft=bota",
         waits_for="the device and for the reference F/T sensor, each",
+        stalls=True,
     )
     p.add_argument(
         "--ft",
@@ -191,7 +192,7 @@ def _record(args: argparse.Namespace) -> int:
                     guided=guided,
                     stop=stop,
                     progress=progress,
-                    sensor_options={"timeout": args.timeout},
+                    sensor_options={"timeout": args.timeout, "stall_timeout": args.stall_timeout},
                     on_open=note,
                 ),
             )

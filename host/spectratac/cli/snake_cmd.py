@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         outcome = play(decoder, args.url, controller, seconds=args.duration,
                        keep_config=args.keep_config, timeout=args.timeout,
+                       stall_timeout=args.stall_timeout,
                        on_command=lambda c: print(json.dumps(c.as_dict()), flush=True))  # fmt: skip
         print(json.dumps({"outcome": outcome.__dict__}))
         return ExitCode.OK
@@ -75,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     from spectratac.apps.snake.terminal import play_in_terminal
 
     outcome = play_in_terminal(decoder, args.url, controller, seconds=args.duration,
-                               keep_config=args.keep_config, timeout=args.timeout)  # fmt: skip
+                               keep_config=args.keep_config, timeout=args.timeout,
+                               stall_timeout=args.stall_timeout)  # fmt: skip
     print(f"score {outcome.score}, length {outcome.length}, {outcome.steps} moves"
           + ("" if outcome.alive else ", game over"))  # fmt: skip
     return ExitCode.OK

@@ -49,6 +49,13 @@ class DisconnectedError(DeviceError):
     """The link was lost; samples received before the loss remain readable."""
 
 
+class DeviceStalledError(DisconnectedError):
+    """A streaming device sent no data for longer than the sensor's stall timeout (a frozen
+    device, a held link): the link is dropped (or reopened, with reconnect=True) instead of
+    waiting for ever. Samples received before the stall remain readable. The message names
+    the device and the setting that bounds the wait."""
+
+
 class BufferOverflowError(DeviceError):
     """Samples were discarded because the host read them too slowly (policy 'error')."""
 

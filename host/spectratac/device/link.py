@@ -118,6 +118,7 @@ class Link:
         self._watch: Watch | None = None  # on the shared I/O thread
         self._thread: threading.Thread | None = None  # a reader of its own
         self._reconnector: threading.Thread | None = None
+        self._abandoned: Transport | None = None  # dropped after a stall: its reader stops
         self._closing = threading.Event()
         self._start_reader()
 
@@ -359,19 +360,19 @@ class Link:
             self._thread.start()
 
     def _reader(self, transport: Transport) -> None:
-        while not self._closed:
+        while not self._closed and transport is not self._abandoned:
             try:
                 data = transport.read(0.05)
             except DisconnectedError as exc:
-                if not self._closed:
+                if not self._closed and transport is not self._abandoned:
                     self._handle_loss(exc, transport)
                 return
-            if data:
+            if data and transport is not self._abandoned:
                 self._dispatch(data, time.monotonic())
 
     def _watch_lost(self, transport: Transport, exc: OSError) -> None:
         """The I/O thread saw EOF or a read error on our descriptor (it dropped the link)."""
-        if not self._closed:
+        if not self._closed and transport is not self._abandoned:
             self._handle_loss(DisconnectedError(f"lost the link to {self.url}: {exc}"), transport)
 
     def _dispatch(self, data: bytes, now: float) -> None:
@@ -413,6 +414,23 @@ class Link:
             self._on_data(data_messages, now, self.epoch)
 
     # ------------------------------------------------------------------ losing and reconnecting
+    def stall(self, exc: DisconnectedError) -> None:
+        """The device went quiet while it should stream (the owner's stall watch): drop the
+        transport as if it were lost, so nothing waits for it any longer; with reconnect it
+        is reopened (a new epoch), else the owner gets `exc` (on_lost). Ignored once the
+        link is closed or already lost."""
+        with self._link_lock:
+            if self._closed or self._lost is not None:
+                return
+            transport, self._abandoned = self._transport, self._transport
+            watch, self._watch = self._watch, None
+        if watch is not None:
+            watch.close()
+        if not self.reconnect:  # the reconnect loop closes it itself
+            with contextlib.suppress(Exception):
+                transport.close()
+        self._handle_loss(exc, transport)
+
     def _handle_loss(self, exc: DisconnectedError, transport: Transport) -> None:
         """Record the loss; with reconnect keep reopening the link from another thread until
         it is back or the link closed, else tell the owner."""

@@ -133,7 +133,7 @@ class RecordQueue(Generic[T]):
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     break
-                self._cond.wait(remaining)
+                self._cond.wait(min(remaining, 3600.0))  # a wait beyond TIMEOUT_MAX overflows
             try:
                 return self._to_array(out)
             except (OverflowError, ValueError):

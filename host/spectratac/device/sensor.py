@@ -16,6 +16,10 @@ ESTIMATE after every SAMPLE (samples keep flowing unchanged), `estimates="instea
 estimates only; `read_estimates` returns them as ESTIMATE_RECORD rows. `model_info`,
 `upload_model` and `clear_model` manage the model the device decodes with.
 
+Every wait ends: while the sensor streams, a stall watch drops a device that sends nothing for
+`stall_timeout` s (default: `default_stall_timeout`, ten sequence periods of the configuration,
+at least STALL_FLOOR_S) with DeviceStalledError, or reopens it with reconnect=True.
+
 A Sensor is a façade: its `link` (spectratac.device.link) reads the device in the background,
 matches replies to commands and reconnects; samples and estimates wait in two RecordQueues
 (spectratac.device.record_queue) until read. Every public method is thread-safe.
@@ -23,7 +27,9 @@ matches replies to commands and reconnects; samples and estimates wait in two Re
 
 from __future__ import annotations
 
+import math
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from typing import Literal, TypedDict, Unpack
 
@@ -31,7 +37,7 @@ import numpy as np
 
 from spectratac.device import model_store
 from spectratac.device.clock_sync import ClockSync, TimeSyncExchange, sync_clock
-from spectratac.device.errors import DeviceError
+from spectratac.device.errors import DeviceError, DeviceStalledError
 from spectratac.device.estimate_records import EstimateGaps, EstimateRow, to_estimate_array
 from spectratac.device.link import EpochListener, FrameListener, Link
 from spectratac.device.link_info import LinkInfo
@@ -68,6 +74,31 @@ class SensorOptions(TypedDict, total=False):
     timeout: float  # s, for replies and for reads without their own
     reconnect: bool  # reopen a lost link (a new epoch)
     strict_hash: bool  # refuse a device built from other protocol definitions
+    stall_timeout: float | None  # s without data while streaming; None: default_stall_timeout
+
+
+#: The shortest default stall timeout, s: a loaded host may hold a healthy link's reader for
+#: a second or two; a device quiet this long while it should stream is stalled.
+STALL_FLOOR_S = 5.0
+#: The default stall timeout is this many periods of the configured LED sequence.
+STALL_PERIODS = 10
+
+
+def default_stall_timeout(config: m.Configure | None, clock_scale: float | None) -> float:
+    """Seconds without data after which a streaming device counts as stalled: STALL_PERIODS
+    periods of one LED sequence (integration plus LED settling, per step: an estimate comes
+    once per sequence), in host time (a simulated device at speed 0.1 is ten times slower),
+    at least STALL_FLOOR_S.
+
+    >>> cfg = m.Configure(integration_ms=400, led_settle_us=1000, led_step_count=8)
+    >>> default_stall_timeout(cfg, None), default_stall_timeout(None, 0.1)
+    (32.08, 5.0)
+    """
+    if config is None:
+        return STALL_FLOOR_S
+    step_s = config.integration_ms / 1000 + config.led_settle_us / 1e6
+    period_s = step_s * max(config.led_step_count, 1) / (clock_scale or 1.0)
+    return max(STALL_FLOOR_S, round(STALL_PERIODS * period_s, 6))
 
 
 class Sensor:
@@ -82,7 +113,14 @@ class Sensor:
         timeout: float = 2.0,
         reconnect: bool = False,
         strict_hash: bool = True,
+        stall_timeout: float | None = None,
     ) -> None:
+        if stall_timeout is not None and not (
+            math.isfinite(stall_timeout) and 0 < stall_timeout <= 1e7
+        ):
+            raise ValueError(f"stall_timeout={stall_timeout}: give seconds in (0, 1e7] or None")
+        if not (math.isfinite(timeout) and 0 < timeout <= 1e7):  # inf overflows a wait
+            raise ValueError(f"timeout={timeout}: give seconds in (0, 1e7]")
         self.stats = SensorStats()
         self.time_sync: list[TimeSyncExchange] = []
         self._samples: RecordQueue[Sample] = RecordQueue(
@@ -117,6 +155,11 @@ class Sensor:
         self.url = self._link.url
         #: LOG messages of the device, newest last (at most 256)
         self.logs = self._link.logs
+        self._stall_timeout = stall_timeout
+        self._last_data = time.monotonic()  # host time data last came (or streaming began)
+        self._stall_error: DeviceStalledError | None = None
+        self._closing = threading.Event()
+        self._watchdog: threading.Thread | None = None
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -126,14 +169,18 @@ class Sensor:
         """Connect to `url` (serial path, socket://host:port, rfc2217://…, sim://…), read its
         INFO and check protocol version and definition hash. Options: buffer_size, overflow
         ('drop_oldest' | 'drop_newest' | 'error'), timeout (s), reconnect, strict_hash,
-        baudrate."""
+        stall_timeout (s; None: default_stall_timeout), baudrate."""
         return cls.attach(open_transport(url, baudrate), **options)
 
     @classmethod
     def attach(cls, transport: Transport, **options: Unpack[SensorOptions]) -> Sensor:
         """Like open(), over a transport you opened yourself (a custom link, or one wrapped
         for fault injection). The sensor owns it from now on and closes it."""
-        sensor = cls(transport, **options)
+        try:
+            sensor = cls(transport, **options)
+        except BaseException:  # a bad option: the transport opened for it is closed
+            transport.close()
+            raise
         try:
             sensor._link.handshake()
         except BaseException:
@@ -143,6 +190,10 @@ class Sensor:
 
     def close(self) -> None:
         """Stop reading and close the link. Safe to call more than once."""
+        self._closing.set()
+        watchdog = self._watchdog
+        if watchdog is not None and watchdog is not threading.current_thread():
+            watchdog.join(timeout=2.0)
         self._samples.close()
         self._estimates.close()
         self._link.close()
@@ -192,6 +243,18 @@ class Sensor:
     @timeout.setter
     def timeout(self, value: float) -> None:
         self._link.timeout = value
+
+    @property
+    def stall_timeout(self) -> float:
+        """Seconds without data after which a streaming device counts as stalled: the
+        stall_timeout given at open, else default_stall_timeout of the configuration."""
+        if self._stall_timeout is not None:
+            return self._stall_timeout
+        return default_stall_timeout(self._configure_msg, self.link_info.clock_scale)
+
+    @stall_timeout.setter
+    def stall_timeout(self, value: float | None) -> None:
+        self._stall_timeout = value
 
     @property
     def epoch(self) -> int:
@@ -284,6 +347,7 @@ class Sensor:
             self._estimate_gaps.restart(stride)
         if stream:
             self._streaming = True
+            self._watch_stalls()
         return ack.config_id
 
     def start(self) -> None:
@@ -296,6 +360,7 @@ class Sensor:
                     self._estimate_gaps.restart()
             self._link.command(m.Start())
             self._streaming = True
+            self._watch_stalls()
 
     def stop(self) -> None:
         """Stop streaming; no sample is produced after the device's acknowledgement.
@@ -373,7 +438,8 @@ class Sensor:
     def read(self, n: int, timeout: float | None = None) -> np.ndarray:
         """Up to `n` samples as a SAMPLE_RECORD array, waiting up to `timeout` s (default:
         the sensor's timeout) for all n. Returns fewer on timeout. Raises DisconnectedError
-        only once every sample received before the loss has been read."""
+        (DeviceStalledError after a stall) only once every sample received before the loss
+        has been read."""
         return self._samples.read(n, self.timeout if timeout is None else timeout)
 
     def read_estimates(self, n: int, timeout: float | None = None) -> np.ndarray:
@@ -383,12 +449,54 @@ class Sensor:
         return self._estimates.read(n, self.timeout if timeout is None else timeout)
 
     def iter_estimates(self) -> Iterator[EstimateRow]:
-        """On-device estimates one by one until the link is lost or the sensor closed."""
-        return iter(self._estimates)
+        """On-device estimates one by one until the link is lost or the sensor closed; after
+        a stall, every estimate received before it, then DeviceStalledError."""
+        yield from self._estimates
+        if self._stall_error is not None and not self._closing.is_set():
+            raise self._stall_error
 
     def __iter__(self) -> Iterator[Sample]:
-        """Samples one by one until the link is lost or the sensor closed."""
-        return iter(self._samples)
+        """Samples one by one until the link is lost or the sensor closed; after a stall,
+        every sample received before it, then DeviceStalledError (a wait that ends)."""
+        yield from self._samples
+        if self._stall_error is not None and not self._closing.is_set():
+            raise self._stall_error
+
+    # ------------------------------------------------------------------ the stall watch
+    def _watch_stalls(self) -> None:
+        """Start the stall watch (once): from now on `_last_data` is the stream's last sign."""
+        self._last_data = time.monotonic()
+        if self._watchdog is None:
+            self._watchdog = threading.Thread(
+                target=self._stall_watch, name="spectratac-stall-watch", daemon=True
+            )
+            self._watchdog.start()
+
+    def _stall_watch(self) -> None:
+        strikes = 0
+        while True:
+            limit = self.stall_timeout
+            if self._closing.wait(min(1.0, max(0.05, limit / 10))):
+                return
+            quiet = time.monotonic() - self._last_data
+            if not self._streaming or self._link.closed or quiet <= limit:
+                strikes = 0
+                continue
+            strikes += 1
+            if strikes < 2:  # seen twice: a starved host lets the reader catch up first
+                continue
+            strikes = 0
+            self._last_data = time.monotonic()  # one stall at a time; a reopened link anew
+            self.stats.stalls += 1
+            option = "--stall-timeout S (Python: stall_timeout=S)"
+            error = DeviceStalledError(
+                f"{self.url} sent no data for {quiet:.1f} s while streaming (stall timeout "
+                f"{limit:g} s): the device or its link stalled; what came before is kept. Check "
+                f"the device and cable, or allow a longer quiet with {option}"
+            )
+            if not self._link.reconnect:
+                self._stall_error = error
+            self._link.stall(error)
 
     # ------------------------------------------------------------------ the link's callbacks
     def _unwrap_device_time(self, t32: int) -> int:
@@ -396,6 +504,7 @@ class Sensor:
 
     def _on_data(self, messages: list[Message], now: float, epoch: int) -> None:
         """SAMPLE and ESTIMATE messages of one chunk read (on the reader thread)."""
+        self._last_data = now
         samples: list[Sample] = []
         estimates: list[EstimateRow] = []
         for msg in messages:
@@ -470,6 +579,7 @@ class Sensor:
             self._unwrap = Unwrapper()
             self._last_sample_seq = None
             self._estimate_gaps.restart()
+        self._last_data = time.monotonic()  # a new link has its own stall timeout
 
     def _on_resume(self) -> None:
         """After a reconnect's handshake: restore configuration and streaming. A device that
@@ -483,6 +593,7 @@ class Sensor:
                 self.config_id = self._link.command(self._configure_msg).config_id
             if self._streaming:
                 self._link.command(m.Start())
+                self._last_data = time.monotonic()
 
 
 def _samples_array(batches: list[Sequence[Sample]]) -> np.ndarray:

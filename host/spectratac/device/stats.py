@@ -19,6 +19,7 @@ class SensorStats:
     sample_gaps: int = 0  # samples missing by SAMPLE.sample_seq
     buffer_overflows: int = 0  # samples discarded by the overflow policy
     reconnects: int = 0
+    stalls: int = 0  # streams dropped (or reopened) for sending nothing (Sensor.stall_timeout)
     logs: int = 0
     sample_time_errors: int = 0  # samples flagged SAMPLE_TIME_INVERTED or _WINDOW_CLIPPED
     version_mismatches: int = 0  # frames of another protocol major version, dropped

@@ -40,7 +40,7 @@ from spectratac.device.errors import (
     PermissionDeniedError,
 )
 from spectratac.device.link_info import HARDWARE
-from spectratac.url_schemes import SchemeRegistry
+from spectratac.url_schemes import SchemeRegistry, check_url
 
 DEFAULT_BAUD = 921_600
 #: Entry-point group of transport plug-ins: name = URL scheme, value = an opener.
@@ -227,7 +227,9 @@ def transport_schemes() -> list[str]:
 
 def open_transport(url: str, baudrate: int = DEFAULT_BAUD) -> Transport:
     """Open `url`: a port path, a pyserial URL, or a URL of a registered scheme (sim://…
-    for the simulated device). UnknownSchemeError lists the schemes that exist."""
+    for the simulated device). UnknownSchemeError lists the schemes that exist; a URL too
+    long or not UTF-8 is a BadAddressError before any scheme sees it."""
+    check_url(url, BadAddressError)
     scheme = urlsplit(url).scheme
     if len(scheme) <= 1:  # a port path (a one-letter "scheme" is a Windows drive)
         return SerialTransport(url, baudrate)

@@ -16,6 +16,7 @@ from spectratac.ft.errors import (
     FTError,
     FTNotFoundError,
     FTProtocolError,
+    FTStalledError,
     FTTimeoutError,
     FTURLError,
 )
@@ -36,6 +37,7 @@ __all__ = [
     "FTOpener",
     "FTProtocolError",
     "FTSensor",
+    "FTStalledError",
     "FTStats",
     "FTTimeoutError",
     "FTURLError",

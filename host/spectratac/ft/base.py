@@ -152,6 +152,11 @@ class FTSensor(ABC):
         return self._queue.buffered
 
     @property
+    def ended(self) -> bool:
+        """True once a replay has no more records (a live sensor never ends)."""
+        return self._queue.ended
+
+    @property
     def streaming(self) -> bool:
         return self._streaming
 

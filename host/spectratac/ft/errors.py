@@ -33,6 +33,11 @@ class FTDisconnectedError(FTError):
     """The link was lost; records received before the loss remain readable."""
 
 
+class FTStalledError(FTDisconnectedError, FTTimeoutError):
+    """A streaming F/T sensor sent nothing for longer than the stall timeout; the records
+    received before remain readable. The message names the sensor and the setting."""
+
+
 class FTBagError(FTConfigError):
     """A ROS 2 bag cannot serve as the reference: unreadable, damaged, empty, or without a
     usable wrench topic (the message lists the topics it has and their types)."""

@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 from spectratac.ft.base import FTSensor
 from spectratac.ft.errors import FTURLError
-from spectratac.url_schemes import SchemeRegistry
+from spectratac.url_schemes import SchemeRegistry, check_url
 
 #: Entry-point group of F/T sensor plug-ins: name = URL scheme, value = an FTOpener.
 ENTRY_POINTS = "spectratac.ft_sensors"
@@ -61,6 +61,7 @@ def ft_schemes() -> list[str]:
 
 
 def open_url(url: str, *, timeout: float, buffer_size: int, **options: Any) -> FTSensor:
+    check_url(url, FTURLError)  # a 100 KB path or host, or undecodable bytes: refused here
     scheme, sep, _ = url.partition("://")
     opener = _REGISTRY.lookup(scheme) if sep else None
     if opener is None:

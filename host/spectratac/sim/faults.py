@@ -81,7 +81,7 @@ LINK_FAULTS = {
     "none": "no fault; only count what the device sends",
     "corrupt": "flip random bits in bytes sent to the host (fault_rate per byte, 1e-4)",
     "stall": "hold the device's output for fault_stall s (0.2) every fault_every s (2) of "
-    "host time",
+    "host time, from its first sample (a device that stalls streams first)",
     "unplug": "unplug the device after a random time (mean fault_unplug s, 20, of device "
     "time); the next open boots a fresh one",
 }
@@ -169,7 +169,8 @@ class FaultLayer:
         self._merges_next = False
         self._pending = b""  # device bytes of a frame not yet complete
         self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
-        self._next_stall = time.monotonic() + self.stall_every
+        self._next_stall: float | None = None  # set by the first sample
+        self._closed = threading.Event()
         # late_stop: the STOP and every host byte after it, held until device time _stop_due_us
         self._held_stop: bytearray | None = None
         self._stop_due_us: int | None = None
@@ -196,6 +197,8 @@ class FaultLayer:
         out = bytearray()
         for encoded in frames:
             is_sample = self._count(encoded)
+            if is_sample and self._next_stall is None:
+                self._next_stall = time.monotonic() + self.stall_every
             wire = self._rewrite(encoded) if self._rewrites else encoded + b"\x00"
             if wire is None:
                 continue
@@ -210,9 +213,10 @@ class FaultLayer:
             out += wire
         if not out:
             return True
-        if active and "stall" in self.faults and time.monotonic() >= self._next_stall:
+        due = self._next_stall is not None and time.monotonic() >= self._next_stall
+        if active and "stall" in self.faults and due:
             self.ledger.stalls += 1
-            time.sleep(self.stall_s)  # the link holds everything; the device waits
+            self._closed.wait(self.stall_s)  # the link holds everything; the device waits
             self._next_stall = time.monotonic() + self.stall_every
         return self._to_host(bytes(out), t)
 
@@ -391,6 +395,7 @@ class FaultLayer:
             self._to_device(held)  # under the lock: no newer host write overtakes it
 
     def close(self) -> None:
+        self._closed.set()  # a stall in progress ends: the device is being closed
         with self._stop_lock:
             self._held_stop = None
 

@@ -68,6 +68,7 @@ class LiveSession:
         ft_url: str | None = None,
         keep_config: bool = False,
         timeout: float = 2.0,
+        stall_timeout: float | None = None,
         history_s: float = KEEP_S,
         snake: SnakeController | None = None,
         out_dir: str | Path = "live-clips",
@@ -79,6 +80,7 @@ class LiveSession:
         self.ft_url = ft_url
         self.keep_config = keep_config
         self.timeout = timeout
+        self.stall_timeout = stall_timeout  # None: the sensor's default (Sensor.stall_timeout)
         self.snake = snake or SnakeController()
         self.history = History(history_s)
         self.out_dir = Path(out_dir)
@@ -112,7 +114,13 @@ class LiveSession:
             # no model: nothing to configure the sensor for, so it streams as it is
             keep = self.keep_config or self.decoder is None
             self.sensor = self._stack.enter_context(
-                open_for_decoder(self.decoder, self.url, keep_config=keep, timeout=self.timeout)
+                open_for_decoder(
+                    self.decoder,
+                    self.url,
+                    keep_config=keep,
+                    timeout=self.timeout,
+                    stall_timeout=self.stall_timeout,
+                )
             )
             self.sensor.add_listener(lambda frame, t: self.history.add_frame(frame.raw, t))
             link = self.sensor.link_info

@@ -30,12 +30,15 @@ def play(
     seconds: float = 0.0,
     keep_config: bool = False,
     timeout: float = 2.0,
+    stall_timeout: float | None = None,
     on_command: Callable[[Command], None] | None = None,
     on_update: OnUpdate | None = None,
 ) -> Outcome:
     """Play until `seconds` of the sensor's clock have passed (0: until `on_update` says
     stop or the link ends); returns the game's outcome."""
-    with open_for_decoder(decoder, url, keep_config=keep_config, timeout=timeout) as sensor:
+    with open_for_decoder(
+        decoder, url, keep_config=keep_config, timeout=timeout, stall_timeout=stall_timeout
+    ) as sensor:
         tap = SampleTap(sensor)
         t0: float | None = None
         for estimate in decoder.stream(tap):

@@ -29,6 +29,7 @@ def play_in_terminal(
     seconds: float = 0.0,
     keep_config: bool = False,
     timeout: float = 2.0,
+    stall_timeout: float | None = None,
 ) -> Outcome:
     """Play in the terminal until q (or `seconds` of the sensor's clock); the outcome."""
 
@@ -49,7 +50,7 @@ def play_in_terminal(
             return True
 
         return play(decoder, url, controller, seconds=seconds, keep_config=keep_config,
-                    timeout=timeout, on_update=on_update)  # fmt: skip
+                    timeout=timeout, stall_timeout=stall_timeout, on_update=on_update)  # fmt: skip
 
     return curses.wrapper(main)
 
