@@ -357,3 +357,31 @@ def test_a_worker_behind_decodes_what_waits_before_the_reference_work() -> None:
     session._decode(published.append)
     assert [m["seq"] for m in published if m["type"] == "estimate"] == list(range(12))
     assert session.ft.reads == 1  # once the backlog was decoded, for all twelve windows
+
+
+@pytest.mark.parametrize(
+    ("where", "error"),
+    [("mkdir", PermissionError(13, "Permission denied")), ("write", OSError(28, "No space left"))],
+)
+def test_a_clip_that_cannot_be_written_is_a_typed_error_and_leaves_nothing(
+    tmp_path, monkeypatch: pytest.MonkeyPatch, where: str, error: OSError
+) -> None:
+    """A read-only or full clip folder (injected: the tests may run as root, where chmod does
+    not stop a write) answers with ClipSaveError naming the folder, not an OSError that the
+    server would turn into a 500; no partial clip is left behind."""
+    from spectratac.apps.live.session import ClipSaveError
+
+    out = tmp_path / "clips"
+    session = LiveSession(None, PRESSES_URL, out_dir=out)
+    session.sensor = SimpleNamespace()  # as if started: save() reads the history only
+
+    def fail(*_args: object, **_kwargs: object) -> None:
+        raise error
+
+    if where == "mkdir":
+        monkeypatch.setattr(Path, "mkdir", fail)
+    else:
+        monkeypatch.setattr(session.history, "save_csv", fail)
+    with pytest.raises(ClipSaveError, match=r"cannot save the clip into .*clips: .*-o/--output"):
+        session.save(1.0, "csv")
+    assert not out.exists() or list(out.iterdir()) == []

@@ -59,6 +59,11 @@ TRAIN_HINT = (
 )
 
 
+class ClipSaveError(SpectraTacError):
+    """A clip could not be written (disk full, folder not writable); nothing half-written is
+    left under a clip's name."""
+
+
 class LiveSession:
     def __init__(
         self,
@@ -236,6 +241,15 @@ class LiveSession:
             raise SpectraTacError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
         if self.sensor is None:
             raise SpectraTacError("the session has not started: nothing to save yet")
+        try:
+            return self._save(seconds, fmt)
+        except OSError as exc:  # a full disk or a folder the server may not write: say where
+            raise ClipSaveError(
+                f"cannot save the clip into {self.out_dir}: {exc.strerror or exc}; free some "
+                f"space or restart `spectratac live` with -o/--output naming a writable folder"
+            ) from None
+
+    def _save(self, seconds: float, fmt: str) -> dict[str, Any]:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         stem = f"live-{time.strftime('%Y%m%d-%H%M%S')}-{seconds:g}s"
         # written under a unique temporary name, then linked to the first free clip name:
