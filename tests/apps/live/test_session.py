@@ -385,3 +385,33 @@ def test_a_clip_that_cannot_be_written_is_a_typed_error_and_leaves_nothing(
     with pytest.raises(ClipSaveError, match=r"cannot save the clip into .*clips: .*-o/--output"):
         session.save(1.0, "csv")
     assert not out.exists() or list(out.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_a_worker_that_never_catches_up_still_scores_in_bounded_batches(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Forced to be always behind, the worker holds at most MAX_UNSCORED estimates for their
+    reference and publishes the windows batch by batch (it used to hold every estimate and
+    publish no reference at all: memory grew for as long as the page ran)."""
+    from spectratac.apps.live import session as live_session
+
+    monkeypatch.setattr(live_session, "MAX_UNSCORED", 20)
+    monkeypatch.setattr(LiveSession, "_samples_waiting", lambda self: True)
+    batches: list[int] = []
+    reference = LiveSession._reference
+
+    def counted(self, tracker, clock, unscored, t0):  # type: ignore[no-untyped-def]
+        batches.append(len(unscored))
+        return reference(self, tracker, clock, unscored, t0)
+
+    monkeypatch.setattr(LiveSession, "_reference", counted)
+    session = LiveSession(None, PRESSES_URL + "&speed=4&ft=bota", out_dir=tmp_path)
+    received = Received()
+    session.start(received)
+    try:
+        assert received.past_2_2_s.wait(300), "no estimate 2.2 s into the scene within 300 s"
+    finally:
+        session.stop()
+    assert batches and set(batches) == {20}
+    assert received.refs > 0

@@ -49,6 +49,10 @@ from spectratac.hardware.generated import vocabulary as vocab
 
 Publish = Callable[[dict[str, Any]], None]
 STATS_EVERY_S = 0.5
+#: Estimates at most waiting for their reference while the worker catches up: a worker that
+#: never catches up (a machine too slow for the sensor's rate) scores in batches of this many
+#: instead of holding every estimate it ever made.
+MAX_UNSCORED = 200
 #: What a session without a model shows, and how to get one (the page and the CLI say it).
 NO_MODEL = "no model: raw counts and reference only"
 TRAIN_HINT = (
@@ -381,7 +385,7 @@ class LiveSession:
                 # samples waiting to be decoded go first: the reference (the F/T rows read,
                 # windows averaged) is off the page's path, so a worker that fell behind on a
                 # loaded machine catches up on the estimates first, then scores them at once
-                if not self._samples_waiting():
+                if not self._samples_waiting() or len(unscored) >= MAX_UNSCORED:
                     refs = self._reference(tracker, sensor_clock, unscored, t0)
                     unscored = []
                     carried = self._scores(tracker, refs)
