@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.align import Windows, device_windows, ft_targets
+from spectratac.dataset.coverage import check_coverage
 from spectratac.dataset.external_ft import ExternalFT
 from spectratac.dataset.frames import recorded_samples
 from spectratac.dataset.labels import CONTACT_N, ft_contact, guided_labels, truth_labels
@@ -108,6 +109,9 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         gap = None if max_gap is None else max_gap * scale  # host s to device s
         targets, valid, count, ft_clock = _declared_ft_targets(rec.ft, samples, declared, gap)
     valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
+    coverage = check_coverage(
+        str(rec.path), rec.ft, windows.t_start, windows.t_end, valid, count, scale
+    )
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
     if source == "scene":
@@ -154,6 +158,7 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         rows = samples["config_id"] == cid
         recorded = rec.configs.get(int(cid))
         session = _session_meta(rec, samples[rows], valid[rows], windows, ft_clock, int(cid))
+        session["ft_coverage"] = coverage  # of the whole session (dataset.coverage)
         meta = {**base, "config": recorded["config"] if recorded else None, "sessions": [session]}
         out.append(Dataset({k: v[rows] for k, v in arrays.items()}, meta))
     return out

@@ -142,7 +142,9 @@ def read_recording(path: str | Path) -> Recording:
         topic = topics[record.channel_id].topic
         if topic == FRAMES:
             rec.frames.append(record.data)
-            log_times.append(record.log_time)
+            # the host's arrival time (log_time is on the sensor's clock: record.timeline);
+            # files before the timeline wrote it to both
+            log_times.append(record.publish_time)
         elif topic == FT_SAMPLES:
             ft_parts.append(record.data)
         elif topic == GROUND_TRUTH:
