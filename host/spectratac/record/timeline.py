@@ -129,6 +129,13 @@ class LiveClock:
             return a
         return s + self._offset + self._drift * (s - self._ref)
 
+    def map(self, sensor_s: np.ndarray) -> np.ndarray | None:
+        """Host seconds of `sensor_s` by the fit so far, learning nothing (None: no fit yet)."""
+        if self._offset is None:
+            return None
+        s = np.asarray(sensor_s, np.float64) / self.scale
+        return s + self._offset + self._drift * (s - self._ref)
+
     def _track(self, s: float, a: float) -> None:
         here = self._offset + self._drift * (s - self._ref)  # type: ignore[operator]
         if a - s < here:

@@ -116,6 +116,10 @@ class RecordingWriter:
         self._device = LiveClock(scale)
         self._ft_clock = LiveClock(scale)
         self._unwrap = Unwrapper()
+        declared = (session.get("truth") or {}).get("ft_clock")
+        self._ft_declared = (
+            None if not declared else (float(declared["offset_s"]), float(declared["drift"]))
+        )
         try:
             self._file: io.BufferedWriter = open(self.path, "wb")  # noqa: SIM115
         except OSError as exc:
@@ -248,6 +252,10 @@ class RecordingWriter:
             )
         ns = self.clock.log_time(float(rows["host_time"][-1]))
         on_clock = self._ft_clock.to_host(rows["sensor_time"], rows["host_time"])
+        if self._ft_declared is not None:  # a simulated F/T's clock is the device's, declared
+            offset_s, drift = self._ft_declared
+            exact = self._device.map((rows["sensor_time"] - offset_s) / (1.0 + drift))
+            on_clock = on_clock if exact is None else exact
         log = self.timeline.ns(float(on_clock[-1]))
         self._mcap.add_message(self._channels[FT_SAMPLES], log, rows.tobytes(), ns)
         self.ft_rows_written += len(rows)

@@ -21,7 +21,8 @@ host clock. Raw counts have no ROS message of their own (sensor_msgs/Illuminance
 value per message): CountsStamped is a std_msgs/Header beside a UInt16MultiArray's layout and
 data, which hold one sample's counts exactly, the layout naming the dimensions "sensor" (3)
 and "channel" (R, G, B, C, IR in that order); its definition is stored in the bag (rosbags
-and ROS 2 Iron+ readers decode it from there), one topic per LED step because samples of
+decodes it from there; `ros2 bag play` publishes it once a spectratac_msgs package is built
+from that definition, and plays the other topics without), one topic per LED step because samples of
 different steps are different measurements. Estimates the decoder does
 not make (a force-only model's torques) are NaN; invalid samples get no estimate message.
 Without a model, the estimates the recording holds (format 4: an on-device model's ESTIMATE
