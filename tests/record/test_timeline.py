@@ -59,8 +59,10 @@ def test_a_fast_session_spans_its_sensor_seconds(fast: Path) -> None:
             found = [(m.log_time, json.loads(m.data)[key])
                      for _, _, m in make_reader(f).iter_messages(topics=[topic])]  # fmt: skip
         log, own = np.array(found, dtype=np.float64).T
-        scene = own / 1e6 if key == "t_end_us" else (own - declared["offset_s"]) / (
-            1 + declared["drift"]
+        scene = (
+            own / 1e6
+            if key == "t_end_us"
+            else (own - declared["offset_s"]) / (1 + declared["drift"])
         )
         lag[topic] = float(np.median(log / 1e9 - scene))
     assert abs(lag["/spectratac/counts"] - lag["/ft/wrench"]) < 0.25, lag

@@ -67,7 +67,7 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 def test_a_reference_of_another_session_is_an_error(
     session: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    rec, bag = session
+    _, bag = session
     other = tmp_path / "other.mcap"
     record_url("sim://?scene=idle&speed=15", other, RecordOptions(duration_s=3))
     capsys.readouterr()

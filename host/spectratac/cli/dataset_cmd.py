@@ -4,11 +4,12 @@ spectratac dataset build s1.mcap s2.mcap -o data.npz [--split] [--max-gap-ms 5] 
 spectratac dataset info data.npz [--json]
 
 A truncated recording (the recorder was killed) contributes its readable prefix: a warning,
-exit code 0. A reference F/T that gives fewer than 95 % of the rows a target, or far more F/T
-samples per window than its rate implies, is a warning and exit code 1 (the dataset written);
-one that covers no row is an error, exit code 3 (`spectratac.dataset.coverage`). A damaged recording (chunks whose CRC fails) contributes every intact chunk; the
+exit code 0. A damaged recording (chunks whose CRC fails) contributes every intact chunk; the
 dataset is still written, but the damage is reported as an error line per recording (and
-under "corrupted" with --json) and the exit code is 1, so that scripts notice the loss.
+under "corrupted" with --json) and the exit code is 1, so that scripts notice the loss. So is
+a reference F/T that gives fewer than 95 % of the rows a target, or far more F/T samples per
+window than its rate implies (a warning says why); one that covers no row is an error, exit
+code 3: it is not this session's reference (`spectratac.dataset.coverage`).
 """
 
 from __future__ import annotations
@@ -74,8 +75,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _build(args: argparse.Namespace) -> int:
     from spectratac.cli.eta import ClockBar, announce
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
-    from spectratac.errors import SpectraTacError
     from spectratac.dataset.coverage import CoverageWarning
+    from spectratac.errors import SpectraTacError
     from spectratac.record.errors import CorruptedRecordingWarning
 
     if args.max_gap_ms is not None and not args.max_gap_ms > 0:

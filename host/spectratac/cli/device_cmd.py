@@ -92,7 +92,9 @@ def _info(args: argparse.Namespace) -> int:
 # Table columns spell a count without the dot of its dataset name: s0R, ..., s2IR.
 #: t_ms: the window's end on the sensor's clock (a simulation at speed=10 covers 10 ms of it per
 #: host ms); host_ms: the host's arrival time beside it, since the first row
-SAMPLE_COLUMNS = ["seq", "t_ms", "host_ms", "step", *(n.replace(".", "") for n in vocab.SENSOR_CHANNELS)]
+SAMPLE_COLUMNS = [
+    "seq", "t_ms", "host_ms", "step", *(n.replace(".", "") for n in vocab.SENSOR_CHANNELS)
+]  # fmt: skip
 ESTIMATE_COLUMNS = [*vocab.FT_AXES, "region", "est_flags"]
 PAIRING_WAIT_S = 0.5  # how long a sample waits for its estimate (it follows the SAMPLE frame)
 

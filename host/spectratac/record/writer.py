@@ -43,6 +43,7 @@ from spectratac.protocol.framing import HEADER
 from spectratac.protocol.generated import messages as m
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
+    EPOCH,
     FORMAT,
     FRAME_ENCODING,
     FRAMES,
@@ -52,7 +53,6 @@ from spectratac.record.format import (
     GROUND_TRUTH_ENCODING,
     GROUND_TRUTH_RECORD,
     JSON_TOPICS,
-    EPOCH,
     LABELS,
     SESSION,
     VERSION,

@@ -56,8 +56,7 @@ from spectratac.record.reader import Recording, read_recording
 from spectratac.record.timeline import KEY as TIMELINE_KEY
 from spectratac.record.timeline import Timeline
 from spectratac.ros2.errors import BagExportError
-from spectratac.ros2.messages import COUNTS_STAMPED, counts_stamped, wrench_stamped
-from spectratac.ros2.messages import WRENCH_STAMPED
+from spectratac.ros2.messages import COUNTS_STAMPED, WRENCH_STAMPED, counts_stamped, wrench_stamped
 
 if TYPE_CHECKING:
     from spectratac.decode import Decoder
