@@ -172,7 +172,7 @@ def _rows(sensor: Any, mode: str, columns: list[str]) -> Iterator[tuple[list[Any
     if mode == "instead":
         while True:
             for row in sensor.read_estimates(64, timeout=PAIRING_WAIT_S):
-                cells = [int(row["sequence"]), int(row["device_time_us"]) // 1000]
+                cells: list[Any] = [int(row["sequence"]), int(row["device_time_us"]) // 1000]
                 cells.append(host_ms(float(row["host_time"])))
                 cells += _estimate_cells(row)
                 yield cells, dict(zip(columns, cells, strict=True))

@@ -154,7 +154,7 @@ def load_wrenches(
     counts = {} if dropped is None else dropped
     wrench = np.array(wrenches, dtype=np.float64)
     stamp_ns = np.array(stamps, dtype=np.int64)
-    recv_ns = np.array(received, dtype=np.int64)
+    arrived_ns = np.array(received, dtype=np.int64)
     finite = np.all(np.isfinite(wrench), axis=1)
     with np.errstate(invalid="ignore"):
         inside = (np.abs(wrench[:, :3]) <= max_force).all(axis=1) & (
@@ -162,24 +162,24 @@ def load_wrenches(
         ).all(axis=1)
     counts["not_finite"] = int(np.count_nonzero(~finite))
     counts["beyond_range"] = int(np.count_nonzero(finite & ~inside))
-    keep = finite & inside
+    keep: np.ndarray = finite & inside
     if not keep.any():
         raise FTBagError(
             f"{path}: none of the {len(stamps)} wrenches on {topic} is usable "
             f"({counts['not_finite']} not finite, {counts['beyond_range']} beyond ±{max_force:g} N"
             f" / ±{max_torque:g} N·m); is it the F/T sensor's topic?"
         )
-    jumped = keep & _jumped(stamp_ns, recv_ns, keep, max_jump)
+    jumped = keep & _jumped(stamp_ns, arrived_ns, keep, max_jump)
     counts["stamp_jumps"] = int(np.count_nonzero(jumped))
-    keep &= ~jumped
-    stamp_ns, recv_ns, wrench = stamp_ns[keep], recv_ns[keep], wrench[keep]
+    keep = keep & ~jumped
+    stamp_ns, arrived_ns, wrench = stamp_ns[keep], arrived_ns[keep], wrench[keep]
     # a bag is in receive order; the F/T stream is in its own clock's order (a message that
     # overtook another on the way to the recorder goes back to its place)
     order = np.argsort(stamp_ns, kind="stable")
     stamp_ns = stamp_ns[order]
     rows = np.zeros(len(stamp_ns), dtype=FT_RECORD)
     rows["sensor_time"] = _seconds(stamp_ns)
-    rows["host_time"] = _seconds(recv_ns[order])
+    rows["host_time"] = _seconds(arrived_ns[order])
     rows["sequence"] = np.arange(len(rows))
     rows["wrench"] = wrench[order]
     step = float(np.median(np.diff(stamp_ns))) if len(stamp_ns) > 1 else 0.0
@@ -199,7 +199,8 @@ def _jumped(
         line = np.polyval(np.polyfit(r[near], gap[near], 1), r)
     else:
         line = np.full(len(r), np.median(gap[ok]))
-    return np.abs(gap - line) > max_jump
+    jumped: np.ndarray = np.abs(gap - line) > max_jump
+    return jumped
 
 
 def _seconds(ns: np.ndarray) -> np.ndarray:

@@ -83,8 +83,8 @@ CHUNK_BYTES = 64 * 1024  # small chunks: little is lost to a crash, zstd still w
 _SAMPLE, _ESTIMATE = m.Sample.TYPE_ID, m.Estimate.TYPE_ID
 #: Byte offset of t_end_us (u32 LE) in a decoded frame of the types whose payload has it.
 _T_END_AT = {
-    _SAMPLE: HEADER.size + payload_dtype(m.Sample).fields["t_end_us"][1],
-    _ESTIMATE: HEADER.size + payload_dtype(m.Estimate).fields["t_end_us"][1],
+    kind: HEADER.size + int(payload_dtype(message).fields["t_end_us"][1])  # type: ignore[index]
+    for kind, message in ((_SAMPLE, m.Sample), (_ESTIMATE, m.Estimate))
 }
 
 
@@ -223,7 +223,7 @@ class RecordingWriter:
         topic: str,
         messages: list[bytes],
         host_times: Sequence[float],
-        on_clock: Sequence[float] | None = None,
+        on_clock: Sequence[float] | np.ndarray | None = None,
     ) -> None:
         """One message per row: publish_time its host time, log_time `on_clock` (host
         seconds on the sensor's clock; default the host time) on the timeline."""

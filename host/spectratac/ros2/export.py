@@ -205,7 +205,8 @@ def _declared_ft_times(rec: Recording, parts: list[Dataset]) -> np.ndarray | Non
         return None
     t_dev = (rec.ft["sensor_time"] - declared["offset_s"]) / (1.0 + declared["drift"])
     slope, intercept = np.polyfit(device - device[0], ds.t_end, 1)  # the fit is linear
-    return intercept + slope * (t_dev - device[0])
+    host: np.ndarray = intercept + slope * (t_dev - device[0])
+    return host
 
 
 def _estimates(decoder: Decoder, parts: list[Dataset], timeline: Timeline) -> _Topic:
