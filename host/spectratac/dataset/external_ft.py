@@ -65,12 +65,19 @@ def load_external_ft(url: str, timeout: float = 10.0) -> ExternalFT:
         dropped = {k: int(v) for k, v in (ft.info.extra.get("dropped") or {}).items() if v}
     rows = np.concatenate(parts) if parts else np.zeros(0, dtype=FT_RECORD)
     if dropped:
-        what = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in dropped.items())
+        what = ", ".join(f"{v} {_REASONS.get(k, k)}" for k, v in dropped.items())
         warnings.warn(
-            DroppedFTWarning(f"--ft {url}: {what} row(s) dropped ({len(rows)} kept)"),
+            DroppedFTWarning(f"--ft {url}: rows dropped: {what} ({len(rows)} kept)"),
             stacklevel=2,
         )
     return ExternalFT(url, rows, None if umm is None else int(umm), dropped)
+
+
+_REASONS = {
+    "not_finite": "not finite",
+    "beyond_range": "beyond any F/T sensor's range",
+    "stamp_jumps": "with a header stamp off the line of the others",
+}
 
 
 class DroppedFTWarning(UserWarning):
