@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from rosbags.rosbag2 import Reader
 from spectratac.cli import main
 from spectratac.dataset import Dataset
@@ -82,14 +83,20 @@ def test_a_reference_covering_part_of_the_session_exits_1(
     from rosbags.rosbag2 import Writer
 
     rec, bag = session
-    half = tmp_path / "half"  # the first half of the reference only, as a third party cuts it
+    half = tmp_path / "half"  # the reference up to the optical session's middle only
+    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     with Reader(bag) as reader, Writer(half, version=8) as writer:
+        for key, value in info["custom_data"].items():  # the timeline travels with the bag
+            writer.set_custom_data(key, value)
         [conn] = [c for c in reader.connections if c.topic == REF]
         out = writer.add_connection(REF, conn.msgtype, msgdef=conn.msgdef.data,
                                     rihs01=conn.digest)  # fmt: skip
-        msgs = list(reader.messages(connections=[conn]))
-        for _, t, raw in msgs[: len(msgs) // 2]:
-            writer.write(out, t, raw)
+        counts = [c for c in reader.connections if c.topic.endswith("/counts")]
+        optical = [t for _, t, _ in reader.messages(connections=counts)]
+        middle = (optical[0] + optical[-1]) // 2
+        for _, t, raw in reader.messages(connections=[conn]):
+            if t <= middle:
+                writer.write(out, t, raw)
     capsys.readouterr()
     assert main(["dataset", "build", str(rec), "--ft", f"rosbag://{half}?topic={REF}",
                  "-o", str(tmp_path / "d.npz"), "--no-progress"]) == 1  # fmt: skip

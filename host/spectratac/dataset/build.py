@@ -80,7 +80,9 @@ def build_datasets(
         if options is not None and options.ft is not None:
             rec.ft = options.ft.on_clock(rec.clock.unix_minus_monotonic_ns)
             rec.session = {**rec.session, "ft_url": options.ft.url}
-        parts += session_datasets(rec, options)
+        mine = session_datasets(rec, options)
+        _check_coverage(rec, mine)
+        parts += mine
         if progress is not None:
             progress(str(path))  # this file is done
     units = sorted({str(p.meta.get("unit_id")) for p in parts})
@@ -96,6 +98,20 @@ def build_datasets(
     return [concat(parts)]
 
 
+def _check_coverage(rec: Recording, parts: list[Dataset]) -> None:
+    """The reference's coverage of the session's windows (`spectratac.dataset.coverage`),
+    kept in each part's session record; a build checks it, an export does not need it."""
+    arrays = {k: np.concatenate([p.arrays[k] for p in parts])
+              for k in ("t_start", "t_end", "target_valid", "ft_count")}  # fmt: skip
+    scale = rec.link.clock_scale or 1.0
+    figures = check_coverage(
+        str(rec.path), rec.ft, arrays["t_start"], arrays["t_end"], arrays["target_valid"],
+        arrays["ft_count"], scale,
+    )  # fmt: skip
+    for p in parts:
+        p.meta["sessions"][0]["ft_coverage"] = figures
+
+
 def session_datasets(rec: Recording, options: BuildOptions | None = None) -> list[Dataset]:
     """One recording as datasets, one per configuration its samples were taken under."""
     opts = options or BuildOptions()
@@ -109,9 +125,6 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         gap = None if max_gap is None else max_gap * scale  # host s to device s
         targets, valid, count, ft_clock = _declared_ft_targets(rec.ft, samples, declared, gap)
     valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
-    coverage = check_coverage(
-        str(rec.path), rec.ft, windows.t_start, windows.t_end, valid, count, scale
-    )
     force = targets[:, :3]
     source = rec.session.get("labels", "none")
     if source == "scene":
@@ -158,7 +171,6 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         rows = samples["config_id"] == cid
         recorded = rec.configs.get(int(cid))
         session = _session_meta(rec, samples[rows], valid[rows], windows, ft_clock, int(cid))
-        session["ft_coverage"] = coverage  # of the whole session (dataset.coverage)
         meta = {**base, "config": recorded["config"] if recorded else None, "sessions": [session]}
         out.append(Dataset({k: v[rows] for k, v in arrays.items()}, meta))
     return out
