@@ -40,10 +40,10 @@ def test_streams_estimates_as_jsonl(model, capsys) -> None:
 def test_table_and_csv_have_one_row_per_estimate(model, capsys) -> None:
     assert main(["decode", str(model), TOUR, "--count", "4", "--format", "csv"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith("t_s,Fx,Fy,Fz") and len(lines) == 5
+    assert lines[0].startswith("t_s,host_s,Fx,Fy,Fz") and len(lines) == 5
     assert main(["decode", str(model), TOUR, "--count", "4"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].split()[:2] == ["t_s", "Fx"] and len(lines) == 5
+    assert lines[0].split()[:2] == ["t_s", "host_s"] and len(lines) == 5
 
 
 def test_configures_the_sensor_as_trained_or_refuses_its_own(model, tmp_path, capsys) -> None:
@@ -91,3 +91,20 @@ def test_duration_holds_when_samples_arrive_in_bursts(model, capsys) -> None:
     assert main(["decode", str(model), url, "--duration", "1.5", "--format", "jsonl"]) == 0
     rows = capsys.readouterr().out.splitlines()
     assert len(rows) == 30, f"{len(rows)} estimates for 1.5 s of 50 ms windows, not 30"
+
+
+def test_t_s_is_the_sensors_clock_and_host_time_stands_beside_it(
+    model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """At speed=10 consecutive estimates are 50 ms apart on the sensor's clock; before, t_s
+    was the host's arrival time (0.000, 0.000, 0.001, 0.001, 0.007: clumped)."""
+    from spectratac.cli.decode_cmd import SensorClock
+
+    url = "sim://?scene=tour&seed=1&speed=10"
+    assert main(["decode", str(model), url, "--count", "8", "--format", "jsonl"]) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line]
+    t = [r["t_s"] for r in rows]
+    assert t[0] == 0.0 and np.allclose(np.diff(t), 0.05, atol=1e-6)
+    assert all("host_s" in r for r in rows)
+    clock = SensorClock()  # across a reconnect, sensor time goes on
+    assert [clock(100, 0), clock(50_100, 0), clock(7, 1), clock(50_007, 1)] == [0, 0.05, 0.05, 0.1]

@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
@@ -47,7 +48,20 @@ def test_stream_formats(capsys: pytest.CaptureFixture[str]) -> None:
     assert [r["seq"] for r in rows] == [0, 1, 2, 3, 4] and len(rows[0]["status"]) == 3
     assert main(["stream", SIM, "--count", "3", "--format", "csv"]) == ExitCode.OK
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith("seq,t_ms,step,s0R") and len(lines) == 4
+    assert lines[0].startswith("seq,t_ms,host_ms,step,s0R") and len(lines) == 4
+
+
+def test_stream_times_are_the_sensors_with_the_hosts_beside(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """t_ms steps by the integration window on the sensor's clock at any speed; host_ms is
+    the arrival (a speed=10 simulation delivers them ten times faster)."""
+    url = "sim://?scene=idle&speed=10"
+    assert main(["stream", url, "--count", "12", "--format", "jsonl"]) == ExitCode.OK
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    t = [r["t_ms"] for r in rows]
+    assert set(np.diff(t).tolist()) == {50}
+    assert rows[0]["host_ms"] == 0.0 and rows[-1]["host_ms"] < t[-1] - t[0]
 
 
 def test_stream_missing_port_exit_code(capsys: pytest.CaptureFixture[str]) -> None:

@@ -9,16 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from spectratac.cli import main
 from spectratac.cli.outputs import MARKER
-from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import session_datasets
 from spectratac.decode import Decoder
-from spectratac.ft.ros_time import seconds_to_ns
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.record import RecordOptions, record_url
 from spectratac.record.reader import read_recording
+from spectratac.record.timeline import Timeline
 from spectratac.ros2 import BagExportError, export_rosbag
 
 STORE = get_typestore(Stores.ROS2_JAZZY)  # a reader that is not the exporter's typestore
@@ -44,6 +43,10 @@ def read_bag(path: Path) -> dict[str, list[tuple[int, object]]]:
     """topic -> [(bag timestamp, message)], in the bag's order."""
     out: dict[str, list[tuple[int, object]]] = {}
     with Reader(path) as reader:
+        for conn in reader.connections:  # a type ROS lacks: its definition is in the bag
+            if conn.msgtype not in STORE.types:
+                assert conn.msgdef.data, f"{conn.topic}: {conn.msgtype} without a definition"
+                STORE.register(get_types_from_msg(conn.msgdef.data, conn.msgtype))
         for conn, t, raw in reader.messages():
             out.setdefault(conn.topic, []).append((t, STORE.deserialize_cdr(raw, conn.msgtype)))
     return out
@@ -71,7 +74,6 @@ def test_every_sample_comes_back_from_the_bag(
     rec = read_recording(recording)
     assert rec.ft is not None
     [ds] = session_datasets(rec)
-    offset = rec.clock.unix_minus_monotonic_ns
     bag = read_bag(out)
     assert set(bag) == {
         "/spectratac/reference/wrench",
@@ -84,14 +86,17 @@ def test_every_sample_comes_back_from_the_bag(
         times = [t for t, _ in messages]
         assert times == sorted(times), f"{topic}: stamps go back"
 
-    # the reference: every F/T sample, its values, stamped by the builder's F/T clock fit
+    # the reference: every F/T sample, its values, on the sensor's clock (a speed=10
+    # simulation's F/T spans 10x the host's seconds), in the F/T sensor's own frame
     ref = bag["/spectratac/reference/wrench"]
     assert len(ref) == len(rec.ft)
     np.testing.assert_array_equal([wrench_of(m) for _, m in ref], rec.ft["wrench"])
-    t_ft, _ = ft_host_times(rec.ft, rec.link.clock_scale or 1.0)
-    want = seconds_to_ns(t_ft, offset)
-    assert [stamp_ns(m) for _, m in ref] == want.tolist() == [t for t, _ in ref]
-    assert {m.header.frame_id for _, m in ref} == {"spectratac_board"}  # type: ignore[attr-defined]
+    stamps = np.array([stamp_ns(m) for _, m in ref])
+    assert stamps.tolist() == [t for t, _ in ref]
+    span_ft = rec.ft["sensor_time"][-1] - rec.ft["sensor_time"][0]
+    assert (stamps[-1] - stamps[0]) / 1e9 == pytest.approx(span_ft, rel=0.02)
+    assert {m.header.frame_id for _, m in ref} == {"spectratac_ft_sensor"}  # type: ignore[attr-defined]
+    timeline = Timeline.of_session(rec.session, rec.link.clock_scale)
 
     # raw counts: every sample on its LED step's topic, exact, at its window's end
     for step in (0, 1):
@@ -100,7 +105,9 @@ def test_every_sample_comes_back_from_the_bag(
         assert len(msgs) == rows.sum() > 0
         got = np.array([m.data for _, m in msgs]).reshape(-1, 3, 5)  # type: ignore[attr-defined]
         np.testing.assert_array_equal(got, ds.arrays["counts"][rows])
-        assert [t for t, _ in msgs] == seconds_to_ns(ds.t_end[rows], offset).tolist()
+        assert [t for t, _ in msgs] == timeline.ns_array(ds.t_end[rows]).tolist()
+        assert [stamp_ns(m) for _, m in msgs] == [t for t, _ in msgs]  # stamped counts
+        assert {m.header.frame_id for _, m in msgs} == {"spectratac_board"}  # type: ignore[attr-defined]
         dims = msgs[0][1].layout.dim  # type: ignore[attr-defined]
         assert [(d.label, d.size, d.stride) for d in dims] == [("sensor", 3, 15), ("channel", 5, 5)]
 
@@ -113,7 +120,7 @@ def test_every_sample_comes_back_from_the_bag(
     want_est = np.stack([est.column(a) for a in vocab.FT_AXES], axis=1)[keep]
     np.testing.assert_allclose(got[:, 2], want_est[:, 2], rtol=1e-6, atol=1e-6)
     assert np.isnan(got[:, [0, 1, 3, 4, 5]]).all()
-    assert [stamp_ns(m) for _, m in msgs] == seconds_to_ns(ds.t_end[keep], offset).tolist()
+    assert [stamp_ns(m) for _, m in msgs] == timeline.ns_array(ds.t_end[keep]).tolist()
 
 
 def test_the_human_output_names_topics_and_how_to_play(

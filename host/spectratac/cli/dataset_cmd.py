@@ -6,7 +6,10 @@ spectratac dataset info data.npz [--json]
 A truncated recording (the recorder was killed) contributes its readable prefix: a warning,
 exit code 0. A damaged recording (chunks whose CRC fails) contributes every intact chunk; the
 dataset is still written, but the damage is reported as an error line per recording (and
-under "corrupted" with --json) and the exit code is 1, so that scripts notice the loss.
+under "corrupted" with --json) and the exit code is 1, so that scripts notice the loss. So is
+a reference F/T that gives fewer than 95 % of the rows a target, or far more F/T samples per
+window than its rate implies (a warning says why); one that covers no row is an error, exit
+code 3: it is not this session's reference (`spectratac.dataset.coverage`).
 """
 
 from __future__ import annotations
@@ -76,6 +79,7 @@ VERB = "dataset build"
 def _build(args: argparse.Namespace) -> int:
     from spectratac.cli.eta import ClockBar, announce
     from spectratac.dataset.build import BuildOptions, build_datasets, split_paths
+    from spectratac.dataset.coverage import CoverageWarning
     from spectratac.errors import SpectraTacError
     from spectratac.record.errors import CorruptedRecordingWarning
 
@@ -85,10 +89,13 @@ def _build(args: argparse.Namespace) -> int:
     if not args.split:  # refuse before the work; --split's names are known only after it
         refuse_overwrite(npz_name(args.output), args.force, verb=VERB, inputs=inputs, kind=is_npz)
     external = None
+    loading: list[warnings.WarningMessage] = []
     if args.ft:
         from spectratac.dataset.external_ft import load_external_ft
 
-        external = load_external_ft(args.ft)
+        with warnings.catch_warnings(record=True) as loading:
+            warnings.simplefilter("always")
+            external = load_external_ft(args.ft)
     paths = [Path(p) for p in args.recordings]
     options = BuildOptions(max_gap_ms=args.max_gap_ms, ft=external)
     estimate = _estimate(paths, options)
@@ -124,6 +131,7 @@ def _build(args: argparse.Namespace) -> int:
         finally:
             if bar is not None:
                 bar.close()
+    caught = [*loading, *caught]
     notes = [str(w.message) for w in caught]
     for note in notes:
         if not args.json:
@@ -167,7 +175,8 @@ def _build(args: argparse.Namespace) -> int:
                 f"lost: {lost}; the dataset holds the rest",
                 file=sys.stderr,
             )
-    return ExitCode.FAILURE if damaged else ExitCode.OK
+    short = [w for w in caught if isinstance(w.message, CoverageWarning)]
+    return ExitCode.FAILURE if damaged or short else ExitCode.OK
 
 
 def summary(ds: Any) -> dict[str, Any]:

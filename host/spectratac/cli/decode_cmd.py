@@ -37,9 +37,10 @@ from spectratac.cli.output import RowWriter, reader_gone
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
 
-# t_s: seconds since the first sample (host clock)
+# t_s: seconds of the sensor's clock since the first sample (a window's end; a simulation at
+#   speed=10 covers 10 s of it per host second); host_s: the host's arrival time beside it
 # no_rest: the drift baseline has not yet seen the skin at rest (forces may be offset; --tare)
-COLUMNS = ("t_s", *vocab.FT_AXES, "region", "p", "contact", "ood", "invalid", "no_rest")
+COLUMNS = ("t_s", "host_s", *vocab.FT_AXES, "region", "p", "contact", "ood", "invalid", "no_rest")
 
 
 def register(subparsers: Any) -> None:
@@ -87,11 +88,29 @@ class SensorSpan:
         return self._span_us / 1e6
 
 
-def _cells(e: Any, t0: float) -> list[Any]:
+class SensorClock:
+    """Seconds of the sensor's clock since the first estimate, across reconnects (a new epoch
+    may restart the device clock: its time goes on from where the last epoch's ended)."""
+
+    def __init__(self) -> None:
+        self._epoch: int | None = None
+        self._base_us = 0  # device µs at the epoch's first estimate
+        self._done_s = 0.0  # seconds of the epochs before
+        self._last_s = 0.0
+
+    def __call__(self, device_time_us: int, epoch: int) -> float:
+        if epoch != self._epoch:
+            self._epoch, self._base_us, self._done_s = epoch, device_time_us, self._last_s
+        self._last_s = self._done_s + (device_time_us - self._base_us) / 1e6
+        return self._last_s
+
+
+def _cells(e: Any, t0: float, t_s: float) -> list[Any]:
     def num(v: float, fmt: str) -> str:
         return "nan" if math.isnan(v) else format(v, fmt)
 
     return [
+        f"{t_s:.3f}",
         f"{e.time - t0:.3f}",
         *(num(float(v), ".3f") for v in e.force),
         *(num(float(v), ".4f") for v in e.torque),
@@ -104,12 +123,13 @@ def _cells(e: Any, t0: float) -> list[Any]:
     ]
 
 
-def _record(e: Any, t0: float) -> dict[str, Any]:
+def _record(e: Any, t0: float, t_s: float) -> dict[str, Any]:
     def clean(v: float) -> float | None:
         return None if math.isnan(v) else round(float(v), 6)
 
     return {
-        "t_s": round(e.time - t0, 6),
+        "t_s": round(t_s, 6),
+        "host_s": round(e.time - t0, 6),
         "force": [clean(v) for v in e.force],
         "torque": [clean(v) for v in e.torque],
         "region": e.region,
@@ -139,10 +159,12 @@ def run(args: argparse.Namespace) -> int:
         span = SensorSpan(sensor.get_config().integration_ms / 1000.0)
         sensor.start()
         try:
-            first: float | None = None  # host time of the first sample: t_s counts from it
+            first: float | None = None  # host time of the first sample: host_s counts from it
+            clock = SensorClock()
             for e in decoder.stream(sensor):
                 first = e.time if first is None else first
-                writer.row(_cells(e, first), _record(e, first))
+                t_s = clock(e.device_time_us, e.epoch)
+                writer.row(_cells(e, first, t_s), _record(e, first, t_s))
                 counts["estimates"] += 1
                 counts["invalid"] += int(e.invalid)
                 counts["ood"] += int(e.ood)

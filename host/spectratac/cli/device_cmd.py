@@ -90,7 +90,11 @@ def _info(args: argparse.Namespace) -> int:
 
 
 # Table columns spell a count without the dot of its dataset name: s0R, ..., s2IR.
-SAMPLE_COLUMNS = ["seq", "t_ms", "step", *(n.replace(".", "") for n in vocab.SENSOR_CHANNELS)]
+#: t_ms: the window's end on the sensor's clock (a simulation at speed=10 covers 10 ms of it per
+#: host ms); host_ms: the host's arrival time beside it, since the first row
+SAMPLE_COLUMNS = [
+    "seq", "t_ms", "host_ms", "step", *(n.replace(".", "") for n in vocab.SENSOR_CHANNELS)
+]  # fmt: skip
 ESTIMATE_COLUMNS = [*vocab.FT_AXES, "region", "est_flags"]
 PAIRING_WAIT_S = 0.5  # how long a sample waits for its estimate (it follows the SAMPLE frame)
 
@@ -103,7 +107,7 @@ def _stream(args: argparse.Namespace) -> int:
         raise SpectraTacError("--duty is in permille: 0..1000")
     mode = args.estimates
     if mode == "instead":
-        columns = ["seq", "t_ms", *ESTIMATE_COLUMNS]
+        columns = ["seq", "t_ms", "host_ms", *ESTIMATE_COLUMNS]
     else:
         columns = [*SAMPLE_COLUMNS, "status", *(ESTIMATE_COLUMNS if mode == "beside" else [])]
     printed = 0
@@ -161,16 +165,24 @@ def _estimate_cells(row: Any) -> list[Any]:
 
 def _rows(sensor: Any, mode: str, columns: list[str]) -> Iterator[tuple[list[Any], dict]]:
     """(cells, JSON record) per printed row."""
+    first: list[float] = []  # the first row's host time: host_ms counts from it
+
+    def host_ms(t: float) -> float:
+        first[:] = first or [t]
+        return round((t - first[0]) * 1000, 3)
+
     if mode == "instead":
         while True:
             for row in sensor.read_estimates(64, timeout=PAIRING_WAIT_S):
-                cells = [int(row["sequence"]), int(row["device_time_us"]) // 1000]
+                cells: list[Any] = [int(row["sequence"]), int(row["device_time_us"]) // 1000]
+                cells.append(host_ms(float(row["host_time"])))
                 cells += _estimate_cells(row)
                 yield cells, dict(zip(columns, cells, strict=True))
     for sample, estimate in _samples(sensor, mode == "beside"):
         values = [
             sample.sequence,
             sample.device_time_us // 1000,
+            host_ms(sample.host_time),
             sample.step,
             *(v for counts in sample.counts for v in counts),
         ]

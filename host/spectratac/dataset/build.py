@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from spectratac.dataset.align import Windows, device_windows, ft_targets
+from spectratac.dataset.coverage import check_coverage
 from spectratac.dataset.external_ft import ExternalFT
 from spectratac.dataset.frames import recorded_samples
 from spectratac.dataset.labels import CONTACT_N, ft_contact, guided_labels, truth_labels
@@ -79,7 +80,9 @@ def build_datasets(
         if options is not None and options.ft is not None:
             rec.ft = options.ft.on_clock(rec.clock.unix_minus_monotonic_ns)
             rec.session = {**rec.session, "ft_url": options.ft.url}
-        parts += session_datasets(rec, options)
+        mine = session_datasets(rec, options)
+        _check_coverage(rec, mine)
+        parts += mine
         if progress is not None:
             progress(str(path))  # this file is done
     units = sorted({str(p.meta.get("unit_id")) for p in parts})
@@ -93,6 +96,20 @@ def build_datasets(
     if split:
         return split_by_config(parts)
     return [concat(parts)]
+
+
+def _check_coverage(rec: Recording, parts: list[Dataset]) -> None:
+    """The reference's coverage of the session's windows (`spectratac.dataset.coverage`),
+    kept in each part's session record; a build checks it, an export does not need it."""
+    arrays = {k: np.concatenate([p.arrays[k] for p in parts])
+              for k in ("t_start", "t_end", "target_valid", "ft_count")}  # fmt: skip
+    scale = rec.link.clock_scale or 1.0
+    figures = check_coverage(
+        str(rec.path), rec.ft, arrays["t_start"], arrays["t_end"], arrays["target_valid"],
+        arrays["ft_count"], scale,
+    )  # fmt: skip
+    for p in parts:
+        p.meta["sessions"][0]["ft_coverage"] = figures
 
 
 def session_datasets(rec: Recording, options: BuildOptions | None = None) -> list[Dataset]:

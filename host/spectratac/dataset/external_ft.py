@@ -11,7 +11,8 @@ times as it does for any recorded F/T.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,6 +29,8 @@ class ExternalFT:
     url: str
     rows: np.ndarray
     unix_minus_monotonic_ns: int | None
+    #: rows the reader dropped, by reason (rosbag://: not finite, beyond range, stamp jumps)
+    dropped: dict[str, int] = field(default_factory=dict)
 
     def on_clock(self, recording_unix_minus_monotonic_ns: int) -> np.ndarray:
         """The rows with their host times on a recording's host clock."""
@@ -59,5 +62,23 @@ def load_external_ft(url: str, timeout: float = 10.0) -> ExternalFT:
                 break
             parts.append(batch)
         umm = ft.info.extra.get("unix_minus_monotonic_ns")
+        dropped = {k: int(v) for k, v in (ft.info.extra.get("dropped") or {}).items() if v}
     rows = np.concatenate(parts) if parts else np.zeros(0, dtype=FT_RECORD)
-    return ExternalFT(url, rows, None if umm is None else int(umm))
+    if dropped:
+        what = ", ".join(f"{v} {_REASONS.get(k, k)}" for k, v in dropped.items())
+        warnings.warn(
+            DroppedFTWarning(f"--ft {url}: rows dropped: {what} ({len(rows)} kept)"),
+            stacklevel=2,
+        )
+    return ExternalFT(url, rows, None if umm is None else int(umm), dropped)
+
+
+_REASONS = {
+    "not_finite": "not finite",
+    "beyond_range": "beyond any F/T sensor's range",
+    "stamp_jumps": "with a header stamp off the line of the others",
+}
+
+
+class DroppedFTWarning(UserWarning):
+    """Rows of a reference F/T file the reader could not trust (counted by reason)."""

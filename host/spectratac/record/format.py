@@ -1,8 +1,9 @@
 """The MCAP channel layout of a SpectraTac recording (described for people in FORMAT.md).
 
-Times: every message's MCAP ``log_time`` is the host's receive time, ``time.monotonic()`` in
-ns shifted by one constant per file (``unix_minus_monotonic_ns`` in the session message) so
+Times: every message's MCAP ``publish_time`` is the host's receive time, ``time.monotonic()``
+in ns shifted by one constant per file (``unix_minus_monotonic_ns`` in the session message) so
 that viewers such as Foxglove show wall-clock dates; the shift is undone exactly on reading.
+``log_time`` is on the sensor's clock (`spectratac.record.timeline`).
 
 >>> clock = HostClock(unix_minus_monotonic_ns=1_700_000_000_000_000_000)
 >>> ns = clock.log_time(12.5)

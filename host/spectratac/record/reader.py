@@ -154,7 +154,9 @@ def read_recording(path: str | Path) -> Recording:
                 continue
         if topic == FRAMES:
             rec.frames.append(data)
-            log_times.append(record.log_time)
+            # the host's arrival time (log_time is on the sensor's clock: record.timeline);
+            # files before the timeline wrote it to both
+            log_times.append(record.publish_time)
         elif topic == FT_SAMPLES:
             ft_parts.append(data)
         elif topic == GROUND_TRUTH:

@@ -39,9 +39,14 @@ import numpy as np
 from mcap.writer import CompressionType, Writer
 
 from spectratac import __version__, host_clock
+from spectratac.device.records import Unwrapper
+from spectratac.protocol.bulk import payload_dtype
+from spectratac.protocol.framing import HEADER
+from spectratac.protocol.generated import messages as m
 from spectratac.record.errors import RecordingError
 from spectratac.record.format import (
     COMPACT,
+    EPOCH,
     FORMAT,
     FRAMES,
     FT_SAMPLES,
@@ -70,6 +75,7 @@ from spectratac.record.schemas import (
     truth_messages,
     wrench_messages,
 )
+from spectratac.record.timeline import LiveClock, Timeline
 from spectratac.record.wrapped import ENCODING as WRAPPED
 from spectratac.record.wrapped import schema as wrapped_schema
 from spectratac.record.wrapped import wrap
@@ -78,6 +84,12 @@ __all__ = ["LABELS", "RecordingWriter"]
 
 _LABEL_TIMES = ("t_start", "t_end")
 CHUNK_BYTES = 64 * 1024  # small chunks: little is lost to a crash, zstd still works well
+_SAMPLE, _ESTIMATE = m.Sample.TYPE_ID, m.Estimate.TYPE_ID
+#: Byte offset of t_end_us (u32 LE) in a decoded frame of the types whose payload has it.
+_T_END_AT = {
+    kind: HEADER.size + int(payload_dtype(message).fields["t_end_us"][1])  # type: ignore[index]
+    for kind, message in ((_SAMPLE, m.Sample), (_ESTIMATE, m.Estimate))
+}
 
 
 class RecordingWriter:
@@ -101,6 +113,17 @@ class RecordingWriter:
         if unix_minus_monotonic_ns is None:
             unix_minus_monotonic_ns = host_clock.unix_minus_monotonic_ns()
         self.clock = HostClock(unix_minus_monotonic_ns)
+        # log_time is on the sensor's clock (record.timeline); publish_time the host arrival
+        scale = (session.get("link") or {}).get("clock_scale", 1.0)
+        now = time.monotonic()
+        self.timeline = Timeline(unix_minus_monotonic_ns, now, 1.0 if scale is None else scale)
+        self._device = LiveClock(scale)
+        self._ft_clock = LiveClock(scale)
+        self._unwrap = Unwrapper()
+        declared = (session.get("truth") or {}).get("ft_clock")
+        self._ft_declared = (
+            None if not declared else (float(declared["offset_s"]), float(declared["drift"]))
+        )
         try:
             self._file: io.BufferedWriter = open(self.path, "wb")  # noqa: SIM115
         except OSError as exc:
@@ -137,7 +160,6 @@ class RecordingWriter:
         self._closed = False
         self.frames_written = 0
         self.ft_rows_written = 0
-        now = time.monotonic()
         header = {
             "format": FORMAT,
             "version": VERSION,
@@ -145,6 +167,7 @@ class RecordingWriter:
             "started_unix": (self.clock.log_time(now)) / 1e9,
             "started_monotonic": now,
             "unix_minus_monotonic_ns": unix_minus_monotonic_ns,
+            "timeline": self.timeline.as_dict(),
         }
         self.json(SESSION, {**header, **session}, now)
         self.flush()
@@ -166,26 +189,58 @@ class RecordingWriter:
         add = self._mcap.add_message
         channel = self._channels[FRAMES]
         offset = self.clock.unix_minus_monotonic_ns
-        for raw, t in frames:
+        on_clock = self._frame_times(frames)
+        logs = self.timeline.ns_array(on_clock).tolist()
+        for (raw, t), log in zip(frames, logs, strict=True):
             ns = round(t * 1e9) + offset
             # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
-            add(channel, ns, wrap(raw), ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
+            add(channel, log, wrap(raw), ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
         self.frames_written += len(frames)
         if self.decoded and frames:
             samples, sample_t, estimates, estimate_t = split_frames(frames)
+            kinds = np.array([raw[2] if len(raw) > 2 else -1 for raw, _ in frames])
+            sample_h = on_clock[kinds == _SAMPLE]
+            estimate_h = on_clock[kinds == _ESTIMATE]
             first, last = frames[0][1], frames[-1][1]
             keep = self._caps[COUNTS].take(len(samples), last, first)
-            self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep])
+            self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep], sample_h[keep])
             keep = self._caps[ESTIMATES].take(len(estimates), last, first)
-            self._decoded(ESTIMATES, device_estimate_messages(estimates[keep]), estimate_t[keep])
+            self._decoded(
+                ESTIMATES,
+                device_estimate_messages(estimates[keep]),
+                estimate_t[keep],
+                estimate_h[keep],
+            )
 
-    def _decoded(self, topic: str, messages: list[bytes], host_times: Sequence[float]) -> None:
+    def _frame_times(self, frames: Sequence[tuple[bytes, float]]) -> np.ndarray:
+        """Host seconds on the device's clock of each frame: a SAMPLE's or ESTIMATE's
+        window end through the live clock fit, any other frame its arrival time."""
+        arrival = np.array([t for _, t in frames], np.float64)
+        device = np.full(len(frames), np.nan)
+        for i, (raw, _) in enumerate(frames):
+            at = _T_END_AT.get(raw[2]) if len(raw) > 2 else None
+            if at is not None and len(raw) >= at + 4:
+                device[i] = self._unwrap(int.from_bytes(raw[at : at + 4], "little")) / 1e6
+        timed = np.isfinite(device)
+        if timed.any():
+            arrival[timed] = self._device.to_host(device[timed], arrival[timed])
+        return arrival
+
+    def _decoded(
+        self,
+        topic: str,
+        messages: list[bytes],
+        host_times: Sequence[float],
+        on_clock: Sequence[float] | np.ndarray | None = None,
+    ) -> None:
+        """One message per row: publish_time its host time, log_time `on_clock` (host
+        seconds on the sensor's clock; default the host time) on the timeline."""
         add = self._mcap.add_message
         channel = self._channels[topic]
         offset = self.clock.unix_minus_monotonic_ns
-        for data, t in zip(messages, host_times, strict=True):
-            ns = round(t * 1e9) + offset
-            add(channel, ns, data, ns)
+        logs = self.timeline.ns_array(host_times if on_clock is None else on_clock).tolist()
+        for data, t, log in zip(messages, host_times, logs, strict=True):
+            add(channel, log, data, round(t * 1e9) + offset)
 
     def estimates(self, rows: Sequence[dict[str, Any]]) -> None:
         """Estimates the host decoded (rows of the live page's history: host_time,
@@ -206,12 +261,21 @@ class RecordingWriter:
                 f"{self.ft_dtype}: open the writer with ft_dtype=FT_RECORD"
             )
         ns = self.clock.log_time(float(rows["host_time"][-1]))
-        self._mcap.add_message(self._channels[FT_SAMPLES], ns, wrap(rows.tobytes()), ns)
+        on_clock = self._ft_clock.to_host(rows["sensor_time"], rows["host_time"])
+        if self._ft_declared is not None:  # a simulated F/T's clock is the device's, declared
+            offset_s, drift = self._ft_declared
+            exact = self._device.map((rows["sensor_time"] - offset_s) / (1.0 + drift))
+            on_clock = on_clock if exact is None else exact
+        log = self.timeline.ns(float(on_clock[-1]))
+        self._mcap.add_message(self._channels[FT_SAMPLES], log, wrap(rows.tobytes()), ns)
         self.ft_rows_written += len(rows)
         if self.decoded:
             times = rows["host_time"]
-            kept = rows[self._caps[WRENCH].take(len(rows), float(times[-1]), float(times[0]))]
-            self._decoded(WRENCH, wrench_messages(kept), kept["host_time"].tolist())
+            keep = self._caps[WRENCH].take(len(rows), float(times[-1]), float(times[0]))
+            kept = rows[keep]
+            self._decoded(
+                WRENCH, wrench_messages(kept), kept["host_time"].tolist(), on_clock[keep]
+            )
 
     def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
         """A batch of GROUND_TRUTH_RECORD rows as one message stamped `host_time`. Written
@@ -226,18 +290,23 @@ class RecordingWriter:
                 "dtype: open the writer with ground_truth=True and give GROUND_TRUTH_RECORD rows"
             )
         ns = self.clock.log_time(host_time)
-        self._mcap.add_message(channel, ns, wrap(rows.tobytes()), ns)
+        log = self.timeline.ns(host_time)
+        self._mcap.add_message(channel, log, wrap(rows.tobytes()), ns)
         if self.decoded:
             kept = rows[self._caps[TRUTH].take(len(rows), host_time)]
             self._decoded(TRUTH, truth_messages(kept), [host_time] * len(kept))
 
     def json(self, topic: str, obj: Any, host_time: float) -> None:
-        """One JSON message on a JSON topic, stamped with host monotonic time `host_time`."""
+        """One JSON message on a JSON topic, stamped with host monotonic time `host_time`
+        (publish_time; log_time: that time on the timeline)."""
         ns = self.clock.log_time(host_time)
         if topic == LABELS and isinstance(obj, dict):  # a time not known is absent, not null
             obj = {k: v for k, v in obj.items() if not (v is None and k in _LABEL_TIMES)}
         data = json.dumps(obj, default=_jsonable).encode()
-        self._mcap.add_message(self._channels[topic], ns, data, ns)
+        self._mcap.add_message(self._channels[topic], self.timeline.ns(host_time), data, ns)
+        if topic == EPOCH:  # a new connection: the device clock may have restarted
+            self._device.reset()
+            self._unwrap = Unwrapper()
 
     # ------------------------------------------------------------------ durability
     @property

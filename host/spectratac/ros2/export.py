@@ -1,23 +1,29 @@
 """A recording as a ROS 2 bag: the job behind `spectratac export rosbag`.
 
-Topics (every stamp is a Unix time in the recording host's clock, as a ROS node on that
-host would stamp it; frame "spectratac_board", the sensor board's axes, which the reference
-F/T is recorded in as well):
+Topics (frame ids: FT_FRAME_ID, the reference F/T sensor's own axes, for the reference;
+BOARD_FRAME_ID, the sensor board's axes, for estimates and counts):
 
 | topic | type | one message per |
 |---|---|---|
 | /spectratac/reference/wrench | geometry_msgs/msg/WrenchStamped | recorded F/T sample |
 | /spectratac/estimate/wrench | geometry_msgs/msg/WrenchStamped | estimate (a model, or recorded) |
-| /spectratac/raw/step_K/counts | std_msgs/msg/UInt16MultiArray | optical sample of LED step K |
+| /spectratac/raw/step_K/counts | spectratac_msgs/msg/CountsStamped | optical sample of LED step K |
 
-Times come from the clock fits the dataset builder uses (`spectratac.dataset.align`): an F/T
-sample's stamp is its own clock fitted to its arrival times; an optical sample's is the end
-of its integration window, the device clock fitted per connection epoch. The bag's receive
+Times are on the sensor's clock mapped to Unix time (`spectratac.record.timeline`: a 30-s
+session spans 30 s whatever a simulation's speed; on hardware, the host's wall clock), from
+the clock fits the dataset builder uses (`spectratac.dataset.align`): an F/T sample's stamp
+is its own clock fitted to its arrival times; an optical sample's is the end of its
+integration window, the device clock fitted per connection epoch. The bag's receive
 timestamp of each message equals its stamp, so `ros2 bag play` publishes in measurement
-order. Raw counts have no ROS message of their own (sensor_msgs/Illuminance is one lux value
-per message): a UInt16MultiArray holds one sample's counts exactly, its layout naming the
-dimensions "sensor" (3) and "channel" (R, G, B, C, IR in that order), one topic per LED step
-because samples of different steps are different measurements. Estimates the decoder does
+order; the timeline (anchor and scale) is in the bag's metadata (`custom_data`, key
+"spectratac.timeline"), which `rosbag://` reads to put the stamps back onto the recording's
+host clock. Raw counts have no ROS message of their own (sensor_msgs/Illuminance is one lux
+value per message): CountsStamped is a std_msgs/Header beside a UInt16MultiArray's layout and
+data, which hold one sample's counts exactly, the layout naming the dimensions "sensor" (3)
+and "channel" (R, G, B, C, IR in that order); its definition is stored in the bag (rosbags
+decodes it from there; `ros2 bag play` publishes it once a spectratac_msgs package is built
+from that definition, and plays the other topics without), one topic per LED step because samples of
+different steps are different measurements. Estimates the decoder does
 not make (a force-only model's torques) are NaN; invalid samples get no estimate message.
 Without a model, the estimates the recording holds (format 4: an on-device model's ESTIMATE
 frames, or the live page's decoder in a clip) are written, each stamped with the optical
@@ -31,6 +37,7 @@ beside OUT_DIR and renamed into place when complete, so OUT_DIR never holds half
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sqlite3
@@ -44,17 +51,20 @@ import numpy as np
 from spectratac.dataset.align import ft_host_times
 from spectratac.dataset.build import session_datasets
 from spectratac.dataset.schema import Dataset, concat
-from spectratac.ft.ros_time import seconds_to_ns
 from spectratac.fusion import ClockFitError
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.record.reader import Recording, read_recording
+from spectratac.record.timeline import KEY as TIMELINE_KEY
+from spectratac.record.timeline import Timeline
 from spectratac.ros2.errors import BagExportError
-from spectratac.ros2.messages import UINT16_ARRAY, WRENCH_STAMPED, uint16_arrays, wrench_stamped
+from spectratac.ros2.messages import COUNTS_STAMPED, WRENCH_STAMPED, counts_stamped, wrench_stamped
 
 if TYPE_CHECKING:
     from spectratac.decode import Decoder
 
-FRAME_ID = "spectratac_board"
+BOARD_FRAME_ID = "spectratac_board"
+#: The reference F/T's wrench is in its own axes (mounted under the board, not rotated to it).
+FT_FRAME_ID = "spectratac_ft_sensor"
 REFERENCE_TOPIC = "/spectratac/reference/wrench"
 ESTIMATE_TOPIC = "/spectratac/estimate/wrench"
 COUNTS_LABELS = ("sensor", "channel")
@@ -115,13 +125,14 @@ def export_rosbag(
     if out.exists() and not (out.is_dir() and not any(out.iterdir())):
         raise BagExportError(f"{out} exists; choose another folder")
     rec = read_recording(recording)
-    topics, notes = _topics(rec, decoder)
+    timeline = Timeline.of_session(rec.session, rec.link.clock_scale)
+    topics, notes = _topics(rec, decoder, timeline)
     if not any(len(t.stamps) for t in topics):
         raise BagExportError(
             f"{recording}: no optical samples and no F/T samples; nothing to export"
         )
     summary = ExportSummary(out, storage, notes=notes)
-    _write(topics, out, storage, progress)
+    _write(topics, out, storage, progress, timeline)
     stamps = np.concatenate([t.stamps for t in topics])
     summary.start_unix = float(stamps.min()) / 1e9
     summary.end_unix = float(stamps.max()) / 1e9
@@ -130,21 +141,28 @@ def export_rosbag(
     return summary
 
 
-def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list[str]]:
-    offset = rec.clock.unix_minus_monotonic_ns
+def _topics(
+    rec: Recording, decoder: Decoder | None, timeline: Timeline
+) -> tuple[list[_Topic], list[str]]:
     scale = 1.0 if rec.link.clock_scale is None else rec.link.clock_scale
     topics: list[_Topic] = []
     notes: list[str] = []
+    parts = session_datasets(rec) if rec.frames else []
     if rec.ft is not None and len(rec.ft):
         try:
-            t_ft, _ = ft_host_times(rec.ft, scale)
+            t_ft = _declared_ft_times(rec, parts)
+            if t_ft is None:
+                t_ft, _ = ft_host_times(rec.ft, scale)
         except ClockFitError as exc:  # too few samples to fit: their arrival times
             t_ft = rec.ft["host_time"]
             notes.append(f"F/T stamps are arrival times: its clock could not be fitted ({exc})")
-        ns = seconds_to_ns(t_ft, offset)
+        ns = timeline.ns_array(t_ft)
         topics.append(
             _Topic(
-                REFERENCE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, rec.ft["wrench"], FRAME_ID)
+                REFERENCE_TOPIC,
+                WRENCH_STAMPED,
+                ns,
+                wrench_stamped(ns, rec.ft["wrench"], FT_FRAME_ID),
             )
         )
     elif decoder is None:
@@ -155,17 +173,18 @@ def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list
                 "the device clock is not tied to the host's (an unpaced simulation): optical "
                 "stamps are device time after the recording's start, not when it happened"
             )
-        parts = session_datasets(rec)
         ds = concat(parts) if len(parts) > 1 else parts[0]
-        ns = seconds_to_ns(ds.t_end, offset)
+        ns = timeline.ns_array(ds.t_end)
         for step in np.unique(ds.step):
             rows = ds.step == step
-            payloads = uint16_arrays(ds.arrays["counts"][rows], COUNTS_LABELS)
-            topics.append(_Topic(counts_topic(int(step)), UINT16_ARRAY, ns[rows], payloads))
+            payloads = counts_stamped(
+                ns[rows], ds.arrays["counts"][rows], COUNTS_LABELS, BOARD_FRAME_ID
+            )
+            topics.append(_Topic(counts_topic(int(step)), COUNTS_STAMPED, ns[rows], payloads))
         if decoder is not None:
-            topics.append(_estimates(decoder, parts, offset))
+            topics.append(_estimates(decoder, parts, timeline))
         elif rec.estimates:
-            topic = _recorded_estimates(rec.estimates, parts, offset)
+            topic = _recorded_estimates(rec.estimates, parts, timeline)
             if topic is not None:
                 topics.append(topic)
                 notes.append(f"estimates as recorded ({', '.join(_sources(rec.estimates))})")
@@ -174,22 +193,39 @@ def _topics(rec: Recording, decoder: Decoder | None) -> tuple[list[_Topic], list
     return topics, notes
 
 
-def _estimates(decoder: Decoder, parts: list[Dataset], offset: int) -> _Topic:
+def _declared_ft_times(rec: Recording, parts: list[Dataset]) -> np.ndarray | None:
+    """Host times of a simulated F/T whose clock the recording declares against the device's
+    (the dataset builder's targets use it): through the optical windows' own fit, so the bag
+    puts each F/T sample where the builder does. None: no declared clock, or several epochs."""
+    declared = rec.truth.get("ft_clock")
+    if not declared or rec.ft is None or len(parts) != 1 or len(rec.epochs) > 1:
+        return None
+    ds = parts[0]
+    device = ds.arrays["device_time_us"] / 1e6
+    if len(device) < 2 or np.ptp(device) <= 0:
+        return None
+    t_dev = (rec.ft["sensor_time"] - declared["offset_s"]) / (1.0 + declared["drift"])
+    slope, intercept = np.polyfit(device - device[0], ds.t_end, 1)  # the fit is linear
+    host: np.ndarray = intercept + slope * (t_dev - device[0])
+    return host
+
+
+def _estimates(decoder: Decoder, parts: list[Dataset], timeline: Timeline) -> _Topic:
     stamps, wrenches = [], []
     for ds in parts:  # one configuration each: the decoder checks it fits
         est = decoder.predict(ds)
         keep = ~est.invalid
-        stamps.append(seconds_to_ns(ds.t_end[keep], offset))
+        stamps.append(timeline.ns_array(ds.t_end[keep]))
         wrenches.append(np.stack([est.column(a) for a in vocab.FT_AXES], axis=1)[keep])
     ns = np.concatenate(stamps)
     order = np.argsort(ns, kind="stable")
     wrench = np.concatenate(wrenches)[order]
     ns = ns[order]
-    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, FRAME_ID))
+    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, BOARD_FRAME_ID))
 
 
 def _recorded_estimates(
-    estimates: list[dict[str, Any]], parts: list[Dataset], offset: int
+    estimates: list[dict[str, Any]], parts: list[Dataset], timeline: Timeline
 ) -> _Topic | None:
     """The recording's own estimates (None: none matches an optical sample), each stamped as
     the sample whose integration window it ends: its device time is that sample's."""
@@ -210,10 +246,10 @@ def _recorded_estimates(
         )
     if not stamps:
         return None
-    ns = seconds_to_ns(np.asarray(stamps), offset)
+    ns = timeline.ns_array(np.asarray(stamps))
     order = np.argsort(ns, kind="stable")
     ns, wrench = ns[order], np.asarray(wrenches, np.float64)[order]
-    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, FRAME_ID))
+    return _Topic(ESTIMATE_TOPIC, WRENCH_STAMPED, ns, wrench_stamped(ns, wrench, BOARD_FRAME_ID))
 
 
 def _axis(estimate: dict[str, Any], part: str, axis: str) -> float:
@@ -227,7 +263,11 @@ def _sources(estimates: list[dict[str, Any]]) -> list[str]:
 
 
 def _write(
-    topics: list[_Topic], out: Path, storage: Storage, progress: Callable[[int, int], None] | None
+    topics: list[_Topic],
+    out: Path,
+    storage: Storage,
+    progress: Callable[[int, int], None] | None,
+    timeline: Timeline,
 ) -> None:
     from rosbags.interfaces import (
         Qos,
@@ -269,6 +309,7 @@ def _write(
     total = len(order)
     try:
         with Writer(bag, version=8, storage_plugin=plugin) as writer:
+            writer.set_custom_data(TIMELINE_KEY, json.dumps(timeline.as_dict()))
             conns = [
                 writer.add_connection(
                     t.name, t.msgtype, typestore=TYPESTORE, offered_qos_profiles=[qos]

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from spectratac.ft.ros_time import split_ns
 
@@ -26,6 +26,16 @@ from spectratac.ft.ros_time import split_ns
 TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 UINT16_ARRAY = "std_msgs/msg/UInt16MultiArray"
+#: One optical sample's counts with its stamp: a UInt16MultiArray's fields behind a Header.
+#: ROS has no stamped array; the definition travels in the bag (rosbag2 message_definitions
+#: and its MCAP schema), so readers decode it without a package installed.
+COUNTS_STAMPED = "spectratac_msgs/msg/CountsStamped"
+COUNTS_STAMPED_MSG = """\
+std_msgs/Header header
+std_msgs/MultiArrayLayout layout
+uint16[] data
+"""
+TYPESTORE.register(get_types_from_msg(COUNTS_STAMPED_MSG, COUNTS_STAMPED))
 _T = TYPESTORE.types
 
 
@@ -83,3 +93,35 @@ def uint16_arrays(values: NDArray[Any], labels: tuple[str, ...]) -> list[bytes]:
     head = template[: len(template) - n_data]
     flat = np.ascontiguousarray(values, dtype="<u2").reshape(len(values), -1)
     return [head + row.tobytes() for row in flat]
+
+
+def counts_stamped(
+    stamp_ns: NDArray[Any], values: NDArray[Any], labels: tuple[str, ...], frame_id: str
+) -> list[bytes]:
+    """CountsStamped payloads: one per row of `values` (N, *shape), stamped `stamp_ns`
+    (int64 ns), the layout as uint16_arrays'."""
+    shape = tuple(int(n) for n in values.shape[1:])
+    dim = _T["std_msgs/msg/MultiArrayDimension"]
+    strides = [int(np.prod(shape[k:])) for k in range(len(shape))]
+    msg = _T[COUNTS_STAMPED](
+        header=_T["std_msgs/msg/Header"](
+            stamp=_T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id=frame_id
+        ),
+        layout=_T["std_msgs/msg/MultiArrayLayout"](
+            dim=[
+                dim(label=lb, size=n, stride=k)
+                for lb, n, k in zip(labels, shape, strides, strict=True)
+            ],
+            data_offset=0,
+        ),
+        data=np.zeros(int(np.prod(shape)), np.uint16),
+    )
+    template = bytes(TYPESTORE.serialize_cdr(msg, COUNTS_STAMPED))
+    head = template[: len(template) - int(np.prod(shape)) * 2]
+    sec, nanosec = split_ns(np.asarray(stamp_ns, np.int64))
+    flat = np.ascontiguousarray(values, dtype="<u2").reshape(len(values), -1)
+    out = []
+    for s, ns, row in zip(sec.tolist(), nanosec.tolist(), flat, strict=True):
+        stamp = int(s).to_bytes(4, "little", signed=True) + int(ns).to_bytes(4, "little")
+        out.append(head[:4] + stamp + head[12:] + row.tobytes())
+    return out

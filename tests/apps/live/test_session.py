@@ -133,6 +133,13 @@ def test_session_publishes_estimates_reference_and_snake_and_saves_clips(
     assert ds.n >= 20 and ds.target_valid.mean() > 0.5
     # the MCAP clip holds the page's estimates too (/spectratac/estimates), as the CSV has them
     clip = read_recording(mcap_clip["path"])
+    # on the sensor's clock (record.timeline): at speed=4 its samples span 4x their host time
+    from mcap.reader import make_reader
+
+    with open(mcap_clip["path"], "rb") as f:
+        found = make_reader(f).iter_messages(topics=["/spectratac/counts"])
+        log, pub = np.array([(m.log_time, m.publish_time) for _, _, m in found]).T
+    assert np.ptp(log) == pytest.approx(4 * np.ptp(pub), rel=0.1)
     assert len(clip.estimates) >= 20 and {e["source"] for e in clip.estimates} == {"host"}
     csv_fz = {round(float(r["device_time_s"]) * 1e6): float(r["Fz"]) for r in rows}
     shared = [e for e in clip.estimates if e["t_end_us"] in csv_fz]

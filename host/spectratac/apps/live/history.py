@@ -150,7 +150,9 @@ class History:
         exchanges = [asdict(e) for e in sensor.time_sync[-64:]]
         ft_dtype = ft.dtype if ft is not None else None
         now = time.monotonic()
-        with RecordingWriter(path, {"labels": "none", **session}, ft_dtype=ft_dtype) as w:
+        # the link's clock scale puts the clip on the sensor's clock (record.timeline)
+        session = {"labels": "none", "link": sensor.link_info.as_dict(), **session}
+        with RecordingWriter(path, session, ft_dtype=ft_dtype) as w:
             w.json(INFO, info_dict(sensor.info), now)
             if session.get("ft_info") is not None:
                 w.json(FT_INFO, session["ft_info"], now)
