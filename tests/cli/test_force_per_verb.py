@@ -9,39 +9,19 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 from spectratac.cli import main
 from spectratac.cli.outputs import MARKER, MCAP_MAGIC
 from spectratac.dataset import Dataset
-from spectratac.record import RecordOptions, record_url
+
+from tests.cli.conftest import RIDGE
 
 pytestmark = pytest.mark.train  # the train verb fits a ridge model
 
-RIDGE = ["--model", "ridge", "--features", "generic", "--no-progress"]
 
 
 def tree(folder: Path) -> dict[str, bytes]:
     return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-
-
-@pytest.fixture(scope="module")
-def made(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """A recording, a generic CSV and a ridge model trained on it (the verbs' inputs)."""
-    d = tmp_path_factory.mktemp("inputs")
-    rec = d / "rec1.mcap"
-    record_url("sim://?scene=tour&speed=max&ft=bota", rec, RecordOptions(samples=80))
-    rng = np.random.default_rng(0)
-    x = rng.normal(size=(300, 3))
-    ds = Dataset.generic(x, x @ np.array([1.0, -2.0, 0.5]), ["a", "b", "c"], ["Fz"])
-    targets = ds.targets[:, 0]
-    rows = ["a,b,c,Fz"] + [
-        ",".join(map(str, [*r, t])) for r, t in zip(ds.inputs, targets, strict=True)
-    ]
-    csv = d / "data.csv"
-    csv.write_text("\n".join(rows) + "\n")
-    assert main(["train", str(csv), "-o", str(d / "m.stac"), *RIDGE]) == 0
-    return {"recording": rec, "csv": csv, "model": d / "m.stac"}
 
 
 def user_folder(tmp_path: Path, *inputs: Path) -> Path:

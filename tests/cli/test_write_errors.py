@@ -14,31 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from spectratac.cli import main
-from spectratac.dataset import Dataset
-from spectratac.record import RecordOptions, record_url
+
+from tests.cli.conftest import RIDGE
 
 pytestmark = pytest.mark.train  # the train verb fits a ridge model
 
-RIDGE = ["--model", "ridge", "--features", "generic", "--no-progress"]
+
 FULL = OSError(errno.ENOSPC, "No space left on device")
 READ_ONLY = PermissionError(errno.EACCES, "Permission denied")
-
-
-@pytest.fixture(scope="module")
-def made(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    d = tmp_path_factory.mktemp("inputs")
-    rec = d / "rec1.mcap"
-    record_url("sim://?scene=tour&speed=max&ft=bota", rec, RecordOptions(samples=80))
-    rng = np.random.default_rng(0)
-    x = rng.normal(size=(300, 3))
-    y = x @ np.array([1.0, -2.0, 0.5])
-    csv = d / "data.csv"
-    csv.write_text(
-        "a,b,c,Fz\n" + "".join(f"{a},{b},{c},{t}\n" for (a, b, c), t in zip(x, y, strict=True))
-    )
-    assert main(["train", str(csv), "-o", str(d / "m.stac"), *RIDGE]) == 0
-    Dataset.generic(x, y, ["a", "b", "c"], ["Fz"])
-    return {"recording": rec, "csv": csv, "model": d / "m.stac"}
 
 
 def failing(monkeypatch: pytest.MonkeyPatch, owner: object, name: str, error: Exception,
