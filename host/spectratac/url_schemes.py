@@ -173,13 +173,17 @@ class Param:
         except ValueError:
             kind = "an integer" if self.kind == "integer" else "a number"
             raise error(f"{url}: {name}={raw} is not {kind}; give {self.describe()}{why}") from None
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an integer beyond any float: out of every range
+            finite = False
         if (
-            not math.isfinite(value)
+            not finite
             or (self.lo is not None and value < self.lo)
             or (self.hi is not None and value > self.hi)
         ):
-            finite = "a finite number" if self.kind == "number" else "an integer"
-            raise error(f"{url}: {name}={raw} must be {finite} in {self.describe()}{why}")
+            what = "a finite number" if self.kind == "number" else "an integer"
+            raise error(f"{url}: {name}={raw} must be {what} in {self.describe()}{why}")
         return value
 
 

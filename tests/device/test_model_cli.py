@@ -62,7 +62,7 @@ def test_upload_info_stream_and_clear(
         ExitCode.OK
     )
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0] == "seq,t_ms,Fx,Fy,Fz,Tx,Ty,Tz,region,est_flags" and len(lines) == 4
+    assert lines[0] == "seq,t_ms,host_ms,Fx,Fy,Fz,Tx,Ty,Tz,region,est_flags" and len(lines) == 4
     assert main(["model", "clear", url, "--json"]) == ExitCode.OK
     assert _json(capsys)["present"] == "none"
 

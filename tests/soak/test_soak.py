@@ -22,7 +22,10 @@ def test_nothing_is_lost_unaccounted_and_the_recording_reads_back(run_bench) -> 
     assert load["devices"] == 16 and load["simulated_s_per_device"] >= float(seconds)
     # every fault kind really happened, and was survived
     assert faults["bytes_corrupted"] > 0 and faults["frames_rejected_crc"] > 0
-    assert faults["unplugs"] > 0 and faults["reconnects"] == faults["unplugs"]
+    # one reconnect per unplug, and one per stream the stall watch reopened (a host starved
+    # past --stall-timeout on a busy machine: no sample may be lost unaccounted for it either)
+    assert faults["unplugs"] > 0
+    assert faults["reconnects"] == faults["unplugs"] + faults["stall_reconnects"]
     assert faults["stalls"] > 0 and faults["ft_dropouts"] > 0
     assert faults["stuck_devices"] == 0
     # every sample a device sent was delivered or counted lost, device by device

@@ -67,6 +67,7 @@ class DeviceTally:
     stalls: int = 0
     unplugs: int = 0
     reconnects: int = 0
+    stall_reconnects: int = 0  # the host's stall watch reopened the link (a starved host)
     stuck: bool = False  # stopped sending for STUCK_S of wall time (streaming not restored)
     error: str = ""  # what went wrong ending its stream (it is then not tallied complete)
 
@@ -124,6 +125,7 @@ class Soak:
                 "stalls": total(t.stalls for t in d),
                 "unplugs": total(t.unplugs for t in d),
                 "reconnects": total(t.reconnects for t in d),
+                "stall_reconnects": total(t.stall_reconnects for t in d),
                 "stuck_devices": total(t.stuck for t in d),
                 "ft_dropouts": self.recording.ft_lost,
             },
@@ -195,6 +197,7 @@ def soak_devices(n: int, seconds: float, seed: int) -> list[DeviceTally]:
                 stalls=book.stalls,
                 unplugs=book.unplugs,
                 reconnects=st.reconnects,
+                stall_reconnects=st.stalls,
                 stuck=u in stuck,
                 error=errors.get(u, ""),
             )
