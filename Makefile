@@ -81,7 +81,7 @@ firmware-native:
 # level 3 once per board: spectratac flash --set-bor (ST-Link). See firmware/README.md.
 URL ?=
 flash: firmware
-	$(BIN)/spectratac flash $(FW_BIN) $(if $(URL),--url $(URL))
+	$(BIN)/spectratac flash $(FW_BIN) $(if $(URL),--device $(URL))
 
 clean:
 	rm -rf $(VENV) .pytest_cache build

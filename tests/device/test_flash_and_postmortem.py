@@ -39,7 +39,7 @@ def test_flash_enters_dfu_by_command_then_downloads(
     tmp_path: Path, image: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     dfu, log = fake_tool(tmp_path, "dfu-util", "Found DFU: [0483:df11] ver=2200, devnum=7")
-    args = ["flash", str(image), "--url", SIM, "--dfu-util", str(dfu), "--json"]
+    args = ["flash", str(image), "--device", SIM, "--dfu-util", str(dfu), "--json"]
     assert main(args) == ExitCode.OK
     out = json.loads(capsys.readouterr().out)
     assert out["steps"][0].endswith("restarted in its ROM bootloader (ENTER_BOOTLOADER)")
@@ -50,7 +50,7 @@ def test_flash_enters_dfu_by_command_then_downloads(
 
 def test_flash_gives_up_when_no_bootloader_appears(tmp_path: Path, image: Path) -> None:
     dfu, log = fake_tool(tmp_path, "dfu-util", "No DFU capable USB device available")
-    args = ["flash", str(image), "--url", SIM, "--dfu-util", str(dfu), "--dfu-wait", "0.3"]
+    args = ["flash", str(image), "--device", SIM, "--dfu-util", str(dfu), "--dfu-wait", "0.3"]
     assert main(args) == ExitCode.ERROR
     assert "-D" not in log.read_text()  # nothing was written
 

@@ -1,10 +1,10 @@
 """`spectratac flash [IMAGE]`: put a firmware image on a Black Pill over USB DFU.
 
-spectratac flash --url /dev/ttyACM0               # running our firmware: DFU by command
+spectratac flash --device /dev/ttyACM0            # running our firmware: DFU by command
 spectratac flash build/pio/blackpill/firmware.bin  # already in DFU (BOOT0 held, NRST tapped)
 spectratac flash --set-bor                         # once per board, over an ST-Link
 
-With --url the board is asked to restart in its ROM bootloader (ENTER_BOOTLOADER, protocol
+With --device the board is asked to restart in its ROM bootloader (ENTER_BOOTLOADER, protocol
 1.4); without it, it must already be in DFU mode. --set-bor programs the brown-out reset at
 level 3 (2.7 V), which the firmware needs before it accepts model uploads
 (device/flashing.py).
@@ -35,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "omit with --set-bor alone",
     )
     p.add_argument(
-        "--url",
+        "--device",
+        metavar="URL",
         help=f"the board, running our firmware: restart it in its ROM bootloader first "
         f"(ENTER_BOOTLOADER) instead of BOOT0 + NRST ({DEVICE_URL_HELP})",
     )
@@ -72,9 +73,9 @@ def _flash(args: argparse.Namespace) -> int:
     flasher = Flasher(dfu_util=args.dfu_util, openocd=args.openocd)
     steps: list[str] = []
     if image is not None:
-        if args.url:
-            _enter_bootloader(args.url, args.timeout)
-            steps.append(f"{args.url}: restarted in its ROM bootloader (ENTER_BOOTLOADER)")
+        if args.device:
+            _enter_bootloader(args.device, args.timeout)
+            steps.append(f"{args.device}: restarted in its ROM bootloader (ENTER_BOOTLOADER)")
             say(steps[-1], args.json)
             flasher.wait_for_dfu(args.dfu_wait)
         flasher.download(image)

@@ -83,7 +83,7 @@ class Flasher:
                 raise FlashError(
                     f"no DFU device ({DFU_ID}) appeared within {timeout:g} s: check the USB "
                     "cable (a charge-only cable carries no data), or hold BOOT0, tap NRST and "
-                    "run again without --url"
+                    "run again without --device"
                 )
             time.sleep(poll)
 
