@@ -52,6 +52,11 @@ typedef struct stac_stats {
      * one decode, the last and the largest. */
     uint32_t acq_cycles_last, acq_cycles_max;
     uint32_t decode_cycles_last, decode_cycles_max;
+    /* Per sensor: µs from the TRIG write to the poll that found TRIG clear (an upper bound by
+     * at most one poll interval; 0 until measured), the last and the largest; and how often
+     * TRIG was still set at the deadline (cleared by the firmware, the data read by time). */
+    uint32_t trig_latency_us_last[STAC_SENSORS], trig_latency_us_max[STAC_SENSORS];
+    uint32_t trig_stuck[STAC_SENSORS];
 } stac_stats_t;
 
 /* Acquisition state: one cycle = light a step, let it settle, integrate, read, send. */
@@ -74,6 +79,9 @@ typedef struct stac_acq {
     uint32_t deadline;       /* INTEGRATE: give up waiting (sensor reported stale) */
     uint16_t last_counts[STAC_SENSORS][STAC_CHANNELS]; /* last good reading per sensor */
     uint32_t cycles;         /* CPU cycles spent on the window in flight so far */
+    uint32_t trig_at[STAC_SENSORS]; /* INTEGRATE: when each sensor's TRIG write completed */
+    uint8_t trig_set;        /* sensors whose last poll answered with TRIG still set */
+    uint8_t trig_timed;      /* sensors seen converting with TRIG left set: read by time */
     /* The finished sample waiting for the model: decoded after the next integration has been
      * triggered, so decoding runs while the sensors integrate instead of delaying them. */
     bool decode_pending;
