@@ -202,10 +202,12 @@ static void trigger(stac_app_t *app) {
         }
         acq->pending |= (uint8_t)(1u << k);
         const int32_t rc = veml3328_trigger(&app->hal, (uint8_t)k, &s);
+        acq->trig_at[k] = stac_app_clock(app);
         if (rc != STAC_I2C_OK) {
             sensor_failed(app, k, rc);
         }
     }
+    acq->trig_set = 0u;
     const uint32_t it = integration_us(&app->cfg);
     acq->poll_at = acq->t_start + it;
     acq->deadline = acq->t_start + it + STAC_STALE_MARGIN_US(it);
@@ -228,9 +230,54 @@ static void poll(stac_app_t *app) {
         } else if (done) {
             acq->pending &= (uint8_t)~bit;
             acq->done |= bit;
+            acq->trig_set &= (uint8_t)~bit;
+            const uint32_t latency = stac_app_clock(app) - acq->trig_at[k];
+            app->stats.trig_latency_us_last[k] = latency;
+            max_into(&app->stats.trig_latency_us_max[k], latency);
+        } else {
+            acq->trig_set |= bit;
         }
     }
     acq->cycles += stac_app_cycles(app) - c0;
+}
+
+/* Sensor k answered but still had TRIG set at the deadline. Whether the VEML3328 clears TRIG
+ * itself is not settled by its datasheet (hardware/datasheet_facts.toml), and a sensor that
+ * keeps it set must not go stale for ever: clear TRIG (so the next trigger is a fresh 0 -> 1
+ * write), count it, and read the data registers, which hold a finished conversion by now (the
+ * deadline is a quarter beyond the integration time). Counts that differ from the last reading
+ * prove a new conversion, and from then on the sensor is read by time; until then identical
+ * counts are no evidence (a sensor that never finishes, or one slower than the deadline) and
+ * stay stale. Returns the sensor status; the counts go to c. */
+static uint8_t read_trig_stuck(stac_app_t *app, uint32_t k, uint16_t c[STAC_CHANNELS]) {
+    stac_acq_t *acq = &app->acq;
+    const uint8_t bit = (uint8_t)(1u << k);
+    const veml3328_settings_t settings = sensor_settings(&app->cfg);
+    app->stats.trig_stuck[k]++;
+    bool sat = false;
+    int32_t rc = veml3328_configure(&app->hal, (uint8_t)k, &settings);
+    if (rc == STAC_I2C_OK) {
+        rc = veml3328_read_channels(&app->hal, (uint8_t)k, c, &sat);
+    }
+    if (rc != STAC_I2C_OK) {
+        sensor_failed(app, k, rc);
+        return STAC_SENSOR_BUS_FAULT;
+    }
+    if (memcmp(c, acq->last_counts[k], sizeof acq->last_counts[k]) != 0 &&
+        (acq->trig_timed & bit) == 0u) {
+        acq->trig_timed |= bit;
+        log_sensor(app, STAC_LOG_WARN, k, "keeps TRIG set: read by time");
+    } else if ((acq->trig_timed & bit) == 0u) {
+        memcpy(c, acq->last_counts[k], sizeof acq->last_counts[k]);
+        return STAC_SENSOR_STALE;
+    }
+    sensor_ok(app, k);
+    memcpy(acq->last_counts[k], c, sizeof acq->last_counts[k]);
+    if (sat) {
+        app->stats.saturations[k]++;
+        return STAC_SENSOR_SATURATED;
+    }
+    return 0u;
 }
 
 /* Read the finished sensors and hand the SAMPLE to the host link, all in this pass; a model
@@ -263,6 +310,12 @@ static void finish(stac_app_t *app) {
             }
         } else if ((acq->fault & bit) != 0u) {
             st = STAC_SENSOR_BUS_FAULT;
+        } else if ((acq->trig_set & bit) != 0u) {
+            uint16_t c[STAC_CHANNELS];
+            st = read_trig_stuck(app, k, c);
+            if (st != STAC_SENSOR_BUS_FAULT) {
+                memcpy(s.counts[k], c, sizeof s.counts[k]);
+            }
         } else {
             /* Answered, but did not finish in time: repeat its last good counts. */
             st = STAC_SENSOR_STALE;

@@ -2,7 +2,9 @@
  *
  * One cycle per LED step: light the step (waiting led_settle_us only if the light changed),
  * trigger all sensors together in active-force mode, poll until each has cleared TRIG (or a
- * deadline passes), read them and send the SAMPLE in the same pass. With a model in use the
+ * deadline passes), read them and send the SAMPLE in the same pass. The time from each TRIG
+ * write to the poll that finds it clear is kept per sensor (stats.trig_latency_us_*); a sensor
+ * that leaves TRIG set is read at the deadline instead (stats.trig_stuck). With a model in use the
  * sample is decoded after the next integration has been triggered, in the same pass (after the
  * LED settle when the light changes), so decoding overlaps the sensors' integration instead of
  * delaying it. The LEDs change only between a read and the next trigger, so no integration

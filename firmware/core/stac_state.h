@@ -71,9 +71,13 @@ typedef struct stac_stats {
     uint32_t acq_cycles_last, acq_cycles_max;
     uint32_t decode_cycles_last, decode_cycles_max;
     /* Flash erase of one MODEL_BEGIN or MODEL_CLEAR (µs), and per sensor the TRIG write to
-     * data-ready time (µs), the last and the largest (protocol 1.4). */
+     * data-ready time (µs), the last and the largest (protocol 1.4): measured up to the poll
+     * that found TRIG clear, so an upper bound by at most one poll interval; 0 until measured. */
     uint32_t erase_us_last, erase_us_max;
     uint32_t trig_latency_us_last[STAC_SENSORS], trig_latency_us_max[STAC_SENSORS];
+    /* Per sensor: windows that ended with TRIG still set (cleared by the firmware, the data
+     * read by time once the sensor proved it converts). */
+    uint32_t trig_stuck[STAC_SENSORS];
 } stac_stats_t;
 
 /* Acquisition state: one cycle = light a step, let it settle, integrate, read, send. */
@@ -96,6 +100,9 @@ typedef struct stac_acq {
     uint32_t deadline;       /* INTEGRATE: give up waiting (sensor reported stale) */
     uint16_t last_counts[STAC_SENSORS][STAC_CHANNELS]; /* last good reading per sensor */
     uint32_t cycles;         /* CPU cycles spent on the window in flight so far */
+    uint32_t trig_at[STAC_SENSORS]; /* INTEGRATE: when each sensor's TRIG write completed */
+    uint8_t trig_set;        /* sensors whose last poll answered with TRIG still set */
+    uint8_t trig_timed;      /* sensors seen converting with TRIG left set: read by time */
     /* The finished sample waiting for the model: decoded after the next integration has been
      * triggered, so decoding runs while the sensors integrate instead of delaying them. */
     bool decode_pending;

@@ -14,8 +14,9 @@
  * integration; the caller waits the integration time, then veml3328_poll_done() reads CONF
  * until TRIG reads 0. That the sensor clears TRIG itself is not confirmed from the datasheet
  * (its register description was not reachable): the scheduler polls only after the
- * integration time and gives up at a deadline, so a sensor that kept TRIG set would be
- * reported stale, never waited on forever. */
+ * integration time and stops at a deadline; a sensor still showing TRIG there has it cleared
+ * and its data read, and once that proves a new conversion it is read by time from then on
+ * (stac_acquisition.c), so neither behaviour leaves it stale or waited on for ever. */
 #ifndef VEML3328_H
 #define VEML3328_H
 

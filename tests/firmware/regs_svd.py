@@ -331,6 +331,16 @@ MANUAL_WINS_FIELDS: dict[str, ManualField] = {
         "absent from the SVD",
     ),
 }
+MANUAL_WINS_FIELDS.update(
+    {
+        "I2C_FLTR_DNF_MASK": ManualField(
+            0, 4, "RM0383 §18.6.10 I2C_FLTR bits 3:0 DNF (digital noise filter); no FLTR in the SVD"
+        ),
+        "I2C_FLTR_ANOFF": ManualField(
+            4, 1, "RM0383 §18.6.10 I2C_FLTR bit 4 ANOFF (analog filter off); no FLTR in the SVD"
+        ),
+    }
+)
 MANUAL_WINS_REGISTERS: dict[str, ManualRegister] = {
     "OTG_GRXSTSP": ManualRegister(
         lambda n: 0x50000020,
@@ -559,7 +569,15 @@ class Checker:
             if regs:
                 break
         else:
-            self.fail(name, f"no register {tokens[0]} in {', '.join(p.name for p in peripherals)}")
+            manual = MANUAL_WINS_FIELDS.get(name)
+            if manual is None or all(m != tokens[0] for _, m in MANUAL_WINS_STRUCT_MEMBERS):
+                where = ", ".join(p.name for p in peripherals)
+                self.fail(name, f"no register {tokens[0]} in {where}")
+                return
+            # a field of a register only the manual has (its struct member is an exception too)
+            mask = ((1 << manual.width) - 1) << manual.offset
+            if value != mask:
+                self.fail(name, f"{value:#x}, but {manual.reference} wants {mask:#x}")
             return
         rest = tokens[cut:]
         manual = MANUAL_WINS_FIELDS.get(name)

@@ -2,6 +2,9 @@
 
 #include "generated/board.h"
 
+/* OSPEEDR code 00, low speed (RM0383 8.4.3); regs.h names only the non-zero codes. */
+#define GPIO_SPEED_LOW 0u
+
 gpio_t *gpio_port(char name) {
     return name == 'A' ? GPIOA : GPIOB;
 }
@@ -18,13 +21,20 @@ static void set_field(volatile uint32_t *reg, uint8_t pin, uint32_t mask0, uint3
     *reg = (*reg & ~mask) | ((value << shift) & mask);
 }
 
-void gpio_af(gpio_t *port, uint8_t pin, uint8_t af, int open_drain, int pull_up) {
+/* The output speed (slew) is set before the pin is handed to its peripheral, so it never
+ * switches at a faster edge than it keeps. */
+static void pin_af(gpio_t *port, uint8_t pin, uint8_t af, int open_drain, int pull_up,
+                   uint32_t speed) {
     set_field(&port->AFR[pin / 8u], (uint8_t)(pin % 8u), GPIO_AFRL_AFRL0_MASK, af);
     set_field(&port->OTYPER, pin, GPIO_OTYPER_OT0, open_drain ? 1u : 0u);
-    /* fast: clean 400 kHz edges */
-    set_field(&port->OSPEEDR, pin, GPIO_OSPEEDR_OSPEEDR0_MASK, GPIO_OSPEEDR_OSPEEDR0_FAST);
+    set_field(&port->OSPEEDR, pin, GPIO_OSPEEDR_OSPEEDR0_MASK, speed);
     set_field(&port->PUPDR, pin, GPIO_PUPDR_PUPDR0_MASK, pull_up ? GPIO_PUPDR_PUPDR0_PULLUP : 0u);
     set_field(&port->MODER, pin, GPIO_MODER_MODER0_MASK, GPIO_MODER_MODER0_AF);
+}
+
+void gpio_af(gpio_t *port, uint8_t pin, uint8_t af, int open_drain, int pull_up) {
+    /* fast: clean 400 kHz I2C edges, USB, the UART */
+    pin_af(port, pin, af, open_drain, pull_up, GPIO_OSPEEDR_OSPEEDR0_FAST);
 }
 
 void gpio_od_out(gpio_t *port, uint8_t pin, int level) {
@@ -53,7 +63,9 @@ void gpio_init_board(void) {
             gpio_af(port, p->pin, p->af, 1, 1); /* open drain; board pull-ups, internal as backup */
             break;
         case PIN_LED:
-            gpio_af(port, p->pin, p->af, 1, 0); /* open drain sinks the cathode: active low */
+            /* Open drain sinks the cathode (active low). Low speed: 20 kHz PWM needs no fast
+             * edges, and slow ones couple less into SDA/SCL next to them. */
+            pin_af(port, p->pin, p->af, 1, 0, GPIO_SPEED_LOW);
             break;
         case PIN_UART_RX:
             gpio_af(port, p->pin, p->af, 0, 1); /* idle high if the adapter is unplugged */

@@ -1,6 +1,7 @@
 /* Polling I2C master on I2C1..3 (sensor k on bus k), 400 kHz. Every flag wait is bounded by
- * the caller's timeout; a failed transfer resets the peripheral and, if a slave holds SDA low,
- * clocks the bus free, so the next transfer starts clean. */
+ * the caller's timeout. The bus is clocked free at init and whenever BUSY stays set; a spurious
+ * bus error is cleared and the transfer continues; arbitration loss or a failed transfer resets
+ * the peripheral and tries again while the timeout allows. */
 #ifndef I2C_H
 #define I2C_H
 

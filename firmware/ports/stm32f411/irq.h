@@ -1,7 +1,13 @@
-/* Interrupt priorities. The F411 implements the top 4 bits of each 8-bit priority (0 is the
- * highest); every interrupt left at reset runs at 0. The host link's interrupt (USART1 or
- * OTG_FS) runs at the lowest level the port uses, so that anything with a deadline preempts it;
- * the clock needs no interrupt at all (TIM5's counter, timebase.h). */
+/* Interrupts: priorities and short masked sections.
+ *
+ * Priorities: the F411 implements the top 4 bits of each 8-bit priority (0 is the highest);
+ * every interrupt left at reset runs at 0. The host link's interrupt (USART1 or OTG_FS) runs
+ * at the lowest level the port uses, so that anything with a deadline preempts it; the clock
+ * needs no interrupt at all (TIM5's counter, timebase.h).
+ *
+ * Masking: around the few instructions the I2C master must not be late for (RM0383 18.3.3:
+ * between clearing ADDR and programming ACK/STOP). On the target, PRIMASK; a host build (the
+ * register model in tests/firmware/i2c) supplies irq_save/irq_restore. */
 #ifndef STM32F411_IRQ_H
 #define STM32F411_IRQ_H
 
@@ -17,5 +23,20 @@ static inline void irq_enable(uint32_t irqn, uint32_t priority) {
     NVIC_IPR(irqn / 4u) = (NVIC_IPR(irqn / 4u) & ~(0xFFu << shift)) | ((priority & 0xFFu) << shift);
     NVIC_ISER(irqn / 32u) = 1u << (irqn % 32u);
 }
+
+#if defined(__arm__)
+static inline uint32_t irq_save(void) {
+    uint32_t primask;
+    __asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+    return primask;
+}
+
+static inline void irq_restore(uint32_t primask) {
+    __asm volatile("msr primask, %0" ::"r"(primask) : "memory");
+}
+#else
+uint32_t irq_save(void);
+void irq_restore(uint32_t primask);
+#endif
 
 #endif /* STM32F411_IRQ_H */

@@ -114,6 +114,9 @@ typedef struct {
 #define I2C_SR1_AF (1u << 10)
 #define I2C_SR2_BUSY (1u << 1)
 #define I2C_CCR_FS (1u << 15)
+/* I2C_FLTR is RM0383's alone (ST's SVD lacks it): checked against the manual's bits. */
+#define I2C_FLTR_DNF_MASK 0xFu
+#define I2C_FLTR_ANOFF (1u << 4)
 
 /* General-purpose timers TIM2..TIM4 (RM0383 §13.4): no RCR (0x30) or BDTR (0x44) there, and
  * only TIM2 has OR (0x50), which the port leaves alone. */

@@ -30,7 +30,9 @@ static void settle(fake_board_t *b, fake_sensor_t *s, uint8_t bus) {
     }
     s->measuring = false;
     s->fresh = true;
-    s->conf &= (uint16_t)~VEML3328_CONF_TRIG;
+    if (!s->trig_stays) {
+        s->conf &= (uint16_t)~VEML3328_CONF_TRIG;
+    }
     for (int ch = 0; ch < 5; ch++) {
         const uint32_t v = s->base[ch] + s->led_sum_at_trigger;
         s->data[ch] = s->saturate ? 0xFFFFu : (uint16_t)(v > 0xFFFEu ? 0xFFFEu : v);
@@ -73,9 +75,11 @@ static int32_t fake_i2c(void *ctx, uint8_t bus, uint8_t addr7, const uint8_t *wr
     if (wr_len == 3u && rd_len == 0u) {
         const uint16_t v = (uint16_t)(wr[1] | (wr[2] << 8));
         if (reg == VEML3328_REG_CONF) {
+            const bool edge = (s->conf & VEML3328_CONF_TRIG) == 0u;
             s->conf = v;
             const bool running = (v & VEML3328_CONF_SD) == 0u;
-            if (running && (v & VEML3328_CONF_AF) && (v & VEML3328_CONF_TRIG)) {
+            if (running && (v & VEML3328_CONF_AF) && (v & VEML3328_CONF_TRIG) &&
+                (edge || !s->trig_stays)) {
                 s->measuring = true;
                 s->trig_at = b->now;
                 s->it_us = it_us_of(v);

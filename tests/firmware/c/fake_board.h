@@ -36,6 +36,7 @@ typedef struct fake_sensor {
     int fail_mode;
     uint32_t slow_ppm;   /* the sensor's oscillator runs this much slower than nominal */
     bool fresh;          /* finished, and the firmware has not yet seen TRIG cleared */
+    bool trig_stays;     /* finishes, but leaves TRIG set; starts only on a TRIG 0 -> 1 write */
 } fake_sensor_t;
 
 typedef struct fake_pwm_event {

@@ -338,6 +338,63 @@ TEST(acquisition_full_transmit_buffer_counts_drops) {
     CHECK(g_frames[n - 1].h.seq > (uint16_t)(n - 1));
 }
 
+TEST(acquisition_trig_latency_measured_per_sensor) {
+    boot();
+    g_b.s[2].slow_ppm = 80000u; /* 54 ms per 50 ms integration */
+    start();
+    fake_run_until(&g_b, &g_app, g_b.now + 1000000u, 100u);
+    const int ns = h_samples(h_frames(&g_b), g_s, 1024);
+    CHECK(ns >= 17);
+    for (int k = 0; k < 3; k++) {
+        const uint32_t conv = k == 2 ? 54000u : 50000u;
+        const uint32_t last = g_app.stats.trig_latency_us_last[k];
+        /* found clear at the first poll after the conversion: within one poll interval and
+         * the transfers of that pass */
+        CHECK(last >= conv);
+        CHECK(last <= conv + STAC_POLL_INTERVAL_US + 1000u);
+        CHECK(g_app.stats.trig_latency_us_max[k] >= last);
+        CHECK(g_app.stats.trig_latency_us_max[k] <= conv + STAC_POLL_INTERVAL_US + 1000u);
+        CHECK_EQ(g_app.stats.trig_stuck[k], 0);
+    }
+}
+
+TEST(acquisition_sensor_keeping_trig_set_is_read_by_time) {
+    /* If the VEML3328 does not clear TRIG itself, its samples must not all go stale. This one
+     * also starts a conversion only on a TRIG 0 -> 1 write, the stricter of the two readings. */
+    boot();
+    g_b.s[1].trig_stays = true;
+    start();
+    fake_run_until(&g_b, &g_app, g_b.now + 1000000u, 100u);
+    const int n = h_frames(&g_b);
+    const int ns = h_samples(n, g_s, 1024);
+    /* each window waits for the deadline: ~64.5 ms instead of ~50 */
+    CHECK(ns >= 14);
+    for (int i = 0; i < ns; i++) {
+        CHECK_EQ(g_s[i].sensor_status[1], 0);
+        CHECK_EQ(g_s[i].counts[1][0], 2000 + 4500);
+        CHECK_EQ(g_s[i].sensor_status[0] | g_s[i].sensor_status[2], 0);
+        CHECK(g_s[i].t_end_us - g_s[i].t_start_us <= 50000u + STAC_STALE_MARGIN_US(50000u) + 3000u);
+    }
+    CHECK(g_b.s[1].triggers >= (uint32_t)ns); /* a fresh conversion for every sample */
+    CHECK(g_app.stats.trig_stuck[1] >= (uint32_t)ns);
+    CHECK_EQ(g_app.stats.trig_stuck[0], 0);
+    CHECK_EQ(g_app.stats.trig_latency_us_last[1], 0); /* never seen clear: not measured */
+    CHECK(g_app.stats.trig_latency_us_last[0] >= 50000u);
+    CHECK_EQ(fake_count(g_frames, n, STAC_MSG_LOG), 1); /* said once */
+}
+
+TEST(acquisition_sensor_keeping_trig_set_and_never_converting_is_stale) {
+    boot();
+    start();
+    fake_run_until(&g_b, &g_app, g_b.now + 300000u, 100u);
+    g_b.s[1].trig_stays = true;
+    g_b.s[1].mode = FAKE_NEVER_DONE;
+    fake_run_until(&g_b, &g_app, g_b.now + 1000000u, 100u);
+    const int ns = h_samples(h_frames(&g_b), g_s, 1024);
+    CHECK_EQ(g_s[ns - 1].sensor_status[1], STAC_SENSOR_STALE);
+    CHECK(g_app.stats.trig_stuck[1] >= 10u);
+}
+
 const test_case_t g_acquisition_tests[] = {
     {"acquisition_silent_until_asked", acquisition_silent_until_asked},
     {"acquisition_one_step_20_per_second", acquisition_one_step_20_per_second},
@@ -361,5 +418,11 @@ const test_case_t g_acquisition_tests[] = {
     {"acquisition_all_sensors_absent_still_streams", acquisition_all_sensors_absent_still_streams},
     {"acquisition_full_transmit_buffer_counts_drops",
      acquisition_full_transmit_buffer_counts_drops},
+    {"acquisition_trig_latency_measured_per_sensor",
+     acquisition_trig_latency_measured_per_sensor},
+    {"acquisition_sensor_keeping_trig_set_is_read_by_time",
+     acquisition_sensor_keeping_trig_set_is_read_by_time},
+    {"acquisition_sensor_keeping_trig_set_and_never_converting_is_stale",
+     acquisition_sensor_keeping_trig_set_and_never_converting_is_stale},
     {NULL, NULL},
 };
