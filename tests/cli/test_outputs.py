@@ -79,7 +79,9 @@ NAMES = st.lists(
 
 
 @settings(
-    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(names=NAMES, marked_by=st.sampled_from([None, "evaluate", "{}", "not json"]))
 def test_force_never_replaces_a_folder_another_verb_or_the_user_filled(

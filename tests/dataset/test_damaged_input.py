@@ -138,7 +138,9 @@ def test_a_crash_while_saving_leaves_no_half_written_dataset(tmp_path: Path, mon
 
 
 @settings(
-    max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=120,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(data=st.data())
 def test_any_damaged_dataset_file_is_a_dataset_error_or_loads(tmp_path: Path, data) -> None:

@@ -119,7 +119,9 @@ def test_a_non_finite_output_is_invalid_not_a_force(model_parts, tmp_path: Path)
 
 
 @settings(
-    max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=120,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(data=st.data())
 def test_any_corrupted_byte_gives_a_decoder_file_error_or_a_sound_decoder(

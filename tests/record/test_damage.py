@@ -112,7 +112,9 @@ def test_a_message_index_hit_in_its_opcode_is_not_read_as_a_frame(recording) -> 
 
 
 @settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=150,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(data=st.data())
 def test_any_damage_gives_a_typed_error_or_an_ordered_subset(tmp_path: Path, data) -> None:

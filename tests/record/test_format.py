@@ -35,7 +35,9 @@ def ft_rows(n: int, seed: int = 0) -> np.ndarray:
 
 
 @settings(
-    max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(frames=frames_st, n_ft=st.integers(0, 50), offset=st.integers(0, 2 * 10**18))
 def test_round_trip(
@@ -78,7 +80,9 @@ def _chunked_file(path: Path, chunks: int = 6, per_chunk: int = 40) -> list[int]
 
 
 @settings(
-    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(cut=st.floats(0.0, 1.0), garbage=st.sampled_from([b"", bytes(4096), b"\xff\x13junk"]))
 def test_any_truncation_gives_the_flushed_prefix(
