@@ -284,13 +284,13 @@ class Decoder:
         on_device = isinstance(sensor, EstimateStream) and self._decoded_by(sensor)
         require_streaming(sensor)
         watch = OodWatch(self.unit_id, ids, url=getattr(sensor, "url", None), model=self.source)
-        for estimate in self._estimates(sensor, check_config, on_device, same):
+        for estimate in self._stream_estimates(sensor, check_config, on_device, same):
             said = watch.see(estimate.ood)
             if said is not None:
                 warnings.warn(said, DecoderOodWarning, stacklevel=2)
             yield estimate
 
-    def _estimates(
+    def _stream_estimates(
         self, sensor: SampleStream, check_config: bool, on_device: bool, same: bool
     ) -> Iterator[Estimate]:
         """`stream`'s estimates, on the device or decoded here."""

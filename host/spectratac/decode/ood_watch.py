@@ -60,8 +60,9 @@ class OodWatch:
         ids = self.sensor_ids
         other = bool(self.model_unit and ids and self.model_unit not in ids)
         if other:
+            also = f" ({', '.join(ids[1:])})" if len(ids) > 1 else ""
             why = (
-                f"the sensor is unit {ids[0]!r} but the model was calibrated on unit "
+                f"the sensor is unit {ids[0]!r}{also} but the model was calibrated on unit "
                 f"{self.model_unit!r}, and another unit's light levels lie outside what the "
                 "model was trained on"
             )
