@@ -39,7 +39,7 @@ def commands_per_press(decoder: Decoder, seed: int) -> tuple[list[list[int]], li
                 break
     return per_press, [int(r) for r in press_regions(scene)]
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.train, pytest.mark.slow]
 
 
 def test_a_guided_minute_adapts_the_model_to_another_unit(
