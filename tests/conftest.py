@@ -111,8 +111,17 @@ LEFT_BEHIND = "left_behind_processes"
 _left_behind: list[str] = []
 
 
+# multiprocessing's resource tracker is the interpreter's own singleton (started by the first
+# spawn context, e.g. training's workers): it ends with this process, so it is not left behind.
+_INTERPRETER_HELPERS = ("multiprocessing.resource_tracker",)
+
+
 def _reap() -> list[str]:
-    left = processes.descendants()
+    left = {
+        pid: cmd
+        for pid, cmd in processes.descendants().items()
+        if not any(helper in cmd for helper in _INTERPRETER_HELPERS)
+    }
     processes.kill_all(left)
     return [f"pid {pid}: {cmd}" for pid, cmd in left.items()]
 

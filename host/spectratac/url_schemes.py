@@ -126,13 +126,18 @@ def check_url(url: str, error: type[Exception]) -> None:
                     "text: spell the URL in UTF-8") from None  # fmt: skip
 
 
+#: How a flag parameter may be spelled (realtime=1, configure=off).
+FLAG_WORDS = {"1": True, "true": True, "yes": True, "on": True,
+              "0": False, "false": False, "no": False, "off": False}  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Param:
     """One URL parameter: its kind, its range (numbers and integers: inclusive bounds,
     None for none; text: lo/hi unused), the words it may be (kind "choice"), a meaning for
     messages and guides."""
 
-    kind: Literal["number", "numbers", "integer", "text", "choice"]
+    kind: Literal["number", "numbers", "integer", "text", "choice", "flag"]
     lo: float | None = None
     hi: float | None = None
     meaning: str = ""
@@ -142,6 +147,8 @@ class Param:
         """The range in words: [lo, hi], >= lo, one of a|b..."""
         if self.kind == "choice":
             return "one of " + "|".join(self.choices)
+        if self.kind == "flag":
+            return "1 or 0"
         if self.kind == "text":
             return "text"
         lo, hi = self.lo, self.hi
@@ -156,8 +163,18 @@ class Param:
         why = f" ({self.meaning})" if self.meaning else ""
         if len(raw) > MAX_URL_CHARS:
             raise error(f"{url[:60]}...: {name} has {len(raw)} characters; at most {MAX_URL_CHARS}")
+        try:
+            raw.encode("utf-8")
+        except UnicodeEncodeError:  # undecodable bytes from the command line
+            raise error(f"{url[:60].encode('utf-8', 'backslashreplace').decode()}: {name} is "
+                        "not UTF-8 text: spell it in UTF-8") from None  # fmt: skip
         if self.kind == "text":
             return raw
+        if self.kind == "flag":
+            word = raw.lower()
+            if word not in FLAG_WORDS:
+                raise error(f"{url}: {name}={raw} must be 1 or 0{why}")
+            return FLAG_WORDS[word]
         if self.kind == "numbers":  # a comma list, each a number in range: force=2,0.5
             items = [t for t in raw.split(",") if t] or [raw]
             one = Param("number", self.lo, self.hi, self.meaning)

@@ -87,7 +87,7 @@ def test_clear_errors(tmp_path: Path) -> None:
     url = write(tmp_path / "c.csv", "t,Fx,Fy", ["0,0,0"])
     with pytest.raises(FTConfigError, match=r"lacks column.*Fz"):
         open_ft(url)
-    with pytest.raises(FTURLError, match="unknown option"):
+    with pytest.raises(FTURLError, match="unknown parameter"):
         open_ft(url + "?speeed=2")
     with pytest.raises(FTURLError, match="no file"):
         open_ft("csv://")

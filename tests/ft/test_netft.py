@@ -81,7 +81,7 @@ def test_silent_host_times_out() -> None:
 
 
 def test_bad_urls_are_refused_by_name() -> None:
-    with pytest.raises(FTURLError, match="unknown option"):
+    with pytest.raises(FTURLError, match="unknown parameter"):
         open_ft("netft://127.0.0.1?cfp=1")
     with pytest.raises(FTURLError, match="not an F/T URL"):
         open_ft("ati://127.0.0.1")

@@ -116,9 +116,9 @@ def test_a_missing_path_says_what_a_bag_is(tmp_path: Path) -> None:
 def test_bad_options_are_refused() -> None:
     with pytest.raises(FTURLError, match="no bag"):
         FTSensor.open("rosbag://?topic=/x")
-    with pytest.raises(FTURLError, match="unknown option"):
+    with pytest.raises(FTURLError, match="unknown parameter"):
         RosbagFTSensor.connect("rosbag://b?colour=red", timeout=1, buffer_size=10)
-    with pytest.raises(FTURLError, match="host_time='file'"):
+    with pytest.raises(FTURLError, match=r"host_time=file must be one of bag\|now"):
         RosbagFTSensor.connect("rosbag://b?host_time=file", timeout=1, buffer_size=10)
 
 

@@ -31,7 +31,10 @@ from spectratac.cli import build_parser, main
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.values import RANGES
 from spectratac.device import DeviceError, Sensor
-from spectratac.ft import FTError, FTSensor
+from spectratac.ft import FTError, FTSensor, bota, csvfile, netft, rosbag
+from spectratac.ft.errors import FTURLError
+from spectratac.ft.open import ft_schemes
+from spectratac.ft.options import Options, Param
 from spectratac.sim.url import SIM_PARAMS, parse_sim_url
 from spectratac.url_schemes import MAX_URL_CHARS
 
@@ -280,15 +283,16 @@ def _sim_cases() -> Iterator[tuple[str, str, str]]:
             yield key, label, value
 
 
-def _in_range(key: str, value: str) -> bool:
+def _in_range(param: Param, value: str) -> bool:
     """Whether the guide's range admits `value` (an oracle apart from the parser's code)."""
-    param = SIM_PARAMS[key]
     if len(value) > MAX_URL_CHARS or (not value.isascii() and "\udcff" in value):
         return False
     if param.kind == "text":
         return True
     if param.kind == "choice":
         return value in param.choices
+    if param.kind == "flag":
+        return value.lower() in ("1", "0", "true", "false", "yes", "no", "on", "off")
     try:
         number = int(value) if param.kind == "integer" else float(value)
     except ValueError:
@@ -307,9 +311,43 @@ def test_every_sim_parameter_refuses_hostile_values(key: str, label: str, value:
         message = str(exc)
         assert "\n" not in message and len(message) < 2 * MAX_URL_CHARS
         assert "ValueError" not in message  # no internal exception leaks into it
-        assert not _in_range(key, value), f"{key}={label} is in its range, yet refused"
+        assert not _in_range(SIM_PARAMS[key], value), f"{key}={label} is in its range, yet refused"
         return
-    assert _in_range(key, value), f"sim://?{key}={label} accepted outside its range"
+    assert _in_range(SIM_PARAMS[key], value), f"sim://?{key}={label} accepted outside its range"
+
+
+#: Every F/T driver's option table (spectratac.ft.options); sim:// is walked above.
+FT_URL_PARAMS = {m.__name__.rsplit(".", 1)[1]: m.URL_PARAMS for m in (bota, netft, rosbag)}
+FT_URL_PARAMS["csv"] = csvfile.URL_PARAMS
+
+
+def test_every_ft_scheme_has_its_table_walked() -> None:
+    assert set(ft_schemes()) <= {*FT_URL_PARAMS, "sim"}, "a new F/T driver: walk its table"
+
+
+def _ft_cases() -> Iterator[tuple[str, str, str, str]]:
+    for scheme, table in FT_URL_PARAMS.items():
+        for key in sorted(table):
+            for label, value in HOSTILE.items():
+                yield scheme, key, label, value
+
+
+@pytest.mark.parametrize(("scheme", "key", "label", "value"), list(_ft_cases()))
+def test_every_ft_url_parameter_refuses_hostile_values(
+    scheme: str, key: str, label: str, value: str
+) -> None:
+    """The F/T drivers' options go through the same checker as sim://'s (one place)."""
+    table = FT_URL_PARAMS[scheme]
+    url = f"{scheme}://x?{key}={value}"
+    try:
+        Options(url, {key: value}, table)
+    except FTURLError as exc:
+        message = str(exc)
+        assert "\n" not in message and len(message) < 2 * MAX_URL_CHARS
+        assert "ValueError" not in message
+        assert not _in_range(table[key], value), f"{key}={label} is in its range, yet refused"
+        return
+    assert _in_range(table[key], value), f"{url[:60]} accepted outside its range"
 
 
 @pytest.mark.parametrize("url", ["sim://?colour=red", "sim://?scene=idle&speed=1e-300",

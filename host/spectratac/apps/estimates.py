@@ -65,10 +65,11 @@ class Estimate:
     def as_dict(self) -> dict[str, Any]:
         """The --json form."""
         return {
-            "total_s": round(self.total_s, 1),
-            "parts_s": {k: round(v, 1) for k, v in self.parts_s.items()},
+            # significant digits, not decimals: a build of a small file takes 0.04 s, not 0
+            "total_s": float(f"{self.total_s:.3g}"),
+            "parts_s": {k: float(f"{v:.3g}") for k, v in self.parts_s.items()},
             "rates": {k: float(f"{v:.4g}") for k, v in self.rates.items()},
-            "calibration_s": round(self.calibration_s, 2),
+            "calibration_s": float(f"{self.calibration_s:.3g}"),
         }
 
 

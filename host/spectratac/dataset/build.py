@@ -40,6 +40,7 @@ from spectratac.dataset.labels import (
     guided_labels,
     optical_guided_labels,
     truth_labels,
+    truth_rows,
 )
 from spectratac.dataset.schema import (
     FT_NAMES,
@@ -51,6 +52,15 @@ from spectratac.dataset.schema import (
 )
 from spectratac.fusion import ClockFitError, window_average
 from spectratac.record.reader import Recording, read_recording
+
+
+class UnlabelledSamplesWarning(UserWarning):
+    """Samples of a damaged recording whose scene labels were in a skipped chunk: left out;
+    `count` says how many."""
+
+    def __init__(self, message: str, count: int) -> None:
+        super().__init__(message)
+        self.count = count
 
 
 class MixedUnitsWarning(UserWarning):
@@ -124,6 +134,9 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     link = rec.link  # a device clock not tied to the host's (clock_scale None) is used as is
     scale = 1.0 if link.clock_scale is None else link.clock_scale
     samples, windows, epochs = _timed_samples(rec, scale, device_clock=link.clock_scale is None)
+    source = rec.session.get("labels", "none")
+    if source == "scene":  # (the samples' epochs serve guided sessions only)
+        samples, windows = _with_truth_rows(rec, samples, windows)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
     declared = rec.truth.get("ft_clock") if opts.ft is None else None
@@ -132,7 +145,6 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         targets, valid, count, ft_clock = _declared_ft_targets(rec.ft, samples, declared, gap)
     valid &= samples["flags"] == 0  # a window the device timed wrongly has no true target
     force = targets[:, :3]
-    source = rec.session.get("labels", "none")
     if source == "scene":
         region, in_contact, press = truth_labels(rec.path, rec.ground_truth, samples)
     elif source == "guided":
@@ -269,6 +281,24 @@ def _timed_samples(
         clock,
     )
     return np.concatenate([s for _, s, _ in parts]), windows, epochs
+
+
+def _with_truth_rows(
+    rec: Recording, samples: np.ndarray, windows: Windows
+) -> tuple[np.ndarray, Windows]:
+    """The samples that have a ground-truth row: all of an intact recording's (else
+    DatasetError); a damaged one loses those whose row was in a skipped chunk, said once."""
+    damaged = bool(rec.corrupted_chunks or rec.truncated)
+    keep = truth_rows(rec.path, rec.ground_truth, samples, damaged) >= 0
+    if keep.all():
+        return samples, windows
+    lost = int((~keep).sum())
+    message = (
+        f"{rec.path}: {lost} of {len(keep)} samples lost their scene labels with the damaged "
+        f"part of the file; they are left out"
+    )
+    warnings.warn(UnlabelledSamplesWarning(message, lost), stacklevel=2)
+    return samples[keep], Windows(windows.t_start[keep], windows.t_end[keep], windows.clock)
 
 
 def _declared_ft_targets(

@@ -33,20 +33,13 @@ CONTACT_N = 0.5  # |F| above which the reference says something touches the skin
 LABEL_MIN_NORMAL_N = 1.0
 
 
-def truth_labels(
-    path: Path, truth: np.ndarray | None, samples: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(region, in_contact, press) of `samples` (RECORDED_SAMPLE rows) from the recording's
-    ground-truth rows (GROUND_TRUTH_RECORD), matched by sequence number and device time.
-
-    >>> from spectratac.record.format import GROUND_TRUTH_RECORD
-    >>> truth = np.zeros(2, GROUND_TRUTH_RECORD)
-    >>> truth["sequence"], truth["t_end_us"], truth["region"] = [7, 8], [100, 200], [3, -1]
-    >>> samples = np.zeros(1, [("sequence", "<u4"), ("t_end_us", "<i8")])
-    >>> samples["sequence"], samples["t_end_us"] = 8, 200
-    >>> truth_labels(Path("s.mcap"), truth, samples)[0].tolist()
-    [-1]
-    """
+def truth_rows(
+    path: Path, truth: np.ndarray | None, samples: np.ndarray, damaged: bool
+) -> np.ndarray:
+    """Index of each of `samples`' (RECORDED_SAMPLE rows) ground-truth row (GROUND_TRUTH_RECORD),
+    matched by sequence number and device time; -1 for a sample whose row went with a damaged
+    chunk of a `damaged` recording (the caller drops it). A sample without a row in an intact
+    recording means the file was not written by `spectratac record`: DatasetError."""
     if truth is None:
         raise DatasetError(
             f"{path} says its labels come from a simulated scene but holds no ground truth: "
@@ -59,11 +52,31 @@ def truth_labels(
     }
     keys = zip(samples["sequence"].tolist(), samples["t_end_us"].tolist(), strict=True)
     rows = np.array([row_of.get(k, -1) for k in keys], dtype=np.int64)
-    if len(rows) and rows.min() < 0:
+    if len(rows) and rows.min() < 0 and not damaged:
         raise DatasetError(
             f"{path}: {int(np.sum(rows < 0))} of {len(rows)} samples have no ground-truth row; "
             f"the file was not written by `spectratac record`. Re-record it"
         )
+    return rows
+
+
+def truth_labels(
+    path: Path, truth: np.ndarray | None, samples: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(region, in_contact, press) of `samples` (RECORDED_SAMPLE rows) from the recording's
+    ground-truth rows (GROUND_TRUTH_RECORD), matched by sequence number and device time
+    (`truth_rows` of an intact recording).
+
+    >>> from spectratac.record.format import GROUND_TRUTH_RECORD
+    >>> truth = np.zeros(2, GROUND_TRUTH_RECORD)
+    >>> truth["sequence"], truth["t_end_us"], truth["region"] = [7, 8], [100, 200], [3, -1]
+    >>> samples = np.zeros(1, [("sequence", "<u4"), ("t_end_us", "<i8")])
+    >>> samples["sequence"], samples["t_end_us"] = 8, 200
+    >>> truth_labels(Path("s.mcap"), truth, samples)[0].tolist()
+    [-1]
+    """
+    rows = truth_rows(path, truth, samples, damaged=False)
+    assert truth is not None  # truth_rows raised otherwise
     picked = truth[rows]
     return (
         picked["region"].astype(np.int8),

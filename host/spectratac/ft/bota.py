@@ -49,7 +49,7 @@ from spectratac.ft.errors import (
     FTTimeoutError,
     FTURLError,
 )
-from spectratac.ft.options import Options
+from spectratac.ft.options import RATE, Options, Param
 from spectratac.ft.records import FT_RECORD, FTInfo
 from spectratac.ft.sequence import SequenceTracker, Unwrapper
 
@@ -61,6 +61,16 @@ DEFAULT_FORCE_RANGE_N = 5000.0
 DEFAULT_TORQUE_RANGE_NM = 500.0
 #: Strain gauges saturate not far past the rating; values beyond this multiple are not readings.
 RANGE_MARGIN = 4.0
+#: bota:// options (spectratac.ft.options).
+URL_PARAMS = {
+    "baud": Param("choice", meaning="serial baud rate", choices=tuple(map(str, BAUD_CODES))),
+    "rate": RATE,
+    "sinc": Param("integer", 1, 4096, "the filter's sinc length (sets the rate)"),
+    "configure": Param("flag", meaning="write the sensor's configuration on open"),
+    "temperature_compensation": Param("flag", meaning="the sensor's own compensation"),
+    "force_range": Param("number", 1e-3, 1e6, "the rated range of force from the datasheet, N"),
+    "torque_range": Param("number", 1e-3, 1e5, "the rated range of torque from the datasheet, N*m"),
+}
 
 
 def plausible_limits(force_range_n: float, torque_range_nm: float) -> np.ndarray:
@@ -88,7 +98,7 @@ class BotaSensor(FTSensor):
         path = parts.path
         if not path:
             raise FTURLError(f"{url}: no serial port; example: bota:///dev/ttyUSB0?baud=460800")
-        opts = Options(url, {**dict(parse_qsl(parts.query)), **options})
+        opts = Options(url, {**dict(parse_qsl(parts.query)), **options}, URL_PARAMS)
         baud = opts.integer("baud", 460800)
         rate = opts.number("rate")
         sinc = opts.integer("sinc")
@@ -96,20 +106,6 @@ class BotaSensor(FTSensor):
         temp_comp = opts.flag("temperature_compensation", False)
         force_range = opts.number("force_range", DEFAULT_FORCE_RANGE_N)
         torque_range = opts.number("torque_range", DEFAULT_TORQUE_RANGE_NM)
-        opts.done()
-        if baud not in BAUD_CODES:
-            raise FTURLError(f"{url}: baud={baud}: the sensor supports {sorted(BAUD_CODES)}")
-        if rate is not None and rate <= 0:
-            raise FTURLError(f"{url}: rate must be > 0")
-        if sinc is not None and not 1 <= sinc <= 4096:
-            raise FTURLError(f"{url}: sinc={sinc}: give the filter's sinc length, 1..4096")
-        for name, value in (("force_range", force_range), ("torque_range", torque_range)):
-            if value is None or not 0 < value < float("inf"):
-                raise FTURLError(
-                    f"{url}: {name}={value}: give the sensor's rated range from its datasheet "
-                    f"(N for force_range, N*m for torque_range), > 0"
-                )
-        assert force_range is not None and torque_range is not None
         if rate is None and sinc is not None:
             rate = SINC_CLOCK_HZ / sinc
         port = _open_port(url, path, baud)

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from spectratac.ft.errors import FTConfigError, FTNotFoundError, FTURLError
-from spectratac.ft.options import Options
+from spectratac.ft.options import RATE, REALTIME, SPEED, Options, Param
 from spectratac.ft.records import FT_RECORD, FTInfo
 from spectratac.ft.replay import ReplayFTSensor
 
@@ -46,6 +46,17 @@ _WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
 #: Largest sequence number taken as is; the FT_RECORD field is u8 but a float column holds
 #: integers exactly only up to 2**53.
 _MAX_SEQUENCE = 2**53
+#: csv:// options (spectratac.ft.options).
+URL_PARAMS = {
+    "rate": RATE,
+    "realtime": REALTIME,
+    "speed": SPEED,
+    "host_time": Param(
+        "choice",
+        meaning="host times: the file's host_time column, or now",
+        choices=("auto", "file", "now"),
+    ),
+}
 
 
 def csv_path(url: str) -> tuple[Path, str]:
@@ -129,16 +140,11 @@ class CsvFTSensor(ReplayFTSensor):
         from urllib.parse import parse_qsl
 
         path, query = csv_path(url)
-        opts = Options(url, {**dict(parse_qsl(query)), **options})
+        opts = Options(url, {**dict(parse_qsl(query)), **options}, URL_PARAMS)
         rate = opts.number("rate")
         realtime = opts.flag("realtime")
         speed = opts.number("speed", 1.0)
         host_mode = opts.text("host_time", "auto")
-        opts.done()
-        if host_mode not in ("auto", "file", "now"):
-            raise FTURLError(f"{url}: host_time={host_mode!r}: use file or now")
-        if (rate is not None and rate <= 0) or speed is None or speed <= 0:
-            raise FTURLError(f"{url}: rate and speed must be > 0")
         rows, bad, has_host = load_csv(path)
         if host_mode == "file" and not has_host:
             raise FTConfigError(f"{path} has no host_time column: use host_time=now")

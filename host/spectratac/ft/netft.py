@@ -35,7 +35,7 @@ from spectratac.ft.errors import (
     FTTimeoutError,
     FTURLError,
 )
-from spectratac.ft.options import Options
+from spectratac.ft.options import RATE, Options, Param
 from spectratac.ft.records import FT_RECORD, FTInfo
 from spectratac.ft.sequence import SequenceTracker, Unwrapper
 
@@ -45,6 +45,15 @@ ASSUMED_INTERNAL_RATE_HZ = 7000.0  # classic Net F/T internal sample rate (used 
 _MAX_PACKETS_PER_POLL = 8192
 QUIET_S = 0.1  # silence that ends a stopped stream (longer than a buffered packet's interval)
 DRAIN_MAX_S = 1.0  # bound on waiting for it: a sensor that never goes quiet restarts anyway
+#: netft:// options (spectratac.ft.options).
+URL_PARAMS = {
+    "cpf": Param("number", 1e-6, 1e12, "counts per force unit (else read from the sensor)"),
+    "cpt": Param("number", 1e-6, 1e12, "counts per torque unit (else read from the sensor)"),
+    "http_port": Param("integer", 1, 65535, "port of the sensor's web server"),
+    "rate": RATE,
+    "seq_rate": Param("number", 0.01, 1e6, "rate of the RDT sequence counter, Hz"),
+    "mode": Param("choice", meaning="RDT streaming mode", choices=("realtime", "buffered")),
+}
 
 
 def read_netftapi2(host: str, port: int, timeout: float) -> dict[str, str]:
@@ -71,18 +80,12 @@ class NetFTSensor(FTSensor):
             port = parts.port or rdt.RDT_PORT
         except ValueError:
             raise FTURLError(f"{url}: bad port") from None
-        opts = Options(url, {**dict(parse_qsl(parts.query)), **options})
+        opts = Options(url, {**dict(parse_qsl(parts.query)), **options}, URL_PARAMS)
         cpf, cpt = opts.number("cpf"), opts.number("cpt")
         http_port = opts.integer("http_port", 80)
         rate = opts.number("rate")
         seq_rate = opts.number("seq_rate")
         mode = opts.text("mode", "realtime")
-        opts.done()
-        if mode not in ("realtime", "buffered"):
-            raise FTURLError(f"{url}: mode={mode!r}: use realtime or buffered")
-        for name, value in (("cpf", cpf), ("cpt", cpt), ("rate", rate), ("seq_rate", seq_rate)):
-            if value is not None and not value > 0:
-                raise FTURLError(f"{url}: {name} must be > 0")
         deadline = time.monotonic() + timeout
         try:
             infos = socket.getaddrinfo(hostname, port, socket.AF_INET, socket.SOCK_DGRAM)

@@ -1,86 +1,80 @@
-"""URL query options: parsed once, typed per driver, unknown names refused by name.
+"""URL query options of an F/T driver: each driver lists its options in a table of
+`spectratac.url_schemes.Param`s (kind, range, meaning), the one checker every URL scheme
+uses; `Options` parses a URL's query by that table at once, refusing an unknown name (with
+the known ones) or a value out of its range, and hands out typed values or defaults.
 
->>> opts = Options("netft://h?cpf=1e6&x=1", {"cpf": "1e6", "x": "1"})
+>>> table = {"cpf": Param("number", 1.0, 1e9, "per N"), "cpt": Param("number", 1.0, 1e9)}
+>>> opts = Options("netft://h?cpf=1e6", {"cpf": "1e6"}, table)
 >>> opts.number("cpf"), opts.number("cpt", 2.0)
 (1000000.0, 2.0)
->>> opts.done()
+>>> Options("netft://h?cpf=1e6&x=1", {"cpf": "1e6", "x": "1"}, table)
 Traceback (most recent call last):
 ...
-spectratac.ft.errors.FTURLError: netft://h?cpf=1e6&x=1: unknown option(s) x; known: cpf, cpt
+spectratac.ft.errors.FTURLError: netft://h?cpf=1e6&x=1: unknown parameter x; known: cpf, cpt
+>>> Options("netft://h?cpf=nan", {"cpf": "nan"}, table)
+Traceback (most recent call last):
+...
+spectratac.ft.errors.FTURLError: netft://h?cpf=nan: cpf=nan must be a finite number in [1, ...
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Mapping
 from typing import Any, overload
 
 from spectratac.ft.errors import FTURLError
+from spectratac.url_schemes import Param, parse_params
+
+__all__ = ["RATE", "REALTIME", "SPEED", "Options", "Param"]
+
+#: Options several drivers share.
+RATE = Param("number", 0.01, 1e6, "sample rate, Hz, when the sensor does not say")
+REALTIME = Param("flag", meaning="replay at the recorded pace")
+SPEED = Param("number", 0.01, 1000.0, "replay pace: 2 twice as fast")
 
 
 class Options:
-    """Typed access to a URL's options; done() refuses any the driver did not ask for."""
+    """A URL's options parsed by the driver's table; typed access with defaults."""
 
-    def __init__(self, url: str, values: dict[str, Any]) -> None:
+    def __init__(self, url: str, values: Mapping[str, Any], table: Mapping[str, Param]) -> None:
         self.url = url
-        self._values = dict(values)
-        self._asked: list[str] = []
+        # options given in code (FTSensor.open(url, realtime=True)) are checked like text
+        raw = {name: value if isinstance(value, str) else _text(value)
+               for name, value in values.items()}  # fmt: skip
+        self._values = parse_params(url, raw, table, FTURLError)
 
-    def _raw(self, name: str) -> Any:
-        self._asked.append(name)
-        return self._values.get(name)
+    def _get(self, name: str, default: Any) -> Any:
+        value = self._values.get(name)
+        return default if value is None else value
 
     @overload
     def text(self, name: str, default: str) -> str: ...
     @overload
     def text(self, name: str, default: None = None) -> str | None: ...
     def text(self, name: str, default: str | None = None) -> str | None:
-        raw = self._raw(name)
-        return default if raw is None else str(raw)
+        return self._get(name, default)
 
     @overload
     def number(self, name: str, default: float) -> float: ...
     @overload
     def number(self, name: str, default: None = None) -> float | None: ...
     def number(self, name: str, default: float | None = None) -> float | None:
-        raw = self._raw(name)
-        if raw is None:
-            return default
-        try:
-            value = float(raw)
-        except (TypeError, ValueError):
-            raise FTURLError(f"{self.url}: option {name}={raw!r} is not a number") from None
-        if not math.isfinite(value):  # nan slips through every `<= 0` check; inf never ends
-            raise FTURLError(f"{self.url}: option {name}={raw!r} must be a finite number")
-        return value
+        value = self._get(name, default)
+        return None if value is None else float(value)
 
     @overload
     def integer(self, name: str, default: int) -> int: ...
     @overload
     def integer(self, name: str, default: None = None) -> int | None: ...
     def integer(self, name: str, default: int | None = None) -> int | None:
-        raw = self._raw(name)
-        if raw is None:
-            return default
-        try:
-            return int(raw)
-        except (TypeError, ValueError):
-            raise FTURLError(f"{self.url}: option {name}={raw!r} is not an integer") from None
+        value = self._get(name, default)
+        return None if value is None else int(value)
 
     def flag(self, name: str, default: bool = False) -> bool:
-        raw = self._raw(name)
-        if raw is None:
-            return default
-        if isinstance(raw, bool):
-            return raw
-        word = str(raw).lower()
-        if word in ("1", "true", "yes", "on"):
-            return True
-        if word in ("0", "false", "no", "off"):
-            return False
-        raise FTURLError(f"{self.url}: option {name}={raw!r}: use 1 or 0")
+        return bool(self._get(name, default))
 
-    def done(self) -> None:
-        unknown = sorted(set(self._values) - set(self._asked))
-        if unknown:
-            known = ", ".join(dict.fromkeys(self._asked))
-            raise FTURLError(f"{self.url}: unknown option(s) {', '.join(unknown)}; known: {known}")
+
+def _text(value: object) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    return repr(value) if isinstance(value, float) else str(value)

@@ -43,7 +43,7 @@ import numpy as np
 
 from spectratac import host_clock
 from spectratac.ft.errors import FTBagError, FTNotFoundError, FTURLError
-from spectratac.ft.options import Options
+from spectratac.ft.options import RATE, REALTIME, SPEED, Options, Param
 from spectratac.ft.records import FT_RECORD, FTInfo
 from spectratac.ft.replay import ReplayFTSensor
 from spectratac.ft.ros_time import NS_PER_S, from_stamp
@@ -79,6 +79,19 @@ def bag_path(url: str) -> tuple[Path, str]:
 MAX_FORCE_N, MAX_TORQUE_NM = 1e4, 1e3
 #: How far (s) a header stamp may sit from the line of the others against receive time.
 MAX_JUMP_S = 1.0
+#: rosbag:// options (spectratac.ft.options).
+URL_PARAMS = {
+    "topic": Param("text", meaning="the WrenchStamped topic"),
+    "host_time": Param(
+        "choice", meaning="host times: the bag's receive times, or now", choices=("bag", "now")
+    ),
+    "rate": RATE,
+    "max_force": Param("number", 1e-3, 1e6, "larger forces are not readings, N"),
+    "max_torque": Param("number", 1e-3, 1e5, "larger torques are not readings, N*m"),
+    "max_jump": Param("number", 1e-3, 3600.0, "a stamp this far from the receive-time fit, s"),
+    "realtime": REALTIME,
+    "speed": SPEED,
+}
 #: The bag metadata key of an exported bag's timeline (spectratac.record.timeline.KEY).
 TIMELINE_KEY = "spectratac.timeline"
 
@@ -241,7 +254,7 @@ class RosbagFTSensor(ReplayFTSensor):
         cls, url: str, *, timeout: float, buffer_size: int, **options: Any
     ) -> RosbagFTSensor:
         path, query = bag_path(url)
-        opts = Options(url, {**dict(parse_qsl(query)), **options})
+        opts = Options(url, {**dict(parse_qsl(query)), **options}, URL_PARAMS)
         topic = opts.text("topic")
         host_mode = opts.text("host_time", "bag")
         rate = opts.number("rate")
@@ -250,15 +263,6 @@ class RosbagFTSensor(ReplayFTSensor):
         max_jump = opts.number("max_jump", MAX_JUMP_S)
         realtime = opts.flag("realtime")
         speed = opts.number("speed", 1.0)
-        opts.done()
-        if host_mode not in ("bag", "now"):
-            raise FTURLError(f"{url}: host_time={host_mode!r}: use bag or now")
-        if (rate is not None and rate <= 0) or speed <= 0:
-            raise FTURLError(f"{url}: rate and speed must be > 0")
-        for name, value in (("max_force", max_force), ("max_torque", max_torque),
-                            ("max_jump", max_jump)):  # fmt: skip
-            if not (value is not None and np.isfinite(value) and value > 0):
-                raise FTURLError(f"{url}: {name}={value!r}: give a positive number")
         dropped: dict[str, int] = {}
         custom: dict[str, str] = {}
         rows, topic, msgtype, nominal = load_wrenches(
