@@ -170,8 +170,14 @@ def _record(args: argparse.Namespace) -> int:
         from spectratac.cli.eta import announce
 
         if ft_url is None and not args.json:
+            also = (
+                "; the prompts label the regions, which adapt a model to this unit (spectratac "
+                "train G.npz --finetune MODEL.stac)"
+                if guided
+                else ""
+            )
             print(
-                "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
+                f"note: no reference F/T sensor (--ft): the dataset's targets will be empty{also}",
                 file=sys.stderr,
             )
         found = recording_estimate(options.duration_s, link.clock_scale)

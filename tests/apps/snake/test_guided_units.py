@@ -57,8 +57,9 @@ def test_a_guided_minute_adapts_the_model_to_another_unit(
     assert main(["dataset", "build", str(g), "-o", str(npz)]) == 0
     assert main(["train", str(npz), "--finetune", str(press_model), "-o", str(unit),
                  "--no-progress"]) == 0  # fmt: skip
-    out = capsys.readouterr().out
+    out, err = capsys.readouterr()
     assert "no force targets" in out and "could not adapt" in out
+    assert "the prompts label the regions" in err  # record's note without --ft
     adapted = Decoder.load(unit)
     after, _ = commands_per_press(adapted, seed)
     assert all(len(c) <= 1 for c in after), (after, want)  # no press fires twice
