@@ -54,8 +54,8 @@ def _human(s: dict[str, Any]) -> str:
     lines = [
         f"adapted {s['finetuned_from']} to this unit without a reference F/T",
         f"  adapted: {', '.join(s['adapted'])}",
-        f"  region accuracy on the session's labelled presses: {100 * s['region_before']:.1f} % "
-        f"-> {100 * s['region_after']:.1f} %",
+        f"  region accuracy on the labelled presses it trained on: "
+        f"{100 * s['region_before']:.1f} % -> {100 * s['region_after']:.1f} %",
         f"  estimates out of distribution on the session: {100 * s['ood_before']:.1f} % -> "
         f"{100 * s['ood_after']:.1f} %",
         f"  forces: {forces} (Fz at rest {s['rest_force_before'][2]:+.3f} N before)",
