@@ -142,28 +142,21 @@ def test_a_session_that_cannot_start_is_an_error(tmp_path: Path) -> None:
 
 
 def test_guided_labels_are_recorded(tmp_path: Path) -> None:
-    """A fast fake clock runs the prompts (2 s countdown+hold+rest each) in ~0.2 s."""
+    """The prompts run on the sensor's clock: at speed=max 3 prompts of 2 s take ~0.1 s."""
     import io
-    import time
-
-    t0 = time.monotonic()
-
-    def clock() -> float:
-        return t0 + (time.monotonic() - t0) * 50.0
 
     out = io.StringIO()
     guided = GuidedProtocol(3, regions=[2, 5, 9], countdown_s=1, hold_s=0.5, rest_s=0.5, out=out)
     path = tmp_path / "guided.mcap"
     with Sensor.open("sim://?scene=idle&speed=max") as sensor:
-        summary = Recorder(
-            sensor, path, RecordOptions(duration_s=3600), guided=guided, clock=clock
-        ).run()
+        summary = Recorder(sensor, path, RecordOptions(duration_s=3600), guided=guided).run()
     assert summary.stopped_by == "guided" and summary.labels == 3
     rec = read_recording(path)
     assert rec.session["labels"] == "guided"
     assert [(e["region"], e["index"]) for e in rec.labels] == [(2, 0), (5, 1), (9, 2)]
     for e in rec.labels:
         assert e["t_end"] - e["t_start"] == pytest.approx(0.5)
+        assert e["clock"] == "device"
     text = out.getvalue()
     assert "PRESS region 5" in text and " 4 [5] 6" in text and text.count("release") == 3
 

@@ -189,6 +189,13 @@ BENCHMARKS: tuple[Benchmark, ...] = (
         quick=("--units", "0", "--session-s", "10", "--train", "3", "--next", "1"),
     ),
     Benchmark(
+        "guided", "guided",
+        "Snake on units 1-6 with the demo model adapted from a guided minute, no F/T",
+        "presses with exactly one right command, of those played (base model beside)",
+        r"^Snake presses right, adapted$",
+        quick=("--units", "1", "--epochs", "5"),
+    ),
+    Benchmark(
         "generalisation", "generalisation",
         "decoders on a unit and sessions they never saw; few-shot recalibration",
         "auto recipe's held-out-unit MAE against the paper recipe's",

@@ -86,5 +86,10 @@ class SampleTap:
         return getattr(self.sensor, "info", None)
 
     @property
+    def url(self) -> str | None:
+        """The sensor's URL, if it has one (advice names it)."""
+        return getattr(self.sensor, "url", None)
+
+    @property
     def link_info(self) -> Any:
         return getattr(self.sensor, "link_info", None)

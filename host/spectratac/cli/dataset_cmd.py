@@ -168,6 +168,13 @@ def _build(args: argparse.Namespace) -> int:
                 f"{w['target_valid'] * 100:.1f} % with F/T targets, {w['presses']} presses, "
                 f"labels {w['labels']}"
             )
+            if not w["force_targets"]:
+                print(
+                    f"  no force targets: recorded without a reference F/T (targets NaN, "
+                    f"target_valid false); region labels {w['labels']}. Adapt a model to this "
+                    f"unit with them: spectratac train {w['path']} --finetune MODEL.stac -o "
+                    "unit.stac"
+                )
         for d in damaged:
             lost = ", ".join(f"{k} {t}" for t, k in d["lost"].items()) or "an uncounted number"
             print(
@@ -197,6 +204,7 @@ def summary(ds: Any) -> dict[str, Any]:
         "sessions": len(meta.get("sessions", [])),
         "session_sources": [s.get("path") or s.get("source") for s in meta.get("sessions", [])],
         "target_valid": float(valid.mean()) if ds.n else 0.0,
+        "force_targets": bool(valid.any()),  # False: no reference F/T, region labels at most
         "in_contact": float(ds.in_contact.mean()) if ds.n else 0.0,
         "presses": ds.press_count(),
         "regions": {int(r): int(c) for r, c in zip(regions, counts, strict=True)},

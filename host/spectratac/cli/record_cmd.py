@@ -80,7 +80,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--guided", type=int, metavar="N", help="guided labelling: N prompted presses")
     p.add_argument("--guided-hold", type=float, default=3.0, metavar="S", help="hold time")
     p.add_argument("--guided-rest", type=float, default=2.0, metavar="S", help="rest time")
-    p.add_argument("--guided-seed", type=int, default=None, help="seed of the prompt order")
+    p.add_argument(
+        "--guided-seed",
+        type=int,
+        default=None,
+        help="seed of the prompt order (default: the published order every session uses, "
+        "which sim://?scene=guided's simulated person follows)",
+    )
     p.add_argument(
         "--estimates",
         action="store_true",
@@ -122,6 +128,7 @@ def parse_leds(spec: str) -> list[list[list[int]]]:
 
 def _record(args: argparse.Namespace) -> int:
     from spectratac.record import (
+        DEFAULT_SEED,
         GuidedProtocol,
         RecordOptions,
         StopRequest,
@@ -152,7 +159,7 @@ def _record(args: argparse.Namespace) -> int:
             args.guided,
             hold_s=args.guided_hold,
             rest_s=args.guided_rest,
-            seed=args.guided_seed,
+            seed=DEFAULT_SEED if args.guided_seed is None else args.guided_seed,
             out=sys.stderr,
         )
 
@@ -163,8 +170,14 @@ def _record(args: argparse.Namespace) -> int:
         from spectratac.cli.eta import announce
 
         if ft_url is None and not args.json:
+            also = (
+                "; the prompts label the regions, which adapt a model to this unit (spectratac "
+                "train G.npz --finetune MODEL.stac)"
+                if guided
+                else ""
+            )
             print(
-                "note: no reference F/T sensor (--ft): the dataset's targets will be empty",
+                f"note: no reference F/T sensor (--ft): the dataset's targets will be empty{also}",
                 file=sys.stderr,
             )
         found = recording_estimate(options.duration_s, link.clock_scale)

@@ -39,7 +39,9 @@ standard error of the best and prints every candidate's CV error and inference c
 --finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
 unit's data (spectratac.train.finetune): BASE's layout, features and targets are kept, its
 weights are the start, and data of other inputs, LED configuration or targets is refused.
---epochs, --lr and --seed apply; the other recipe options are BASE's.
+--epochs, --lr and --seed apply; the other recipe options are BASE's. On data without force
+targets (a guided session recorded without --ft) it adapts what region labels teach: the region
+head, the guard, the rest signature (spectratac.train.unlabelled), and says what it could not.
 
 Files: SpectraTac dataset files (`spectratac dataset build`), or any sensor's CSV / column
 .npz (host/spectratac/decode/DATA_FORMAT.md) with --inputs naming its channels.
@@ -157,6 +159,7 @@ def _train(args: argparse.Namespace) -> int:
     from spectratac.decode.export import FORMATS
     from spectratac.train import FinetuneOptions, SplitSpec, TrainSpec, fit
     from spectratac.train.plan import default_features, default_targets
+    from spectratac.train.unlabelled import has_force_targets
 
     exports = column_names(args.export) or []
     unknown = [f for f in exports if f not in FORMATS]
@@ -176,6 +179,10 @@ def _train(args: argparse.Namespace) -> int:
     ds = load_data(args.data, column_names(args.inputs), given, classes)
     if args.holdout and args.holdout_sessions:
         raise DecoderError("give --holdout or --holdout-sessions, not both")
+    if args.finetune and not has_force_targets(ds) and not exports:
+        from spectratac.cli import train_unlabelled  # a guided session without a reference
+
+        return train_unlabelled.run(args, ds, out)
     targets = tuple(given) if given is not None else default_targets(ds)
     features = args.features or default_features(ds)
     spec, tune = None, None

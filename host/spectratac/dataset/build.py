@@ -38,6 +38,7 @@ from spectratac.dataset.labels import (
     CONTACT_N,
     ft_contact,
     guided_labels,
+    optical_guided_labels,
     truth_labels,
     truth_rows,
 )
@@ -132,9 +133,9 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     opts = options or BuildOptions()
     link = rec.link  # a device clock not tied to the host's (clock_scale None) is used as is
     scale = 1.0 if link.clock_scale is None else link.clock_scale
-    samples, windows = _timed_samples(rec, scale, device_clock=link.clock_scale is None)
+    samples, windows, epochs = _timed_samples(rec, scale, device_clock=link.clock_scale is None)
     source = rec.session.get("labels", "none")
-    if source == "scene":
+    if source == "scene":  # (the samples' epochs serve guided sessions only)
         samples, windows = _with_truth_rows(rec, samples, windows)
     max_gap = None if opts.max_gap_ms is None else opts.max_gap_ms / 1e3
     targets, valid, count, ft_clock = ft_targets(rec.ft, windows, scale, max_gap)
@@ -147,9 +148,7 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
     if source == "scene":
         region, in_contact, press = truth_labels(rec.path, rec.ground_truth, samples)
     elif source == "guided":
-        events = [e for e in rec.labels if e.get("source") == "guided"]
-        region, press = guided_labels(events, (windows.t_start + windows.t_end) / 2, force)
-        in_contact = ft_contact(force, opts.contact_n)
+        region, press, in_contact = _guided(rec, samples, windows, epochs, force, opts)
     else:
         region = np.full(len(samples), -1, np.int8)
         press = np.full(len(samples), -1, np.int32)
@@ -182,6 +181,8 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         "protocol_version": info.get("protocol"),
         "definition_hash": info.get("definition_hash_hex"),
         "labels": source,
+        # no reference F/T recorded: targets are NaN (a guided session's labels only)
+        "force_targets": "reference" if rec.ft is not None else "none",
     }
     out = []
     for cid in np.unique(samples["config_id"]):
@@ -191,6 +192,43 @@ def session_datasets(rec: Recording, options: BuildOptions | None = None) -> lis
         meta = {**base, "config": recorded["config"] if recorded else None, "sessions": [session]}
         out.append(Dataset({k: v[rows] for k, v in arrays.items()}, meta))
     return out
+
+
+def _guided(
+    rec: Recording,
+    samples: np.ndarray,
+    windows: Windows,
+    epochs: np.ndarray,
+    force: np.ndarray,
+    opts: BuildOptions,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(region, press, in_contact) of a guided session. Prompt spans on the device clock
+    (clock "device", with their epoch) are matched to the samples' device times, older ones
+    (host monotonic) to their host windows; the F/T confirms each press, or without one the
+    counts do (`optical_guided_labels`)."""
+    events = [e for e in rec.labels if e.get("source") == "guided"]
+    on_device = [e for e in events if e.get("clock") == "device"]
+    if on_device:
+        t_mid = (samples["t_start_us"] + samples["t_end_us"]) / 2e6
+        # a reconnect may restart the device clock: each epoch's spans only on its samples
+        t_mid = t_mid + np.where(epochs >= 0, epochs, 0) * _EPOCH_APART_S
+        events = [_apart(e) for e in on_device]
+    else:
+        t_mid = (windows.t_start + windows.t_end) / 2
+    if rec.ft is None:
+        counts = samples["counts"][:, :, :4].reshape(-1, 12)
+        return optical_guided_labels(events, t_mid, counts, samples["step"])
+    region, press = guided_labels(events, t_mid, force)
+    return region, press, ft_contact(force, opts.contact_n)
+
+
+#: Device times of different connection epochs are set this far apart to match spans.
+_EPOCH_APART_S = 1e7
+
+
+def _apart(event: dict[str, Any]) -> dict[str, Any]:
+    shift = (event.get("epoch") or 0) * _EPOCH_APART_S
+    return event | {"t_start": event["t_start"] + shift, "t_end": event["t_end"] + shift}
 
 
 def _epoch_frames(rec: Recording) -> list[tuple[int | None, np.ndarray]]:
@@ -205,10 +243,13 @@ def _epoch_frames(rec: Recording) -> list[tuple[int | None, np.ndarray]]:
     return [(int(e["epoch"]), everything[which == k]) for k, e in enumerate(marks)]
 
 
-def _timed_samples(rec: Recording, scale: float, device_clock: bool) -> tuple[np.ndarray, Windows]:
-    """The recording's samples and their windows on the host clock, the device clock fitted
-    per epoch. `device_clock`: keep device (scene) time (an unpaced simulation, whose device
-    time races ahead of the host clock)."""
+def _timed_samples(
+    rec: Recording, scale: float, device_clock: bool
+) -> tuple[np.ndarray, Windows, np.ndarray]:
+    """The recording's samples, their windows on the host clock, the device clock fitted
+    per epoch, and each sample's epoch (-1: a file without epochs). `device_clock`: keep
+    device (scene) time (an unpaced simulation, whose device time races ahead of the host
+    clock)."""
     parts: list[tuple[int | None, np.ndarray, Windows]] = []
     for epoch, idx in _epoch_frames(rec):
         samples = recorded_samples([rec.frames[i] for i in idx], rec.frame_host_times[idx])
@@ -230,15 +271,16 @@ def _timed_samples(rec: Recording, scale: float, device_clock: bool) -> tuple[np
             ) from exc
     if not parts:
         raise DatasetError(f"{rec.path} holds no samples: was the device streaming?")
+    epochs = np.concatenate([np.full(len(s), -1 if e is None else e) for e, s, _ in parts])
     if len(parts) == 1:
-        return parts[0][1], parts[0][2]
+        return parts[0][1], parts[0][2], epochs
     clock = {"method": "per epoch", "epochs": [{"epoch": e, **w.clock} for e, _, w in parts]}
     windows = Windows(
         np.concatenate([w.t_start for _, _, w in parts]),
         np.concatenate([w.t_end for _, _, w in parts]),
         clock,
     )
-    return np.concatenate([s for _, s, _ in parts]), windows
+    return np.concatenate([s for _, s, _ in parts]), windows, epochs
 
 
 def _with_truth_rows(

@@ -32,7 +32,9 @@ Optional arrays (counts onwards) that only some datasets have are dropped when j
 ``firmware_version``, ``protocol_version``, ``definition_hash``, ``config`` (integration_ms,
 gain, digital_gain, sensitivity, leds as permille steps × 3 LEDs × RGB, settle_us; null for
 generic data), ``sessions`` (one dict each: source, scene, seed, ft_url, …) and
-``labels`` (where region labels came from: "scene", "guided" or "none").
+``labels`` (where region labels came from: "scene", "guided" or "none"); recorded datasets
+add ``force_targets`` ("reference", or "none": recorded without a reference F/T, every target
+NaN and target_valid false: region labels only, for `train --finetune`).
 
 >>> import numpy as np
 >>> ds = Dataset.generic(np.ones((4, 2)), np.zeros((4, 1)), ["a", "b"], ["Fz"])

@@ -22,6 +22,7 @@ from spectratac.decode.errors import (
     DecoderDataError,
     DecoderError,
     DecoderFileError,
+    DecoderOodWarning,
     DecoderUnitWarning,
     SensorNotStreamingError,
 )
@@ -44,6 +45,7 @@ __all__ = [
     "DecoderDataError",
     "DecoderError",
     "DecoderFileError",
+    "DecoderOodWarning",
     "DecoderUnitWarning",
     "Estimate",
     "Estimates",

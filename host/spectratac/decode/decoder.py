@@ -26,6 +26,7 @@ from spectratac.decode import sensor_config
 from spectratac.decode.assemble import Assembler, assemble
 from spectratac.decode.errors import (
     DecoderConfigError,
+    DecoderOodWarning,
     DecoderUnitWarning,
     SensorNotStreamingError,
 )
@@ -38,6 +39,7 @@ from spectratac.decode.guard import Guard
 from spectratac.decode.heads import Heads
 from spectratac.decode.layout import Layout
 from spectratac.decode.networks import flops, init_weights, n_params
+from spectratac.decode.ood_watch import OodWatch
 from spectratac.decode.runtime import Runtime
 from spectratac.decode.stac_file import read_model, write_model
 from spectratac.decode.unit_check import UnitPolicy, check_sensor_unit, device_unit_ids
@@ -62,6 +64,8 @@ class Decoder:
     # sensors streaming this decoder's on-device estimates (tare sends them TARE)
     _devices: list[Any] = field(default_factory=list, init=False, repr=False, compare=False)
     _tare_next: bool = field(default=False, init=False, repr=False, compare=False)
+    #: the file it was loaded from (None: made in this process); named in advice
+    source: str | None = field(default=None, init=False, repr=False, compare=False)
 
     # ------------------------------------------------------------------ facts
     @property
@@ -275,9 +279,21 @@ class Decoder:
         if self.layout.channels != vocab.DECODED_INPUTS:
             raise DecoderConfigError("stream() decodes SpectraTac sensors; this decoder is not")
         check_sensor_unit(self.unit_id, sensor, self.unit_policy)
-        same = self.unit_id is not None and self.unit_id in device_unit_ids(sensor)
+        ids = device_unit_ids(sensor)
+        same = self.unit_id is not None and self.unit_id in ids
         on_device = isinstance(sensor, EstimateStream) and self._decoded_by(sensor)
         require_streaming(sensor)
+        watch = OodWatch(self.unit_id, ids, url=getattr(sensor, "url", None), model=self.source)
+        for estimate in self._stream_estimates(sensor, check_config, on_device, same):
+            said = watch.see(estimate.ood)
+            if said is not None:
+                warnings.warn(said, DecoderOodWarning, stacklevel=2)
+            yield estimate
+
+    def _stream_estimates(
+        self, sensor: SampleStream, check_config: bool, on_device: bool, same: bool
+    ) -> Iterator[Estimate]:
+        """`stream`'s estimates, on the device or decoded here."""
         if on_device:
             yield from self._device_estimates(sensor, check_config)  # type: ignore[arg-type]
             return
@@ -436,6 +452,7 @@ class Decoder:
         dict or a device CONFIG message) differs from the training configuration; warns
         (DecoderUnitWarning) if `expect_unit` is another unit."""
         dec = read_model(path, cls)
+        dec.source = str(path)
         if expect_config is not None:
             dec.check_config(expect_config, "the expected configuration")
         dec.check_unit(expect_unit, "the expected unit")

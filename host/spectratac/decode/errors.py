@@ -29,6 +29,10 @@ class DecoderUnitWarning(UserWarning):
     """The decoder runs on another unit than it was calibrated on: expect larger errors."""
 
 
+class DecoderOodWarning(UserWarning):
+    """Most estimates of a stream are out of distribution (decode.ood_watch): said once."""
+
+
 class DecoderUnitError(DecoderError):
     """The sensor is another unit than the decoder was calibrated on, and the caller asked
     for the same unit (strict unit checking, `--strict-unit`)."""

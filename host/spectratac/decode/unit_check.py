@@ -46,9 +46,10 @@ def unit_mismatch(model_unit: str | None, ids: Sequence[str]) -> str | None:
     also = f" ({', '.join(ids[1:])})" if len(ids) > 1 else ""
     return (
         f"the sensor is unit {ids[0]!r}{also} but the model was calibrated on unit "
-        f"{model_unit!r}: expect larger errors; recalibrate it for this unit: spectratac "
-        f"train THIS_UNIT.npz --finetune MODEL.stac -o NEW.stac (a minute or two of this "
-        f"unit's data)"
+        f"{model_unit!r}: expect larger errors; recalibrate it for this unit from a minute of "
+        f"guided presses, no reference F/T needed: spectratac record URL --guided 9 -o "
+        f"g.mcap, dataset build g.mcap -o g.npz, then spectratac train g.npz --finetune "
+        f"MODEL.stac -o NEW.stac"
     )
 
 

@@ -7,7 +7,7 @@ Nothing here imports torch: recording runs on NumPy and the mcap library alone.
 """
 
 from spectratac.record.errors import RecordingError, TruncatedRecordingWarning
-from spectratac.record.guided import GuidedProtocol
+from spectratac.record.guided import DEFAULT_SEED, GuidedProtocol
 from spectratac.record.labels import LabelQueue
 from spectratac.record.reader import Recording, read_recording
 from spectratac.record.recorder import (
@@ -21,6 +21,7 @@ from spectratac.record.stop import StopFlag, StopRequest, stopping_on
 from spectratac.record.writer import RecordingWriter
 
 __all__ = [
+    "DEFAULT_SEED",
     "GuidedProtocol",
     "LabelQueue",
     "RecordOptions",

@@ -1,10 +1,14 @@
-"""The guided labelling protocol for real sessions: the recorder tells the user which region
-to press next, counts down, asks to hold, then to release, and records one label event per
-prompt with the prompted region and the hold's time span (LABELS.md).
+"""The guided labelling protocol: the recorder tells the user which region to press next,
+counts down, asks to hold, then to release, and records one label event per prompt with the
+prompted region and the hold's time span (LABELS.md).
 
-It is a state machine polled by the recorder's loop with the current time, so the recording
-never waits on it; the clock and the output stream are injected (tests drive it without a
-terminal or real time).
+It is a state machine polled by the recorder's loop with the sensor's clock (seconds since
+the session's first sample), so the prompts follow the sensor, not the host: a replayed or
+accelerated session prompts at the same sensor times. The whole timeline is fixed before
+the session starts (`schedule`: order from the seed, countdown, hold, rest), a published
+schedule a scripted presser (the simulated person of `sim://?scene=guided`, a robot arm)
+can follow as a person follows the terminal. The output stream is injected (tests drive it
+without a terminal).
 
 >>> import io
 >>> out = io.StringIO()
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, TextIO
 
 import numpy as np
@@ -44,10 +49,55 @@ def region_map(highlight: int | None = None) -> str:
     return "\n".join(rows)
 
 
-def prompt_order(n: int, seed: int | None = None) -> list[int]:
-    """`n` regions: shuffled rounds of every region, so each comes up equally often.
+#: The order's seed when none is given: every session prompts the same published order, so
+#: that a scripted presser knows it (`--guided-seed` picks another).
+DEFAULT_SEED = 0
+COUNTDOWN_S = 3
+HOLD_S = 3.0
+REST_S = 2.0
+
+
+@dataclass(frozen=True)
+class Prompt:
+    """One prompt on the session's timeline (s from its first sample): the region to press,
+    when PRESS is shown (`go`) and when release is (`release`)."""
+
+    index: int
+    region: int
+    go: float
+    release: float
+
+
+def schedule(
+    n: int,
+    *,
+    regions: Sequence[int] | None = None,
+    countdown_s: int = COUNTDOWN_S,
+    hold_s: float = HOLD_S,
+    rest_s: float = REST_S,
+    seed: int | None = DEFAULT_SEED,
+) -> list[Prompt]:
+    """The prompts of a guided session: prompt k shows its region at k x period, PRESS a
+    countdown later, release `hold_s` after that; period = countdown + hold + rest.
+
+    >>> [(p.region, p.go, p.release) for p in schedule(2, regions=[4, 8], hold_s=1.0)]
+    [(4, 3.0, 4.0), (8, 9.0, 10.0)]
+    """
+    period = countdown_s + hold_s + rest_s
+    order = list(regions) if regions is not None else prompt_order(n, seed)
+    return [
+        Prompt(k, int(order[k]), k * period + countdown_s, k * period + countdown_s + hold_s)
+        for k in range(min(n, len(order)))
+    ]
+
+
+def prompt_order(n: int, seed: int | None = DEFAULT_SEED) -> list[int]:
+    """`n` regions: shuffled rounds of every region, so each comes up equally often (None:
+    a random order).
 
     >>> sorted(prompt_order(9, seed=1)) == list(range(1, 10))
+    True
+    >>> prompt_order(9) == prompt_order(9)
     True
     """
     rng = np.random.default_rng(seed)
@@ -65,10 +115,10 @@ class GuidedProtocol:
         n: int,
         *,
         regions: Sequence[int] | None = None,
-        countdown_s: int = 3,
-        hold_s: float = 3.0,
-        rest_s: float = 2.0,
-        seed: int | None = None,
+        countdown_s: int = COUNTDOWN_S,
+        hold_s: float = HOLD_S,
+        rest_s: float = REST_S,
+        seed: int | None = DEFAULT_SEED,
         out: TextIO | None = None,
     ) -> None:
         if n < 1:
@@ -84,19 +134,29 @@ class GuidedProtocol:
         self.rest_s = float(rest_s)
         self.out = out if out is not None else sys.stderr
         self.events: list[dict[str, Any]] = []
-        self._t0: float | None = None
+        self._t0: float | None = None  # None: the first poll's time
         self._said: set[tuple[int, str]] = set()
 
     @property
     def period(self) -> float:
         return self.countdown_s + self.hold_s + self.rest_s
 
+    def prompts(self) -> list[Prompt]:
+        """The schedule this protocol prompts, from its start."""
+        return schedule(self.n, regions=self.regions, countdown_s=self.countdown_s,
+                        hold_s=self.hold_s, rest_s=self.rest_s)  # fmt: skip
+
+    def start_at(self, t0: float) -> None:
+        """Put the schedule's start at `t0` (the recorder: 0, the first sample's start)."""
+        self._t0 = float(t0)
+
     def done(self, now: float) -> bool:
         """True once the last prompt's rest is over."""
         return self._t0 is not None and now >= self._t0 + self.n * self.period
 
     def poll(self, now: float) -> list[dict[str, Any]]:
-        """Advance to `now` (host monotonic s): print due prompts, return finished labels."""
+        """Advance to `now` (the recorder's sensor clock, s): print due prompts, return
+        finished labels (t_start/t_end on the same clock)."""
         if self._t0 is None:
             self._t0 = now
         finished: list[dict[str, Any]] = []

@@ -145,14 +145,14 @@ class Recorder:
         session: dict[str, Any] | None = None,
         ground_truth: GroundTruth | None = None,
         guided: GuidedProtocol | None = None,
-        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
         message (URLs, host). `ground_truth`: the link's truth (simulated devices: see
         spectratac.device.ground_truth_of); it is described in the session message
         ("truth"), labels every sample, gives the scene's label events, and ends the session
         when the device clock passes its `duration_s`. `guided`: the guided labelling
-        protocol (real sessions). `clock` drives guided prompts."""
+        protocol, run on the sensor's clock from the first sample (its labels' spans are
+        device times, LABELS.md)."""
         self.sensor = sensor
         self.path = Path(path)
         self.options = options or RecordOptions()
@@ -168,7 +168,8 @@ class Recorder:
             self.labeler = LabelQueue(ground_truth.label_events())
             self.scene_end_s = ground_truth.duration_s  # a scene that ends ends the session
         self.guided = guided
-        self.clock = clock
+        if guided is not None:
+            guided.start_at(0.0)  # the sensor's clock from the first sample's integration
         # frames as they arrive, and (new epoch, host time) where a reconnect began one
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
@@ -357,7 +358,7 @@ class Recorder:
                 return "samples", None
             if opts.duration_s is not None and self.sensor_s >= opts.duration_s:
                 return "duration", None
-            if self.guided is not None and self.guided.done(self.clock()):
+            if self.guided is not None and self.guided.done(self.sensor_s):
                 return "guided", None
             if self.scene_end_s is not None and self._scene_now >= self.scene_end_s:
                 return "scene_end", None
@@ -532,12 +533,23 @@ class Recorder:
     def _label(self, writer: RecordingWriter) -> None:
         if self.labeler is not None:
             self._write_labels(writer, self.labeler.due(self._scene_now))
-        if self.guided is not None:
-            self._write_labels(writer, self.guided.poll(self.clock()))
+        if self.guided is not None and self._segment is not None:
+            epoch, first_s = self._segment
+            # the prompts' timeline starts at the first sample's integration; spans go on
+            # the device clock of the epoch under way (what the dataset's samples carry)
+            to_device = first_s - self._sensor_done_s
+            shift = {"clock": "device", "epoch": epoch}
+            events = [
+                e | shift | {"t_start": e["t_start"] + to_device, "t_end": e["t_end"] + to_device}
+                for e in self.guided.poll(self.sensor_s)
+            ]
+            self._write_labels(writer, events, now=True)
 
-    def _write_labels(self, writer: RecordingWriter, events: list[dict[str, Any]]) -> None:
+    def _write_labels(
+        self, writer: RecordingWriter, events: list[dict[str, Any]], now: bool = False
+    ) -> None:
         for event in events:
-            t = event.get("t_end") or time.monotonic()
+            t = time.monotonic() if now else event.get("t_end") or time.monotonic()
             writer.json(LABELS, event, t)
             self._labels += 1
 

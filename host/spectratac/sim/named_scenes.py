@@ -4,7 +4,9 @@ populations all pick their scene here.
 sim://?scene=idle | press | tour | calibration | drift | presses | saturation_ambient | ... &seed=3
 Scene parameters (strings, as in a URL): start (s: join the scene this far in, e.g. mid-press;
 any scene), duration (s; idle, calibration, drift), press
-(region, force), tour (period), presses (order, force, hold, gap: `twin.scripted_presses`).
+(region, force), tour (period), presses (order, force, hold, gap: `twin.scripted_presses`),
+guided (prompts, hold, rest: a person pressing what `record --guided` prompts,
+`sim.guided_person`).
 Hard cases have a fixed script and carry the acquisition settings they need.
 
 Idle has no length of its own, so its user says how long it lasts: a simulated device plays
@@ -71,6 +73,12 @@ def _presses(seed: int, duration_s: float | None, params: Mapping[str, str]) -> 
     return scripted_presses.from_url_params(**params)  # order=up,left,5&force=2.0
 
 
+def _guided(seed: int, duration_s: float | None, params: Mapping[str, str]) -> Scene:
+    from spectratac.sim import guided_person  # the person follows the recorder's schedule
+
+    return guided_person.from_url_params(seed, params)  # prompts=9&hold=3&rest=2
+
+
 SCENES: dict[str, NamedScene] = {
     "idle": NamedScene(_idle, open_ended=True),
     "press": NamedScene(_press),
@@ -78,6 +86,7 @@ SCENES: dict[str, NamedScene] = {
     "calibration": NamedScene(_calibration),
     "drift": NamedScene(_drift),
     "presses": NamedScene(_presses),
+    "guided": NamedScene(_guided),
 }
 #: Scenes a twin population records: their length is the session length it asks for.
 POPULATION_SCENES = ("calibration", "idle", "drift")

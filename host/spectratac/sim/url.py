@@ -59,6 +59,8 @@ SIM_PARAMS: dict[str, Param] = {
     "order": Param("text", meaning="regions a presses scene presses, e.g. up,left,5"),
     "hold": Param("number", 0.0, 1e6, "seconds a press holds"),
     "gap": Param("number", 0.0, 1e6, "seconds between presses"),
+    "prompts": Param("integer", 1, 10_000, "prompts a guided scene's person follows"),
+    "rest": Param("number", 0.0, 3600.0, "seconds of rest after each guided prompt"),
     # the paired simulated F/T sensor's (spectratac.sim.ft_source)
     "ft": Param("choice", meaning="a paired simulated F/T", choices=("bota", "netft")),
     "ft_rate": Param("number", 1.0, 100_000.0, "F/T samples per second"),
