@@ -15,17 +15,34 @@ session, no reference F/T needed), and never again for that stream.
 40 of the first 40 estimates are out of distribution (flagged ood; Snake and the live page
 ignore them): the sensor is unit 'twin-3' but the model was calibrated on unit 'twin-0', and
 another unit's light levels lie outside what the model was trained on. Adapt the model to
-this sensor, no reference F/T needed: spectratac record "sim://?seed=3" --guided 9 -o g.mcap;
-spectratac dataset build g.mcap -o g.npz; spectratac train g.npz --finetune best.stac -o
-unit.stac
+this sensor, no reference F/T needed: spectratac record "sim://?scene=guided&seed=3" --guided 9
+-o g.mcap; spectratac dataset build g.mcap -o g.npz; spectratac train g.npz --finetune best.stac
+-o unit.stac
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from urllib.parse import parse_qsl, urlencode, urlsplit
 
 MIN_ESTIMATES = 40  # 2 s at 20 Hz: a press's flags alone do not make "most"
 MOST = 0.5
+
+
+def guided_url(url: str) -> str:
+    """The URL a guided session of this sensor is recorded from: the sensor's own, except that
+    a simulated unit is asked for its guided scene (a simulated person who follows the
+    prompts), keeping its seed (the unit) and the rest.
+
+    >>> guided_url("sim://?scene=presses&seed=2&speed=max"), guided_url("/dev/ttyACM0")
+    ('sim://?scene=guided&seed=2&speed=max', '/dev/ttyACM0')
+    """
+    parts = urlsplit(url)
+    if parts.scheme != "sim":
+        return url
+    query = dict(parse_qsl(parts.query))
+    query.pop("scene", None)
+    return f"sim://{parts.netloc}{parts.path}?{urlencode({'scene': 'guided', **query}, safe=',')}"
 
 
 class OodWatch:
@@ -42,7 +59,7 @@ class OodWatch:
     ) -> None:
         self.model_unit = model_unit
         self.sensor_ids = tuple(sensor_ids)
-        self.url = url or "URL"
+        self.url = guided_url(url) if url else "URL"
         self.model = model or "MODEL.stac"
         self.seen = 0
         self.flagged = 0
