@@ -40,7 +40,10 @@ def test_decode_says_it_once_with_how_many_why_and_what_to_do(model, capsys) -> 
     assert line.startswith(f"spectratac: warning: {MIN_ESTIMATES} of the first {MIN_ESTIMATES}")
     assert "(twin-1)" in line and "'twin-3'" in line  # why: another unit
     # the same simulated unit, in the scene of a person who follows the prompts
-    assert 'record "sim://?scene=guided&seed=1&speed=max" --guided 9' in line and f"--finetune {model}" in line
+    assert (
+        'record "sim://?scene=guided&seed=1&speed=max" --guided 9' in line
+        and f"--finetune {model}" in line
+    )
     assert len(out.splitlines()) == n  # and it decodes on
 
 
