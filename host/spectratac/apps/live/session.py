@@ -235,6 +235,7 @@ class LiveSession:
             simulated = self.ft.info.extra.get("simulated_loss")
             out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost,
                          "stalls": self.ft.stats.stalls,
+                         "history_thinned": self.history.ft_thinned,
                          "simulated_loss": simulated}  # fmt: skip
         if self.tracker is not None and self.decoder is not None:
             out["mae"] = self.tracker.mae()
