@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 
 import numpy as np
+import pytest
 from spectratac.device import Sensor
 from spectratac.ft import FTSensor
 from spectratac.ft.errors import FTStalledError
@@ -82,3 +83,28 @@ def test_the_default_stall_timeout_comes_from_the_rate() -> None:
         assert ft.effective_stall_timeout == default_ft_stall_timeout(ft.info.rate_hz) >= 5.0
         ft.stall_timeout = float("inf")  # --stall-timeout off
         assert ft.effective_stall_timeout == float("inf")
+
+
+def test_live_says_a_silent_ft_once_and_counts_it(capsys: pytest.CaptureFixture[str]) -> None:
+    import time
+
+    from spectratac.apps.live.session import LiveSession
+
+    session = LiveSession(None, "sim://?scene=presses&seed=3&speed=1&ft=bota", timeout=10)
+    session.start(lambda message: None)
+    try:
+        assert session.ft is not None
+        session.ft.stall_timeout = 0.3
+        _silent_after(session.ft, session.ft.stats.received + 50)
+        deadline = time.monotonic() + HANG_GUARD_S
+        while session.stats()["ft"]["stalls"] < 1 or "stall timeout" not in (
+            err := capsys.readouterr().err
+        ):
+            assert time.monotonic() < deadline, "the silent F/T was never said"
+            time.sleep(0.2)
+        time.sleep(1.0)  # quiet on: not said again
+        assert err.count("spectratac: warning:") == 1 and session.ft.url in err
+        assert "--stall-timeout" in err and "spectratac: warning:" not in capsys.readouterr().err
+        assert session.error is None  # decoding goes on
+    finally:
+        session.stop()

@@ -234,7 +234,7 @@ class LiveSession:
             # a simulated sensor loses samples on purpose (ft_loss): the page says so
             simulated = self.ft.info.extra.get("simulated_loss")
             out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost,
-                         "stalls": self.ft.stats.stalls,
+                         "stalls": getattr(self.ft.stats, "stalls", 0),
                          "history_thinned": self.history.ft_thinned,
                          "simulated_loss": simulated}  # fmt: skip
         if self.tracker is not None and self.decoder is not None:
@@ -411,10 +411,11 @@ class LiveSession:
     ) -> list[list[float]]:
         """Take the F/T rows that came, add the windows of the (seq, estimate, sample) not
         scored yet; the windows now ready."""
-        if self.ft.stall_message is not None and not self._ft_warned:
+        stalled = getattr(self.ft, "stall_message", None)  # a driver's (FTSensor)
+        if stalled is not None and not self._ft_warned:
             # the F/T went quiet: said once (stats count it), the estimates go on unscored
             self._ft_warned = True
-            print(f"spectratac: warning: {self.ft.stall_message}", file=sys.stderr, flush=True)
+            print(f"spectratac: warning: {stalled}", file=sys.stderr, flush=True)
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
