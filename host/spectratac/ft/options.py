@@ -52,7 +52,8 @@ class Options:
     @overload
     def text(self, name: str, default: None = None) -> str | None: ...
     def text(self, name: str, default: str | None = None) -> str | None:
-        return self._get(name, default)
+        value: str | None = self._get(name, default)
+        return value
 
     @overload
     def number(self, name: str, default: float) -> float: ...
