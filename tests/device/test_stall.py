@@ -103,10 +103,45 @@ def test_the_default_is_ten_sequence_periods_in_host_time() -> None:
     assert default_stall_timeout(None, 1.0) == STALL_FLOOR_S
 
 
-@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf"), 1e300])
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), -float("inf"), 1e300])
 def test_a_bad_stall_timeout_is_refused_before_anything_opens(bad: float) -> None:
     with pytest.raises(ValueError, match="stall_timeout"):
         Sensor.open("sim://?scene=idle&speed=max", stall_timeout=bad)
+
+
+def test_an_infinite_stall_timeout_switches_the_watch_off() -> None:
+    """stall_timeout=inf (--stall-timeout off): a device quiet past the default floor is
+    waited for, not dropped (a device paused on a debugger)."""
+    with Sensor.open(STALLS, timeout=5.0, stall_timeout=float("inf")) as sensor:
+        sensor.configure(integration_ms=50)
+        sensor.start()
+
+        def read_past_the_floor() -> int:
+            got = len(sensor.read(1000, timeout=5.0))
+            quiet_reads = 0
+            while quiet_reads * 0.5 < 2 * STALL_FLOOR_S:  # quiet well past the default
+                batch = sensor.read(1000, timeout=0.5)
+                got += len(batch)
+                quiet_reads += len(batch) == 0
+            return got
+
+        got = bounded(read_past_the_floor)
+        assert got >= 1 and sensor.stats.stalls == 0 and sensor.streaming
+
+
+@pytest.mark.parametrize("verb", ["stream", "record", "decode", "live", "ft stream"])
+def test_stall_timeout_off_is_accepted_and_bad_values_are_usage_errors(verb: str) -> None:
+    from spectratac.cli import build_parser
+
+    parser = build_parser()
+    base = {"stream": [STALLS], "record": [STALLS, "-o", "r.mcap"], "decode": ["m.stac", STALLS],
+            "live": ["m.stac", STALLS], "ft stream": ["bota:///dev/x"]}[verb]  # fmt: skip
+    args = parser.parse_args([*verb.split(), *base, "--stall-timeout", "off"])
+    assert args.stall_timeout == float("inf")
+    for bad in ("inf", "nan", "-1", "0", "offf"):
+        with pytest.raises(SystemExit) as exit_:
+            parser.parse_args([*verb.split(), *base, "--stall-timeout", bad])
+        assert exit_.value.code == 2
 
 
 # ------------------------------------------------------------------ the streaming verbs

@@ -107,3 +107,47 @@ def test_a_timeline_inverts(tmp_path: Path) -> None:
     h = np.array([99.0, 100.0, 100.5, 130.25])
     np.testing.assert_allclose(tl.host(tl.ns_array(h)), h, atol=1e-9)
     assert tl.ns(101.0) - tl.ns(100.0) == 15 * 10**9
+
+
+@settings(max_examples=15, deadline=None)
+@given(back_s=st.floats(0.001, 5.0), rows=st.integers(1, 40), jitter_s=st.floats(0.0, 0.01))
+def test_log_time_never_steps_back_within_a_channel_when_a_refit_moves_the_fit_back(
+    back_s: float, rows: int, jitter_s: float, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    """Every live clock refit is forced to move the fit `back_s` earlier (the provisional fit
+    may; the page's axis only advances): the written file's log_time, read by the mcap
+    reader in file order, never decreases on any channel, and Lichtblick opens every channel."""
+    from types import SimpleNamespace
+
+    from spectratac.ft import FT_RECORD
+    from spectratac.record import timeline
+    from spectratac.record.writer import RecordingWriter
+
+    from tests.lichtblick_rules import check_mcap
+
+    def back(xs: np.ndarray, hs: np.ndarray) -> SimpleNamespace:
+        return SimpleNamespace(sensor_ref=float(xs[-1]), host_ref=float(hs[-1]) - back_s,
+                               drift=0.0)  # fmt: skip
+
+    path = tmp_path_factory.mktemp("refit") / "r.mcap"
+    real_fit = timeline.fit_clock
+    timeline.fit_clock = back  # type: ignore[assignment]
+    try:
+        session = {"link": {"clock_scale": 1.0}}
+        with RecordingWriter(path, session, ft_dtype=FT_RECORD, unix_minus_monotonic_ns=0) as w:
+            rng = np.random.default_rng(rows)
+            t = 100.0
+            for _ in range(3 * 64):  # three refits
+                batch = np.zeros(rows, FT_RECORD)
+                batch["sensor_time"] = t + np.arange(rows) * 1e-3
+                batch["host_time"] = batch["sensor_time"] + 0.002 + rng.uniform(0, jitter_s, rows)
+                batch["sequence"] = np.arange(rows)
+                w.ft(batch)
+                t += rows * 1e-3
+    finally:
+        timeline.fit_clock = real_fit
+    per_channel = times(path)
+    assert {"/ft/samples", "/ft/wrench"} <= set(per_channel)
+    for topic, (log, _) in per_channel.items():
+        assert (np.diff(log) >= 0).all(), f"{topic}: log_time steps back"
+    assert check_mcap(path)["/ft/wrench"] > 0

@@ -1,7 +1,9 @@
 """The live server against hostile clients (issue 25), with figures for the reliability
 rows of the measurements log: other sites and Host names refused, control without the page's
 token refused, a 400 MB POST and a 16 MB WebSocket message refused without raising memory or
-stalling another page, and pages joining mid-stream seeing every estimate once, in order.
+stalling another page, and pages joining mid-stream seeing every estimate once, in order;
+then the newer limits (tools/bench/live_limits.py: binary frames, a compressed frame, slow
+headers, the connection cap, X-Frame-Options and CSP), each as refusals against attempts.
 
 The server runs in this process on a stand-in session (tests/apps/live/fake_session.py:
 numbered estimates every 5 ms, no device), so the figures are the server's alone.
@@ -18,11 +20,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from spectratac.apps.live.limits import Limits
 from spectratac.apps.live.server import LiveServer, bind
 from wsproto.events import CloseConnection
 
 from tests.apps.live.clients import Refused, WsClient, http_request
 from tests.apps.live.fake_session import FakeSession
+from tools.bench import live_limits
 from tools.bench.benchlib import Figure, report
 
 EVIL = "http://evil.example"
@@ -168,7 +172,24 @@ def main() -> None:
     finally:
         server.stop()
     out["joins"] = joins(args.joins)
+    out["limits"] = newer_limits()
     report(figures(out), args.json)
+
+
+#: Tight limits for the probe: a 1-s header timeout and a cap of 8 (the defaults, 10 s and 64,
+#: behave alike, only slower to reach)
+PROBE_LIMITS = {"header_timeout_s": 1.0, "max_connections": 8}
+
+
+def newer_limits() -> dict[str, dict[str, Any]]:
+    """The newer limits, on a server of their own (held connections must not touch the
+    other checks)."""
+    limits = Limits(**PROBE_LIMITS)  # type: ignore[arg-type]
+    server = LiveServer(FakeSession(), bind(0), limits=limits).start()  # type: ignore[arg-type]
+    try:
+        return live_limits.probe(int(server.sock.getsockname()[1]), limits)
+    finally:
+        server.stop()
 
 
 def figures(out: dict[str, Any]) -> list[Figure]:
@@ -187,7 +208,19 @@ def figures(out: dict[str, Any]) -> list[Figure]:
         Figure("joins with a duplicate or out-of-order estimate",
                join["duplicate_or_out_of_order"], "joins", "joins", join["joins"],
                join["duplicate_or_out_of_order"] / join["joins"], join),
+        *[Figure(f"{LIMIT_NAMES[name]} refused", got["refused"], "attempts", "attempts",
+                 got["tried"], got["refused"] / got["tried"], got)
+          for name, got in out["limits"].items()],
     ]  # fmt: skip
+
+
+LIMIT_NAMES = {
+    "binary_frames": "binary WebSocket frames (a typed refusal)",
+    "compressed_frame": "a compressed frame (deflate not negotiated, frame not inflated)",
+    "framing_headers": "framing (X-Frame-Options DENY and CSP on every answer)",
+    "slow_headers": "headers sent byte by byte (header timeout)",
+    "over_cap": "connections beyond the cap",
+}
 
 
 if __name__ == "__main__":

@@ -94,7 +94,6 @@ def _check(rows: np.ndarray) -> dict[str, Any]:
 
 
 def _stream(args: argparse.Namespace) -> int:
-    from spectratac.device.sensor import STALL_FLOOR_S
     from spectratac.ft import FTStalledError, FTTimeoutError, open_ft
 
     count = stop_count(args.count, args.duration)
@@ -103,7 +102,8 @@ def _stream(args: argparse.Namespace) -> int:
     with open_ft(args.url, timeout=args.timeout) as ft:
         writer = RowWriter(COLUMNS, args.format, width=10, table_cell=_rounded)
         # a quiet stream ends within the stall timeout: ten periods of the sensor, at least 5 s
-        stall = args.stall_timeout or max(STALL_FLOOR_S, 10 / max(ft.info.rate_hz, 1e-3))
+        ft.stall_timeout = args.stall_timeout
+        stall = ft.effective_stall_timeout
         try:
             while count == 0 or printed < count:
                 want = 256 if count == 0 else min(256, count - printed)

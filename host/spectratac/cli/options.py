@@ -119,7 +119,7 @@ def add_device_url(
             metavar="S",
             help="end with an error (exit code 3) when a streaming device sends nothing for "
             "S seconds; what came before is kept (default: ten LED-sequence periods, at "
-            "least 5 s)",
+            "least 5 s; off: wait for ever, e.g. a device paused on a debugger)",
         )
 
 

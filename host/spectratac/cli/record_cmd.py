@@ -222,6 +222,9 @@ def _record(args: argparse.Namespace) -> int:
             f"), {s.labels} labels, {s.sensor_s:.1f} s of sensor time in {s.duration_s:.1f} s, "
             f"{s.file_bytes / 1e6:.2f} MB; stopped by {s.stopped_by}"
         )
+        if s.ft_stalls:
+            print(f"the reference F/T went quiet {s.ft_stalls} time(s): the file has no F/T "
+                  "rows while it was quiet", file=sys.stderr)  # fmt: skip
         if s.error:
             print(f"the session ended early: {s.error}", file=sys.stderr)
     return ExitCode.ERROR if summary.stopped_by == "error" else ExitCode.OK

@@ -58,7 +58,15 @@ from typing import Any
 
 from spectratac.cli.exit_codes import ExitCode
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
-from spectratac.cli.outputs import is_stac, new_file
+from spectratac.cli.outputs import (
+    Kind,
+    is_c_header,
+    is_npz,
+    is_onnx,
+    is_stac,
+    is_torchscript,
+    new_file,
+)
 
 RECIPES = ("paper", "best", "auto")
 # CLI option -> TrainSpec field, for the options that replace one field of the recipe.
@@ -80,6 +88,15 @@ SPEC_OPTIONS = {
     "gain_jitter": "gain_jitter",
 }
 EXPORT_SUFFIX = {"onnx": ".onnx", "numpy": ".runtime.npz", "torchscript": ".pt", "c": ".h"}
+#: What each export is, so that --force replaces only an export (cli/outputs.py)
+EXPORT_KIND: dict[str, Kind] = {
+    "onnx": is_onnx, "numpy": is_npz, "torchscript": is_torchscript, "c": is_c_header,
+}  # fmt: skip
+
+
+def _export_path(out: Path, fmt: str) -> Path:
+    """The file `--export fmt` writes beside the model `out`."""
+    return out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
 
 
 def register(subparsers: Any) -> None:
@@ -168,12 +185,9 @@ def _train(args: argparse.Namespace) -> int:
     out = Path(args.output)
     inputs = [*args.data, args.finetune]
     refuse_overwrite(out, args.force, verb="train", inputs=inputs, kind=is_stac)
-    refuse_overwrite(
-        [out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[f]) for f in exports],
-        args.force,
-        verb="train",
-        inputs=inputs,
-    )
+    for fmt in exports:  # --force replaces only an export of the same kind
+        refuse_overwrite(_export_path(out, fmt), args.force, verb="train", inputs=inputs,
+                         kind=EXPORT_KIND[fmt])  # fmt: skip
     given = column_names(args.targets)
     classes = None if args.classes is None else (column_names(args.classes) or [])
     ds = load_data(args.data, column_names(args.inputs), given, classes)
@@ -231,7 +245,7 @@ def _train(args: argparse.Namespace) -> int:
         dec.save(tmp)
     written = {"model": str(out)}
     for fmt in exports:
-        path = out.with_name(out.name.removesuffix(".stac") + EXPORT_SUFFIX[fmt])
+        path = _export_path(out, fmt)
         with new_file(path) as tmp:
             dec.export(fmt, tmp)
         written[fmt] = str(path)

@@ -38,13 +38,15 @@ def _show(x: float) -> str:
 @dataclass(frozen=True)
 class Number:
     """A float or int type for argparse: finite, in [lo, hi] (`above`: lo excluded), and,
-    when `inf_ok`, also `inf` (a wait that lasts until Ctrl-C)."""
+    when `inf_ok`, also `inf` (a wait that lasts until Ctrl-C); when `off_ok`, also the word
+    `off` (a watch switched off), which reads as inf."""
 
     lo: float
     hi: float
     integer: bool = False
     above: bool = False
     inf_ok: bool = False
+    off_ok: bool = False
     unit: str = ""
 
     @property
@@ -53,7 +55,7 @@ class Number:
 
     def describe(self) -> str:
         left = "(" if self.above else "["
-        extra = " or inf" if self.inf_ok else ""
+        extra = " or inf" if self.inf_ok else " or off" if self.off_ok else ""
         return f"{left}{_show(self.lo)}, {_show(self.hi)}]{extra}"
 
     def __call__(self, text: str) -> float | int:
@@ -61,6 +63,8 @@ class Number:
         unit = f" of {self.unit}" if self.unit else ""
         msg = f"{_clip(text)} is not {kind}{unit} in {self.describe()}"
         if self.inf_ok and text.strip().lower() in ("inf", "+inf", "infinity"):
+            return math.inf
+        if self.off_ok and text.strip().lower() == "off":
             return math.inf
         try:
             value: float | int = int(text) if self.integer else float(text)
@@ -73,9 +77,14 @@ class Number:
 
 
 def seconds(
-    lo: float = 0.0, hi: float = MAX_SECONDS, *, above: bool = False, inf_ok: bool = False
+    lo: float = 0.0,
+    hi: float = MAX_SECONDS,
+    *,
+    above: bool = False,
+    inf_ok: bool = False,
+    off_ok: bool = False,
 ) -> Number:
-    return Number(lo, hi, above=above, inf_ok=inf_ok, unit="seconds")
+    return Number(lo, hi, above=above, inf_ok=inf_ok, off_ok=off_ok, unit="seconds")
 
 
 def finite_float(lo: float, hi: float, *, above: bool = False) -> Number:
@@ -131,7 +140,7 @@ def _clip(value: str) -> str:
 #: The range of every numeric option, by spelling; "VERB --option" overrides for one verb.
 RANGES: dict[str, Number] = {
     "--timeout": seconds(0.0, 3600.0, above=True),
-    "--stall-timeout": seconds(0.0, 86400.0, above=True),
+    "--stall-timeout": seconds(0.0, 86400.0, above=True, off_ok=True),  # off: no stall watch
     "--dfu-wait": seconds(0.0, 600.0, above=True),
     "--duration": seconds(),
     "live --duration": seconds(inf_ok=True),  # inf: until Ctrl-C, as 0 and leaving it out

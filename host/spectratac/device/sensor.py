@@ -75,7 +75,7 @@ class SensorOptions(TypedDict, total=False):
     timeout: float  # s, for replies and for reads without their own
     reconnect: bool  # reopen a lost link (a new epoch)
     strict_hash: bool  # refuse a device built from other protocol definitions
-    stall_timeout: float | None  # s without data while streaming; None: default_stall_timeout
+    stall_timeout: float | None  # s quiet while streaming; None: default; inf: never a stall
 
 
 #: The shortest default stall timeout, s: a loaded host may hold a healthy link's reader for
@@ -117,9 +117,12 @@ class Sensor:
         stall_timeout: float | None = None,
     ) -> None:
         if stall_timeout is not None and not (
-            math.isfinite(stall_timeout) and 0 < stall_timeout <= 1e7
+            stall_timeout == math.inf or (math.isfinite(stall_timeout) and 0 < stall_timeout <= 1e7)
         ):
-            raise ValueError(f"stall_timeout={stall_timeout}: give seconds in (0, 1e7] or None")
+            raise ValueError(
+                f"stall_timeout={stall_timeout}: give seconds in (0, 1e7], inf (no stall watch) "
+                "or None"
+            )
         if not (math.isfinite(timeout) and 0 < timeout <= 1e7):  # inf overflows a wait
             raise ValueError(f"timeout={timeout}: give seconds in (0, 1e7]")
         self.stats = SensorStats()
@@ -170,7 +173,7 @@ class Sensor:
         """Connect to `url` (serial path, socket://host:port, rfc2217://…, sim://…), read its
         INFO and check protocol version and definition hash. Options: buffer_size, overflow
         ('drop_oldest' | 'drop_newest' | 'error'), timeout (s), reconnect, strict_hash,
-        stall_timeout (s; None: default_stall_timeout), baudrate."""
+        stall_timeout (s; None: default_stall_timeout; inf: no stall watch), baudrate."""
         return cls.attach(open_transport(url, baudrate), **options)
 
     @classmethod

@@ -7,6 +7,10 @@ full, counted in stats.overflows).
 Users read NumPy batches (read, read_available) or iterate record by record. Closing is
 idempotent and thread-safe; records received before a link loss stay readable, the error
 is raised once they are all read.
+Every wait ends: the reader watches for a stall (a streaming sensor that sends nothing for
+`stall_timeout` s, default spectratac.ft.stall.default_ft_stall_timeout of its rate): it
+counts it in stats.stalls and keeps `stall_message` (what to tell the user, once), so a
+recorder goes on with the optical stream, and iteration ends with FTStalledError.
 
 >>> with FTSensor.open("csv://" + _example_csv()) as ft:
 ...     rows = ft.read(3, timeout=1.0)
@@ -17,6 +21,7 @@ is raised once they are all read.
 from __future__ import annotations
 
 import threading
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, ClassVar, cast
@@ -24,8 +29,9 @@ from typing import Any, ClassVar, cast
 import numpy as np
 
 from spectratac.device.record_queue import RecordQueue
-from spectratac.ft.errors import FTDisconnectedError, FTError
+from spectratac.ft.errors import FTDisconnectedError, FTError, FTStalledError
 from spectratac.ft.records import FT_RECORD, FTInfo, FTStats
+from spectratac.ft.stall import default_ft_stall_timeout, stall_message
 
 
 class FTSensor(ABC):
@@ -59,6 +65,12 @@ class FTSensor(ABC):
         self.stream_stopped = threading.Event()
         self.confirms_stop = False
         self._stop_seen = False  # the driver's _poll saw the acknowledgement
+        #: s without a record while streaming before a stall counts (None: from the rate;
+        #: inf: no stall watch); the reader checks it on every poll
+        self.stall_timeout: float | None = None
+        self.stalled = False  # quiet past the stall timeout since the last record
+        self.stall_message: str | None = None  # the first stall, said once by the caller
+        self._last_data = 0.0
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -110,6 +122,7 @@ class FTSensor(ABC):
             if self._streaming:
                 return
             self._streaming = True
+        self._last_data = time.monotonic()  # the stall watch counts from the start
         self._send_start()
         if self._thread is None:
             self._thread = threading.Thread(
@@ -140,12 +153,23 @@ class FTSensor(ABC):
         return self._queue.read_available()
 
     def __iter__(self) -> Iterator[np.void]:
-        """Records one by one until the sensor is closed, the replay ends or the link fails."""
+        """Records one by one until the sensor is closed, the replay ends or the link fails;
+        a stall (nothing for `stall_timeout` s while streaming) raises FTStalledError once
+        every record before it was read."""
         while True:
             batch = self.read(4096, timeout=0.5)
             if len(batch) == 0 and (self._closed or self._queue.ended):
                 return
+            if len(batch) == 0 and self.stalled and self.stall_message is not None:
+                raise FTStalledError(self.stall_message)
             yield from batch
+
+    @property
+    def effective_stall_timeout(self) -> float:
+        """The stall timeout in force: the one set, else the default of the sensor's rate."""
+        if self.stall_timeout is not None:
+            return self.stall_timeout
+        return default_ft_stall_timeout(self.info.rate_hz)
 
     @property
     def buffered(self) -> int:
@@ -193,10 +217,26 @@ class FTSensor(ABC):
                 self._queue.end()
                 return
             if len(batch):
+                self._last_data = time.monotonic()
+                self.stalled = False
                 self._push(batch)
+            else:
+                self._watch_stall()
             if self._stop_seen:  # after the records that came before the acknowledgement
                 self._stop_seen = False
                 self.stream_stopped.set()
+
+    def _watch_stall(self) -> None:
+        """A streaming sensor quiet past the stall timeout: counted once per quiet spell."""
+        if self.stalled or not self._streaming or self._closed:
+            return
+        limit = self.effective_stall_timeout
+        quiet = time.monotonic() - self._last_data
+        if quiet > limit:
+            self.stalled = True
+            self.stats.stalls += 1
+            if self.stall_message is None:
+                self.stall_message = stall_message(self.url, quiet, limit)
 
     def _push(self, batch: np.ndarray) -> None:
         self.stats.received += len(batch)

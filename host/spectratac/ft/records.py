@@ -66,6 +66,7 @@ class FTStats:
     bad_frames: int = 0  # packets/frames/lines of the wrong size or shape
     implausible: int = 0  # records dropped: non-finite or far beyond the sensor's range
     overflows: int = 0  # records discarded because the buffer was full (oldest first)
+    stalls: int = 0  # quiet spells past the stall timeout while streaming (FTSensor)
 
     def as_dict(self) -> dict[str, int]:
         return asdict(self)

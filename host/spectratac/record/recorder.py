@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -128,6 +129,7 @@ class RecordingSummary:
     sensor_stats: dict[str, int] = field(default_factory=dict)
     ft_stats: dict[str, int] | None = None
     sensor_s: float = 0.0  # the sensor's clock covered by the samples (duration_s counts it)
+    ft_stalls: int = 0  # the F/T's quiet spells past its stall timeout (the optical went on)
     ft_simulated_loss: float | None = None  # a simulated F/T's deliberate loss probability
 
     def as_dict(self) -> dict[str, Any]:
@@ -145,6 +147,7 @@ class Recorder:
         session: dict[str, Any] | None = None,
         ground_truth: GroundTruth | None = None,
         guided: GuidedProtocol | None = None,
+        warn: Callable[[str], None] | None = None,
     ) -> None:
         """`ft`: an open spectratac.ft.FTSensor or None. `session`: extra JSON for the session
         message (URLs, host). `ground_truth`: the link's truth (simulated devices: see
@@ -152,7 +155,8 @@ class Recorder:
         ("truth"), labels every sample, gives the scene's label events, and ends the session
         when the device clock passes its `duration_s`. `guided`: the guided labelling
         protocol, run on the sensor's clock from the first sample (its labels' spans are
-        device times, LABELS.md)."""
+        device times, LABELS.md). `warn` is told once, in a line, that the F/T
+        went quiet (default: stderr); the recording goes on without it."""
         self.sensor = sensor
         self.path = Path(path)
         self.options = options or RecordOptions()
@@ -170,6 +174,8 @@ class Recorder:
         self.guided = guided
         if guided is not None:
             guided.start_at(0.0)  # the sensor's clock from the first sample's integration
+        self.warn = warn or _to_stderr
+        self._ft_warned = False
         # frames as they arrive, and (new epoch, host time) where a reconnect began one
         self._frames: collections.deque[tuple[Frame | int, float]] = collections.deque()
         self._unwrap = Unwrapper()  # device µs of the frames written, as the dataset reads them
@@ -269,6 +275,7 @@ class Recorder:
             ft_stats=self.ft.stats.as_dict() if self.ft is not None else None,
             sensor_s=self._recorded_sensor_s(),
             ft_simulated_loss=_simulated_loss(self.ft),
+            ft_stalls=getattr(self.ft.stats, "stalls", 0) if self.ft is not None else 0,
         )
 
     def _recorded_sensor_s(self) -> float:
@@ -471,6 +478,11 @@ class Recorder:
 
     def _move_ft(self, writer: RecordingWriter) -> None:
         if self.ft is not None:
+            # the F/T went quiet: said once, counted in its stats (stalls)
+            message = getattr(self.ft, "stall_message", None)
+            if message is not None and not self._ft_warned:
+                self._ft_warned = True
+                self.warn(message)
             rows = self.ft.read_available()
             if len(rows):
                 writer.ft(rows)
@@ -491,7 +503,9 @@ class Recorder:
         rows after it arrive, so rows left unread would be losses the file does not show."""
         if self.ft is None:
             return
-        confirms = bool(getattr(self.ft, "confirms_stop", False))
+        # a stalled sensor will not confirm its stop: wait for quiet only
+        stalled = bool(getattr(self.ft, "stalled", False))
+        confirms = bool(getattr(self.ft, "confirms_stop", False)) and not stalled
         end = time.monotonic() + (confirm_s if confirms else limit_s)
         quiet_since = time.monotonic()
         while (now := time.monotonic()) < end and (confirms or now - quiet_since < quiet_s):
@@ -594,6 +608,10 @@ def _epoch_event(epoch: int, reason: str, host_time: float) -> dict[str, Any]:
 
 def _listify(leds: Any) -> Any:
     return None if leds is None else np.asarray(leds).tolist()
+
+
+def _to_stderr(message: str) -> None:
+    print(f"spectratac: warning: {message}", file=sys.stderr, flush=True)
 
 
 def _simulated_loss(ft: Any) -> float | None:

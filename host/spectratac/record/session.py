@@ -53,7 +53,8 @@ def record_url(
     """Record `url` into `path`; returns the summary (see Recorder.run). `on_open` is told,
     once the device is open, what its link knows and which F/T URL the session uses. The
     ``timeout`` of `sensor_options` bounds the opening of the F/T sensor too (FTTimeoutError
-    naming it when it does not answer in time)."""
+    naming it when it does not answer in time); its ``stall_timeout`` is the F/T's too (a
+    quiet F/T is said once on stderr and counted; the optical stream goes on)."""
     session: dict[str, Any] = {
         "host": {"hostname": socket.gethostname(), "python": sys.version.split()[0]},
     }
@@ -69,6 +70,7 @@ def record_url(
         ft = None
         if ft_url is not None:
             ft = stack.enter_context(_open_ft(ft_url, sensor_options.get("timeout")))
+            ft.stall_timeout = sensor_options.get("stall_timeout")  # None: from its rate
             session |= {"ft_url": ft_url, "ft_link": ft.url}  # as given; as the driver opened it
         recorder = Recorder(
             sensor,

@@ -154,6 +154,9 @@ class RecordingWriter:
             self._channels[GROUND_TRUTH] = self._compact_channel(
                 GROUND_TRUTH, {"dtype": dtype_to_json(GROUND_TRUTH_RECORD)}
             )
+        #: the last log_time per channel: a live clock's refit may move a fit back, and a
+        #: player's timeline (Lichtblick, Foxglove) must only advance within a channel
+        self._last_log: dict[int, int] = {}
         self.ft_dtype = ft_dtype
         self.flush_s = flush_s
         self._last_flush = time.monotonic()
@@ -186,7 +189,7 @@ class RecordingWriter:
     def frames(self, frames: Sequence[tuple[bytes, float]]) -> None:
         """(decoded frame bytes, host receive time) pairs, one MCAP message each; SAMPLE
         and ESTIMATE frames also decoded onto COUNTS and ESTIMATES."""
-        add = self._mcap.add_message
+        add = self._add
         channel = self._channels[FRAMES]
         offset = self.clock.unix_minus_monotonic_ns
         on_clock = self._frame_times(frames)
@@ -226,6 +229,14 @@ class RecordingWriter:
             arrival[timed] = self._device.to_host(device[timed], arrival[timed])
         return arrival
 
+    def _add(
+        self, channel: int, log_time: int, data: bytes, publish_time: int, sequence: int = 0
+    ) -> None:
+        """One message; its log_time never before the channel's last (clamped forward)."""
+        log_time = max(log_time, self._last_log.get(channel, 0))
+        self._last_log[channel] = log_time
+        self._mcap.add_message(channel, log_time, data, publish_time, sequence)
+
     def _decoded(
         self,
         topic: str,
@@ -235,7 +246,7 @@ class RecordingWriter:
     ) -> None:
         """One message per row: publish_time its host time, log_time `on_clock` (host
         seconds on the sensor's clock; default the host time) on the timeline."""
-        add = self._mcap.add_message
+        add = self._add
         channel = self._channels[topic]
         offset = self.clock.unix_minus_monotonic_ns
         logs = self.timeline.ns_array(host_times if on_clock is None else on_clock).tolist()
@@ -267,7 +278,7 @@ class RecordingWriter:
             exact = self._device.map((rows["sensor_time"] - offset_s) / (1.0 + drift))
             on_clock = on_clock if exact is None else exact
         log = self.timeline.ns(float(on_clock[-1]))
-        self._mcap.add_message(self._channels[FT_SAMPLES], log, wrap(rows.tobytes()), ns)
+        self._add(self._channels[FT_SAMPLES], log, wrap(rows.tobytes()), ns)
         self.ft_rows_written += len(rows)
         if self.decoded:
             times = rows["host_time"]
@@ -291,7 +302,7 @@ class RecordingWriter:
             )
         ns = self.clock.log_time(host_time)
         log = self.timeline.ns(host_time)
-        self._mcap.add_message(channel, log, wrap(rows.tobytes()), ns)
+        self._add(channel, log, wrap(rows.tobytes()), ns)
         if self.decoded:
             kept = rows[self._caps[TRUTH].take(len(rows), host_time)]
             self._decoded(TRUTH, truth_messages(kept), [host_time] * len(kept))
@@ -303,7 +314,7 @@ class RecordingWriter:
         if topic == LABELS and isinstance(obj, dict):  # a time not known is absent, not null
             obj = {k: v for k, v in obj.items() if not (v is None and k in _LABEL_TIMES)}
         data = json.dumps(obj, default=_jsonable).encode()
-        self._mcap.add_message(self._channels[topic], self.timeline.ns(host_time), data, ns)
+        self._add(self._channels[topic], self.timeline.ns(host_time), data, ns)
         if topic == EPOCH:  # a new connection: the device clock may have restarted
             self._device.reset()
             self._unwrap = Unwrapper()

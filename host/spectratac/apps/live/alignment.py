@@ -37,10 +37,14 @@ from numpy.typing import ArrayLike, NDArray
 from spectratac.dataset.labels import CONTACT_N
 from spectratac.fusion import ClockFitError, ClockModel, fit_clock, window_average
 from spectratac.hardware.generated import vocabulary as vocab
+from spectratac.record.schemas import RATE_CAP_HZ, RateCap
 
 F64 = NDArray[np.float64]
 WINDOW_S = 30.0
 FT_WINDOW_S = 10.0  # the F/T streams hundreds of rows a second: a shorter fit and buffer
+#: F/T rows per second of host time the tracker keeps: a window's average over an even subset
+#: at this rate is the reference still, and its fit and buffer stay bounded at any F/T rate
+TRACK_HZ = RATE_CAP_HZ
 REFIT_S = 2.0
 MIN_FIT_S = 2.0  # device seconds of pairs before a drift is fitted (offset only until then)
 #: F/T rows either side of a window that its average looks at: the samples just outside it
@@ -248,14 +252,24 @@ class ReferenceTracker:
         self.max_pending = max_pending
         self.contact_n = contact_n
         self._rows = _Rows(6)
+        self._cap = RateCap(TRACK_HZ)
+        self.thinned = 0  # rows of a stream faster than TRACK_HZ left out
         self._pending: collections.deque[Pending] = collections.deque()
         self.overall = RunningMAE()
         self.contact = RunningMAE()
 
     def add_ft(self, rows: np.ndarray) -> None:
-        """FT_RECORD rows as they arrive."""
+        """FT_RECORD rows as they arrive; of a stream faster than TRACK_HZ an even subset,
+        with each batch's earliest-arriving row (what the clock's lower envelope follows)."""
         if not len(rows):
             return
+        times = rows["host_time"]
+        keep = np.arange(len(rows))[self._cap.take(len(rows), float(times[-1]), float(times[0]))]
+        if len(keep) < len(rows):
+            early = int(np.argmin(times - rows["sensor_time"] / (self.clock.scale or 1.0)))
+            keep = np.union1d(keep, [early])
+            self.thinned += len(rows) - len(keep)
+            rows = rows[keep]
         self.clock.add(rows["sensor_time"], rows["host_time"])
         t = self.clock.to_host(rows["sensor_time"])
         self._rows.append(t, rows["wrench"].astype(np.float64), self.keep_s)

@@ -1,7 +1,11 @@
 """The last minutes of a live session, kept to save a clip: "save the last N seconds".
 
 Raw device frames (as the recorder stores them), reference F/T rows and the decoded rows
-are kept for `keep_s` seconds of host time. A clip is written either as an MCAP recording
+are kept for `keep_s` seconds of host time. F/T rows are kept whole up to FT_KEEP_HZ rows per
+second of host time (a Bota's or Net F/T's 1 kHz, what a recording's /ft/wrench copies whole);
+a faster stream (a 10-kHz simulated F/T at speed=10) keeps an even subset at that rate, the
+rows left out counted (`ft_thinned`, and in a clip's end message), so the history's memory
+is bounded whatever the F/T's rate. A clip is written either as an MCAP recording
 in the toolkit's format (`spectratac.record`, readable by `spectratac dataset build`; the
 page's estimates on `/spectratac/estimates`) or as a CSV of the estimates, their reference
 (when an F/T sensor is connected) and the raw counts. Thread-safe: the session's worker
@@ -25,6 +29,7 @@ import numpy as np
 from spectratac.device.streams import DeviceStream
 from spectratac.errors import SpectraTacError
 from spectratac.hardware.generated import vocabulary as vocab
+from spectratac.record.schemas import RATE_CAP_HZ, RateCap
 
 KEEP_S = 120.0
 CSV_COLUMNS = (
@@ -42,6 +47,8 @@ CSV_COLUMNS = (
     *vocab.DECODED_INPUTS,
 )
 FORMATS = ("mcap", "csv")
+#: F/T rows kept per second of host time (the rate a recording's /ft/wrench copies whole)
+FT_KEEP_HZ = RATE_CAP_HZ
 
 
 class HistoryTap(Protocol):
@@ -60,6 +67,9 @@ class History:
         self._lock = threading.Lock()
         self._frames: collections.deque[tuple[bytes, float]] = collections.deque()
         self._ft: collections.deque[np.ndarray] = collections.deque()
+        self._ft_cap = RateCap(FT_KEEP_HZ)
+        self._ft_left: collections.deque[int] = collections.deque()  # per batch in _ft
+        self.ft_thinned = 0  # F/T rows not kept (a stream faster than FT_KEEP_HZ)
         self._rows: collections.deque[dict[str, Any]] = collections.deque()
         self._refs: dict[int, list[float]] = {}
         self._taps: tuple[HistoryTap, ...] = ()
@@ -76,8 +86,12 @@ class History:
 
     def add_ft(self, rows: np.ndarray) -> None:
         if len(rows):
+            times = rows["host_time"]
             with self._lock:
-                self._ft.append(rows.copy())
+                kept = rows[self._ft_cap.take(len(rows), float(times[-1]), float(times[0]))]
+                self._ft.append(kept.copy())  # a copy: a slice would hold the whole batch
+                self._ft_left.append(len(rows) - len(kept))
+                self.ft_thinned += len(rows) - len(kept)
             for tap in self._taps:
                 tap.ft(rows)
 
@@ -99,6 +113,7 @@ class History:
             self._frames.popleft()
         while self._ft and self._ft[0]["host_time"][-1] < old:
             self._ft.popleft()
+            self._ft_left.popleft()
         while self._rows and self._rows[0]["host_time"] < old:
             self._refs.pop(self._rows.popleft()["key"], None)
 
@@ -106,6 +121,13 @@ class History:
     def window(self, seconds: float) -> tuple[list[tuple[bytes, float]], np.ndarray | None, list]:
         """(frames, F/T rows or None, decoded rows with their references) of the last
         `seconds` of host time."""
+        frames, ft, rows, _ = self._window(seconds)
+        return frames, ft, rows
+
+    def _window(
+        self, seconds: float
+    ) -> tuple[list[tuple[bytes, float]], np.ndarray | None, list, int]:
+        """window(), and the F/T rows of its batches the history did not keep."""
         if not 0 < seconds <= self.keep_s:
             raise SpectraTacError(
                 f"save {seconds} s: give 0 < seconds <= {self.keep_s:g} (the history kept)"
@@ -114,6 +136,8 @@ class History:
         with self._lock:
             frames = [f for f in list(self._frames) if f[1] >= since]
             ft = np.concatenate(list(self._ft)) if self._ft else None
+            thinned = sum(n for b, n in zip(self._ft, self._ft_left, strict=True)
+                          if b["host_time"][-1] >= since)  # fmt: skip
             rows = [
                 r
                 | {
@@ -125,7 +149,7 @@ class History:
             ]
         if ft is not None:
             ft = ft[ft["host_time"] >= since]
-        return frames, ft, rows
+        return frames, ft, rows, thinned
 
     def save_csv(self, path: Path, seconds: float) -> int:
         """The decoded rows of the last `seconds` as CSV; returns the row count."""
@@ -145,7 +169,7 @@ class History:
         from spectratac.record.format import CONFIG, END, FT_INFO, INFO, TIME_SYNC
         from spectratac.record.writer import RecordingWriter
 
-        frames, ft, rows = self.window(seconds)
+        frames, ft, rows, thinned = self._window(seconds)
         sensor.sync_clock(8)
         exchanges = [asdict(e) for e in sensor.time_sync[-64:]]
         ft_dtype = ft.dtype if ft is not None else None
@@ -178,6 +202,7 @@ class History:
                     "samples": len(rows),
                     "frames": len(frames),
                     "ft_samples": 0 if ft is None else len(ft),
+                    "ft_thinned": thinned,  # rows of a stream beyond FT_KEEP_HZ, not kept
                     "labels": 0,
                 },
                 time.monotonic(),

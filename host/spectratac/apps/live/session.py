@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
+import sys
 import tempfile
 import threading
 import time
@@ -114,6 +115,7 @@ class LiveSession:
         self._lock = threading.Lock()  # the snake is driven by the worker and by clients
         self._save_lock = threading.Lock()
         self.error: str | None = None
+        self._ft_warned = False
 
     # ------------------------------------------------------------------ lifecycle
     def start(self, publish: Publish) -> None:
@@ -142,6 +144,7 @@ class LiveSession:
                 self.ft = self._stack.enter_context(
                     FTSensor.open(self.ft_url, timeout=self.timeout)
                 )
+                self.ft.stall_timeout = self.stall_timeout  # None: from its rate
                 self.ft.start()
         except BaseException:
             self._stack.close()
@@ -231,6 +234,8 @@ class LiveSession:
             # a simulated sensor loses samples on purpose (ft_loss): the page says so
             simulated = self.ft.info.extra.get("simulated_loss")
             out["ft"] = {"received": self.ft.stats.received, "lost": self.ft.stats.lost,
+                         "stalls": getattr(self.ft.stats, "stalls", 0),
+                         "history_thinned": self.history.ft_thinned,
                          "simulated_loss": simulated}  # fmt: skip
         if self.tracker is not None and self.decoder is not None:
             out["mae"] = self.tracker.mae()
@@ -406,6 +411,11 @@ class LiveSession:
     ) -> list[list[float]]:
         """Take the F/T rows that came, add the windows of the (seq, estimate, sample) not
         scored yet; the windows now ready."""
+        stalled = getattr(self.ft, "stall_message", None)  # a driver's (FTSensor)
+        if stalled is not None and not self._ft_warned:
+            # the F/T went quiet: said once (stats count it), the estimates go on unscored
+            self._ft_warned = True
+            print(f"spectratac: warning: {stalled}", file=sys.stderr, flush=True)
         rows = self.ft.read_available()
         tracker.add_ft(rows)
         self.history.add_ft(rows)
