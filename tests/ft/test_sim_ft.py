@@ -170,3 +170,30 @@ def test_speed_max_recording_with_ft_builds_an_aligned_dataset(tmp_path) -> None
     truth = -scene.contact(mid).normal
     assert np.ptp(truth) > 0.5
     assert np.median(np.abs(fz[ok] - truth[ok])) < 0.15
+
+
+def test_speed_max_netft_waits_for_a_host_that_lags(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Unpaced, the simulated Net F/T sends tens of times faster than a real one: a host
+    reader descheduled for a moment (a busy machine) overflowed its UDP buffer and lost
+    thousands of packets (a README recording: 13 % at load 15). It waits for the reader."""
+    from spectratac.device import Sensor
+    from spectratac.ft import netft
+
+    poll = netft.NetFTSensor._poll
+    stalled: list[bool] = []
+
+    def descheduled_once(self: netft.NetFTSensor, timeout: float) -> np.ndarray:
+        if not stalled and self.stats.received > 200:
+            stalled.append(True)
+            time.sleep(1.0)  # the reader thread does not run: packets pile up in the socket
+        return poll(self, timeout)
+
+    monkeypatch.setattr(netft.NetFTSensor, "_poll", descheduled_once)
+    url = "sim://?scene=press&seed=4&speed=max&ft=netft&ft_loss=0"
+    with Sensor.open(url) as sensor, open_ft(url, timeout=3.0) as ft:
+        sensor.start()
+        rows = ft.read(20_000, timeout=60.0)
+        sensor.stop()
+    assert stalled, "the reader was never held up"
+    assert len(rows) == 20_000
+    assert ft.stats.lost == 0 and ft.stats.gaps == 0

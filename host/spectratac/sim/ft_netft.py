@@ -34,6 +34,12 @@ from spectratac.sim.ft_source import FTSource
 COUNTS_PER_FORCE = 1_000_000
 COUNTS_PER_TORQUE = 1_000_000
 BUFFERED_RECORDS = 40  # records per packet in buffered mode (the device's comrdtbsiz)
+#: speed=max: the server waits while this many bytes wait unread at the host's socket. A real
+#: Net F/T sends at its rate and a host that lags loses packets; unpaced, the scene runs tens of
+#: times faster, so a host thread descheduled for 10 ms on a busy machine would lose hundreds
+#: (a README recording lost 13 % at load 15). The host's receive buffer is at least 208 KB.
+UNPACED_BACKLOG_BYTES = 64 * 1024
+UNPACED_PATIENCE_S = 5.0  # a host that stopped reading loses what follows, as behind a real link
 
 
 class NetFTServer:
@@ -159,6 +165,8 @@ class NetFTServer:
         if self._remaining > 0:
             n = min(n, self._remaining)
             self._remaining -= n
+        if not self.source.world.paced:
+            self._wait_for_reader(self._client[1])
         wrench = batch.wrench[:n] - self._bias
         self._last = wrench[-1]
         counts = np.clip(np.rint(wrench * self._scale), -(2**31), 2**31 - 1).astype(np.int64)
@@ -181,6 +189,36 @@ class NetFTServer:
             with contextlib.suppress(BlockingIOError, ConnectionRefusedError):
                 send(wire[i * size : j * size], self._client)
                 self.sent += j - i
+
+    def _wait_for_reader(self, port: int) -> None:
+        """Unpaced: wait (bounded) until the host has read most of what was sent."""
+        deadline = time.monotonic() + UNPACED_PATIENCE_S
+        while (backlog := udp_backlog(port)) is not None and backlog > UNPACED_BACKLOG_BYTES:
+            if time.monotonic() > deadline or self._stop.wait(0.001):
+                return
+
+
+def udp_backlog(port: int, table: str = "/proc/net/udp") -> int | None:
+    """Bytes waiting unread at the local UDP socket bound to `port` (Linux: the rx_queue
+    column of /proc/net/udp); None where the table cannot tell.
+
+    >>> with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx:
+    ...     rx.bind(("127.0.0.1", 0))
+    ...     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+    ...         _ = tx.sendto(b"x" * 100, rx.getsockname())
+    ...     udp_backlog(rx.getsockname()[1]) > 0
+    True
+    """
+    try:
+        with open(table, encoding="ascii") as f:
+            next(f)  # the header
+            for line in f:
+                fields = line.split()
+                if int(fields[1].rpartition(":")[2], 16) == port:
+                    return int(fields[4].partition(":")[2], 16)
+    except (OSError, StopIteration, ValueError, IndexError):
+        return None
+    return None
 
 
 def _page_handler(server: NetFTServer) -> type[http.server.BaseHTTPRequestHandler]:
