@@ -172,7 +172,7 @@ def machine_factor(dataset: Dataset, workers: int | None = None) -> float:
     )  # fmt: skip
     p = plan(dataset, spec)
     per_row = 3 * flops(spec.arch, p.features.n_features, p.heads.n_out)
-    cost = TrainingCost.measure(dataset, spec, batches=8)
+    cost = TrainingCost.measure(dataset, spec)
     return float(np.clip(cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"]), 0.2, 50))
 
 

@@ -13,7 +13,7 @@ is what the real skins do over weeks of use:
 - now and then (on average every `REMOUNT_EVERY` sessions) the skin is re-mounted: a small step
   in each channel's gain and ambient offset, and a step down in the press response (the clamp
   pre-loads the skin);
-- within a session, the LEDs warm up.
+- within a session, the LEDs warm up in the first seconds (on shortly before recording).
 
 Each session records its start time (`meta["sessions"][i]["started_unix"]`, two to three
 days apart) and what was drawn for it (`sensitivity`, `remounted`), so forward-in-time
@@ -55,11 +55,18 @@ REMOUNT_GAIN_SD = 0.03  # per-channel gain step at a re-mounting
 REMOUNT_AMBIENT_SD = 150.0  # per-channel ambient-light step at a re-mounting, counts
 SESSION_GAP_DAYS = (2.0, 3.0)  # between sessions
 START_UNIX = 1.7e9
+WARMUP_S = 5.0  # LED warm-up time constant: switched on shortly before each recording
 
 
-def ageing_skin(sessions: int = 36, session_s: float = 40.0, seed: int = 0) -> Dataset:
+def ageing_skin(
+    sessions: int = 36,
+    session_s: float = 40.0,
+    seed: int = 0,
+    remount_every: float | None = REMOUNT_EVERY,
+) -> Dataset:
     """`sessions` sessions of `session_s` seconds at 100 Hz of one ageing skin (module
-    docstring), in recording order."""
+    docstring), in recording order; `remount_every` None: never re-mounted (the ageing
+    alone)."""
     if isinstance(sessions, bool) or not isinstance(sessions, int) or sessions < 1:
         raise TwinError(f"sessions must be an int >= 1, got {sessions!r}")
     if not (np.isfinite(session_s) and session_s >= 2.0):
@@ -73,7 +80,8 @@ def ageing_skin(sessions: int = 36, session_s: float = 40.0, seed: int = 0) -> D
     start = START_UNIX
     parts = []
     for k in range(sessions):
-        remounted = k > 0 and age.random() < 1.0 / REMOUNT_EVERY
+        draw = age.random()  # drawn either way: the same ageing with or without re-mounts
+        remounted = k > 0 and remount_every is not None and draw < 1.0 / remount_every
         if remounted:
             gain = gain * (1.0 + REMOUNT_GAIN_SD * age.normal(size=4))
             ambient = np.clip(ambient + age.normal(0.0, REMOUNT_AMBIENT_SD, 4), 0.0, None)
@@ -113,7 +121,7 @@ def _session(
         slow[j] = acc
     dim = sens * DEPTH * reach * ((1 - CREEP_SHARE) * fast + CREEP_SHARE * slow)[:, None]
     t = np.arange(n) / RATE_HZ
-    warm = 1.0 + 0.03 * rng.uniform(0.3, 1.0) * np.exp(-t / 20.0)
+    warm = 1.0 + 0.03 * rng.uniform(0.3, 1.0) * np.exp(-t / WARMUP_S)
     light = FULL_COUNTS * (1.0 - dim) * gain * warm[:, None] + ambient
     counts = light * (1.0 + NOISE * rng.normal(size=light.shape))
     return Dataset.generic(counts, fz, CHANNELS, ["Fz"], t=t, press=press)

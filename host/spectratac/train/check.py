@@ -358,8 +358,9 @@ def trend_figure(folds: list[dict[str, Any]], target: str, n: int, horizon: int)
     """The error to expect over the `horizon` sessions after all `n`: every forward fold's
     per-session errors (fold k trained on the first k sessions, its i-th session i sessions
     ahead) fitted as a + b k + c ahead, read at k = n over 1 ... `horizon` sessions ahead;
-    never below the folds' recent-weighted mean (a falling trend is not promised) nor above
-    twice their largest (few folds: a steep line is noise as much as drift).
+    never below the folds' mean (a falling trend is not promised, and a re-mounting strikes
+    any fold alike: weighting the recent ones chased which folds had one) nor above twice
+    their largest (few folds: a steep line is noise as much as drift).
 
     >>> folds = [{"trained_on": k, "session_mae": [{"Fz": 0.01 * k + 0.1 * i} for i in (1, 2)]}
     ...          for k in (4, 6, 8)]
@@ -376,7 +377,8 @@ def trend_figure(folds: list[dict[str, Any]], target: str, n: int, horizon: int)
             err.append(v)
     e = np.asarray(err, np.float64)
     ok = np.isfinite(e)
-    floor = recent_weighted(means)
+    m = np.asarray(means, np.float64)
+    floor = float(np.mean(m[np.isfinite(m)])) if np.isfinite(m).any() else float("nan")
     if np.unique(np.asarray(ks)[ok]).size < 2:
         return floor
     cols = [np.ones(ok.sum()), np.asarray(ks, np.float64)[ok]]
