@@ -127,3 +127,16 @@ def test_trains_estimate_counts_the_check(tmp_path, capsys) -> None:
     assert parts["held-out and forward check"] > 0 and rep["forward"] is not None
     # thinned, the check's models together see no more rows than the model: a fit's cost
     assert parts["held-out and forward check"] <= 2 * parts["train"]
+
+
+def test_twin_ageing_writes_the_skin(tmp_path, capsys) -> None:
+    out = tmp_path / "skin.npz"
+    args = ["twin", "ageing", "-o", str(out), "--sessions", "5", "--duration", "3", "--json"]
+    assert main(args) == 0
+    rep = json.loads(capsys.readouterr().out)
+    ds = Dataset.load(out)
+    assert rep["sessions"] == 5 and ds.n == rep["samples"] == 1500
+    assert ds.meta["sessions"][4]["started_unix"] > ds.meta["sessions"][0]["started_unix"]
+    first, last = rep["sensitivity_first_last"]
+    assert last < first
+    assert main([*args[:-1], "--force", "--duration", "0.5"]) == 2  # too short: a usage error
