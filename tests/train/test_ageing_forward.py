@@ -140,3 +140,21 @@ def test_twin_ageing_writes_the_skin(tmp_path, capsys) -> None:
     first, last = rep["sensitivity_first_last"]
     assert last < first
     assert main([*args[:-1], "--force", "--duration", "0.5"]) == 2  # too short: a usage error
+
+
+def test_train_gain_only_from_the_command_line(tmp_path, capsys) -> None:
+    ds = ageing_skin(sessions=10, session_s=40.0, seed=1, remount_every=None)
+    ses = np.asarray(ds.session, np.int64)
+    t = np.asarray(ds.t_end)
+    base = train(ds, RIDGE, rows=np.flatnonzero(ses < 6), progress=False)
+    base.save(tmp_path / "base.stac")
+    later = np.flatnonzero(ses == 9)
+    new = ds.subset(later[t[later] - t[later[0]] < 30.0]).save(tmp_path / "new.npz")
+    args = ["train", str(new), "--finetune", str(tmp_path / "base.stac"), "--gain-only",
+            "-o", str(tmp_path / "recal.stac"), "--no-progress"]  # fmt: skip
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "recalibrated by one output gain per target: it beat the base" in out, out
+    recal = Decoder.load(tmp_path / "recal.stac")
+    assert recal.meta["finetuned_from"]["mode"] == "gain"
+    assert recal.runtime.y_scale[0] > base.runtime.y_scale[0]  # the later session reads low

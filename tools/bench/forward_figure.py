@@ -15,11 +15,12 @@ figures per recipe:
   seconds `fit` took, quiet and (`--busy 2`) beside two busy loops (target: within 1.5x).
 
 Beside them, for the zero-shot question (issue 35 item 3): the recipe's MAE on the next
-sessions, and the 30-s recalibration of its model on the first next session (gain-only and
+sessions, and the 30-s recalibration of its model on each next session (gain-only and
 fine-tuned), scored on the rest of that session.
 
     python -m tools.bench.forward_figure [--sessions 36] [--train 28] [--session-s 20]
-        [--seed 0] [--recipes paper,best,auto] [--budget 120] [--epochs N] [--busy 2] [--json]
+        [--seed 0] [--recipes paper,best,auto] [--budget 120] [--epochs N] [--busy 2]
+        [--busy-only] [--no-recal] [--json]
 
 `--recipes` may also name the variants of the paper's recipe in VARIANTS (drift baseline,
 gain jitter): their MAE on the next sessions is the zero-shot comparison.
@@ -112,30 +113,33 @@ def run_recipe(
 def recalibration(
     ds: Dataset, base: Any, args: argparse.Namespace, recipe: str, load: str
 ) -> list[Figure]:
-    """30 s of the first next session recalibrate `base`; scored on the rest of it."""
-    ses = np.asarray(ds.session, np.int64)
-    t = np.asarray(ds.t_end, np.float64)
-    first = np.flatnonzero(ses == args.train)
-    t0 = t[first[0]]
-    cal = first[t[first] - t0 < RECAL_S]
-    rest = first[t[first] - t0 >= RECAL_S]
-    if rest.size == 0:
-        return []
-    cal_ds = ds.subset(cal)
-    base_mae = decoder_mae(base, ds, rest)["Fz"]
-    out = []
-    for mode in ("gain", "first"):
-        tuned = fit(
-            cal_ds, finetune_from=base, finetune_options=FinetuneOptions(mode=mode),
-            progress=False,
-        ).decoder  # fmt: skip
-        mae = decoder_mae(tuned, ds, rest)["Fz"]
-        kept = tuned.meta.get("finetuned_from", {}).get("kept")
-        out.append(
-            Figure(f"recalibrated {mode}: {recipe} ({load})", mae, "N MAE",
-                   "base on the same rows", base_mae, mae / base_mae, {"kept": kept})
-        )  # fmt: skip
-    return out
+    """Each next session, recorded for RECAL_S + 30 s (the same drift: `ageing_skin` draws it
+    apart from the presses), recalibrates `base` on its first RECAL_S seconds; scored on the
+    rest of it, against the base on the same rows (means over the next sessions)."""
+    long = ageing_skin(args.sessions, RECAL_S + 30.0, args.seed)
+    ses = np.asarray(long.session, np.int64)
+    t = np.asarray(long.t_end, np.float64)
+    base_mae, tuned = [], {"gain": [], "first": []}
+    kept: dict[str, list[str]] = {"gain": [], "first": []}
+    for k in range(args.train, args.sessions):
+        rows = np.flatnonzero(ses == k)
+        since = t[rows] - t[rows[0]]
+        cal, rest = rows[since < RECAL_S], rows[since >= RECAL_S]
+        base_mae.append(decoder_mae(base, long, rest)["Fz"])
+        for mode in tuned:
+            dec = fit(
+                long.subset(cal), finetune_from=base, finetune_options=FinetuneOptions(mode=mode),
+                progress=False,
+            ).decoder  # fmt: skip
+            tuned[mode].append(decoder_mae(dec, long, rest)["Fz"])
+            kept[mode].append(str(dec.meta["finetuned_from"]["kept"]))
+    b = float(np.mean(base_mae))
+    return [
+        Figure(f"recalibrated {mode}: {recipe} ({load})", float(np.mean(v)), "N MAE",
+               "base on the same rows", b, float(np.mean(v)) / b,
+               {"kept": kept[mode], "per_session": v, "base_per_session": base_mae})
+        for mode, v in tuned.items()
+    ]  # fmt: skip
 
 
 def main() -> None:
@@ -149,12 +153,13 @@ def main() -> None:
     p.add_argument("--epochs", type=int, default=None)
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--no-recal", dest="recal", action="store_false")
+    p.add_argument("--busy-only", action="store_true", help="with --busy N: not quiet first")
     args = p.parse_args()
     ds = ageing_skin(args.sessions, args.session_s, args.seed)
     ses = np.asarray(ds.session, np.int64)
     train_ds = ds.subset(np.flatnonzero(ses < args.train))
     figs: list[Figure] = []
-    for busy in sorted({0, args.busy}):
+    for busy in [args.busy] if args.busy_only and args.busy else sorted({0, args.busy}):
         with busy_loops(busy):
             for recipe in args.recipes.split(","):
                 figs += run_recipe(ds, train_ds, recipe, args, load_label(busy))

@@ -33,6 +33,8 @@ T = TypeVar("T")
 
 #: Timed calls per training probe; their median is kept (TrainingCost.measure).
 PROBE_REPEATS = 3
+#: Rows of the training probe at least (TrainingCost.measure).
+PROBE_ROWS = 4096
 #: Bytes of a recording that `build_estimate` builds as its probe (about 25 s of a session
 #: with F/T; tens of milliseconds of building): a fifth of the smallest recording that gets
 #: an estimate (`spectratac.cli.dataset_cmd.LONG_BUILD_BYTES`), a few percent of a long one.
@@ -115,7 +117,11 @@ class TrainingCost:
         )
         train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
         small = np.arange(min(64, dataset.n))
-        rows = np.arange(min(batches * int(getattr(spec, "batch_size", 256)), dataset.n))
+        # at least PROBE_ROWS: at batch 256 four batches were a few ms of work, and the
+        # per-row cost of a best() fit came out four times what the fit then took
+        rows = np.arange(
+            min(max(batches * int(getattr(spec, "batch_size", 256)), PROBE_ROWS), dataset.n)
+        )
         fixed = median_s(repeats, train, dataset, one, rows=small, progress=False)
         t1 = median_s(repeats, train, dataset, one, rows=rows, progress=False)
         per_row = (t1 - fixed) / max(rows.size - small.size, 1)

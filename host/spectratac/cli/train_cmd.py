@@ -338,12 +338,15 @@ def _human(s: dict[str, Any]) -> str:
             "against the base)"
         ]
     )
-    if ft and ft.get("kept") == "gain":
+    if ft and ft.get("kept") == "gain" and not ft["val_mae_scaled"]:
+        lines.append("  recalibrated by one output gain per target (too few presses to check)")
+    elif ft and ft.get("kept") == "gain":
         sc = ft["val_mae_scaled"]
+        beat = "the base" if ft["mode"] == "gain" else "the fine-tuned layers and the base"
         lines.append(
-            "  recalibrated by one output gain per target: it beat the fine-tuned layers "
-            f"and the base on the held-out {plural(ft.get('val_groups', 'group'))} (scaled "
-            f"MAE {sc['gain']:.4g} against base {sc['base']:.4g})"
+            f"  recalibrated by one output gain per target: it beat {beat} on the held-out "
+            f"{plural(ft.get('val_groups', 'group'))} (scaled MAE {sc['gain']:.4g} against "
+            f"base {sc['base']:.4g})"
         )
     if ft and ft.get("kept") == "base":
         lines.append(
