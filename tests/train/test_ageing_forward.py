@@ -132,19 +132,6 @@ def test_trains_estimate_counts_the_check(tmp_path, capsys) -> None:
     assert len(plan) == 5 and sum(plan) <= rep["n_train"] + len(plan)
 
 
-def test_twin_ageing_writes_the_skin(tmp_path, capsys) -> None:
-    out = tmp_path / "skin.npz"
-    args = ["twin", "ageing", "-o", str(out), "--sessions", "5", "--duration", "3", "--json"]
-    assert main(args) == 0
-    rep = json.loads(capsys.readouterr().out)
-    ds = Dataset.load(out)
-    assert rep["sessions"] == 5 and ds.n == rep["samples"] == 1500
-    assert ds.meta["sessions"][4]["started_unix"] > ds.meta["sessions"][0]["started_unix"]
-    first, last = rep["sensitivity_first_last"]
-    assert last < first
-    assert main([*args[:-1], "--force", "--duration", "0.5"]) == 2  # too short: a usage error
-
-
 def test_train_gain_only_from_the_command_line(tmp_path, capsys) -> None:
     ds = ageing_skin(sessions=10, session_s=40.0, seed=1, remount_every=None)
     ses = np.asarray(ds.session, np.int64)

@@ -5,9 +5,6 @@ spectratac twin generate -o OUT.npz [--scene S] write a session (counts, F/T, tr
                                                (scenes: sim/named_scenes.py, as in sim:// URLs)
 spectratac twin population -o OUT.npz --units 0,1,2,3 --sessions 3 --duration 300
                                                a dataset of several units x sessions each
-spectratac twin ageing -o OUT.npz [--sessions 36] [--duration 40]
-                                               one 4-channel skin ageing over weeks of sessions
-                                               (sim/ageing_skin.py: forward-figure checks)
 """
 
 from __future__ import annotations
@@ -73,16 +70,6 @@ def register(subparsers: Any) -> None:
     pop.add_argument("--json", action="store_true", help="print a JSON summary")
     pop.add_argument("--no-progress", action="store_true")
     pop.set_defaults(func=_population)
-
-    age = sub.add_parser(
-        "ageing", help="weeks of sessions of one 4-channel skin whose response drifts one way"
-    )
-    add_output(age, help="the dataset .npz file to write", required=True)
-    age.add_argument("--sessions", type=int, default=36, help="sessions, a few days apart")
-    add_duration(age, 40.0, "length of each session in s")
-    age.add_argument("--seed", type=int, default=0)
-    age.add_argument("--json", action="store_true", help="print a JSON summary")
-    age.set_defaults(func=_ageing)
     p.set_defaults(func=lambda args: (p.print_help(), ExitCode.USAGE)[1])
 
 
@@ -176,37 +163,6 @@ def _generate(args: argparse.Namespace) -> int:
             f"{summary['ft_samples']} F/T samples of scene '{scene.name}' in {gen_s:.2f} s; "
             f"{100 * summary['saturated_fraction']:.1f} % saturated, "
             f"{100 * summary['labelled_fraction']:.1f} % labelled"
-        )
-    return ExitCode.OK
-
-
-def _ageing(args: argparse.Namespace) -> int:
-    from spectratac.sim.ageing_skin import ageing_skin
-    from spectratac.twin.errors import TwinError
-
-    path = npz_name(args.output)
-    refuse_overwrite(path, args.force, verb="twin ageing", kind=is_npz)
-    try:
-        ds = ageing_skin(args.sessions, args.duration, args.seed)
-    except TwinError as exc:
-        raise UsageError(str(exc)) from None
-    with new_file(path) as tmp:
-        ds.save(tmp)
-    sens = [m["sensitivity"] for m in ds.meta["sessions"]]
-    summary = {
-        "out": str(path),
-        "sessions": len(sens),
-        "samples": ds.n,
-        "sensitivity_first_last": [round(sens[0], 4), round(sens[-1], 4)],
-        "remounted": [i for i, m in enumerate(ds.meta["sessions"]) if m["remounted"]],
-    }
-    if args.json:
-        print(json.dumps(summary))
-    else:
-        print(
-            f"wrote {path}: {len(sens)} sessions of one ageing skin, {ds.n} samples; press "
-            f"response {sens[0]:.2f} -> {sens[-1]:.2f}, re-mounted before sessions "
-            f"{', '.join(map(str, summary['remounted'])) or 'none'}"
         )
     return ExitCode.OK
 
