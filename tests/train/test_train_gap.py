@@ -55,5 +55,9 @@ def test_recipe_auto_within_a_budget_writes_the_chosen_model(tmp_path, capsys) -
     assert rep["chosen"] in status and status[rep["chosen"]] == "done"
     dec = Decoder.load(out)
     assert dec.meta["auto_recipe"]["chosen"] == rep["chosen"]
-    assert s["heldout_source"].endswith("cross-validation of the chosen candidate")
+    # eight sessions in time order: ranked on forward-in-time folds, whose trend is printed
+    fwd = f"{rep['folds']}-fold forward-in-time folds of the chosen candidate"
+    assert s["heldout_source"] == fwd
+    assert rep["fold_kind"] == "forward" and s["forward"] is not None
+    assert s["expected_text"].startswith("expect on your next session and the")
     assert s["heldout_mae"]["Fz"] > 0 and s["train_mae"]["Fz"] > 0

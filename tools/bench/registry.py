@@ -196,6 +196,16 @@ BENCHMARKS: tuple[Benchmark, ...] = (
         quick=("--units", "1", "--epochs", "5"),
     ),
     Benchmark(
+        "forward-figure", "forward_figure",
+        "on a skin ageing over weeks: every recipe's printed figure against the next sessions' "
+        "error, train's time estimate against its wall time",
+        "share of forward figures and estimates within 1.5x",
+        r"^share within 1\.5x: forward figure and estimate$",
+        full=("--busy", "2"),
+        quick=("--sessions", "12", "--train", "9", "--session-s", "3", "--epochs", "1",
+               "--budget", "5", "--recipes", "paper,auto", "--no-recal"),
+    ),
+    Benchmark(
         "generalisation", "generalisation",
         "decoders on a unit and sessions they never saw; few-shot recalibration",
         "auto recipe's held-out-unit MAE against the paper recipe's",

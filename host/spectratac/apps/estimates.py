@@ -33,6 +33,8 @@ T = TypeVar("T")
 
 #: Timed calls per training probe; their median is kept (TrainingCost.measure).
 PROBE_REPEATS = 3
+#: Rows of the training probe at least (TrainingCost.measure).
+PROBE_ROWS = 4096
 #: Bytes of a recording that `build_estimate` builds as its probe (about 25 s of a session
 #: with F/T; tens of milliseconds of building): a fifth of the smallest recording that gets
 #: an estimate (`spectratac.cli.dataset_cmd.LONG_BUILD_BYTES`), a few percent of a long one.
@@ -116,23 +118,69 @@ class TrainingCost:
         )
         train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
         small = np.arange(min(64, dataset.n))
-        rows = np.arange(min(batches * int(getattr(spec, "batch_size", 256)), dataset.n))
+        # at least PROBE_ROWS: at batch 256 four batches were a few ms of work, and the
+        # per-row cost of a best() fit came out four times what the fit then took
+        rows = np.arange(
+            min(max(batches * int(getattr(spec, "batch_size", 256)), PROBE_ROWS), dataset.n)
+        )
         fixed = median_s(repeats, train, dataset, one, rows=small, progress=False)
         t1 = median_s(repeats, train, dataset, one, rows=rows, progress=False)
         per_row = (t1 - fixed) / max(rows.size - small.size, 1)
         return cls(fixed, max(per_row, t1 / rows.size / 10))  # a noisy probe: never ~0
 
 
-def training_estimate(dataset: Dataset, spec: Any, fits: int = 1) -> Estimate:
-    """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, probed on
-    the dataset's own first rows."""
+def training_estimate(
+    dataset: Dataset, spec: Any, fits: int = 1, check_rows: Sequence[int] = ()
+) -> Estimate:
+    """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, and the
+    held-out check's models on `check_rows` rows each (train/check.py `check_plan`), probed
+    on the dataset's own first rows."""
     t0 = time.perf_counter()
     cost = TrainingCost.measure(dataset, spec)
+    parts = {"train": fits * cost.seconds(dataset.n, spec.epochs)}
+    if check_rows:
+        parts["held-out and forward check"] = sum(
+            cost.seconds(int(r), spec.epochs) for r in check_rows
+        )
     return Estimate(
-        {"train": fits * cost.seconds(dataset.n, spec.epochs)},
+        parts,
         {"s/row-epoch": cost.row_epoch_s, "fixed s": cost.fixed_s},
         time.perf_counter() - t0,
     )
+
+
+def auto_estimate(budget_s: float, dataset: Dataset, workers: int | None = None) -> Estimate:
+    """`spectratac train --recipe auto`: its budget is nominal seconds of work per worker
+    (train/auto_recipe/budget.py), which a loaded machine does more slowly. A probe trains
+    a small network on the dataset's first rows on as many processes as the search will
+    run, and the budget is scaled by the probe's wall time over its nominal time."""
+    t0 = time.perf_counter()
+    factor = machine_factor(dataset, workers)
+    return Estimate(
+        {"search, forward folds and final refit (--budget at this machine's rate)": budget_s
+         * factor},
+        {"wall / nominal": factor},
+        time.perf_counter() - t0,
+    )  # fmt: skip
+
+
+def machine_factor(dataset: Dataset, workers: int | None = None) -> float:
+    """Wall seconds per nominal second of network work now: a small network's cost per row
+    and epoch, probed on the dataset's first rows (`TrainingCost.measure`: the fixed cost
+    of a fit taken out), over the nominal rate the budget counts with."""
+    from spectratac.decode.networks import flops
+    from spectratac.train import TrainSpec
+    from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK
+    from spectratac.train.plan import default_features, default_targets, plan
+
+    spec = TrainSpec(
+        features=default_features(dataset), targets=default_targets(dataset), model="mlp",
+        hidden=64, blocks=2, val_fraction=0.0, best_val=False, threads=1,
+    )  # fmt: skip
+    p = plan(dataset, spec)
+    per_row = 3 * flops(spec.arch, p.features.n_features, p.heads.n_out)
+    cost = TrainingCost.measure(dataset, spec)
+    return float(np.clip(cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"]), 0.2, 50))
 
 
 # ------------------------------------------------------------------ evaluate

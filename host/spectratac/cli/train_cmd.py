@@ -36,6 +36,10 @@ standard error of the best and prints every candidate's CV error and inference c
 
 --holdout-sessions 3,4 (or 30-35) leaves whole sessions out of training and records them.
 
+--finetune BASE.stac --gain-only fits one output gain per target and no weight: the
+recalibration 30 s of a later session of the same skin can teach (its response drifts by a
+factor).
+
 --finetune BASE.stac recalibrates a trained decoder for a new unit from a minute or two of that
 unit's data (spectratac.train.finetune): BASE's layout, features and targets are kept, its
 weights are the start, and data of other inputs, LED configuration or targets is refused.
@@ -56,7 +60,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from spectratac.cli.exit_codes import ExitCode
+from spectratac.cli.exit_codes import ExitCode, UsageError
 from spectratac.cli.options import add_output, column_names, refuse_overwrite
 from spectratac.cli.outputs import (
     Kind,
@@ -163,6 +167,10 @@ def register(subparsers: Any) -> None:
         help="leave these sessions out of training (e.g. 3,4,7 or 30-35); recorded in the model",
     )
     p.add_argument("--finetune", metavar="BASE.stac", help="recalibrate BASE on this data")
+    p.add_argument(
+        "--gain-only", action="store_true",
+        help="--finetune: one output gain per target, no weight (30 s of a later session)",
+    )  # fmt: skip
     p.add_argument("--export", help="also write these formats: onnx,numpy,torchscript,c")
     p.add_argument("--json", action="store_true", help="print one JSON summary")
     p.add_argument("--no-progress", action="store_true")
@@ -193,6 +201,14 @@ def _train(args: argparse.Namespace) -> int:
     ds = load_data(args.data, column_names(args.inputs), given, classes)
     if args.holdout and args.holdout_sessions:
         raise DecoderError("give --holdout or --holdout-sessions, not both")
+    if args.gain_only and not args.finetune:
+        raise UsageError("--gain-only recalibrates a trained model: give --finetune BASE.stac")
+    if args.gain_only and not has_force_targets(ds):
+        raise UsageError(
+            f"--gain-only fits the force gain to reference F/T targets, and {args.data} has "
+            "none (a guided session without --ft): leave --gain-only out to adapt regions "
+            "and guard from its labels"
+        )
     if args.finetune and not has_force_targets(ds) and not exports:
         from spectratac.cli import train_unlabelled  # a guided session without a reference
 
@@ -202,6 +218,7 @@ def _train(args: argparse.Namespace) -> int:
     spec, tune = None, None
     if args.finetune:
         tune = FinetuneOptions(
+            **({"mode": "gain"} if args.gain_only else {}),
             epochs=args.epochs,
             lr=args.lr,
             seed=args.seed or 0,
@@ -266,22 +283,43 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
-    """How long this training will take: the --budget for the auto recipe (the search keeps
-    to it, the final refit included); a recipe's rates probed on the dataset's first rows;
-    None for a fine-tune (its epochs stop early on held-out presses)."""
-    from spectratac.apps.estimates import Estimate, training_estimate
+    """How long this training will take: the auto recipe's --budget of nominal work (the
+    search keeps to it, its forward folds and the final refit included) at the rate this
+    machine gives now; a recipe's fit and its check's models (held-out and forward folds) at
+    rates probed on the dataset's first rows; None for a fine-tune (its epochs stop early on
+    held-out presses)."""
+    from spectratac.apps.estimates import auto_estimate, training_estimate
     from spectratac.errors import SpectraTacError
 
     if auto:
-        return Estimate({"search + final refit (--budget)": args.budget}, {}, 0.0)
+        return auto_estimate(args.budget, ds, args.workers)
     if spec is None or spec.model == "ridge":
         return None
-    fits = 1 if (args.holdout or args.holdout_sessions or spec.val_fraction > 0) else 2
     try:
-        return training_estimate(ds, spec, fits=fits)
+        return training_estimate(
+            ds, spec, check_rows=check_rows(ds, spec, args.holdout, args.holdout_sessions)
+        )
     except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
         print(f"note: no time estimate ({exc})", file=sys.stderr)
         return None
+
+
+def check_rows(ds: Any, spec: Any, holdout: str | None, holdout_sessions: str | None) -> list[int]:
+    """Rows of each model the held-out check will train (train/check.py): a check model
+    unless a split, held-out sessions or validation groups give the held-out rows, and the
+    forward folds; the rows they may use are those the real model trains on."""
+    import numpy as np
+
+    from spectratac.train.check import check_plan
+    from spectratac.train.holdout import parse_sessions, session_rows
+
+    rows = None
+    if holdout_sessions:
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    if holdout:  # a split's training rows: about the same sessions, fewer rows
+        return [round(0.8 * r) for r in check_plan(ds, rows, check_model=False)]
+    own = not holdout_sessions and spec.val_fraction <= 0
+    return check_plan(ds, rows, check_model=own)
 
 
 def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:
@@ -327,12 +365,15 @@ def _human(s: dict[str, Any]) -> str:
             "against the base)"
         ]
     )
-    if ft and ft.get("kept") == "gain":
+    if ft and ft.get("kept") == "gain" and not ft["val_mae_scaled"]:
+        lines.append("  recalibrated by one output gain per target (too few presses to check)")
+    elif ft and ft.get("kept") == "gain":
         sc = ft["val_mae_scaled"]
+        beat = "the base" if ft["mode"] == "gain" else "the fine-tuned layers and the base"
         lines.append(
-            "  recalibrated by one output gain per target: it beat the fine-tuned layers "
-            f"and the base on the held-out {plural(ft.get('val_groups', 'group'))} (scaled "
-            f"MAE {sc['gain']:.4g} against base {sc['base']:.4g})"
+            f"  recalibrated by one output gain per target: it beat {beat} on the held-out "
+            f"{plural(ft.get('val_groups', 'group'))} (scaled MAE {sc['gain']:.4g} against "
+            f"base {sc['base']:.4g})"
         )
     if ft and ft.get("kept") == "base":
         lines.append(

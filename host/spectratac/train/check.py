@@ -53,7 +53,8 @@ from spectratac.train.plan import rows_of
 GAP_WARN = 2.0
 HELDOUT_FRACTION = 0.2  # groups held out by the check model
 MIN_FORWARD_SESSIONS = 3  # forward chaining needs sessions before the ones it scores
-FORWARD_SESSIONS = 4  # the last sessions scored by forward chaining (one model each)
+FORWARD_SESSIONS = 4  # forward folds (one model each)
+MAX_HORIZON = 8  # sessions ahead a forward fold scores
 Rows = NDArray[np.intp]
 
 
@@ -99,6 +100,14 @@ class HeldOutCheck:
         time order, forward chaining's mean over the later sessions (round-robin groups
         interpolate across drift and promise too little; the worst session is reported
         beside it), else the held-out groups' mean."""
+        if self.forward is not None and self.forward.horizon > 1:
+            fwd = self.forward
+            ks = ", ".join(str(f["trained_on"]) for f in fwd.folds)
+            return dict(fwd.mean_mae), (
+                f"forward check: models trained on the first {ks} sessions in "
+                f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them, the "
+                "trend carried on to a model trained on all of them"
+            )
         if self.forward is not None:
             fwd = self.forward
             return dict(fwd.mean_mae), (
@@ -127,8 +136,10 @@ class HeldOutCheck:
         if self.forward is None:
             return f"expect on a new session: {cells} ({source})"
         worst = "  ".join(f"{t} {v:.3g}{_unit(t)}" for t, v in self.forward.worst_mae.items())
+        ahead = self.forward.horizon
+        after = f" and the {ahead - 1} after it" if ahead > 1 else ""
         text = (
-            f"expect on your next session: {cells} ({source}; worst, session "
+            f"expect on your next session{after}: {cells} ({source}; worst, session "
             f"{self.forward.worst_session}: {worst})"
         )
         return textwrap.fill(text, 86, subsequent_indent="  ")
@@ -153,6 +164,9 @@ class ForwardCheck:
     worst_mae: dict[str, float]
     worst_session: int
     ordered_by: str = "session number"
+    # sessions ahead each fold scores, and the folds: {"trained_on": k, "sessions", "mae"}
+    horizon: int = 1
+    folds: list[dict[str, Any]] = field(default_factory=list)
 
 
 def held_out_check(
@@ -170,6 +184,8 @@ def held_out_check(
     about HELDOUT_FRACTION of the groups of `rows` scoring a check model `trainer(fit rows)`;
     beside it the worst held-out group, and (`forward`) forward chaining over sessions."""
     model = dec
+    stride = check_stride(dataset, rows, check_model=_needs_check_model(dec, split, held_sessions))
+    trainer = thinned(trainer, stride)
     if split is not None:
         fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
     elif held_sessions:
@@ -194,6 +210,56 @@ def held_out_check(
     pool = np.arange(dataset.n) if rows is None else np.asarray(rows)
     fwd = forward_check(dataset, pool, trainer) if forward else None
     return replace(check, heldout_worst=worst, heldout_worst_group=worst_id, forward=fwd)
+
+
+def _needs_check_model(dec: Decoder, split: Split | None, held_sessions: bool) -> bool:
+    """Whether the held-out check trains a model of its own (no split, no held-out
+    sessions, no validation groups in the model)."""
+    return split is None and not held_sessions and not dec.meta.get("n_val", 0) > 0
+
+
+def check_fit_rows(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> list[int]:
+    """Rows each model of the check trains on before thinning: the check model's (about
+    1 - HELDOUT_FRACTION of the rows) when there is one, then each forward fold's."""
+    sel = np.arange(dataset.n) if rows is None else np.asarray(rows)
+    out = [round((1.0 - HELDOUT_FRACTION) * sel.size)] if check_model else []
+    ses = np.asarray(dataset.session, np.int64)[sel]
+    ids, _ = time_order(dataset, np.unique(ses))
+    ks, _ = forward_plan(len(ids))
+    sizes = np.array([np.count_nonzero(ses == i) for i in ids])
+    return out + [int(sizes[:k].sum()) for k in ks]
+
+
+def check_stride(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> int:
+    """Every how many rows the check's models train on, so that together they see no more
+    rows than the model itself (at 100 Hz neighbouring rows are near-duplicates): the check
+    costs at most one more fit, not five.
+
+    >>> from spectratac.dataset import Dataset
+    >>> ds = Dataset.generic(np.zeros((280, 1)), np.zeros((280, 1)), ["a"], ["Fz"])
+    >>> ds.arrays["session"] = np.repeat(np.arange(28), 10)
+    >>> check_fit_rows(ds, None, check_model=True), check_stride(ds, None, check_model=True)
+    ([224, 90, 130, 170, 210], 3)
+    """
+    n = dataset.n if rows is None else np.asarray(rows).size
+    total = sum(check_fit_rows(dataset, rows, check_model=check_model))
+    return max(1, -(-total // max(n, 1)))
+
+
+def check_plan(
+    dataset: Dataset, rows: Rows | None, *, check_model: bool
+) -> list[int]:
+    """Rows each model of the check trains on, thinned as `held_out_check` thins them:
+    what a time estimate of the check counts."""
+    stride = check_stride(dataset, rows, check_model=check_model)
+    return [-(-r // stride) for r in check_fit_rows(dataset, rows, check_model=check_model)]
+
+
+def thinned(trainer: Callable[[Rows], Decoder], stride: int) -> Callable[[Rows], Decoder]:
+    """`trainer` on every `stride`-th of the rows it is given."""
+    if stride <= 1:
+        return trainer
+    return lambda fit_rows: trainer(np.asarray(fit_rows)[::stride])
 
 
 def worst_group(
@@ -222,30 +288,105 @@ def worst_group(
     return best[1], best[2]
 
 
+def forward_plan(n_sessions: int) -> tuple[list[int], int]:
+    """(fold points, horizon): fold k trains on the first k sessions in time order and is
+    scored on the `horizon` sessions after them. Up to 7 sessions: the last four sessions one
+    at a time (horizon 1); with more, a horizon of a quarter of them (at most
+    MAX_HORIZON), so that the folds see drift as far ahead as the next weeks will, at
+    FORWARD_SESSIONS points spread over the later two thirds.
+
+    >>> forward_plan(6), forward_plan(28), forward_plan(2)
+    (([2, 3, 4, 5], 1), ([9, 13, 17, 21], 7), ([], 1))
+    """
+    if n_sessions < MIN_FORWARD_SESSIONS:
+        return [], 1
+    horizon = int(np.clip(n_sessions // 4, 1, MAX_HORIZON))
+    if horizon == 1:
+        return list(range(n_sessions - min(FORWARD_SESSIONS, n_sessions - 1), n_sessions)), 1
+    last = n_sessions - horizon
+    first = max(2, n_sessions // 3)
+    ks = np.unique(np.rint(np.linspace(min(first, last), last, FORWARD_SESSIONS)).astype(int))
+    return [int(k) for k in ks], horizon
+
+
 def forward_check(
     dataset: Dataset, rows: Rows, trainer: Callable[[Rows], Decoder]
 ) -> ForwardCheck | None:
-    """Forward chaining over the sessions of `rows` in time order (`time_order`): for each
-    of the last FORWARD_SESSIONS sessions, a model trained on the rows of all earlier
-    sessions, and on no other, is scored on it. None with fewer than MIN_FORWARD_SESSIONS
-    sessions (no earlier data to train on)."""
+    """Forward chaining over the sessions of `rows` in time order (`time_order`,
+    `forward_plan`): for each fold point k, a model trained on the rows of the first k
+    sessions, and on no other, is scored on each of the `horizon` sessions after them.
+    None with fewer than MIN_FORWARD_SESSIONS sessions (no earlier data to train on)."""
     rows = np.asarray(rows)
     ses = np.asarray(dataset.session, np.int64)[rows]
     ids, ordered_by = time_order(dataset, np.unique(ses))
-    if len(ids) < MIN_FORWARD_SESSIONS:
+    ks, horizon = forward_plan(len(ids))
+    if not ks:
         return None
     place = np.argsort(ids)  # the j-th smallest session id was recorded place[j]-th
     when = place[np.searchsorted(np.sort(ids), ses)]  # each row's session's place in time
     per: dict[str, dict[str, float]] = {}
-    for k in range(len(ids) - min(FORWARD_SESSIONS, len(ids) - 1), len(ids)):
+    folds: list[dict[str, Any]] = []
+    for k in ks:
         model = trainer(rows[when < k])
-        per[str(ids[k])] = decoder_mae(model, dataset, rows[when == k])
-    targets = list(next(iter(per.values())))
-    mean = {t: recent_weighted([p[t] for p in per.values()]) for t in targets}
+        scored = {
+            str(ids[j]): decoder_mae(model, dataset, rows[when == j])
+            for j in range(k, min(k + horizon, len(ids)))
+        }
+        per.update(scored)
+        targets = list(next(iter(scored.values())))
+        mean = {t: float(np.nanmean([m[t] for m in scored.values()])) for t in targets}
+        folds.append({"trained_on": k, "sessions": [int(s) for s in scored], "mae": mean,
+                      "session_mae": list(scored.values())})  # fmt: skip
+    mean = forward_figure(folds, len(ids), horizon)
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
     return ForwardCheck(
-        [int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s), ordered_by
-    )
+        [int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s), ordered_by,
+        horizon, folds,
+    )  # fmt: skip
+
+
+def forward_figure(folds: list[dict[str, Any]], n: int, horizon: int) -> dict[str, float]:
+    """{target: MAE to expect} from forward folds over `n` sessions: one session ahead
+    (horizon 1), the recent-weighted mean of the folds' errors; further, `trend_figure`."""
+    targets = list(folds[0]["mae"])
+    if horizon == 1:
+        return {t: recent_weighted([f["mae"][t] for f in folds]) for t in targets}
+    return {t: trend_figure(folds, t, n, horizon) for t in targets}
+
+
+def trend_figure(folds: list[dict[str, Any]], target: str, n: int, horizon: int) -> float:
+    """The error to expect over the `horizon` sessions after all `n`: every forward fold's
+    per-session errors (fold k trained on the first k sessions, its i-th session i sessions
+    ahead) fitted as a + b k + c ahead, read at k = n over 1 ... `horizon` sessions ahead;
+    never below the folds' mean (a falling trend is not promised, and a re-mounting strikes
+    any fold alike: weighting the recent ones chased which folds had one) nor above twice
+    their largest (few folds: a steep line is noise as much as drift).
+
+    >>> folds = [{"trained_on": k, "session_mae": [{"Fz": 0.01 * k + 0.1 * i} for i in (1, 2)]}
+    ...          for k in (4, 6, 8)]
+    >>> round(trend_figure(folds, "Fz", 10, 2), 6)
+    0.25
+    """
+    ks, ahead, err, means = [], [], [], []
+    for f in folds:
+        vals = [m[target] for m in f["session_mae"]]
+        means.append(float(np.nanmean(vals)) if np.isfinite(vals).any() else float("nan"))
+        for i, v in enumerate(vals, start=1):
+            ks.append(f["trained_on"])
+            ahead.append(i)
+            err.append(v)
+    e = np.asarray(err, np.float64)
+    ok = np.isfinite(e)
+    m = np.asarray(means, np.float64)
+    floor = float(np.mean(m[np.isfinite(m)])) if np.isfinite(m).any() else float("nan")
+    if np.unique(np.asarray(ks)[ok]).size < 2:
+        return floor
+    cols = [np.ones(ok.sum()), np.asarray(ks, np.float64)[ok]]
+    if horizon > 1:
+        cols.append(np.asarray(ahead, np.float64)[ok])
+    coef = np.linalg.lstsq(np.stack(cols, axis=1), e[ok], rcond=None)[0]
+    at = coef[0] + coef[1] * n + (coef[2] * (horizon + 1) / 2 if horizon > 1 else 0.0)
+    return float(min(max(at, floor), 2.0 * e[ok].max()))
 
 
 def recent_weighted(errors: list[float]) -> float:
@@ -318,13 +459,35 @@ def cv_check(report: dict[str, Any]) -> HeldOutCheck:
     """The check of the auto recipe's choice: its training error against its grouped
     cross-validation error, from the search report (train/auto_recipe)."""
     chosen = next(c for c in report["candidates"] if c["name"] == report["chosen"])
-    return HeldOutCheck.of(
+    plan = report.get("forward")
+    how = "forward-in-time folds" if plan else "cross-validation"
+    check = HeldOutCheck.of(
         chosen["train_mae"],
         {t: v["mean"] for t, v in chosen["cv_mae"].items()},
         report["groups"]["kind"],
-        f"{report['folds']}-fold cross-validation of the chosen candidate",
+        f"{report['folds']}-fold {how} of the chosen candidate",
         report["rows"],
     )
+    if not plan or not chosen.get("fold_session_mae"):
+        return check
+    return replace(check, forward=_forward_of_folds(plan, chosen))
+
+
+def _forward_of_folds(plan: dict[str, Any], chosen: dict[str, Any]) -> ForwardCheck:
+    """The forward check of the auto recipe's choice, from its forward folds' scores."""
+    ks = [int(k) for k in plan["trained_on"]]
+    per: dict[str, dict[str, float]] = {}
+    folds = []
+    for k, mae, by_s in zip(ks, chosen["cv_fold_mae"], chosen["fold_session_mae"], strict=True):
+        per.update(by_s)
+        folds.append({"trained_on": k, "sessions": [int(s) for s in by_s], "mae": mae,
+                      "session_mae": list(by_s.values())})  # fmt: skip
+    mean = forward_figure(folds, plan["sessions"], plan["horizon"])
+    worst = max(per, key=lambda s: float(np.nanmean(list(per[s].values()))))
+    return ForwardCheck(
+        [int(s) for s in per], per, mean, dict(per[worst]), int(worst), plan["ordered_by"],
+        plan["horizon"], folds,
+    )  # fmt: skip
 
 
 def plural(kind: str) -> str:

@@ -11,6 +11,12 @@ unit's rows. What adapts is `mode`:
 - "first": the first layer and the output layer (input-side and output-side recalibration;
   the default).
 - "full": every weight.
+- "gain": no weight; one output gain per target, fitted by least squares through zero on
+  every row given (`spectratac train --finetune BASE --gain-only`): the one-parameter
+  recalibration of a response that drifted by a factor, which 30 s of a new session fit
+  without over-fitting what those presses happen to hold. It is still checked against the
+  base on held-out presses (gain fitted without them) and the base is kept when it does
+  better.
 
 A few minutes are one session: their feature statistics are that session's (mounting,
 temperature) as much as the unit's, which held-out presses of the same session cannot tell
@@ -82,7 +88,7 @@ from spectratac.train.plan import Plan, check_rows, plan, ranges, select_rows
 from spectratac.train.spec import TrainSpec
 from spectratac.train.torch_loop import Progress, fit_network
 
-MODES = ("scaler", "head", "first", "full")
+MODES = ("scaler", "head", "first", "full", "gain")
 DEFAULT_MODE = "first"
 DEFAULT_EPOCHS = 40
 LR_FRACTION = 0.1  # fine-tuning learning rate as a fraction of the base recipe's
@@ -163,8 +169,9 @@ def check_compatible(base: Decoder, dataset: Dataset, spec: TrainSpec) -> Plan:
 
 
 def trainable(mode: str, arch_kind: str) -> Any:
-    """Which parameters `mode` updates (a name predicate), or None for none (mode "scaler")."""
-    if mode == "scaler":
+    """Which parameters `mode` updates (a name predicate), or None for none (modes "scaler"
+    and "gain")."""
+    if mode in ("scaler", "gain"):
         return None
     if mode == "full":
         return lambda name: True
@@ -275,11 +282,18 @@ def finetune(
     if order.size < 2:
         raise DecoderDataError("fewer than 2 usable rows after LED-step assembly")
     predicate = trainable(mode, base.runtime.arch[0])
+    if mode == "gain" and not p.reg_cols:
+        raise DecoderConfigError(
+            "a gain-only recalibration needs force or torque targets in the new data: give "
+            "data recorded with a reference (--ft), or fine-tune without --gain-only"
+        )
     fit_rows, val_rows, val_kind = validation_groups(dataset, order)
     y_all = np.asarray(dataset.targets, np.float64)[:, p.reg_cols]
     tv = np.asarray(dataset.target_valid, bool) & np.all(np.isfinite(y_all), axis=1)
     choose = bool(val_rows.size and p.reg_cols)  # held-out presses to decide with
-    if mode == "scaler":
+    if mode == "gain":
+        refits = []
+    elif mode == "scaler":
         refits = [True]
     elif refit_scaler is None:
         refits = [False, True] if choose else [False]  # without validation: the measured best
@@ -314,7 +328,7 @@ def finetune(
         return out, hist, val_hist, int(net_rows.size - fit_rows.size)
 
     runs = {("finetuned+refit" if r else "finetuned"): (r, *tuned(r)) for r in refits}
-    kept, val_scores = next(iter(runs)), {}
+    kept, val_scores = next(iter(runs), "gain"), {}
     if choose:
         # the last automatic choice, on the same held-out presses: recalibration must earn its
         # place against the base as it was (refitting the normalisation against not doing so)
@@ -329,6 +343,9 @@ def finetune(
         kept = min(val_scores, key=lambda k: val_scores[k])  # ties: the first
     if kept == "gain":
         refit, history, val_history, n_augmented = False, [], [], 0
+        if mode == "gain":  # checked without the held-out presses; now fitted on every row
+            every = order[tv[order]]
+            gain_rt = gain_calibrated(base.runtime, u[every], y_all[every])
         out_rt = replace(gain_rt, dtype=base.runtime.dtype)
     elif kept == "base":
         refit, out_rt, history, val_history, n_augmented = False, base.runtime, [], [], 0

@@ -23,9 +23,17 @@ def render(r: dict[str, Any]) -> str:
     g = r["groups"]
     within = "within budget" if r["within_budget"] else "OVER BUDGET"
     targets = list(r["target_std"])
+    fwd = r.get("forward")
+    how = (
+        f"{r['folds']} forward-in-time folds (trained on the first "
+        f"{', '.join(map(str, fwd['trained_on']))} of {fwd['sessions']} sessions, each scored "
+        f"on the {fwd['horizon']} after them)"
+        if fwd
+        else f"{r['folds']}-fold CV by {g['kind']} ({g['n']} groups)"
+    )
     lines = [
-        f"auto recipe: {len(r['candidates'])} candidates, {r['folds']}-fold CV by {g['kind']} "
-        f"({g['n']} groups, {r['rows']} rows), {r['runner']} runner x{r['workers']}",
+        f"auto recipe: {len(r['candidates'])} candidates, {how}, {r['rows']} rows, "
+        f"{r['runner']} runner x{r['workers']}",
         f"  budget {r['budget_s']:.0f} s of work: used {r.get('work_s', float('nan')):.1f} s "
         f"({within}); wall: search {r['search_s']:.1f} s + refit {r['refit_s']:.1f} s = "
         f"{r['elapsed_s']:.1f} s",

@@ -44,6 +44,7 @@ from spectratac.train.auto_recipe.budget import Stopwatch, WorkBudget, nominal_s
 from spectratac.train.auto_recipe.report import render
 from spectratac.train.auto_recipe.space import Candidate, candidates
 from spectratac.train.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.check import forward_plan, time_order
 from spectratac.train.fitting import train
 from spectratac.train.groups import Groups, group_folds, purge, row_groups
 from spectratac.train.plan import default_features, default_targets, plan, select_rows
@@ -56,6 +57,10 @@ MAX_FIT_ROWS = 20_000  # rows per fold fit, every trial (every k-th row)
 # paper's features with the drift baseline's (1710 monomials: one fit on 36 000 twin rows
 # took 29 s on one core, 0.5 GB of float64), not the cubic (7139)
 MAX_RIDGE_FEATURES = 2000
+# With this many sessions or more (weeks of a drifting sensor), candidates are ranked on
+# forward-in-time folds; round-robin folds interpolate across the drift and chose models
+# that did well between sessions they had seen and badly on the next ones.
+FORWARD_MIN_SESSIONS = 8
 
 
 @dataclass
@@ -76,6 +81,24 @@ def _folds(ds: Dataset, rows: NDArray[np.intp], g: Groups, k: int) -> list[Fold]
         fit = purge(fit, held, g, np.asarray(ds.session), np.asarray(ds.t_end))
         out.append((fit, held))
     return out
+
+
+def _forward_folds(
+    ds: Dataset, rows: NDArray[np.intp]
+) -> tuple[list[Fold], dict[str, Any]] | None:
+    """Forward-in-time folds over the sessions of `rows` (train/check.py `forward_plan`:
+    fold k trains on the first k sessions in time order, is scored on the horizon after
+    them), or None with fewer than FORWARD_MIN_SESSIONS sessions."""
+    ses = np.asarray(ds.session, np.int64)[rows]
+    ids, ordered_by = time_order(ds, np.unique(ses))
+    if len(ids) < FORWARD_MIN_SESSIONS:
+        return None
+    ks, horizon = forward_plan(len(ids))
+    place = np.argsort(ids)
+    when = place[np.searchsorted(np.sort(ids), ses)]
+    folds = [(rows[when < k], rows[(when >= k) & (when < k + horizon)]) for k in ks]
+    return folds, {"trained_on": ks, "horizon": horizon, "sessions": len(ids),
+                   "ordered_by": ordered_by}  # fmt: skip
 
 
 def _n_features(ds: Dataset, c: Candidate) -> int:
@@ -128,10 +151,12 @@ def _summarise(c: Candidate, res: dict[str, Any], k: int) -> dict[str, Any]:
         "cv_se": _se(s),
         "fold_score": [float(x) for x in s],
         "cv_mae": mae,
+        "cv_fold_mae": [dict(f) for f in res["fold_mae"]],
         "train_score": tr,
         "train_mae": train_mae,
         "gap": float(s.mean() / tr) if tr > 0 else float("inf"),
         "learning_curve": res["learning_curve"],
+        "fold_session_mae": res.get("fold_session_mae"),
         "seconds": float(res["seconds"]),
         **res["cost"],
     }
@@ -220,8 +245,13 @@ def search(
     else:
         g = row_groups(dataset.session, dataset.press, dataset.t_end, sel)
     sel = sel[g.ids[sel] >= 0]
-    k = max(2, min(folds, np.unique(g.ids[sel]).size))  # the groups of these rows
-    fold_rows = _folds(dataset, sel, g, k)
+    forward = _forward_folds(dataset, sel) if groups is None and g.kind == "session" else None
+    if forward is not None:
+        fold_rows, fwd_plan = forward
+        k = len(fold_rows)
+    else:
+        k = max(2, min(folds, np.unique(g.ids[sel]).size))  # the groups of these rows
+        fold_rows, fwd_plan = _folds(dataset, sel, g, k), None
     names = set(dataset.target_names)
     reg = tuple(t for t in tg if t in names)
     space = candidates(feats, tg, reg) if space is None else space
@@ -284,7 +314,8 @@ def search(
                                  "predicted_s": trial_s[c.name]}  # fmt: skip
                 continue
             budget.spend(trial_s[c.name])
-            job = TrialJob(c.name, c.spec.to_dict(), fold_rows, fit_n, std)
+            job = TrialJob(c.name, c.spec.to_dict(), fold_rows, fit_n, std,
+                           by_session=fwd_plan is not None)  # fmt: skip
             runner.submit(job)
             launched.add(c.name)
         while runner.busy:
@@ -317,6 +348,8 @@ def search(
         "runner": runner.name,
         "workers": runner.workers,
         "folds": k,
+        "fold_kind": "forward" if fwd_plan is not None else "round-robin",
+        "forward": fwd_plan,
         "fit_rows": fit_n,
         "groups": {"kind": g.kind, "n": g.n_groups},
         "rows": int(sel.size),

@@ -40,6 +40,7 @@ class TrialJob:
     folds: list[Fold]
     max_fit_rows: int
     target_std: dict[str, float]
+    by_session: bool = False  # also each held-out session's MAE (forward folds)
 
 
 def thin(rows: NDArray[np.intp], limit: int) -> NDArray[np.intp]:
@@ -91,11 +92,17 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
     train_mae: list[dict[str, float]] = []
     cost: dict[str, float] = {}
     curve: list[list[float]] = []
+    by_session: list[dict[str, dict[str, float]]] = []
     for i, (fit, held) in enumerate(job.folds):
         rows = thin(fit, job.max_fit_rows)
         dec = train(ds, spec, rows=rows, progress=False)
         err = decoder_mae(dec, ds, held)
         per_fold.append(err)
+        if job.by_session:
+            ses = np.asarray(ds.session, np.int64)[held]
+            by_session.append(
+                {str(s): decoder_mae(dec, ds, held[ses == s]) for s in np.unique(ses)}
+            )
         scores.append(float(np.mean([err[t] / job.target_std[t] for t in err])))
         tr = decoder_mae(dec, ds, thin(rows, TIMING_ROWS))
         train_scores.append(float(np.mean([tr[t] / job.target_std[t] for t in tr])))
@@ -113,6 +120,7 @@ def run_trial(ds: Dataset, job: TrialJob) -> dict[str, Any]:
         "train_score": train_scores,
         "train_mae": train_mae,
         "learning_curve": curve,
+        "fold_session_mae": by_session or None,
         "seconds": time.perf_counter() - t0,
         "cost": cost,
         # What the thread policy gave this trial's process (torch's pool, if it trained one).
