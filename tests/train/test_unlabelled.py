@@ -99,3 +99,16 @@ def test_the_cli_says_what_it_could_not_adapt(
     summary = json.loads(capsys.readouterr().out)
     assert summary["targets"] == "none" and summary["forces"] == "rest"
     assert Decoder.load(tmp_path / "unit.stac").meta["targets_from"] == "base"
+
+
+def test_gain_only_without_force_targets_is_a_usage_error(
+    base: Decoder, guided: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--gain-only fits the force gain to F/T targets: a guided session without them is
+    refused naming why (it went down the label-only path and ignored the option)."""
+    base.save(tmp_path / "base.stac")
+    args = ["train", str(guided), "--finetune", str(tmp_path / "base.stac"), "--gain-only",
+            "-o", str(tmp_path / "unit.stac"), "--no-progress"]  # fmt: skip
+    assert main(args) == 2
+    assert "has none (a guided session without --ft)" in capsys.readouterr().err
+    assert not (tmp_path / "unit.stac").exists()
