@@ -62,6 +62,11 @@ CONFORMANCE_FAULTS = {
     "begin_erases": "every MODEL_BEGIN erases the installed model first, even one it refuses "
     "(refused MODEL_BEGIN changes nothing)",
 }
+#: bring-up faults: a board built wrongly, which `spectratac bringup` must catch
+BRINGUP_FAULTS = {
+    "swapped_led": "LED 0's red and blue PWM pins are crossed: its red duty drives blue and its "
+    "blue duty red (bring-up's LED channels)",
+}
 #: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
 ACCEPTS = {
     "accept_large_model": m.Error.MODEL_TOO_LARGE,
@@ -72,7 +77,14 @@ ACCEPTS = {
 MODEL_INFO_FAULTS = frozenset({"bad_model_info", "wrong_model_crc", "volatile_model"})
 #: faults that change what the host sends before the device sees it
 HOST_SIDE = frozenset(
-    {"late_stop", "ignore_estimate_only", "volatile_model", "sticky_model", "begin_erases"}
+    {
+        "late_stop",
+        "ignore_estimate_only",
+        "volatile_model",
+        "sticky_model",
+        "begin_erases",
+        "swapped_led",
+    }
 )
 #: header seq of the MODEL_CLEAR a begin_erases device runs on its own (its ACK is not sent)
 HIDDEN_CLEAR_SEQ = 0xFFFF
@@ -85,7 +97,7 @@ LINK_FAULTS = {
     "unplug": "unplug the device after a random time (mean fault_unplug s, 20, of device "
     "time); the next open boots a fresh one",
 }
-FAULTS = CONFORMANCE_FAULTS | LINK_FAULTS
+FAULTS = CONFORMANCE_FAULTS | BRINGUP_FAULTS | LINK_FAULTS
 SYNC_JITTER_US = 50_000  # how far a sync_jitter device's odd replies are off
 #: how long a late_stop device streams on after acknowledging STOP, on its own clock (host
 #: time would make the fault, and so the check that catches it, depend on the host's load)
@@ -337,6 +349,8 @@ class FaultLayer:
         if isinstance(msg, m.ModelClear) and "sticky_model" in self.faults:
             self._ack(msg.TYPE_ID, frame.seq)
             return b""
+        if isinstance(msg, m.Configure) and "swapped_led" in self.faults:
+            return _crossed(msg, frame.seq, frame.version)
         only = m.ConfigureFlags.CONFIG_ESTIMATE_ONLY
         if (
             isinstance(msg, m.Configure)
@@ -398,6 +412,13 @@ class FaultLayer:
         self._closed.set()  # a stall in progress ends: the device is being closed
         with self._stop_lock:
             self._held_stop = None
+
+
+def _crossed(msg: m.Configure, seq: int, version: tuple[int, int]) -> bytes:
+    """CONFIGURE as a board with LED 0's red and blue pins crossed carries it out."""
+    duty = tuple((step[0][::-1], *step[1:]) for step in msg.led_duty)
+    crossed = dataclasses.replace(msg, led_duty=duty)
+    return encode_raw(crossed.TYPE_ID, crossed.pack(), seq, version)
 
 
 def _model_info_fault(msg: m.ModelInfo, faults: frozenset[str], uploading: bool) -> m.ModelInfo:

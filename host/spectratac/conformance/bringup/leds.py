@@ -62,11 +62,11 @@ def judge(lit: np.ndarray, dark: np.ndarray, saturated: np.ndarray) -> list[str]
     response = lit - dark
     for ch, name in enumerate(CHANNELS):
         colour = ch % 3
-        own = response[ch, colour_columns(colour)].max()
-        if own < LIT_MIN:
+        rises = [response[ch, colour_columns(c)].max() for c in range(3)]
+        if max(rises) < LIT_MIN:
             problems.append(
-                f"{name} does not light (its colour rises {own:.0f} counts at most, less than "
-                f"{LIT_MIN}): check the LED, its resistor and its PWM pin"
+                f"{name} does not light (no colour rises {LIT_MIN} counts on any sensor; "
+                f"{max(rises):.0f} at most): check the LED, its resistor and its PWM pin"
             )
             continue
         per_colour = [response[ch, colour_columns(c)].sum() for c in range(3)]

@@ -84,6 +84,11 @@ def sample_rate(bench: Bench) -> Row:
                 f"internal oscillator or the device clock is off by more than "
                 f"{RATE_TOLERANCE:.0%})"
             )
+        if abs(width_ms / it - 1) > RATE_TOLERANCE:
+            problems.append(
+                f"{it} ms: integration windows of {width_ms:.2f} ms (trigger to read): the "
+                "firmware reads the sensor before its conversion ends, or stamps it wrongly"
+            )
         if gaps:
             problems.append(f"{it} ms: {gaps} samples missing from the sequence")
     said = ", ".join(f"{r['integration_ms']} ms {r['measured_hz']:.2f}/s" for r in rows)

@@ -70,10 +70,12 @@ def model_store(bench: Bench) -> Row:
     except DeviceError as exc:
         return Row("model store", FAIL, f"{type(exc).__name__}: {exc}", values)
     problems = []
-    if (stored.model_id, stored.size, stored.crc) != (model.model_id, len(image), crc32c(image)):
+    crc = crc32c(image)
+    if (stored.model_id, stored.size, stored.crc) != (model.model_id, len(image), crc):
         problems.append(
-            f"read back model 0x{stored.model_id:08X} ({stored.size} B) after uploading "
-            f"0x{model.model_id:08X} ({len(image)} B)"
+            f"read back model 0x{stored.model_id:08X} ({stored.size} B, CRC "
+            f"0x{stored.crc:08X}) after uploading 0x{model.model_id:08X} ({len(image)} B, CRC "
+            f"0x{crc:08X}): the flash did not keep what was written"
         )
     if after.present == "uploaded":
         problems.append("MODEL_CLEAR was acknowledged but the model is still there")
