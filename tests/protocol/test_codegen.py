@@ -234,15 +234,19 @@ def test_the_1_0_subset_keeps_the_released_1_0_hash(codegen: dict[str, ModuleTyp
     definition = codegen["definition"]
     d = definition.load(Path(__file__).resolve().parents[2] / DEFINITIONS / "messages.toml")
     new_flags = {"CAP_ESTIMATE", "CAP_MODEL_UPLOAD", "CONFIG_ESTIMATE", "CONFIG_ESTIMATE_ONLY"}
+    new_flags |= MINOR_4_FLAGS
     old = dataclasses.replace(
         d,
         protocol=d.protocol | {"minor": 0},
-        enums=d.enums
-        | {"error": (d.enums["error"][0], tuple(v for v in d.enums["error"][1] if v.value < 14))},
+        enums={
+            name: (doc, tuple(v for v in vals if name != "error" or v.value < 14))
+            for name, (doc, vals) in d.enums.items()
+            if name not in MINOR_4_ENUMS
+        },
         flags={
             name: (doc, tuple(v for v in values if v.name not in new_flags))
             for name, (doc, values) in d.flags.items()
-            if name != "estimate_flags"
+            if name not in {"estimate_flags", *MINOR_4_FLAG_SETS}
         },
         messages=tuple(
             dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since == 0))
@@ -253,19 +257,33 @@ def test_the_1_0_subset_keeps_the_released_1_0_hash(codegen: dict[str, ModuleTyp
     assert definition.wire_hash(old) == RELEASED_DEFINITION_HASHES[0]
 
 
+#: 1.4's additions besides fields and messages: error codes, enums, flag sets and bits.
+MINOR_4_ERRORS = {"BOR_TOO_LOW", "NOT_A_TEST_IMAGE", "BAD_FAULT_KIND"}
+MINOR_4_ENUMS = {"fault_kind"}
+MINOR_4_FLAG_SETS = {"reset_cause"}
+MINOR_4_FLAGS = {"CAP_BOOTLOADER", "CAP_DEBUG_FAULT"}
+
+
 def subset(definition: ModuleType, minor: int):
     """The current definition with every addition after 1.`minor` removed (fields and
-    messages by their `since`, the 1.3 flag EST_NO_REST)."""
+    messages by their `since`, the 1.3 flag EST_NO_REST, 1.4's errors, enums and flags)."""
     import dataclasses
 
     d = definition.load(Path(__file__).resolve().parents[2] / DEFINITIONS / "messages.toml")
-    later_flags = {"EST_NO_REST"} if minor < 3 else set()
+    later = minor < 4
+    later_flags = ({"EST_NO_REST"} if minor < 3 else set()) | (MINOR_4_FLAGS if later else set())
     return dataclasses.replace(
         d,
         protocol=d.protocol | {"minor": minor},
+        enums={
+            name: (doc, tuple(v for v in vals if not (later and v.name in MINOR_4_ERRORS)))
+            for name, (doc, vals) in d.enums.items()
+            if not (later and name in MINOR_4_ENUMS)
+        },
         flags={
             name: (doc, tuple(v for v in values if v.name not in later_flags))
             for name, (doc, values) in d.flags.items()
+            if not (later and name in MINOR_4_FLAG_SETS)
         },
         messages=tuple(
             dataclasses.replace(msg, fields=tuple(f for f in msg.fields if f.since <= minor))
@@ -275,12 +293,13 @@ def subset(definition: ModuleType, minor: int):
     )
 
 
-@pytest.mark.parametrize("minor", [1, 2])
+@pytest.mark.parametrize("minor", [1, 2, 3])
 def test_older_subsets_keep_their_released_hashes(
     codegen: dict[str, ModuleType], minor: int
 ) -> None:
     """The later additions removed (1.2: STATUS cycle counts, MODEL_INFO.image_crc; 1.3: TARE
-    and EST_NO_REST), the definition hashes as the released 1.`minor` did: later minors only
+    and EST_NO_REST; 1.4: post-mortem STATUS fields, ENTER_BOOTLOADER, DEBUG_FAULT), the
+    definition hashes as the released 1.`minor` did: later minors only
     appended fields, messages and flag bits."""
     from spectratac.protocol.versions import RELEASED_DEFINITION_HASHES
 

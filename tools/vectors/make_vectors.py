@@ -38,6 +38,7 @@ V1_0 = (1, 0)  # the vectors written for protocol 1.0 stay 1.0 frames: a 1.1 rec
 V1_1 = (1, 1)
 V1_2 = (1, 2)
 V1_3 = (1, 3)
+V1_4 = (1, 4)
 
 
 def meaning(msg: Message, seq: int, version: tuple[int, int]) -> dict[str, Any]:
@@ -336,7 +337,7 @@ def build() -> list[dict[str, Any]]:
             "A 1.0 SAMPLE with an empty payload and a good CRC: malformed, not a zero sample.",
         ),
     ]
-    return vectors + build_1_1(info, sample) + build_1_2(status) + build_1_3()
+    return vectors + build_1_1(info, sample) + build_1_2(status) + build_1_3() + build_1_4(status)
 
 
 def nack(rejected: type[Message], seq: int, error: m.Error, field_index: int = 255) -> m.Nack:
@@ -600,6 +601,85 @@ def build_1_3() -> list[dict[str, Any]]:
             43,
             "Joined under load: a contact estimate before the drift baseline has seen rest.",
             V1_3,
+        ),
+    ]
+
+
+def build_1_4(status: m.Status) -> list[dict[str, Any]]:
+    """1.4 (post-mortem, erase timing, brown-out, DFU by command): STATUS's appended fields,
+    ENTER_BOOTLOADER, DEBUG_FAULT and their NACKs."""
+    after_fault = dataclasses.replace(
+        status,
+        cycle_hz=96_000_000,
+        reset_cause=m.ResetCause.RESET_PIN | m.ResetCause.RESET_SOFTWARE | m.ResetCause.RESET_FAULT,
+        fault_pc=0x0800_1A2C,
+        fault_lr=0x0800_0F13,
+        fault_xpsr=0x0100_0003,
+        fault_cfsr=0x0001_0000,  # UNDEFINSTR
+        fault_hfsr=0x4000_0000,  # FORCED
+        fault_mmfar=0xE000_EDF4,
+        fault_bfar=0xE000_EDF8,
+        abnormal_resets=1,
+        safe_mode=0,
+        bor_level=3,
+        erase_us_last=1_840_000,
+        erase_us_max=7_012_500,
+        trig_latency_us_last=(50_120, 50_180, 0),
+        trig_latency_us_max=(51_003, 50_990, 0),
+    )
+    safe = dataclasses.replace(
+        status,
+        reset_cause=m.ResetCause.RESET_PIN | m.ResetCause.RESET_IWDG,
+        abnormal_resets=3,
+        safe_mode=1,
+        bor_level=0,
+    )
+    return [
+        valid(
+            "status_1_4_fault",
+            after_fault,
+            44,
+            "STATUS after an injected HardFault (undefined instruction): the record survived the"
+            " reset; brown-out level 3; a four-sector erase measured.",
+            V1_4,
+        ),
+        valid(
+            "status_1_4_safe_mode",
+            safe,
+            45,
+            "The third watchdog reset in a row: booted without the model store; BOR off.",
+            V1_4,
+        ),
+        valid(
+            "enter_bootloader", m.EnterBootloader(), 46, "Restart in the ROM DFU bootloader.", V1_4
+        ),
+        valid(
+            "debug_fault_hang",
+            m.DebugFault(kind=m.FaultKind.FAULT_HANG),
+            47,
+            "Hang until the watchdog resets the device (test images).",
+            V1_4,
+        ),
+        valid(
+            "nack_bor_too_low",
+            nack(m.ModelBegin, 48, m.Error.BOR_TOO_LOW),
+            48,
+            "MODEL_BEGIN refused: brown-out level below 3.",
+            V1_4,
+        ),
+        valid(
+            "nack_not_a_test_image",
+            nack(m.DebugFault, 47, m.Error.NOT_A_TEST_IMAGE),
+            49,
+            "DEBUG_FAULT refused by a release image.",
+            V1_4,
+        ),
+        valid(
+            "nack_bad_fault_kind",
+            nack(m.DebugFault, 50, m.Error.BAD_FAULT_KIND, field_index=0),
+            50,
+            "DEBUG_FAULT refused: kind 7 is not a fault_kind.",
+            V1_4,
         ),
     ]
 

@@ -293,6 +293,41 @@ void stac_model_commit_unpack(stac_model_commit_t *m, const uint8_t *in, size_t 
     (void)o;
 }
 
+size_t stac_debug_fault_pack(const stac_debug_fault_t *m, uint8_t *out) {
+    size_t o = 0;
+    put_u8(out + o, m->kind);
+    o += 1u;
+    return o;
+}
+
+void stac_debug_fault_unpack(stac_debug_fault_t *m, const uint8_t *in, size_t len) {
+    uint8_t b[STAC_DEBUG_FAULT_SIZE];
+    const size_t n = len < sizeof b ? len : sizeof b;
+    memset(b, 0, sizeof b);
+    if (n > 0u) {
+        memcpy(b, in, n);
+    }
+    size_t o = 0;
+    m->kind = get_u8(b + o);
+    o += 1u;
+    (void)o;
+}
+
+uint16_t stac_debug_fault_validate(const stac_debug_fault_t *m, uint8_t *field_index) {
+    *field_index = 255u;
+    {
+        const uint8_t *p = &m->kind;
+        for (size_t i = 0; i < 1u; i++) {
+            const uint32_t v = p[i];
+            if (!(v == 0u || v == 1u)) {
+                *field_index = 0u;
+                return STAC_BAD_FAULT_KIND;
+            }
+        }
+    }
+    return STAC_OK;
+}
+
 size_t stac_info_pack(const stac_info_t *m, uint8_t *out) {
     size_t o = 0;
     put_u8(out + o, m->protocol_major);
@@ -555,6 +590,46 @@ size_t stac_status_pack(const stac_status_t *m, uint8_t *out) {
     o += 4u;
     put_u32(out + o, m->decode_cycles_max);
     o += 4u;
+    put_u8(out + o, m->reset_cause);
+    o += 1u;
+    put_u32(out + o, m->fault_pc);
+    o += 4u;
+    put_u32(out + o, m->fault_lr);
+    o += 4u;
+    put_u32(out + o, m->fault_xpsr);
+    o += 4u;
+    put_u32(out + o, m->fault_cfsr);
+    o += 4u;
+    put_u32(out + o, m->fault_hfsr);
+    o += 4u;
+    put_u32(out + o, m->fault_mmfar);
+    o += 4u;
+    put_u32(out + o, m->fault_bfar);
+    o += 4u;
+    put_u8(out + o, m->abnormal_resets);
+    o += 1u;
+    put_u8(out + o, m->safe_mode);
+    o += 1u;
+    put_u8(out + o, m->bor_level);
+    o += 1u;
+    put_u32(out + o, m->erase_us_last);
+    o += 4u;
+    put_u32(out + o, m->erase_us_max);
+    o += 4u;
+    {
+        const uint32_t *p = &m->trig_latency_us_last[0];
+        for (size_t i = 0; i < 3u; i++) {
+            put_u32(out + o, p[i]);
+            o += 4u;
+        }
+    }
+    {
+        const uint32_t *p = &m->trig_latency_us_max[0];
+        for (size_t i = 0; i < 3u; i++) {
+            put_u32(out + o, p[i]);
+            o += 4u;
+        }
+    }
     return o;
 }
 
@@ -612,6 +687,46 @@ void stac_status_unpack(stac_status_t *m, const uint8_t *in, size_t len) {
     o += 4u;
     m->decode_cycles_max = get_u32(b + o);
     o += 4u;
+    m->reset_cause = get_u8(b + o);
+    o += 1u;
+    m->fault_pc = get_u32(b + o);
+    o += 4u;
+    m->fault_lr = get_u32(b + o);
+    o += 4u;
+    m->fault_xpsr = get_u32(b + o);
+    o += 4u;
+    m->fault_cfsr = get_u32(b + o);
+    o += 4u;
+    m->fault_hfsr = get_u32(b + o);
+    o += 4u;
+    m->fault_mmfar = get_u32(b + o);
+    o += 4u;
+    m->fault_bfar = get_u32(b + o);
+    o += 4u;
+    m->abnormal_resets = get_u8(b + o);
+    o += 1u;
+    m->safe_mode = get_u8(b + o);
+    o += 1u;
+    m->bor_level = get_u8(b + o);
+    o += 1u;
+    m->erase_us_last = get_u32(b + o);
+    o += 4u;
+    m->erase_us_max = get_u32(b + o);
+    o += 4u;
+    {
+        uint32_t *p = &m->trig_latency_us_last[0];
+        for (size_t i = 0; i < 3u; i++) {
+            p[i] = get_u32(b + o);
+            o += 4u;
+        }
+    }
+    {
+        uint32_t *p = &m->trig_latency_us_max[0];
+        for (size_t i = 0; i < 3u; i++) {
+            p[i] = get_u32(b + o);
+            o += 4u;
+        }
+    }
     (void)o;
 }
 
@@ -974,6 +1089,8 @@ int stac_payload_size(uint8_t type) {
     case STAC_MSG_MODEL_CLEAR: return (int)STAC_MODEL_CLEAR_SIZE;
     case STAC_MSG_GET_MODEL: return (int)STAC_GET_MODEL_SIZE;
     case STAC_MSG_TARE: return (int)STAC_TARE_SIZE;
+    case STAC_MSG_ENTER_BOOTLOADER: return (int)STAC_ENTER_BOOTLOADER_SIZE;
+    case STAC_MSG_DEBUG_FAULT: return (int)STAC_DEBUG_FAULT_SIZE;
     case STAC_MSG_INFO: return (int)STAC_INFO_SIZE;
     case STAC_MSG_ACK: return (int)STAC_ACK_SIZE;
     case STAC_MSG_NACK: return (int)STAC_NACK_SIZE;
@@ -989,7 +1106,7 @@ int stac_payload_size(uint8_t type) {
 }
 
 int stac_payload_min_size(uint8_t type, uint8_t minor) {
-    const uint8_t v = minor < 3u ? minor : (uint8_t)3u;
+    const uint8_t v = minor < 4u ? minor : (uint8_t)4u;
     switch (type) {
     case STAC_MSG_GET_INFO: return 0;
     case STAC_MSG_CONFIGURE: return 153;
@@ -1005,19 +1122,21 @@ int stac_payload_min_size(uint8_t type, uint8_t minor) {
     case STAC_MSG_MODEL_CLEAR: return 0;
     case STAC_MSG_GET_MODEL: return 0;
     case STAC_MSG_TARE: return 0;
+    case STAC_MSG_ENTER_BOOTLOADER: return 0;
+    case STAC_MSG_DEBUG_FAULT: return 1;
     case STAC_MSG_INFO: return 70;
     case STAC_MSG_ACK: return 5;
     case STAC_MSG_NACK: return 6;
     case STAC_MSG_SAMPLE: return 48;
     case STAC_MSG_STATUS: {
-        static const int k[] = {60, 60, 80, 80};
+        static const int k[] = {60, 60, 80, 80, 144};
         return k[v];
     }
     case STAC_MSG_TIME_SYNC_REPLY: return 20;
     case STAC_MSG_LOG: return 69;
     case STAC_MSG_CONFIG: return 155;
     case STAC_MSG_MODEL_INFO: {
-        static const int k[] = {25, 25, 29, 29};
+        static const int k[] = {25, 25, 29, 29, 29};
         return k[v];
     }
     case STAC_MSG_ESTIMATE: return 46;
@@ -1048,6 +1167,9 @@ const char *stac_error_name(uint16_t code) {
     case STAC_NO_MODEL: return "NO_MODEL";
     case STAC_MODEL_MISMATCH: return "MODEL_MISMATCH";
     case STAC_FLASH_ERROR: return "FLASH_ERROR";
+    case STAC_BOR_TOO_LOW: return "BOR_TOO_LOW";
+    case STAC_NOT_A_TEST_IMAGE: return "NOT_A_TEST_IMAGE";
+    case STAC_BAD_FAULT_KIND: return "BAD_FAULT_KIND";
     default: return "?";
     }
 }

@@ -12,8 +12,8 @@ extern "C" {
 #endif
 
 #define STAC_PROTOCOL_MAJOR 1u
-#define STAC_PROTOCOL_MINOR 3u
-#define STAC_DEFINITION_HASH 0xCBF8E72Au
+#define STAC_PROTOCOL_MINOR 4u
+#define STAC_DEFINITION_HASH 0xE851F5B7u
 #define STAC_MAX_PAYLOAD 240u
 #define STAC_HEADER_SIZE 5u
 #define STAC_CRC_SIZE 4u
@@ -48,6 +48,9 @@ typedef enum stac_error {
     STAC_NO_MODEL = 18, /* Estimates were asked for but no valid model is stored. */
     STAC_MODEL_MISMATCH = 19, /* The stored model was trained for another LED step count than the configuration asks for. */
     STAC_FLASH_ERROR = 20, /* Erasing or programming the model store failed. */
+    STAC_BOR_TOO_LOW = 21, /* MODEL_BEGIN refused: the brown-out reset level (option byte BOR_LEV, STATUS bor_level) is below 3, so a sagging supply could corrupt a flash write (protocol 1.4). */
+    STAC_NOT_A_TEST_IMAGE = 22, /* DEBUG_FAULT refused: this is a release image; fault injection is compiled only into test images (protocol 1.4). */
+    STAC_BAD_FAULT_KIND = 23, /* DEBUG_FAULT's kind is not one of the fault_kind values (protocol 1.4). */
 } stac_error_t;
 
 /* VEML3328 analogue gain (CONF bits 11:10). */
@@ -79,6 +82,22 @@ typedef enum stac_log_level {
     STAC_LOG_ERROR = 3, /* something failed */
 } stac_log_level_t;
 
+/* What DEBUG_FAULT does (protocol 1.4; test images only). */
+typedef enum stac_fault_kind {
+    STAC_FAULT_HARD = 0, /* Execute an undefined instruction: a HardFault, recorded and reset. */
+    STAC_FAULT_HANG = 1, /* Spin with interrupts masked until the independent watchdog resets the device. */
+} stac_fault_kind_t;
+
+/* STATUS.reset_cause bits: why the device last reset, from RCC_CSR read at boot (protocol 1.4). Several may be set (a watchdog reset also pulls NRST, so PIN accompanies it). */
+#define STAC_RESET_PIN (1u << 0) /* NRST pin (PINRSTF). */
+#define STAC_RESET_POWER (1u << 1) /* Power-on or power-down reset (PORRSTF). */
+#define STAC_RESET_BROWNOUT (1u << 2) /* Brown-out reset (BORRSTF). */
+#define STAC_RESET_SOFTWARE (1u << 3) /* Software reset: SYSRESETREQ, e.g. after a fault or ENTER_BOOTLOADER (SFTRSTF). */
+#define STAC_RESET_IWDG (1u << 4) /* Independent watchdog (IWDGRSTF): the firmware hung. */
+#define STAC_RESET_WWDG (1u << 5) /* Window watchdog (WWDGRSTF). */
+#define STAC_RESET_LOW_POWER (1u << 6) /* Low-power management reset (LPWRRSTF). */
+#define STAC_RESET_FAULT (1u << 7) /* A fault record survived the reset: the fault_* fields describe the fault that caused it. */
+
 /* Per-sensor status bits in SAMPLE.sensor_status. */
 #define STAC_SENSOR_SATURATED (1u << 0) /* At least one channel read 65535: the count is clipped. */
 #define STAC_SENSOR_BUS_FAULT (1u << 1) /* The I2C transfer failed (NACK, timeout or stuck bus); counts are 0. */
@@ -94,6 +113,8 @@ typedef enum stac_log_level {
 #define STAC_CAP_SIMULATED (1u << 5) /* This device is simulated (the digital twin answers its sensor buses). */
 #define STAC_CAP_ESTIMATE (1u << 6) /* On-device decoding: ESTIMATE messages and GET_MODEL/MODEL_INFO (protocol 1.1). */
 #define STAC_CAP_MODEL_UPLOAD (1u << 7) /* Decoders can be uploaded into flash (MODEL_BEGIN/CHUNK/COMMIT/CLEAR, protocol 1.1). */
+#define STAC_CAP_BOOTLOADER (1u << 8) /* ENTER_BOOTLOADER restarts the device in its ROM DFU bootloader (protocol 1.4). */
+#define STAC_CAP_DEBUG_FAULT (1u << 9) /* A test image: DEBUG_FAULT injects faults (protocol 1.4; never set in release images). */
 
 /* CONFIGURE.flags bits. */
 #define STAC_CONFIG_STREAM (1u << 0) /* Start streaming once the configuration is applied (same as a following START). */
@@ -122,6 +143,8 @@ typedef enum stac_log_level {
 #define STAC_MSG_MODEL_CLEAR 0x0Cu
 #define STAC_MSG_GET_MODEL 0x0Du
 #define STAC_MSG_TARE 0x0Eu
+#define STAC_MSG_ENTER_BOOTLOADER 0x0Fu
+#define STAC_MSG_DEBUG_FAULT 0x10u
 #define STAC_MSG_INFO 0x81u
 #define STAC_MSG_ACK 0x82u
 #define STAC_MSG_NACK 0x83u
@@ -226,6 +249,21 @@ void stac_model_commit_unpack(stac_model_commit_t *m, const uint8_t *in, size_t 
 /* TARE (host to device): Zero the model's drift baseline on the next sample: the skin is at rest now (protocol 1.3; the bias button of an F/T sensor's software). Answered by ACK, or NACK NO_MODEL without a usable model. */
 #define STAC_TARE_SIZE 0u
 
+/* ENTER_BOOTLOADER (host to device): Restart in the microcontroller's ROM bootloader (USB DFU on the STM32F411) to take a new firmware image without BOOT0 and NRST (protocol 1.4). Answered by ACK; the device then resets and leaves the link (the simulated device closes it). */
+#define STAC_ENTER_BOOTLOADER_SIZE 0u
+
+/* DEBUG_FAULT (host to device): Inject a fault to test the post-mortem path (protocol 1.4): test images only (CAP_DEBUG_FAULT); a release image answers NACK NOT_A_TEST_IMAGE. Answered by ACK, then the fault; after the reset STATUS reports it (reset_cause, fault_*). */
+#define STAC_DEBUG_FAULT_SIZE 1u
+typedef struct stac_debug_fault {
+    uint8_t kind; /* FAULT_HARD or FAULT_HANG. */
+} stac_debug_fault_t;
+/* Writes exactly STAC_DEBUG_FAULT_SIZE bytes; returns that size. */
+size_t stac_debug_fault_pack(const stac_debug_fault_t *m, uint8_t *out);
+/* Reads `len` bytes (at least stac_payload_min_size): fields newer than the sender read 0, extra bytes are ignored. */
+void stac_debug_fault_unpack(stac_debug_fault_t *m, const uint8_t *in, size_t len);
+/* Returns STAC_OK or the error code; *field_index names the field (255: none). */
+uint16_t stac_debug_fault_validate(const stac_debug_fault_t *m, uint8_t *field_index);
+
 /* INFO (device to host): Identity, versions and limits of the device. Sent in answer to GET_INFO. Its first two fields keep their place in every major version so that any host can name a mismatch. */
 #define STAC_INFO_SIZE 70u
 typedef struct stac_info {
@@ -293,7 +331,7 @@ size_t stac_sample_pack(const stac_sample_t *m, uint8_t *out);
 void stac_sample_unpack(stac_sample_t *m, const uint8_t *in, size_t len);
 
 /* STATUS (device to host): Statistics since boot or RESET_STATS. */
-#define STAC_STATUS_SIZE 80u
+#define STAC_STATUS_SIZE 144u
 typedef struct stac_status {
     uint32_t uptime_ms; /* Time since boot (wraps after 49.7 days). [ms] */
     uint32_t device_time_us; /* Device clock when the message was built. [µs] */
@@ -313,6 +351,21 @@ typedef struct stac_status {
     uint32_t acq_cycles_max; /* Largest acq_cycles_last since boot or RESET_STATS. [cycles] */
     uint32_t decode_cycles_last; /* CPU cycles the last on-device decode took (one model step; 0: none yet or not measured). [cycles] */
     uint32_t decode_cycles_max; /* Largest decode_cycles_last since boot or RESET_STATS. [cycles] */
+    uint8_t reset_cause; /* RESET_* bits: why the device last reset (RCC_CSR at boot, then cleared); RESET_FAULT when a fault record survived. */
+    uint32_t fault_pc; /* Stacked PC of the fault that caused the last reset (0 without RESET_FAULT). */
+    uint32_t fault_lr; /* Stacked LR of that fault. */
+    uint32_t fault_xpsr; /* Stacked xPSR of that fault (its low 9 bits: the exception number when the handler caught an unexpected interrupt). */
+    uint32_t fault_cfsr; /* SCB CFSR at the fault (UFSR:BFSR:MMFSR). */
+    uint32_t fault_hfsr; /* SCB HFSR at the fault. */
+    uint32_t fault_mmfar; /* SCB MMFAR at the fault (meaningful when CFSR.MMARVALID). */
+    uint32_t fault_bfar; /* SCB BFAR at the fault (meaningful when CFSR.BFARVALID). */
+    uint8_t abnormal_resets; /* Abnormal resets (fault, watchdog, brown-out) in a row, saturating at 255; 0 after a normal boot. */
+    uint8_t safe_mode; /* 1 when the device booted without the model store after three abnormal resets in a row (no on-device decoding until a normal reset). */
+    uint8_t bor_level; /* Brown-out reset level from the option bytes: 0 off (reset at ~1.7 V), 1..3 (2.1, 2.4, 2.7 V); MODEL_BEGIN needs 3. */
+    uint32_t erase_us_last; /* Duration of the last flash erase (all sectors of one MODEL_BEGIN or MODEL_CLEAR), measured with the cycle counter (0: none yet). [µs] */
+    uint32_t erase_us_max; /* Largest erase_us_last since boot or RESET_STATS. [µs] */
+    uint32_t trig_latency_us_last[3]; /* Per sensor: time from the TRIG write to the sensor's data-ready (TRIG cleared) for the last sample (0: not measured). [µs] */
+    uint32_t trig_latency_us_max[3]; /* Per sensor: largest trig_latency_us_last since boot or RESET_STATS. [µs] */
 } stac_status_t;
 /* Writes exactly STAC_STATUS_SIZE bytes; returns that size. */
 size_t stac_status_pack(const stac_status_t *m, uint8_t *out);

@@ -22,6 +22,7 @@ RELEASED_DEFINITION_HASHES: dict[int, int] = {
     0: 0xA731_4832,  # protocol 1.0
     1: 0xF8BF_B43E,  # protocol 1.1
     2: 0xA892_72E6,  # protocol 1.2
+    3: 0xCBF8_E72A,  # protocol 1.3
 }
 
 

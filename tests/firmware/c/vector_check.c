@@ -49,6 +49,7 @@ static size_t canonical(uint8_t type, const uint8_t *in, size_t len, uint8_t *ou
     case STAC_MSG_MODEL_COMMIT: ROUNDTRIP(stac_model_commit_t, stac_model_commit)
     case STAC_MSG_MODEL_INFO: ROUNDTRIP(stac_model_info_t, stac_model_info)
     case STAC_MSG_ESTIMATE: ROUNDTRIP(stac_estimate_t, stac_estimate)
+    case STAC_MSG_DEBUG_FAULT: ROUNDTRIP(stac_debug_fault_t, stac_debug_fault)
     default: return 0u; /* messages without fields */
     }
 #undef ROUNDTRIP
