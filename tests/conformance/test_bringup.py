@@ -25,7 +25,7 @@ pytestmark = pytest.mark.slow  # each run streams the whole plan (seconds at spe
 SIM = "sim://?scene=idle&speed=max"
 #: a URL -> the checks it must fail, and a phrase of the report that says why
 BREAKS = {
-    "absent=1": ({"sensors"}, "sensor 1 did not answer its ID probe"),
+    "absent=1": ({"sensors"}, "sensor 1 did not answer the ID probe"),
     "fault=flag_fault": ({"sensors"}, "sensor 0 flagged SENSOR_BUS_FAULT"),
     "fault=fast_clock": ({"sample rate"}, "a sample every 55.00 ms (+10.0%"),
     "fault=short_window": ({"sample rate"}, "integration windows of 30.00 ms"),

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from spectratac.conformance.bringup.bench import Bench
-from spectratac.conformance.bringup.report import FAIL, PASS, Row
+from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol.generated import messages as m
 
@@ -60,26 +60,31 @@ def judge(lit: np.ndarray, dark: np.ndarray, saturated: np.ndarray) -> list[str]
             "light leaks in (skin not black, board not covered) or an LED never turns off"
         )
     response = lit - dark
+    dead, crossed = [], []
     for ch, name in enumerate(CHANNELS):
         colour = ch % 3
-        rises = [response[ch, colour_columns(c)].max() for c in range(3)]
-        if max(rises) < LIT_MIN:
-            problems.append(
-                f"{name} does not light (no colour rises {LIT_MIN} counts on any sensor; "
-                f"{max(rises):.0f} at most): check the LED, its resistor and its PWM pin"
-            )
+        if max(response[ch, colour_columns(c)].max() for c in range(3)) < LIT_MIN:
+            dead.append(name)
             continue
         per_colour = [response[ch, colour_columns(c)].sum() for c in range(3)]
         strongest = int(np.argmax(per_colour))
         if strongest != colour:
-            problems.append(
-                f"{name} lights {vocab.LED_COLOURS[strongest]} counts most: its colours are "
-                "wired to the wrong PWM pins (see the pin map)"
-            )
+            crossed.append(f"{name} lights {vocab.LED_COLOURS[strongest]} counts most")
+    if dead:
+        problems.append(
+            f"{', '.join(dead)} {'does' if len(dead) == 1 else 'do'} not light (no colour rises "
+            f"{LIT_MIN} counts on any sensor): check the LED, its resistor and its PWM pin"
+        )
+    if crossed:
+        problems.append(
+            f"{', '.join(crossed)}: colours wired to the wrong PWM pins (see the pin map)"
+        )
     return problems
 
 
 def led_channels(bench: Bench) -> Row:
+    if not bench.sensor.info.sensor_present:
+        return Row("LED channels", SKIPPED, "no sensor answers to see the LEDs (see sensors)")
     medians, saturated = [], []
     for channel in [-1, *range(len(CHANNELS))]:
         batch = bench.stream(SAMPLES, INTEGRATION_MS, alone(channel), skip=1)

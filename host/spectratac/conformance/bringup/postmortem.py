@@ -9,24 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.conformance.bringup.bench import POST_MORTEM_MINOR, WAIT_S, Bench
+from spectratac.conformance.bringup.bench import POST_MORTEM_MINOR, REOPEN_S, WAIT_S, Bench
 from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
 from spectratac.conformance.bringup.sensing import DIM
+from spectratac.device import DeviceTimeoutError, DisconnectedError
 from spectratac.protocol.generated import messages as m
 
-#: STATUS.reset_cause bits, in bit order
-RESET_CAUSES = (
-    "pin",
-    "power-on",
-    "brown-out",
-    "software",
-    "independent watchdog",
-    "window watchdog",
-    "low-power",
-    "fault record",
-)
-#: the causes a healthy board boots from (the others mean something went wrong)
-NORMAL = frozenset({"pin", "power-on", "software"})
+#: the causes a healthy board boots from (a watchdog reset also pulls NRST: PIN alone is normal)
+NORMAL = m.ResetCause.RESET_PIN | m.ResetCause.RESET_POWER | m.ResetCause.RESET_SOFTWARE
 FAULT_FIELDS = (
     "fault_pc", "fault_lr", "fault_xpsr", "fault_cfsr", "fault_hfsr", "fault_mmfar", "fault_bfar",
 )  # fmt: skip
@@ -55,7 +45,8 @@ def too_old(name: str, bench: Bench) -> Row | None:
 
 
 def causes(bits: int) -> list[str]:
-    return [name for k, name in enumerate(RESET_CAUSES) if bits >> k & 1]
+    """RESET_* names of STATUS.reset_cause, without the prefix: ['PIN', 'IWDG']."""
+    return [f.name.removeprefix("RESET_") for f in m.ResetCause if f.name and bits & f]
 
 
 def cfsr_names(cfsr: int) -> list[str]:
@@ -77,10 +68,9 @@ def reset_cause(bench: Bench) -> Row:
         "reset_cause_bits": int(st.reset_cause),
         "abnormal_resets": int(st.abnormal_resets),
         "safe_mode": bool(st.safe_mode),
-        "bor_level": int(st.bor_level),
     }
     problems = []
-    if "fault record" in found:
+    if st.reset_cause & m.ResetCause.RESET_FAULT:
         values["fault"] = fault_record(st)
         values["cfsr_bits"] = cfsr_names(int(st.fault_cfsr))
         problems.append(
@@ -88,24 +78,36 @@ def reset_cause(bench: Bench) -> Row:
             f"CFSR {values['fault']['fault_cfsr']} ({', '.join(values['cfsr_bits']) or '-'}): "
             "look the PC up in the image (arm-none-eabi-addr2line -e firmware.elf PC)"
         )
-    odd = [c for c in found if c not in NORMAL and c != "fault record"]
+    odd = causes(st.reset_cause & ~(NORMAL | m.ResetCause.RESET_FAULT))
     if odd:
         problems.append(f"the last reset was by {', '.join(odd)}")
     if st.abnormal_resets:
         problems.append(f"{st.abnormal_resets} abnormal resets in a row")
     if st.safe_mode:
         problems.append("booted in safe mode (without the model store) after abnormal resets")
-    if st.bor_level < BOR_WANTED:
-        problems.append(
-            f"brown-out reset level {st.bor_level}, not {BOR_WANTED}: set it by provisioning "
-            "(spectratac flash) before uploading models"
-        )
-    said = (
-        f"reset by {', '.join(found) or 'nothing recorded'}; no fault record; brown-out level "
-        f"{st.bor_level}"
-    )
+    said = f"reset by {', '.join(found) or 'nothing recorded'}; no fault record"
     verdict = FAIL if problems else PASS
     return Row("reset cause and fault record", verdict, "; ".join(problems) or said, values)
+
+
+def brownout(bench: Bench) -> Row:
+    """The brown-out reset level of the option bytes: 32-bit flash writes need 2.7 V (3)."""
+    name = "brown-out level"
+    skipped = too_old(name, bench)
+    if skipped or bench.first_status is None:
+        return skipped or Row(name, SKIPPED, "no STATUS")
+    level = int(bench.first_status.bor_level)
+    values = {"bor_level": level, "wanted": BOR_WANTED}
+    if level < BOR_WANTED:
+        return Row(
+            name,
+            FAIL,
+            f"level {level}, not {BOR_WANTED}: a sagging supply could corrupt a flash write, "
+            "and the firmware refuses model uploads (BOR_TOO_LOW); set level 3 once, at "
+            "provisioning (firmware/README.md, bring-up)",
+            values,
+        )
+    return Row(name, PASS, f"level {level} (reset below 2.7 V)", values)
 
 
 def trig_latency(bench: Bench) -> Row:
@@ -115,6 +117,8 @@ def trig_latency(bench: Bench) -> Row:
     if skipped:
         return skipped
     s, it = bench.sensor, 50
+    if not s.info.sensor_present:
+        return Row(name, SKIPPED, "no sensor answers (see sensors)")
     config_id = s.configure(integration_ms=it, leds=DIM)
     s.read(1_000_000, timeout=0)
     seen: list[tuple[int, ...]] = []
@@ -141,6 +145,8 @@ def trig_latency(bench: Bench) -> Row:
         "max_us": {k: worst[k] for k in present},
         "polls": len(seen),
     }
+    if not lat.any():
+        return Row(name, SKIPPED, "the firmware does not measure it (every latency 0)", values)
     problems = []
     for k in present:
         if np.any(lat[:, k] == 0):
@@ -157,10 +163,6 @@ def trig_latency(bench: Bench) -> Row:
     return Row(name, FAIL if problems else PASS, "; ".join(problems) or f"{said} ({it} ms)", values)
 
 
-#: DEBUG_FAULT kinds (protocol 1.4, test images only)
-HANG = 1
-
-
 def watchdog(bench: Bench) -> Row:
     """Command a hang (DEBUG_FAULT, test images only) and read the reset cause after the
     independent watchdog has reset the board."""
@@ -169,7 +171,15 @@ def watchdog(bench: Bench) -> Row:
     if skipped:
         return skipped
     s = bench.sensor
-    reply = s.request_raw(m.DebugFault.TYPE_ID, m.DebugFault(kind=HANG).pack())
+    if not s.info.capabilities & m.Capabilities.CAP_DEBUG_FAULT:
+        return Row(
+            name,
+            SKIPPED,
+            "a release image (no CAP_DEBUG_FAULT): flash a test image (firmware/README.md, "
+            "bring-up) to check the watchdog",
+        )
+    before = s.status()
+    reply = s.request_raw(m.DebugFault.TYPE_ID, m.DebugFault(kind=m.FaultKind.FAULT_HANG).pack())
     if isinstance(reply, m.Nack):
         known = reply.error in m.Error._value2member_map_
         error = m.Error(reply.error).name if known else str(reply.error)
@@ -180,12 +190,11 @@ def watchdog(bench: Bench) -> Row:
             "(firmware/README.md, bring-up) to check the watchdog",
         )
     started = time.monotonic()
-    bench.reopen()
+    st = back_after_reset(bench, int(before.uptime_ms))
     back_s = time.monotonic() - started
-    st = bench.sensor.status()
     found = causes(int(st.reset_cause))
     values = {"reset_cause": found, "back_after_s": round(back_s, 3)}
-    if "independent watchdog" not in found:
+    if not st.reset_cause & m.ResetCause.RESET_IWDG:
         return Row(
             name,
             FAIL,
@@ -200,3 +209,24 @@ def watchdog(bench: Bench) -> Row:
         f"after {back_s:.1f} s (host time)",
         values,
     )
+
+
+def back_after_reset(bench: Bench, uptime_ms: int) -> m.Status:
+    """The first STATUS of the board's next boot (its uptime below `uptime_ms`): on the same
+    link while it holds (a UART, a simulated device), else opened again (USB re-enumerates)."""
+    deadline = time.monotonic() + REOPEN_S
+    while True:
+        try:
+            status = bench.sensor.status()
+            if status.uptime_ms < uptime_ms:
+                return status
+        except DisconnectedError:
+            bench.reopen(max(0.0, deadline - time.monotonic()))
+        except DeviceTimeoutError:
+            pass  # hung until the watchdog bites, or still booting
+        if time.monotonic() > deadline:
+            raise DeviceTimeoutError(
+                f"{bench.url} did not come back within {REOPEN_S:.0f} s of a commanded hang: "
+                "is the independent watchdog running? (power-cycle the board)"
+            )
+        time.sleep(0.2)

@@ -24,12 +24,14 @@ def plan(soak_s: float = SOAK_S) -> list[tuple[str, Check]]:
         ("identity", identity.identity),
         ("clock", identity.clock),
         ("reset cause and fault record", postmortem.reset_cause),
+        ("brown-out level", postmortem.brownout),
         ("sensors", sensing.sensors),
         ("TRIG latency", postmortem.trig_latency),
         ("sample rate", sensing.sample_rate),
         ("LED channels", leds.led_channels),
         ("model store", store.model_store),
         ("soak", functools.partial(soak.soak, seconds=soak_s)),
+        ("clock drift", soak.clock_drift),
         ("watchdog", postmortem.watchdog),
     ]
 

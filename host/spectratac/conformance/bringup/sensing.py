@@ -23,7 +23,7 @@ SENSOR_SAMPLES = 8
 
 
 def flag_names(bits: int) -> list[str]:
-    return [f.name for f in m.SensorStatus if bits & f]
+    return [str(f.name) for f in m.SensorStatus if bits & f]
 
 
 def sensors(bench: Bench) -> Row:
@@ -33,15 +33,17 @@ def sensors(bench: Bench) -> Row:
     after = s.status().bus_errors if before is not None else None
     present = [k for k in range(3) if s.info.sensor_present >> k & 1]
     problems, flags = [], {}
+    absent = [k for k in range(3) if k not in present]
+    if absent:
+        problems.append(
+            f"sensor{'s' if len(absent) > 1 else ''} {', '.join(map(str, absent))} did not "
+            "answer the ID probe: check the I²C bus (SDA/SCL pull-ups, the VEML3328's solder "
+            "joints, 3.3 V at its VDD)"
+        )
     for k in range(3):
         seen = int(np.bitwise_or.reduce(batch["status"][:, k])) if len(batch) else 0
         flags[k] = flag_names(seen)
-        if k not in present:
-            problems.append(
-                f"sensor {k} did not answer its ID probe: check its I²C bus (SDA/SCL pull-ups, "
-                "solder joints of the VEML3328, 3.3 V at its VDD)"
-            )
-        elif seen & BAD:
+        if k in present and seen & BAD:
             problems.append(f"sensor {k} flagged {', '.join(flag_names(seen & BAD))}")
     errors = [b - a for a, b in zip(before, after, strict=True)] if before and after else None
     if errors and any(errors):
