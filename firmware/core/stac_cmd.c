@@ -41,7 +41,9 @@ static void send_info(stac_app_t *app) {
     m.sensor_count = (uint8_t)STAC_SENSORS;
     m.sensor_present = app->present;
     m.channels_per_sensor = (uint8_t)STAC_CHANNELS;
-    m.capabilities = app->id.capabilities;
+    m.capabilities = app->id.capabilities |
+                     (app->hal.enter_bootloader != NULL ? STAC_CAP_BOOTLOADER : 0u) |
+                     (app->hal.debug_fault != NULL ? STAC_CAP_DEBUG_FAULT : 0u);
     m.max_led_steps = (uint8_t)STAC_MAX_LED_STEPS;
     m.duty_full_scale = (uint16_t)STAC_DUTY_FULL_SCALE;
     m.integration_times_mask = 0x0Fu;
@@ -74,6 +76,24 @@ static void send_status(stac_app_t *app) {
     m.acq_cycles_max = app->stats.acq_cycles_max;
     m.decode_cycles_last = app->stats.decode_cycles_last;
     m.decode_cycles_max = app->stats.decode_cycles_max;
+    const stac_boot_t *b = &app->id.boot;
+    m.reset_cause = b->reset_cause;
+    m.fault_pc = b->fault_pc;
+    m.fault_lr = b->fault_lr;
+    m.fault_xpsr = b->fault_xpsr;
+    m.fault_cfsr = b->fault_cfsr;
+    m.fault_hfsr = b->fault_hfsr;
+    m.fault_mmfar = b->fault_mmfar;
+    m.fault_bfar = b->fault_bfar;
+    m.abnormal_resets = b->abnormal_resets;
+    m.safe_mode = b->safe_mode;
+    m.bor_level = b->bor_level;
+    m.erase_us_last = app->stats.erase_us_last;
+    m.erase_us_max = app->stats.erase_us_max;
+    for (uint32_t k = 0u; k < STAC_SENSORS; k++) {
+        m.trig_latency_us_last[k] = app->stats.trig_latency_us_last[k];
+        m.trig_latency_us_max[k] = app->stats.trig_latency_us_max[k];
+    }
     uint8_t p[STAC_STATUS_SIZE];
     (void)stac_app_send(app, STAC_MSG_STATUS, p, stac_status_pack(&m, p));
 }
@@ -186,11 +206,19 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
         uint8_t present;
         uint32_t model_id, crc, size;
     } was = {app->store.present, app->store.model_id, app->store.crc, app->store.size};
+    const uint32_t cycles0 = stac_app_cycles(app);
+    const uint32_t clock0 = stac_app_clock(app);
+    bool erased = false;
     switch (h->type) {
     case STAC_MSG_MODEL_BEGIN: {
         stac_model_begin_t m;
         stac_model_begin_unpack(&m, payload, len);
+        if (app->id.boot.bor_level < STAC_BOR_LEVEL_FOR_FLASH) {
+            err = STAC_BOR_TOO_LOW; /* refused before anything changes, like every refusal */
+            break;
+        }
         err = stac_store_begin(&app->store, &app->hal, m.model_id, m.size, m.crc);
+        erased = err == STAC_OK || err == STAC_FLASH_ERROR;
         break;
     }
     case STAC_MSG_MODEL_CHUNK: {
@@ -210,7 +238,17 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
         err = stac_store_commit(&app->store, &app->hal, m.model_id);
         break;
     }
-    default: err = stac_store_clear(&app->store, &app->hal); break;
+    default:
+        err = stac_store_clear(&app->store, &app->hal);
+        erased = true;
+        break;
+    }
+    if (erased) { /* the erase stalls the core: timed by the cycle counter, not by passes */
+        const uint32_t us = stac_app_elapsed_us(app, cycles0, clock0);
+        app->stats.erase_us_last = us;
+        if (us > app->stats.erase_us_max) {
+            app->stats.erase_us_max = us;
+        }
     }
     /* The session starts over whenever the model in use may have changed (a refused command
      * that changed nothing leaves it running). */
@@ -227,6 +265,36 @@ static void handle_model(stac_app_t *app, const stac_frame_header_t *h, const ui
     }
 }
 
+/* DEBUG_FAULT: only a test image has the hook; the ACK goes out before the fault. */
+static void handle_debug_fault(stac_app_t *app, const stac_frame_header_t *h,
+                               const uint8_t *payload, size_t len) {
+    if (app->hal.debug_fault == NULL) {
+        send_nack(app, h, STAC_NOT_A_TEST_IMAGE, NO_FIELD);
+        return;
+    }
+    stac_debug_fault_t m;
+    stac_debug_fault_unpack(&m, payload, len);
+    uint8_t field = NO_FIELD;
+    const uint16_t err = stac_debug_fault_validate(&m, &field);
+    if (err != STAC_OK) {
+        send_nack(app, h, err, field);
+        return;
+    }
+    send_ack(app, h);
+    app->hal.debug_fault(app->hal.ctx, m.kind);
+}
+
+static void handle_enter_bootloader(stac_app_t *app, const stac_frame_header_t *h) {
+    if (app->hal.enter_bootloader == NULL) {
+        send_nack(app, h, STAC_UNKNOWN_TYPE, NO_FIELD);
+        return;
+    }
+    stac_acquisition_stop(app);
+    stac_leds_off(&app->leds, &app->hal);
+    send_ack(app, h);
+    app->hal.enter_bootloader(app->hal.ctx);
+}
+
 static void reset_stats(stac_app_t *app) {
     memset(&app->stats, 0, sizeof app->stats);
 }
@@ -241,6 +309,7 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
         return;
     }
     app->stats.rx_frames++;
+    stac_app_boot_log(app); /* a host is there now: say once how the device came up */
     if (h.major != STAC_PROTOCOL_MAJOR) {
         send_nack(app, &h, STAC_VERSION_MISMATCH, NO_FIELD);
         return;
@@ -291,6 +360,8 @@ void stac_cmd_handle(stac_app_t *app, const uint8_t *encoded, size_t len) {
             send_ack(app, &h);
         }
         break;
+    case STAC_MSG_ENTER_BOOTLOADER: handle_enter_bootloader(app, &h); break;
+    case STAC_MSG_DEBUG_FAULT: handle_debug_fault(app, &h, payload, plen); break;
     default:
         /* A host-to-device type in the generated table that this firmware does not serve. */
         send_nack(app, &h, STAC_UNKNOWN_TYPE, NO_FIELD);

@@ -86,6 +86,15 @@ typedef struct stac_hal {
     void (*watchdog_refresh)(void *ctx);
     uint32_t (*cycles)(void *ctx);
     uint32_t cycle_hz;
+
+    /* Optional (NULL: the device answers the command with a NACK; protocol 1.4).
+     * enter_bootloader: called once ENTER_BOOTLOADER's ACK has been handed to link_write; the
+     * port lets the link drain (bounded), then restarts in its ROM bootloader. On a board it
+     * does not return; a simulated port may return and close its link.
+     * debug_fault: test images only (a release image leaves it NULL and answers NACK
+     * NOT_A_TEST_IMAGE); called after the ACK with a STAC_FAULT_* kind: fault or hang. */
+    void (*enter_bootloader)(void *ctx);
+    void (*debug_fault)(void *ctx, uint8_t kind);
 } stac_hal_t;
 
 #ifdef __cplusplus

@@ -39,8 +39,74 @@ void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity
     stac_rx_reset(&app->rx);
     app->log_tokens = LOG_BURST;
     app->log_refill_at = now_us + LOG_REFILL_US;
-    stac_store_boot(&app->store, &app->hal);
+    if (app->id.boot.safe_mode == 0u) {
+        stac_store_boot(&app->store, &app->hal);
+    } /* safe mode: no model is opened; uploads and MODEL_CLEAR still work */
     stac_state_estimator_reset(app);
+}
+
+uint32_t stac_app_elapsed_us(const stac_app_t *app, uint32_t cycles0, uint32_t clock0) {
+    if (app->hal.cycles != NULL && app->hal.cycle_hz != 0u) {
+        const uint64_t c = (uint32_t)(app->hal.cycles(app->hal.ctx) - cycles0);
+        return (uint32_t)(c * 1000000u / app->hal.cycle_hz);
+    }
+    return (uint32_t)(stac_app_clock(app) - clock0);
+}
+
+static char *put_text(char *p, const char *end, const char *t) {
+    while (*t != '\0' && p < end) {
+        *p++ = *t++;
+    }
+    return p;
+}
+
+static char *put_hex(char *p, const char *end, uint32_t v) {
+    static const char digits[] = "0123456789ABCDEF";
+    for (int shift = 28; shift >= 0 && p < end; shift -= 4) {
+        *p++ = digits[(v >> (uint32_t)shift) & 0xFu];
+    }
+    return p;
+}
+
+void stac_app_boot_log(stac_app_t *app) {
+    if (app->boot_logged) {
+        return;
+    }
+    app->boot_logged = true;
+    const stac_boot_t *b = &app->id.boot;
+    static const char *const names[8] = {"pin", "power", "brownout", "software",
+                                         "iwdg", "wwdg", "lowpower", "fault"};
+    const uint8_t clean = (uint8_t)(STAC_RESET_PIN | STAC_RESET_POWER);
+    if ((b->reset_cause & (uint8_t)~clean) == 0u && b->safe_mode == 0u &&
+        b->bor_level >= STAC_BOR_LEVEL_FOR_FLASH) {
+        return;
+    }
+    char text[sizeof(((stac_log_t *)0)->text) + 1u] = {0};
+    char *p = text;
+    const char *end = text + sizeof text - 1u;
+    p = put_text(p, end, "reset");
+    for (uint32_t k = 0u; k < 8u; k++) {
+        if ((b->reset_cause & (1u << k)) != 0u) {
+            p = put_text(p, end, " ");
+            p = put_text(p, end, names[k]);
+        }
+    }
+    if ((b->reset_cause & STAC_RESET_FAULT) != 0u) {
+        p = put_text(p, end, " pc=");
+        p = put_hex(p, end, b->fault_pc);
+        p = put_text(p, end, " cfsr=");
+        p = put_hex(p, end, b->fault_cfsr);
+    }
+    if (b->safe_mode != 0u) {
+        p = put_text(p, end, "; SAFE MODE: no model store");
+    }
+    if (b->bor_level < STAC_BOR_LEVEL_FOR_FLASH) {
+        p = put_text(p, end, "; BOR<3: no uploads");
+    }
+    const bool bad = b->safe_mode != 0u ||
+                     (b->reset_cause & (STAC_RESET_FAULT | STAC_RESET_IWDG | STAC_RESET_WWDG |
+                                        STAC_RESET_BROWNOUT)) != 0u;
+    stac_app_log(app, bad ? STAC_LOG_ERROR : STAC_LOG_WARN, text);
 }
 
 uint32_t stac_app_cycles(const stac_app_t *app) {

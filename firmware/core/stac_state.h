@@ -31,12 +31,29 @@
 /* Capabilities of a build whose HAL has a model store: on-device decoding and uploads. */
 #define STAC_CAPS_MODEL (STAC_CAP_ESTIMATE | STAC_CAP_MODEL_UPLOAD)
 
+/* What the port found at boot (STATUS, protocol 1.4): why the device reset, the fault record
+ * that survived it, and the brown-out level of the option bytes. */
+typedef struct stac_boot {
+    uint8_t reset_cause;     /* STAC_RESET_* bits */
+    uint8_t abnormal_resets; /* faults, watchdog and brown-out resets in a row */
+    uint8_t safe_mode;       /* 1: boot without the model store (too many abnormal resets) */
+    uint8_t bor_level;       /* 0 off .. 3; MODEL_BEGIN needs STAC_BOR_LEVEL_FOR_FLASH */
+    uint32_t fault_pc, fault_lr, fault_xpsr;
+    uint32_t fault_cfsr, fault_hfsr, fault_mmfar, fault_bfar;
+} stac_boot_t;
+
+/* Brown-out level that holds the supply at >= 2.7 V, which 32-bit flash writes need. */
+#define STAC_BOR_LEVEL_FOR_FLASH 3u
+/* Abnormal resets in a row after which the device boots without its model store. */
+#define STAC_SAFE_MODE_AFTER 3u
+
 /* What INFO reports about the board; supplied by the port. */
 typedef struct stac_identity {
     char board[STAC_TEXT_SIZE];    /* NUL-padded, e.g. "blackpill-f411" */
     char build_id[STAC_TEXT_SIZE]; /* NUL-padded, e.g. git describe */
     uint32_t capabilities;         /* STAC_CAP_* bits */
     uint32_t baud;                 /* UART rate, 0 when not a UART */
+    stac_boot_t boot;              /* reset cause, fault record, brown-out level */
 } stac_identity_t;
 
 typedef struct stac_stats {
@@ -52,6 +69,10 @@ typedef struct stac_stats {
      * one decode, the last and the largest. */
     uint32_t acq_cycles_last, acq_cycles_max;
     uint32_t decode_cycles_last, decode_cycles_max;
+    /* Flash erase of one MODEL_BEGIN or MODEL_CLEAR (µs), and per sensor the TRIG write to
+     * data-ready time (µs), the last and the largest (protocol 1.4). */
+    uint32_t erase_us_last, erase_us_max;
+    uint32_t trig_latency_us_last[STAC_SENSORS], trig_latency_us_max[STAC_SENSORS];
 } stac_stats_t;
 
 /* Acquisition state: one cycle = light a step, let it settle, integrate, read, send. */
@@ -109,6 +130,7 @@ typedef struct stac_app {
     stac_model_store_t store; /* the decoder in use and the upload in progress */
     stac_model_state_t est;   /* its session: context, averages, baseline, scratch */
 
+    bool boot_logged; /* the boot LOG (reset cause, fault record) went out with the first answer */
     uint8_t log_tokens; /* LOG rate limit: a burst of a few, then one per second */
     uint32_t log_refill_at;
 
@@ -117,7 +139,7 @@ typedef struct stac_app {
 
 /* Fresh state: default configuration in force and pending, LEDs and receiver reset, full LOG
  * budget, not streaming. The HAL is stored and asked for the unique id, and the model store is
- * validated (stac_store_boot); nothing else runs. */
+ * validated (stac_store_boot) unless the port booted in safe mode; nothing else runs. */
 void stac_state_init(stac_app_t *app, const stac_hal_t *hal, const stac_identity_t *id,
                      uint32_t now_us);
 
@@ -145,6 +167,13 @@ void stac_state_estimator_reset(stac_app_t *app);
 /* Default configuration at boot: 50 ms, ×1, DG ×1, high sensitivity, one step at 500 ‰,
  * settle 1000 µs, not streaming. */
 void stac_default_config(stac_configure_t *cfg);
+
+/* Elapsed µs between two readings of the HAL's cycle counter (or, without one, its clock). */
+uint32_t stac_app_elapsed_us(const stac_app_t *app, uint32_t cycles0, uint32_t clock0);
+
+/* Send the boot LOG once (reset cause, fault record, safe mode, brown-out level), if the boot
+ * is worth a word: anything but a clean power-on or pin reset with brown-out level 3. */
+void stac_app_boot_log(stac_app_t *app);
 
 /* Wrap-safe "a is before b" for 32-bit µs times less than 2^31 apart. */
 static inline bool stac_before(uint32_t a, uint32_t b) {

@@ -49,6 +49,12 @@ struct stac_sim {
     uint32_t decodes_seen;
     uint32_t busy_until;
     bool busy;
+    /* Protocol 1.4: what the simulated port reports at boot, a DEBUG_FAULT waiting to reset
+     * the device after this step, and the ROM bootloader entered (the device is silent). */
+    stac_boot_t boot;
+    uint8_t fault_pending; /* 0 none, else 1 + STAC_FAULT_* kind */
+    uint8_t in_bootloader;
+    uint8_t abnormal; /* abnormal resets in a row (survives the simulated resets) */
 };
 
 /* The simulated MCU's decoding time. A host runs a decode in microseconds, a Cortex-M4F at
@@ -294,6 +300,54 @@ void stac_sim_flash_fault(stac_sim_t *sim, uint32_t countdown) {
     sim->flash_fail_in = countdown;
 }
 
+/* ENTER_BOOTLOADER: the ACK is out; from now on the simulated MCU runs ST's ROM bootloader,
+ * which speaks no SpectraTac protocol: the device neither reads nor answers. */
+static void hal_enter_bootloader(void *ctx) {
+    ((stac_sim_t *)ctx)->in_bootloader = 1u;
+}
+
+/* DEBUG_FAULT: the simulated device is a test image. The reset happens after the step that
+ * sent the ACK, as the real one comes after the ACK has left. */
+static void hal_debug_fault(void *ctx, uint8_t kind) {
+    ((stac_sim_t *)ctx)->fault_pending = (uint8_t)(1u + kind);
+}
+
+/* Fault record of the simulated reset: a HardFault on an undefined instruction (stacked PC
+ * and LR inside the image, CFSR UNDEFINSTR, HFSR FORCED), or a watchdog reset after a hang. */
+#define SIM_FAULT_PC 0x08001A2Cu
+#define SIM_FAULT_LR 0x08000F13u
+#define SIM_CFSR_UNDEFINSTR (1u << 16)
+#define SIM_HFSR_FORCED (1u << 30)
+
+static void copy_text(char dst[STAC_TEXT_SIZE], const char *src);
+
+/* Boot again after an injected fault: RAM (the app) starts over, flash (the store) stays. */
+static void reboot_after_fault(stac_sim_t *sim) {
+    const uint8_t kind = (uint8_t)(sim->fault_pending - 1u);
+    sim->fault_pending = 0u;
+    stac_boot_t *b = &sim->boot;
+    const uint8_t bor = b->bor_level;
+    memset(b, 0, sizeof *b);
+    b->bor_level = bor;
+    if (kind == STAC_FAULT_HARD) {
+        b->reset_cause = STAC_RESET_PIN | STAC_RESET_SOFTWARE | STAC_RESET_FAULT;
+        b->fault_pc = SIM_FAULT_PC;
+        b->fault_lr = SIM_FAULT_LR;
+        b->fault_xpsr = 0x01000003u; /* Thumb state, exception 3 (HardFault) */
+        b->fault_cfsr = SIM_CFSR_UNDEFINSTR;
+        b->fault_hfsr = SIM_HFSR_FORCED;
+    } else {
+        b->reset_cause = STAC_RESET_PIN | STAC_RESET_IWDG;
+    }
+    sim->abnormal = sim->abnormal < 255u ? (uint8_t)(sim->abnormal + 1u) : 255u;
+    b->abnormal_resets = sim->abnormal;
+    b->safe_mode = sim->abnormal >= STAC_SAFE_MODE_AFTER ? 1u : 0u;
+    stac_identity_t id = sim->app.id;
+    id.boot = *b;
+    const stac_hal_t hal = sim->app.hal;
+    stac_app_init(&sim->app, &hal, &id, sim->now);
+}
+
 static void copy_text(char dst[STAC_TEXT_SIZE], const char *src) {
     memset(dst, 0, STAC_TEXT_SIZE);
     for (size_t i = 0u; i < STAC_TEXT_SIZE - 1u && src[i] != '\0'; i++) {
@@ -313,6 +367,11 @@ static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
     copy_text(id.build_id, STAC_BUILD_ID);
     id.capabilities = capabilities;
     id.baud = baud;
+    /* A provisioned board after power-on: brown-out level 3, nothing abnormal. */
+    memset(&sim->boot, 0, sizeof sim->boot);
+    sim->boot.reset_cause = STAC_RESET_POWER | STAC_RESET_PIN;
+    sim->boot.bor_level = STAC_BOR_LEVEL_FOR_FLASH;
+    id.boot = sim->boot;
     const stac_hal_t hal = {
         .ctx = sim,
         .i2c_transfer = hal_i2c,
@@ -325,6 +384,8 @@ static void init_app(stac_sim_t *sim, const char *board, uint32_t capabilities,
         .store_data = hal_store_data,
         .store_erase = hal_store_erase,
         .store_program = hal_store_program,
+        .enter_bootloader = hal_enter_bootloader,
+        .debug_fault = hal_debug_fault,
     };
     memset(sim->store, 0xFF, sizeof sim->store);
     stac_app_init(&sim->app, &hal, &id, now_us);
@@ -365,7 +426,18 @@ int32_t stac_sim_init_models(stac_sim_t *sim, const stac_sim_callbacks_t *callba
 void stac_sim_step64(stac_sim_t *sim, uint64_t now_us) {
     sim->now64 = now_us;
     sim->now = (uint32_t)now_us;
+    if (sim->in_bootloader != 0u) {
+        sim->rx_pos = sim->rx_len = 0u; /* the ROM bootloader does not read our frames */
+        return;
+    }
     stac_app_step(&sim->app, sim->now);
+    if (sim->fault_pending != 0u) {
+        reboot_after_fault(sim);
+    }
+}
+
+uint32_t stac_sim_in_bootloader(const stac_sim_t *sim) {
+    return sim->in_bootloader;
 }
 
 void stac_sim_step(stac_sim_t *sim, uint32_t now_us) {

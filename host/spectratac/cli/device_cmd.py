@@ -1,5 +1,8 @@
 """`spectratac info URL` and `spectratac stream URL`: talk to a device from the shell.
 
+`info` also says how the device came up (protocol 1.4): its reset cause and fault record, safe
+mode, brown-out level and measured flash erase (device/boot_report.py).
+
 `stream --estimates beside|instead` adds the device's own estimates (protocol 1.1, a model
 uploaded with `spectratac model upload`): beside each sample's counts, or instead of them."""
 
@@ -50,6 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _info(args: argparse.Namespace) -> int:
     from spectratac.device import Sensor
+    from spectratac.device.boot_report import BootReport
     from spectratac.device.cycles import CycleFigures
     from spectratac.protocol.generated import messages as m
 
@@ -58,12 +62,14 @@ def _info(args: argparse.Namespace) -> int:
         status = sensor.status()
     caps = [c.name for c in m.Capabilities if info.capabilities & c]
     cycles = CycleFigures.from_status(status, info.protocol_minor)
+    boot = BootReport.from_status(status, info.protocol_minor)
     row = info.to_dict() | {
         "definition_hash": f"0x{info.definition_hash:08X}",
         "capabilities": caps,
         "sensors_present": [k for k in range(3) if info.sensor_present >> k & 1],
         "uptime_ms": status.uptime_ms,
         "cycles": cycles.as_dict(),
+        "boot": boot.as_dict(),
     }
     if args.json:
         print(json.dumps(row))
@@ -84,7 +90,7 @@ def _info(args: argparse.Namespace) -> int:
         f"baud {info.baud or 'n/a'}"
     )
     print(f"  uptime           {status.uptime_ms / 1000:.1f} s")
-    for line in cycles.describe():
+    for line in cycles.describe() + boot.describe():
         print(f"  {line}")
     return ExitCode.OK
 

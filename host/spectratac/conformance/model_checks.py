@@ -21,13 +21,14 @@ import numpy as np
 
 from spectratac.conformance.checks import WAIT_S, WHITE, Outcome
 from spectratac.device import ModelInfo, Sensor
+from spectratac.device.flash_timing import erase_ack_timeout_s
 from spectratac.hardware.generated import vocabulary as vocab
 from spectratac.protocol import crc32c
 from spectratac.protocol.generated import messages as m
 from spectratac.protocol.schema import Message
 
 CHUNK = 224
-FLASH_TIMEOUT = 10.0  # erase/program block the device (see device.model_store)
+FLASH_TIMEOUT = erase_ack_timeout_s()  # erase/program block the device (device.flash_timing)
 _EST_MASK = sum(int(f) for f in m.EstimateFlags)
 
 

@@ -18,6 +18,7 @@ from spectratac.device.errors import (
     MissingCapabilityError,
     ModelUploadError,
 )
+from spectratac.device.flash_timing import erase_ack_timeout_s
 from spectratac.device.link import Link
 from spectratac.protocol import crc32c
 from spectratac.protocol.generated import messages as m
@@ -25,9 +26,9 @@ from spectratac.protocol.generated import messages as m
 CHUNK = 224  # MODEL_CHUNK.data: every chunk but the last is full
 PRESENT = ("none", "uploaded", "builtin")
 WEIGHT_FORMATS = ("f32", "f16", "i8")
-#: Flash erase and programming block the device's loop: give MODEL_BEGIN (a sector erase of up
-#: to 2 s on the STM32F411), MODEL_COMMIT and MODEL_CLEAR at least this long to answer.
-FLASH_TIMEOUT = 10.0
+#: Flash erase and programming block the device's loop: MODEL_BEGIN, MODEL_COMMIT and
+#: MODEL_CLEAR get at least the datasheet's worst-case erase of the whole store, with margin.
+FLASH_TIMEOUT = erase_ack_timeout_s()
 #: NACKs a second attempt cannot cure: the image or the device's limits are the problem.
 FINAL = frozenset({"MODEL_TOO_LARGE", "MODEL_INVALID"})
 

@@ -35,7 +35,8 @@ from typing import Literal, TypedDict, Unpack
 
 import numpy as np
 
-from spectratac.device import model_store
+from spectratac.device import maintenance, model_store
+from spectratac.device.boot_report import BootReport
 from spectratac.device.clock_sync import ClockSync, TimeSyncExchange, sync_clock
 from spectratac.device.errors import DeviceError, DeviceStalledError
 from spectratac.device.estimate_records import EstimateGaps, EstimateRow, to_estimate_array
@@ -416,6 +417,23 @@ class Sensor:
     def clear_model(self) -> None:
         """Erase the uploaded model; a built-in one, if the firmware has one, takes over."""
         model_store.clear(self._link)
+
+    # ------------------------------------------------------------------ service (1.4)
+    def enter_bootloader(self) -> None:
+        """Restart the device in its ROM DFU bootloader (ENTER_BOOTLOADER, protocol 1.4), for
+        flashing a new firmware without BOOT0; the device leaves the link: close the sensor
+        afterwards. MissingCapabilityError for a device without CAP_BOOTLOADER."""
+        maintenance.enter_bootloader(self._link)
+
+    def debug_fault(self, kind: m.FaultKind) -> None:
+        """Make a test image fault or hang (DEBUG_FAULT, protocol 1.4); after its reset STATUS
+        reports the cause (boot_report). MissingCapabilityError for a release image."""
+        maintenance.debug_fault(self._link, kind)
+
+    def boot_report(self) -> BootReport:
+        """How the device came up: reset cause, fault record, safe mode, brown-out level,
+        measured erase and TRIG times (STATUS, protocol 1.4)."""
+        return BootReport.from_status(self.status(), self.info.protocol_minor)
 
     def request_raw(
         self,

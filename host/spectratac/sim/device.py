@@ -158,6 +158,12 @@ class SimDevice:
         program) and all after it fail; 0 ends the fault. A failing program stops half-way."""
         self.lib.stac_sim_flash_fault(self._ptr, countdown)
 
+    @property
+    def in_bootloader(self) -> bool:
+        """True once ENTER_BOOTLOADER was carried out: the simulated MCU then runs ST's ROM
+        bootloader, which neither reads nor answers SpectraTac frames."""
+        return bool(self.lib.stac_sim_in_bootloader(self._ptr))
+
     # --- time and bytes --------------------------------------------------------------------
     def step(self, now_us: int) -> None:
         """Run one superloop pass at device time `now_us` (64-bit µs, never decreasing)."""

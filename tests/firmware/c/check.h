@@ -48,5 +48,6 @@ extern const test_case_t g_cmd_tests[];
 extern const test_case_t g_fuzz_tests[];
 extern const test_case_t g_store_tests[];
 extern const test_case_t g_flash_store_tests[];
+extern const test_case_t g_boot_tests[];
 
 #endif /* CHECK_H */

@@ -212,6 +212,9 @@ static int32_t fake_store_erase(void *ctx, uint32_t offset, uint32_t len) {
         if (len > 0u && offset < hi && offset + len > lo) {
             memset(b->flash + lo, 0xFF, hi - lo);
             b->sector_erases[k]++;
+            /* The core stalls through the erase: its cycle counter and clock run on. */
+            b->cycle_count += b->erase_us_per_sector * (FAKE_CYCLE_HZ / 1000000u);
+            b->now += b->erase_us_per_sector;
         }
     }
     return STAC_FLASH_OK;
@@ -249,6 +252,24 @@ static int32_t fake_store_program(void *ctx, uint32_t offset, const uint8_t *dat
     return rc;
 }
 
+static void fake_enter_bootloader(void *ctx) {
+    fake_board_t *b = (fake_board_t *)ctx;
+    b->bootloader_calls++;
+    b->tx_len_at_hook = b->tx_len;
+}
+
+static void fake_debug_fault(void *ctx, uint8_t kind) {
+    fake_board_t *b = (fake_board_t *)ctx;
+    b->fault_calls++;
+    b->fault_kind = kind;
+    b->tx_len_at_hook = b->tx_len;
+}
+
+void fake_test_image(fake_board_t *b) {
+    b->hal.enter_bootloader = fake_enter_bootloader;
+    b->hal.debug_fault = fake_debug_fault;
+}
+
 void fake_init(fake_board_t *b) {
     memset(b, 0, sizeof *b);
     b->now = 1000u;
@@ -274,6 +295,8 @@ void fake_init(fake_board_t *b) {
     b->hal.cycles = fake_cycles;
     b->hal.cycle_hz = FAKE_CYCLE_HZ;
     memset(b->flash, 0xFF, sizeof b->flash);
+    b->boot.reset_cause = STAC_RESET_POWER | STAC_RESET_PIN;
+    b->boot.bor_level = STAC_BOR_LEVEL_FOR_FLASH; /* a provisioned board */
 }
 
 void fake_boot(fake_board_t *b, stac_app_t *app) {
@@ -283,6 +306,7 @@ void fake_boot(fake_board_t *b, stac_app_t *app) {
     memcpy(id.build_id, "test", 4);
     id.capabilities = STAC_CAPS_CORE | STAC_CAPS_MODEL;
     id.baud = 921600u;
+    id.boot = b->boot;
     stac_app_init(app, &b->hal, &id, b->now);
 }
 

@@ -92,10 +92,18 @@ typedef struct fake_board {
     bool flash_power_cut;      /* with flash_cut_words: the supply fails during programming */
     uint32_t flash_cut_words;  /* words programmed before the power cut */
     bool flash_dead;           /* the cut happened: nothing more reaches the flash */
+    uint32_t erase_us_per_sector; /* a sector erase advances cycle counter and clock this much */
+    stac_boot_t boot;          /* what the port reports at boot (fake_boot copies it) */
+    uint32_t bootloader_calls; /* HAL enter_bootloader calls */
+    uint32_t fault_calls;      /* HAL debug_fault calls */
+    uint8_t fault_kind;        /* the last one's kind */
+    size_t tx_len_at_hook;     /* captured bytes when the last of those two hooks ran */
     stac_hal_t hal;
 } fake_board_t;
 
 void fake_init(fake_board_t *b);
+/* Give the HAL the hooks of a test image: enter_bootloader and debug_fault (recorded). */
+void fake_test_image(fake_board_t *b);
 /* Start an app on the board: boot at b->now. */
 void fake_boot(fake_board_t *b, stac_app_t *app);
 /* Step the app every `tick_us` until `until` (absolute device time). */

@@ -34,7 +34,7 @@ extern "C" {
 #endif
 
 /* what stac_sim_abi_version() returns; changes only when an entry point changes */
-#define STAC_SIM_ABI_VERSION 1u
+#define STAC_SIM_ABI_VERSION 2u
 #define STAC_SIM_RX_CAPACITY 4096u /* received bytes buffered between two steps */
 
 /* I2C transfer results (same values as the core's STAC_I2C_*). */
@@ -186,6 +186,15 @@ STAC_SIM_API int32_t stac_sim_model_store(stac_sim_t *sim, const char *path);
  * and every one after it fail until this is called again; 0 ends the fault. A failing program
  * writes the first half of its words (a write cut short), a failing erase changes nothing. */
 STAC_SIM_API void stac_sim_flash_fault(stac_sim_t *sim, uint32_t countdown);
+
+/* Protocol 1.4: the simulated device is a test image with a ROM bootloader. DEBUG_FAULT is
+ * answered with ACK, then the device resets after that step as the board would: RAM starts over,
+ * the model store stays, and STATUS reports the reset (a HardFault record, or a watchdog reset
+ * after FAULT_HANG), three in a row booting in safe mode. ENTER_BOOTLOADER is answered with ACK,
+ * then the device is silent: it drops received bytes and sends nothing (ST's ROM bootloader
+ * speaks no SpectraTac protocol). */
+/* 1 once ENTER_BOOTLOADER was carried out (the device is silent from then on), else 0. */
+STAC_SIM_API uint32_t stac_sim_in_bootloader(const stac_sim_t *sim);
 
 #ifdef __cplusplus
 }

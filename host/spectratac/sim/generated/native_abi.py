@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 #: what stac_sim_abi_version() returns; changes only when an entry point changes
-ABI_VERSION = 1
+ABI_VERSION = 2
 #: received bytes buffered between two steps
 RX_CAPACITY = 4096
 I2C_OK = 0
@@ -120,6 +120,7 @@ SIGNATURES: dict[str, tuple[Any, list[Any]]] = {
     ),
     "stac_sim_model_store": (c_int32, [c_void_p, c_char_p]),
     "stac_sim_flash_fault": (None, [c_void_p, c_uint32]),
+    "stac_sim_in_bootloader": (c_uint32, [c_void_p]),
 }
 
 
