@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, runner
+from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, postmortem, runner
+from spectratac.conformance.bringup.bench import Bench
 from spectratac.conformance.bringup.leds import CHANNELS, FULL_SCALE, LIT_MIN, colour_columns, judge
 from spectratac.conformance.bringup.report import KIND, Report, Row, is_report
 from spectratac.hardware.generated import vocabulary as vocab
@@ -33,6 +35,9 @@ BREAKS = {
     "fault=swapped_led": ({"LED channels"}, "LED0.R lights B counts most"),
     "fault=sticky_model": ({"model store"}, "MODEL_CLEAR was acknowledged but the model"),
     "fault=wrong_model_crc": ({"model store"}, "the flash did not keep what was written"),
+    "fault=hsi_clock": ({"clock"}, "16.0 MHz: the HSI fallback"),
+    "fault=bor_off": ({"brown-out level"}, "level 0, not 3"),
+    "fault=lost_fault_record": ({"fault record"}, "no fault record: the record in .noinit"),
 }
 
 
@@ -69,6 +74,10 @@ def test_a_good_board_passes_with_every_figure(
     store = rows["model store"]["values"]
     assert store["image_bytes"] > 0 and store["commit_s"] >= 0
     assert rows["clock"]["verdict"] == SKIPPED  # the simulated core has no cycle counter
+    # the simulated device is a test image: the commanded resets are reported after them
+    assert "iwdg" in rows["watchdog"]["values"]["reset_cause"]
+    fault = rows["fault record"]["values"]
+    assert fault["fault"]["pc"] != "0x00000000" and "UNDEFINSTR" in fault["fault_flags"]
 
 
 def test_the_text_report_has_a_line_per_check_and_the_matrix(
@@ -170,6 +179,17 @@ def test_the_led_verdict(levels: list[int], ch: int) -> None:
     saturated[ch, own[0]] = True
     assert f"{CHANNELS[ch]} saturates" in judge(lit, dark, saturated)[0]
     assert "dark" in judge(lit, np.full(15, FULL_SCALE * 0.1), none)[0]
+
+
+def test_an_older_firmware_is_told_to_update_not_failed() -> None:
+    class Old:
+        info = SimpleNamespace(protocol_major=1, protocol_minor=3)
+
+    bench = Bench("old://", Old(), 2.0)  # type: ignore[arg-type]
+    for check in (postmortem.reset_cause, postmortem.brownout, postmortem.trig_latency,
+                  postmortem.watchdog, postmortem.fault_record):  # fmt: skip
+        row = check(bench)
+        assert row.verdict == SKIPPED and "protocol 1.3" in row.detail, row
 
 
 def test_a_row_names_its_verdict() -> None:

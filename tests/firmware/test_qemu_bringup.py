@@ -25,6 +25,7 @@ EXPECTED = {
     "model store": FAIL,
     "soak": PASS,
     "watchdog": SKIPPED,  # the UART image is a release image: DEBUG_FAULT is not compiled in
+    "fault record": SKIPPED,
 }
 
 

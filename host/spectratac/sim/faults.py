@@ -66,7 +66,14 @@ CONFORMANCE_FAULTS = {
 BRINGUP_FAULTS = {
     "swapped_led": "LED 0's red and blue PWM pins are crossed: its red duty drives blue and its "
     "blue duty red (bring-up's LED channels)",
+    "hsi_clock": "STATUS reports a 16 MHz core clock, the HSI fallback (bring-up's clock)",
+    "bor_off": "STATUS reports brown-out level 0, the option byte's default (bring-up's "
+    "brown-out level)",
+    "lost_fault_record": "STATUS never reports a fault record, as if .noinit RAM were cleared "
+    "at boot (bring-up's fault record)",
 }
+#: the bring-up faults that rewrite STATUS
+STATUS_FAULTS = frozenset({"hsi_clock", "bor_off", "lost_fault_record"})
 #: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
 ACCEPTS = {
     "accept_large_model": m.Error.MODEL_TOO_LARGE,
@@ -180,7 +187,7 @@ class FaultLayer:
         # it, so that one is lost too however intact its own bytes
         self._merges_next = False
         self._pending = b""  # device bytes of a frame not yet complete
-        self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
+        self._rewrites = bool(self.faults & (CONFORMANCE_FAULTS.keys() | STATUS_FAULTS))
         self._next_stall: float | None = None  # set by the first sample
         self._closed = threading.Event()
         # late_stop: the STOP and every host byte after it, held until device time _stop_due_us
@@ -301,6 +308,8 @@ class FaultLayer:
             )
         elif isinstance(msg, m.Status) and "no_rx_errors" in f:
             msg = dataclasses.replace(msg, rx_errors=0)
+        elif isinstance(msg, m.Status) and f & STATUS_FAULTS:
+            msg = _status_fault(msg, f)
         elif isinstance(msg, m.Ack) and "begin_erases" in f and msg.acked_seq == HIDDEN_CLEAR_SEQ:
             return None
         elif isinstance(msg, m.Nack) and any(ACCEPTS[a] == msg.error for a in f & ACCEPTS.keys()):
@@ -412,6 +421,18 @@ class FaultLayer:
         self._closed.set()  # a stall in progress ends: the device is being closed
         with self._stop_lock:
             self._held_stop = None
+
+
+def _status_fault(msg: m.Status, faults: frozenset[str]) -> m.Status:
+    if "hsi_clock" in faults:
+        msg = dataclasses.replace(msg, cycle_hz=16_000_000)
+    if "bor_off" in faults:
+        msg = dataclasses.replace(msg, bor_level=0)
+    if "lost_fault_record" in faults:
+        cleared = {f"fault_{k}": 0 for k in ("pc", "lr", "xpsr", "cfsr", "hfsr", "mmfar", "bfar")}
+        cause = msg.reset_cause & ~m.ResetCause.RESET_FAULT
+        msg = dataclasses.replace(msg, reset_cause=cause, **cleared)
+    return msg
 
 
 def _crossed(msg: m.Configure, seq: int, version: tuple[int, int]) -> bytes:

@@ -18,8 +18,6 @@ from spectratac.protocol.generated import messages as m
 WAIT_S = 30.0
 #: how long a device may take to come back after a reset it was asked for (USB re-enumerates)
 REOPEN_S = 20.0
-#: STATUS fields of protocol 1.4 (the post-mortem, erase and TRIG timings)
-POST_MORTEM_MINOR = 4
 
 
 @dataclass

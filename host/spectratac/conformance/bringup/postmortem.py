@@ -9,24 +9,19 @@ from typing import Any
 
 import numpy as np
 
-from spectratac.conformance.bringup.bench import POST_MORTEM_MINOR, REOPEN_S, WAIT_S, Bench
+from spectratac.conformance.bringup.bench import REOPEN_S, WAIT_S, Bench
 from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
 from spectratac.conformance.bringup.sensing import DIM
-from spectratac.device import DeviceTimeoutError, DisconnectedError
+from spectratac.device import (
+    CommandRejectedError,
+    DeviceTimeoutError,
+    DisconnectedError,
+    MissingCapabilityError,
+)
+from spectratac.device.boot_report import BOR_LEVEL_FOR_FLASH, SINCE_MINOR, BootReport
 from spectratac.protocol.generated import messages as m
 
-#: the causes a healthy board boots from (a watchdog reset also pulls NRST: PIN alone is normal)
-NORMAL = m.ResetCause.RESET_PIN | m.ResetCause.RESET_POWER | m.ResetCause.RESET_SOFTWARE
-FAULT_FIELDS = (
-    "fault_pc", "fault_lr", "fault_xpsr", "fault_cfsr", "fault_hfsr", "fault_mmfar", "fault_bfar",
-)  # fmt: skip
-#: CFSR bits worth naming (ARMv7-M: MemManage, BusFault and UsageFault status)
-CFSR_BITS = {
-    0: "IACCVIOL", 1: "DACCVIOL", 7: "MMARVALID", 8: "IBUSERR", 9: "PRECISERR",
-    10: "IMPRECISERR", 15: "BFARVALID", 16: "UNDEFINSTR", 17: "INVSTATE", 18: "INVPC",
-    19: "NOCP", 24: "UNALIGNED", 25: "DIVBYZERO",
-}  # fmt: skip
-BOR_WANTED = 3  # 2.7 V: what 32-bit flash writes need
+BOR_WANTED = BOR_LEVEL_FOR_FLASH  # 2.7 V: what 32-bit flash writes need
 TRIG_SAMPLES = 20
 #: TRIG latency bins, as fractions of the integration time
 TRIG_EDGES = (0.0, 0.5, 0.9, 1.0, 1.1, 1.25, 1.5, 2.0)
@@ -34,60 +29,56 @@ TRIG_MAX = 1.5  # a conversion longer than 1.5 integration times is a sensor or 
 
 
 def too_old(name: str, bench: Bench) -> Row | None:
-    if bench.speaks(POST_MORTEM_MINOR):
+    if bench.speaks(SINCE_MINOR):
         return None
     return Row(
         name,
         SKIPPED,
         f"the firmware speaks protocol {bench.version}; this check reads STATUS fields of "
-        f"protocol 1.{POST_MORTEM_MINOR}: flash a firmware from this checkout to run it",
+        f"protocol 1.{SINCE_MINOR}: flash a firmware from this checkout to run it",
     )
 
 
-def causes(bits: int) -> list[str]:
-    """RESET_* names of STATUS.reset_cause, without the prefix: ['PIN', 'IWDG']."""
-    return [f.name.removeprefix("RESET_") for f in m.ResetCause if f.name and bits & f]
+def boot_values(boot: BootReport) -> dict[str, Any]:
+    values: dict[str, Any] = {
+        "reset_cause": boot.causes,
+        "reset_cause_bits": boot.reset_cause,
+        "abnormal_resets": boot.abnormal_resets,
+        "safe_mode": boot.safe_mode,
+    }
+    if boot.fault_present:
+        values["fault"] = {k: f"0x{v:08X}" for k, v in boot.fault.items()}
+        values["fault_flags"] = boot.fault_flags()
+    return values
 
 
-def cfsr_names(cfsr: int) -> list[str]:
-    return [name for bit, name in CFSR_BITS.items() if cfsr >> bit & 1]
-
-
-def fault_record(status: Any) -> dict[str, str]:
-    return {name: f"0x{int(getattr(status, name)):08X}" for name in FAULT_FIELDS}
+def fault_text(boot: BootReport) -> str:
+    f = boot.fault
+    return (
+        f"a fault record: PC 0x{f['pc']:08X}, LR 0x{f['lr']:08X}, CFSR 0x{f['cfsr']:08X} "
+        f"({' '.join(boot.fault_flags()) or '-'}): look the PC up in the image "
+        "(arm-none-eabi-addr2line -e firmware.elf PC)"
+    )
 
 
 def reset_cause(bench: Bench) -> Row:
-    skipped = too_old("reset cause and fault record", bench)
+    name = "reset cause and fault record"
+    skipped = too_old(name, bench)
     if skipped or bench.first_status is None:
-        return skipped or Row("reset cause and fault record", SKIPPED, "no STATUS")
-    st = bench.first_status
-    found = causes(int(st.reset_cause))
-    values: dict[str, Any] = {
-        "reset_cause": found,
-        "reset_cause_bits": int(st.reset_cause),
-        "abnormal_resets": int(st.abnormal_resets),
-        "safe_mode": bool(st.safe_mode),
-    }
+        return skipped or Row(name, SKIPPED, "no STATUS")
+    boot = BootReport.from_status(bench.first_status, bench.minor)
+    values = boot_values(boot)
     problems = []
-    if st.reset_cause & m.ResetCause.RESET_FAULT:
-        values["fault"] = fault_record(st)
-        values["cfsr_bits"] = cfsr_names(int(st.fault_cfsr))
-        problems.append(
-            f"a fault record: PC {values['fault']['fault_pc']}, LR {values['fault']['fault_lr']}, "
-            f"CFSR {values['fault']['fault_cfsr']} ({', '.join(values['cfsr_bits']) or '-'}): "
-            "look the PC up in the image (arm-none-eabi-addr2line -e firmware.elf PC)"
-        )
-    odd = causes(st.reset_cause & ~(NORMAL | m.ResetCause.RESET_FAULT))
-    if odd:
-        problems.append(f"the last reset was by {', '.join(odd)}")
-    if st.abnormal_resets:
-        problems.append(f"{st.abnormal_resets} abnormal resets in a row")
-    if st.safe_mode:
+    if boot.fault_present:
+        problems.append(fault_text(boot))
+    if boot.abnormal:
+        problems.append(f"the last reset was abnormal ({', '.join(boot.causes)})")
+    if boot.abnormal_resets:
+        problems.append(f"{boot.abnormal_resets} abnormal resets in a row")
+    if boot.safe_mode:
         problems.append("booted in safe mode (without the model store) after abnormal resets")
-    said = f"reset by {', '.join(found) or 'nothing recorded'}; no fault record"
-    verdict = FAIL if problems else PASS
-    return Row("reset cause and fault record", verdict, "; ".join(problems) or said, values)
+    said = f"reset by {', '.join(boot.causes) or 'nothing recorded'}; no fault record"
+    return Row(name, FAIL if problems else PASS, "; ".join(problems) or said, values)
 
 
 def brownout(bench: Bench) -> Row:
@@ -96,7 +87,7 @@ def brownout(bench: Bench) -> Row:
     skipped = too_old(name, bench)
     if skipped or bench.first_status is None:
         return skipped or Row(name, SKIPPED, "no STATUS")
-    level = int(bench.first_status.bor_level)
+    level = BootReport.from_status(bench.first_status, bench.minor).bor_level
     values = {"bor_level": level, "wanted": BOR_WANTED}
     if level < BOR_WANTED:
         return Row(
@@ -163,62 +154,88 @@ def trig_latency(bench: Bench) -> Row:
     return Row(name, FAIL if problems else PASS, "; ".join(problems) or f"{said} ({it} ms)", values)
 
 
+def _commanded(bench: Bench, name: str, kind: m.FaultKind) -> tuple[BootReport, float] | Row:
+    """DEBUG_FAULT `kind`, then the boot report of the reset it causes and the host seconds
+    the board took to answer again; a skipped Row for a release image."""
+    s = bench.sensor
+    before = s.status()
+    try:
+        s.debug_fault(kind)
+    except (MissingCapabilityError, CommandRejectedError) as exc:
+        return Row(name, SKIPPED, f"a release image: {exc}")
+    started = time.monotonic()
+    status = back_after_reset(bench, before)
+    return BootReport.from_status(status, bench.minor), time.monotonic() - started
+
+
 def watchdog(bench: Bench) -> Row:
-    """Command a hang (DEBUG_FAULT, test images only) and read the reset cause after the
-    independent watchdog has reset the board."""
+    """Command a hang (test images only) and read the reset cause once the independent
+    watchdog has reset the board."""
     name = "watchdog"
     skipped = too_old(name, bench)
     if skipped:
         return skipped
-    s = bench.sensor
-    if not s.info.capabilities & m.Capabilities.CAP_DEBUG_FAULT:
-        return Row(
-            name,
-            SKIPPED,
-            "a release image (no CAP_DEBUG_FAULT): flash a test image (firmware/README.md, "
-            "bring-up) to check the watchdog",
-        )
-    before = s.status()
-    reply = s.request_raw(m.DebugFault.TYPE_ID, m.DebugFault(kind=m.FaultKind.FAULT_HANG).pack())
-    if isinstance(reply, m.Nack):
-        known = reply.error in m.Error._value2member_map_
-        error = m.Error(reply.error).name if known else str(reply.error)
-        return Row(
-            name,
-            SKIPPED,
-            f"DEBUG_FAULT refused ({error}): a release image; flash a test image "
-            "(firmware/README.md, bring-up) to check the watchdog",
-        )
-    started = time.monotonic()
-    st = back_after_reset(bench, int(before.uptime_ms))
-    back_s = time.monotonic() - started
-    found = causes(int(st.reset_cause))
-    values = {"reset_cause": found, "back_after_s": round(back_s, 3)}
-    if not st.reset_cause & m.ResetCause.RESET_IWDG:
+    got = _commanded(bench, name, m.FaultKind.FAULT_HANG)
+    if isinstance(got, Row):
+        return got
+    boot, back_s = got
+    values = boot_values(boot) | {"back_after_s": round(back_s, 3)}
+    if not boot.reset_cause & m.ResetCause.RESET_IWDG:
         return Row(
             name,
             FAIL,
-            f"after a commanded hang the board reports reset by {', '.join(found) or 'nothing'}, "
-            "not the independent watchdog: is the watchdog started and fed only by the superloop?",
+            f"after a commanded hang the board reports reset by "
+            f"{', '.join(boot.causes) or 'nothing'}, not the independent watchdog: is the "
+            "watchdog started, and fed only by the superloop?",
             values,
         )
     return Row(
         name,
         PASS,
-        f"reset by the independent watchdog after a commanded hang; back "
-        f"after {back_s:.1f} s (host time)",
+        f"reset by the independent watchdog after a commanded hang; answering again after "
+        f"{back_s:.1f} s (host time)",
         values,
     )
 
 
-def back_after_reset(bench: Bench, uptime_ms: int) -> m.Status:
-    """The first STATUS of the board's next boot (its uptime below `uptime_ms`): on the same
-    link while it holds (a UART, a simulated device), else opened again (USB re-enumerates)."""
+def fault_record(bench: Bench) -> Row:
+    """Command a HardFault (test images only): after the reset the fault record names it."""
+    name = "fault record"
+    skipped = too_old(name, bench)
+    if skipped:
+        return skipped
+    got = _commanded(bench, name, m.FaultKind.FAULT_HARD)
+    if isinstance(got, Row):
+        return got
+    boot, _ = got
+    values = boot_values(boot)
+    if not boot.fault_present or not boot.fault["pc"]:
+        return Row(
+            name,
+            FAIL,
+            f"after a commanded HardFault the board reports reset by "
+            f"{', '.join(boot.causes) or 'nothing'} and no fault record: the record in .noinit "
+            "RAM did not survive the reset",
+            values,
+        )
+    return Row(
+        name,
+        PASS,
+        f"the commanded HardFault is recorded: PC 0x{boot.fault['pc']:08X}, "
+        f"{' '.join(boot.fault_flags()) or 'no CFSR flags'}",
+        values,
+    )
+
+
+def back_after_reset(bench: Bench, before: m.Status) -> m.Status:
+    """The first STATUS of the board's next boot (its uptime or its count of frames received
+    went back: both start from zero at boot), on the same link while it holds (a UART, a
+    simulated device), else opened again (USB re-enumerates)."""
     deadline = time.monotonic() + REOPEN_S
     while True:
         try:
             status = bench.sensor.status()
-            if status.uptime_ms < uptime_ms:
+            if status.uptime_ms < before.uptime_ms or status.rx_frames <= before.rx_frames:
                 return status
         except DisconnectedError:
             bench.reopen(max(0.0, deadline - time.monotonic()))
@@ -226,7 +243,7 @@ def back_after_reset(bench: Bench, uptime_ms: int) -> m.Status:
             pass  # hung until the watchdog bites, or still booting
         if time.monotonic() > deadline:
             raise DeviceTimeoutError(
-                f"{bench.url} did not come back within {REOPEN_S:.0f} s of a commanded hang: "
+                f"{bench.url} did not come back within {REOPEN_S:.0f} s of a commanded fault: "
                 "is the independent watchdog running? (power-cycle the board)"
             )
         time.sleep(0.2)

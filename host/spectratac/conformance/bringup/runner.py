@@ -1,6 +1,6 @@
 """The bring-up plan, in order: each check gets the Bench and gives a Row; a check that raises
 is a failed row naming the error, so one broken part of a board never hides the others. The
-watchdog check resets the board, so it comes last."""
+watchdog and fault-record checks reset the board, so they come last."""
 
 from __future__ import annotations
 
@@ -33,6 +33,7 @@ def plan(soak_s: float = SOAK_S) -> list[tuple[str, Check]]:
         ("soak", functools.partial(soak.soak, seconds=soak_s)),
         ("clock drift", soak.clock_drift),
         ("watchdog", postmortem.watchdog),
+        ("fault record", postmortem.fault_record),
     ]
 
 

@@ -9,10 +9,11 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from spectratac.conformance.bringup.bench import POST_MORTEM_MINOR, Bench
+from spectratac.conformance.bringup.bench import Bench
 from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
 from spectratac.conformance.model_checks import TestModel
 from spectratac.device import DeviceError
+from spectratac.device.boot_report import SINCE_MINOR
 from spectratac.protocol import crc32c
 from spectratac.protocol.generated import messages as m
 
@@ -29,7 +30,7 @@ def _timed(bench: Bench, msg: Any, timeout: float | None = None) -> float:
 
 
 def _erase_us(bench: Bench) -> dict[str, int]:
-    if not bench.speaks(POST_MORTEM_MINOR):
+    if not bench.speaks(SINCE_MINOR):
         return {}
     status = bench.sensor.status()
     return {"erase_us_last": int(status.erase_us_last), "erase_us_max": int(status.erase_us_max)}
@@ -84,7 +85,7 @@ def model_store(bench: Bench) -> Row:
         f"; device-measured erase {values['begin_erase_us_last'] / 1000:.1f} ms (begin), "
         f"{values['clear_erase_us_last'] / 1000:.1f} ms (clear)"
         if "begin_erase_us_last" in values
-        else f"; erase durations are STATUS fields of protocol 1.{POST_MORTEM_MINOR}"
+        else f"; erase durations are STATUS fields of protocol 1.{SINCE_MINOR}"
     )
     said = (
         f"{len(image)} B uploaded and erased: MODEL_BEGIN {values['begin_s']:.3f} s, chunks "
