@@ -20,11 +20,22 @@ from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, postmortem
 from spectratac.conformance.bringup.bench import Bench
 from spectratac.conformance.bringup.leds import CHANNELS, FULL_SCALE, LIT_MIN, colour_columns, judge
 from spectratac.conformance.bringup.report import KIND, Report, Row, is_report
+from spectratac.conformance.model_checks import TestModel
+from spectratac.device import Sensor
 from spectratac.hardware.generated import vocabulary as vocab
 
 pytestmark = pytest.mark.slow  # each run streams the whole plan (seconds at speed=max)
 
 SIM = "sim://?scene=idle&speed=max"
+
+
+@pytest.fixture
+def sim(tmp_path: Path) -> str:
+    """A simulated board with a flash of its own: a model another test left in the store of
+    its seed (sticky_model keeps one) would make the model store check skip here."""
+    return f"{SIM}&model_store={tmp_path / 'flash.bin'}"
+
+
 #: a URL -> the checks it must fail, and a phrase of the report that says why
 BREAKS = {
     "absent=1": ({"sensors"}, "sensor 1 did not answer the ID probe"),
@@ -51,10 +62,10 @@ def _failed(report: dict[str, Any]) -> dict[str, str]:
 
 
 def test_a_good_board_passes_with_every_figure(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    sim: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "board.json"
-    code, report = _run(capsys, SIM, "-o", str(out))
+    code, report = _run(capsys, sim, "-o", str(out))
     assert code == ExitCode.OK, _failed(report)
     assert json.loads(out.read_text()) == report  # the filed report is what was printed
     rows = {c["name"]: c for c in report["checks"]}
@@ -93,9 +104,9 @@ def test_the_text_report_has_a_line_per_check_and_the_matrix(
 
 @pytest.mark.parametrize("params", sorted(BREAKS))
 def test_a_faulty_board_fails_the_check_that_catches_it(
-    params: str, capsys: pytest.CaptureFixture[str]
+    params: str, sim: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, report = _run(capsys, f"{SIM}&{params}", "--soak", "2")
+    code, report = _run(capsys, f"{sim}&{params}", "--soak", "2")
     names, phrase = BREAKS[params]
     failed = _failed(report)
     assert code == ExitCode.FAILURE and not report["passed"]
@@ -103,12 +114,26 @@ def test_a_faulty_board_fails_the_check_that_catches_it(
     assert phrase in " ".join(failed.values()), failed
 
 
-def test_a_lossy_link_fails_the_soak_with_its_counts(capsys: pytest.CaptureFixture[str]) -> None:
-    code, report = _run(capsys, f"{SIM}&fault=corrupt&fault_rate=1e-3", "--soak", "20")
+def test_a_lossy_link_fails_the_soak_with_its_counts(
+    sim: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, report = _run(capsys, f"{sim}&fault=corrupt&fault_rate=1e-3", "--soak", "20")
     soak = next(c for c in report["checks"] if c["name"] == "soak")
     assert code == ExitCode.FAILURE and soak["verdict"] == FAIL
     assert soak["values"]["crc_errors"] + soak["values"]["cobs_errors"] > 0
     assert "crc errors" in soak["detail"] or "cobs errors" in soak["detail"]
+
+
+def test_a_users_model_is_never_erased(sim: str, capsys: pytest.CaptureFixture[str]) -> None:
+    model = TestModel.packaged()
+    with Sensor.open(sim) as s:
+        s.upload_model(model.image, 0x5EED)
+    code, report = _run(capsys, sim, "--soak", "0")
+    store = next(c for c in report["checks"] if c["name"] == "model store")
+    assert code == ExitCode.OK and store["verdict"] == SKIPPED
+    assert "spectratac model clear" in store["detail"]
+    with Sensor.open(sim) as s:
+        assert s.model_info().model_id == 0x5EED
 
 
 def test_no_device_is_an_error_not_a_failed_check(capsys: pytest.CaptureFixture[str]) -> None:
@@ -179,6 +204,27 @@ def test_the_led_verdict(levels: list[int], ch: int) -> None:
     saturated[ch, own[0]] = True
     assert f"{CHANNELS[ch]} saturates" in judge(lit, dark, saturated)[0]
     assert "dark" in judge(lit, np.full(15, FULL_SCALE * 0.1), none)[0]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.sampled_from([50, 100, 200, 400]),
+    st.lists(st.floats(0.9, 1.4), min_size=3, max_size=3),
+    st.integers(0, 2),
+)
+def test_the_trig_latency_verdict(it: int, ratios: list[float], slow: int) -> None:
+    lat = np.array([[int(r * it * 1000) for r in ratios]] * 5, dtype=np.int64)
+    worst = tuple(int(v) for v in lat.max(axis=0))
+    row = postmortem.latency_row(lat, worst, [0, 1, 2], it)
+    assert row.verdict == PASS and sum(row.values["histogram"]["0"]) == 5
+    late = tuple(int(1.6 * it * 1000) if k == slow else w for k, w in enumerate(worst))
+    row = postmortem.latency_row(lat, late, [0, 1, 2], it)
+    assert row.verdict == FAIL and row.detail.startswith(f"sensor {slow}: TRIG took up to")
+    unmeasured = lat.copy()
+    unmeasured[2, slow] = 0
+    row = postmortem.latency_row(unmeasured, worst, [0, 1, 2], it)
+    assert row.verdict == FAIL and f"sensor {slow}: no TRIG latency measured" in row.detail
+    assert postmortem.latency_row(lat * 0, worst, [0, 1, 2], it).verdict == SKIPPED
 
 
 def test_an_older_firmware_is_told_to_update_not_failed() -> None:

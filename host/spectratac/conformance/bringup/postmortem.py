@@ -125,16 +125,29 @@ def trig_latency(bench: Bench) -> Row:
         s.stop()
     if not seen:
         return Row(name, FAIL, "no samples arrived while polling STATUS")
-    lat = np.array(seen, dtype=np.int64)  # samples x sensors, µs
-    edges_us = [e * it * 1000 for e in TRIG_EDGES] + [np.inf]
     present = [k for k in range(3) if s.info.sensor_present >> k & 1]
+    return latency_row(np.array(seen, dtype=np.int64), worst, present, it)
+
+
+def latency_row(lat: np.ndarray, worst: tuple[int, ...], present: list[int], it: int) -> Row:
+    """The TRIG latency verdict on what was polled: `lat` (polls x 3 sensors, µs), the
+    device's own maxima `worst`, the sensors present, the integration time `it` (ms).
+
+    >>> lat = np.array([[50_900, 51_000, 50_800]] * 4)
+    >>> latency_row(lat, (51_200, 51_000, 50_900), [0, 1, 2], 50).verdict
+    'pass'
+    >>> latency_row(lat, (120_000, 51_000, 50_900), [0, 1, 2], 50).detail[:40]
+    'sensor 0: TRIG took up to 120.0 ms for a'
+    """
+    name = "TRIG latency"
+    edges_us = [e * it * 1000 for e in TRIG_EDGES] + [np.inf]
     values: dict[str, Any] = {
         "integration_ms": it,
         "bin_edges_us": [int(e) for e in edges_us[:-1]],
-        "histogram": {k: np.histogram(lat[:, k], bins=edges_us)[0].tolist() for k in present},
-        "median_us": {k: int(np.median(lat[:, k])) for k in present},
-        "max_us": {k: worst[k] for k in present},
-        "polls": len(seen),
+        "histogram": {str(k): np.histogram(lat[:, k], bins=edges_us)[0].tolist() for k in present},
+        "median_us": {str(k): int(np.median(lat[:, k])) for k in present},
+        "max_us": {str(k): int(worst[k]) for k in present},
+        "polls": len(lat),
     }
     if not lat.any():
         return Row(name, SKIPPED, "the firmware does not measure it (every latency 0)", values)
@@ -148,7 +161,8 @@ def trig_latency(bench: Bench) -> Row:
                 "the sensor may not clear TRIG itself (hardware/datasheet_facts.toml)"
             )
     said = ", ".join(
-        f"sensor {k} median {values['median_us'][k] / 1000:.1f} ms, max {worst[k] / 1000:.1f} ms"
+        f"sensor {k} median {values['median_us'][str(k)] / 1000:.1f} ms, max "
+        f"{worst[k] / 1000:.1f} ms"
         for k in present
     )
     return Row(name, FAIL if problems else PASS, "; ".join(problems) or f"{said} ({it} ms)", values)

@@ -87,6 +87,9 @@ class Report:
         matrix = next((r.values for r in self.rows if "matrix" in r.values), None)
         if matrix:
             lines += ["", *matrix_lines(matrix)]
+        trig = next((r.values for r in self.rows if "histogram" in r.values), None)
+        if trig:
+            lines += ["", *histogram_lines(trig)]
         c = self.counts()
         tail = " (interrupted)" if self.interrupted else ""
         lines += [
@@ -105,6 +108,16 @@ def matrix_lines(values: dict[str, Any]) -> list[str]:
     for name, counts in zip(rows, values["matrix"], strict=True):
         out.append(f"{name:<11} " + " ".join(f"{v:>6}" for v in counts))
     out.append(f"{'dark':<11} " + " ".join(f"{v:>6}" for v in values["dark"]))
+    return out
+
+
+def histogram_lines(values: dict[str, Any]) -> list[str]:
+    """The TRIG latency histogram: a row per sensor, a column per bin (from its lower edge)."""
+    edges = values["bin_edges_us"]
+    head = "sensor  " + " ".join(f"{'>=' + format(e / 1000, 'g') + 'ms':>8}" for e in edges)
+    out = [f"TRIG latency ({values['polls']} polls at {values['integration_ms']} ms):", head]
+    for sensor, counts in values["histogram"].items():
+        out.append(f"{sensor:<7} " + " ".join(f"{c:>8}" for c in counts))
     return out
 
 
