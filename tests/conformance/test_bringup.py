@@ -202,7 +202,7 @@ def test_the_led_verdict(levels: list[int], ch: int) -> None:
     assert "wired to the wrong PWM pins" in " ".join(judge(crossed, dark, none))
     saturated = none.copy()
     saturated[ch, own[0]] = True
-    assert f"{CHANNELS[ch]} saturates" in judge(lit, dark, saturated)[0]
+    assert f"counts clip at full duty: {CHANNELS[ch]} on" in judge(lit, dark, saturated)[0]
     assert "dark" in judge(lit, np.full(15, FULL_SCALE * 0.1), none)[0]
 
 

@@ -51,8 +51,15 @@ def judge(lit: np.ndarray, dark: np.ndarray, saturated: np.ndarray) -> list[str]
     `dark` (15, all off), `saturated` (9 x 15, a count read full scale or flagged)."""
     problems = []
     names = vocab.SENSOR_CHANNELS
-    for ch, col in zip(*np.nonzero(saturated), strict=True):
-        problems.append(f"{CHANNELS[ch]} saturates {names[col]}")
+    clipped = [
+        f"{CHANNELS[ch]} on {names[col]}" for ch, col in zip(*np.nonzero(saturated), strict=True)
+    ]
+    if clipped:
+        problems.append(
+            f"counts clip at full duty: {', '.join(clipped)}; a sensor this close to its LED "
+            "needs a lower duty (record --leds) or gain, or the skin's optical layer is thinner "
+            "than designed"
+        )
     hot = [names[c] for c in np.nonzero(dark > DARK_MAX * FULL_SCALE)[0]]
     if hot:
         problems.append(
