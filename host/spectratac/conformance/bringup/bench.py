@@ -13,11 +13,12 @@ import numpy as np
 from spectratac.device import SAMPLE_RECORD, DeviceError, Sensor
 from spectratac.protocol.generated import messages as m
 
-#: bound on every wait for the device's data (s): generous, as a loaded host runs late; a read
-#: returns as soon as its samples have arrived, so the bound only ends a dead device's wait
+#: bound on a wait in which no sample arrives (s): generous, as a loaded host (or QEMU on one)
+#: runs late; a read returns as soon as its samples have arrived, so the bound only ends a
+#: dead device's wait, and a slow one that still sends is waited for
 WAIT_S = 30.0
 #: how long a device may take to come back after a reset it was asked for (USB re-enumerates)
-REOPEN_S = 20.0
+REOPEN_S = 60.0
 
 
 @dataclass
@@ -31,8 +32,7 @@ class Bench:
 
     @classmethod
     def open(cls, url: str, timeout: float) -> Bench:
-        # a wrong definition hash is a failed identity check, reported, not a refusal to look
-        sensor = Sensor.open(url, timeout=timeout, strict_hash=False)
+        sensor = _open(url, timeout)
         bench = cls(url, sensor, timeout)
         if sensor.info.capabilities & m.Capabilities.CAP_STATUS:
             bench.first_status = sensor.status()
@@ -57,7 +57,7 @@ class Bench:
         deadline = time.monotonic() + within_s
         while True:
             try:
-                self.sensor = Sensor.open(self.url, timeout=self.timeout, strict_hash=False)
+                self.sensor = _open(self.url, self.timeout)
                 return
             except DeviceError:
                 if time.monotonic() > deadline:
@@ -78,14 +78,22 @@ class Bench:
         s.read(1_000_000, timeout=0)  # an earlier stream's leftovers
         kept: list[np.ndarray] = []
         have = 0
-        deadline = time.monotonic() + WAIT_S + (n + skip) * integration_ms / 1000
         s.start()
         try:
-            while have < n + skip and time.monotonic() < deadline:
-                batch = s.read(n + skip - have, timeout=max(0.0, deadline - time.monotonic()))
+            while have < n + skip:
+                batch = s.read(n + skip - have, timeout=WAIT_S)
+                if not len(batch):
+                    break  # nothing for WAIT_S: the device stopped sending
                 batch = batch[batch["config_id"] == config_id]
                 kept.append(batch)
                 have += len(batch)
         finally:
             s.stop()
         return np.concatenate(kept)[skip : skip + n] if kept else np.zeros(0, SAMPLE_RECORD)
+
+
+def _open(url: str, timeout: float) -> Sensor:
+    # a wrong definition hash is a failed identity check, reported, not a refusal to look; a
+    # stream that goes quiet ends a check's read after WAIT_S, not the link's stall watch
+    # (whose few seconds a loaded host, or QEMU on one, can exceed)
+    return Sensor.open(url, timeout=timeout, strict_hash=False, stall_timeout=WAIT_S)
