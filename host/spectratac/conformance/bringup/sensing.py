@@ -42,7 +42,7 @@ def sensors(bench: Bench) -> Row:
         )
     for k in range(3):
         seen = int(np.bitwise_or.reduce(batch["status"][:, k])) if len(batch) else 0
-        flags[k] = flag_names(seen)
+        flags[str(k)] = flag_names(seen)
         if k in present and seen & BAD:
             problems.append(f"sensor {k} flagged {', '.join(flag_names(seen & BAD))}")
     errors = [b - a for a, b in zip(before, after, strict=True)] if before and after else None
