@@ -76,9 +76,12 @@ firmware-test: $(STAMP)
 firmware-native:
 	$(PYTHON) -m tools.firmware.build simlib
 
-# Black Pill in ROM DFU mode (hold BOOT0, tap NRST); ST-Link: see firmware/README.md.
+# Black Pill over USB DFU. A board running our firmware: make flash URL=/dev/ttyACM0 (it is
+# asked into its ROM bootloader first); otherwise hold BOOT0 and tap NRST before. Brown-out
+# level 3 once per board: spectratac flash --set-bor (ST-Link). See firmware/README.md.
+URL ?=
 flash: firmware
-	dfu-util -a 0 -s 0x08000000:leave -D $(FW_BIN)
+	$(BIN)/spectratac flash $(FW_BIN) $(if $(URL),--device $(URL))
 
 clean:
 	rm -rf $(VENV) .pytest_cache build

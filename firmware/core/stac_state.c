@@ -74,6 +74,9 @@ void stac_app_boot_log(stac_app_t *app) {
     }
     app->boot_logged = true;
     const stac_boot_t *b = &app->id.boot;
+    if (b->note != NULL) {
+        stac_app_log(app, STAC_LOG_WARN, b->note);
+    }
     static const char *const names[8] = {"pin", "power", "brownout", "software",
                                          "iwdg", "wwdg", "lowpower", "fault"};
     const uint8_t clean = (uint8_t)(STAC_RESET_PIN | STAC_RESET_POWER);

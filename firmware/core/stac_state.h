@@ -40,6 +40,7 @@ typedef struct stac_boot {
     uint8_t bor_level;       /* 0 off .. 3; MODEL_BEGIN needs STAC_BOR_LEVEL_FOR_FLASH */
     uint32_t fault_pc, fault_lr, fault_xpsr;
     uint32_t fault_cfsr, fault_hfsr, fault_mmfar, fault_bfar;
+    const char *note; /* NULL, or a degraded start-up the boot LOG adds (e.g. the clock) */
 } stac_boot_t;
 
 /* Brown-out level that holds the supply at >= 2.7 V, which 32-bit flash writes need. */
@@ -172,7 +173,8 @@ void stac_default_config(stac_configure_t *cfg);
 uint32_t stac_app_elapsed_us(const stac_app_t *app, uint32_t cycles0, uint32_t clock0);
 
 /* Send the boot LOG once (reset cause, fault record, safe mode, brown-out level), if the boot
- * is worth a word: anything but a clean power-on or pin reset with brown-out level 3. */
+ * is worth a word: anything but a clean power-on or pin reset with brown-out level 3; the
+ * port's note, if any, follows as a second line. */
 void stac_app_boot_log(stac_app_t *app);
 
 /* Wrap-safe "a is before b" for 32-bit µs times less than 2^31 apart. */

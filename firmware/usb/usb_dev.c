@@ -322,6 +322,9 @@ static int class_request(usb_dev_t *dev, const setup_t *s) {
         if ((s->value & ~3u) != 0u || !no_data(dev, s)) {
             return 0;
         }
+        if (usb_cdc_port_open(dev) && (s->value & 1u) == 0u) {
+            dev->port_closes++; /* the program closed the port: its frames are stale now */
+        }
         dev->control_lines = s->value;
         return 1;
     case CDC_SEND_BREAK: /* the board has no line to break: the duration is only recorded */

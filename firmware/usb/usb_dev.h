@@ -78,6 +78,8 @@ typedef struct usb_dev {
     uint8_t halted;          /* bit 0 data OUT, 1 data IN, 2 notification IN */
     usb_line_coding_t line;
     uint16_t control_lines;  /* SET_CONTROL_LINE_STATE wValue: bit 0 DTR, bit 1 RTS */
+    uint32_t port_closes;    /* DTR dropped on the open port; the driver then drops what is
+                              * queued to send, which the next program must not read */
     uint16_t break_ms;       /* last SEND_BREAK duration */
     uint32_t stalls;         /* request errors answered with STALL */
     uint8_t serial[USB_SERIAL_DESC_LEN];

@@ -22,6 +22,8 @@ OUT = REPO / "build" / "firmware" / "native"
 # so the boot and conformance tests run the UART image.
 ELF = REPO / "build" / "pio" / "blackpill_uart" / "firmware.elf"
 USB_ELF = REPO / "build" / "pio" / "blackpill" / "firmware.elf"
+# The UART image built as a test image (STAC_TEST_COMMANDS: DEBUG_FAULT faults or hangs).
+TEST_ELF = REPO / "build" / "pio" / "blackpill_uart_test" / "firmware.elf"
 BUILD_TIMEOUT_S = 600
 
 
@@ -72,10 +74,26 @@ def usb_image() -> Path:
     return build_image("blackpill", USB_ELF)
 
 
+@pytest.fixture(scope="session")
+def test_image() -> Path:
+    """The UART image as a test image (env blackpill_uart_test: DEBUG_FAULT compiled in)."""
+    return build_image("blackpill_uart_test", TEST_ELF)
+
+
 @pytest.fixture
 def qemu_port(image: Path) -> Iterator[int]:
     """The image running in QEMU (-M netduinoplus2), USART1 on a local TCP port. QEMU holds
     the guest until the host connects (wait=on)."""
+    yield from run_qemu(image)
+
+
+@pytest.fixture
+def qemu_test_port(test_image: Path) -> Iterator[int]:
+    """The test image running in QEMU, as qemu_port."""
+    yield from run_qemu(test_image)
+
+
+def run_qemu(image: Path) -> Iterator[int]:
     need("qemu-system-arm", "qemu-system-arm")
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -88,10 +106,13 @@ def qemu_port(image: Path) -> Iterator[int]:
             "-nographic",
             "-monitor",
             "none",
-            # Virtual time counts instructions (about 8 ns each, the board's order of speed),
-            # not host time: the guest's rates then do not depend on how loaded the host is.
+            # Virtual time counts instructions, not host time: the guest's rates then do not
+            # depend on how loaded the host is. QEMU's TIM5 (the device clock) counts 1 GHz of
+            # virtual time through the prescaler, which the firmware sets for its 16 MHz HSI
+            # fallback (QEMU has no PLL): 1 ns an instruction makes that a 16 MHz core at one
+            # instruction a cycle, as the board on its HSI.
             "-icount",
-            "shift=3,align=off,sleep=off",
+            "shift=0,align=off,sleep=off",
             "-kernel",
             str(image),
             "-serial",

@@ -372,6 +372,8 @@ PREFIX_PERIPHERALS = {
     "FLASH": ("FLASH",),
     "SCB": ("SCB",),
     "NVIC": ("NVIC",),
+    "DBG": ("DBG",),
+    "SYSCFG": ("SYSCFG",),
 }
 # Register names the macros use for a register the SVD names otherwise, or for several
 # registers with one layout (the endpoint registers): macro name -> SVD names (normalised).
@@ -403,6 +405,7 @@ INDEX_RANGES = {
     "OTG_FIFO": range(0, 4),
     "NVIC_ISER": range(0, 3),  # 86 interrupts: three words
     "NVIC_ISPR": range(0, 3),
+    "NVIC_IPR": range(0, 20),  # 86 interrupts: 22 words, the SVD lists the first 20
 }
 # Macros that are not registers, with why.
 NOT_REGISTERS = {

@@ -13,6 +13,7 @@ import pytest
 from spectratac.protocol import StreamDecoder, encode_frame
 from spectratac.protocol.framing import Frame
 from spectratac.protocol.generated import messages
+from spectratac.sim.generated import native_abi
 from spectratac.sim.native import CLOCK_FN, I2C_FN, PWM_FN, TX_FN, Callbacks, declare
 
 
@@ -114,7 +115,7 @@ def decode(data: bytes) -> tuple[list[Frame], StreamDecoder]:
 
 
 def test_abi_basics(lib: ctypes.CDLL) -> None:
-    assert lib.stac_sim_abi_version() == 1
+    assert lib.stac_sim_abi_version() == native_abi.ABI_VERSION == 2  # 2: stac_sim_in_bootloader
     assert lib.stac_sim_sizeof() > 1000
     assert lib.stac_sim_default_capabilities() & messages.Capabilities.CAP_SIMULATED
     mem = (ctypes.c_uint64 * ((lib.stac_sim_sizeof() + 7) // 8))()

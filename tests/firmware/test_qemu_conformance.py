@@ -1,10 +1,11 @@
 """The conformance suite against the STM32F411 image running in QEMU, as far as QEMU allows.
 
 QEMU models no VEML3328 (every sensor is absent, which the suite accepts when flagged) and no
-clock controller: the firmware falls back to its 16 MHz internal clock while QEMU's SysTick runs
-at 168 MHz, so device time runs about 10x faster than wall time. Checks that compare device
-time with host time (time sync) therefore cannot pass there; every other check must. QEMU
-runs with -icount (see conftest.py), so device-clock rates do not depend on the host's load.
+clock controller: the firmware falls back to its 16 MHz internal clock, and QEMU runs with
+-icount (see conftest.py), its TIM5 (the device clock) counting virtual time: device time runs
+as fast as QEMU executes instructions, not as wall time. Checks that compare device time with
+host time (time sync) therefore cannot pass there; every other check must, and device-clock
+rates do not depend on the host's load.
 QEMU's STM32F4 has no flash controller either: erasing the model store fails, so the model
 checks that upload must fail with FLASH_ERROR there (and only with it).
 """

@@ -21,7 +21,10 @@ from .conftest import BUILD_TIMEOUT_S, REPO, need, pio
 
 pytestmark = [pytest.mark.firmware, pytest.mark.subprocess]
 
-FLASH_BUDGET = 32 * 1024
+# The program's flash is what the linker script gives it: sectors 0-3, 64 KiB, below the model
+# store (the link fails beyond it). The image keeps 15 % of it free for what comes next.
+FLASH_BUDGET = 64 * 1024
+HEADROOM = 0.85
 # 8 KiB for acquisition and the link, plus the on-device decoder's session state
 # (stac_model_state_t: context ring, moving averages, baseline and scratch at the limits of
 # stac_model.h, ~14.5 KiB) since protocol 1.1. The F411 has 128 KiB.
@@ -77,8 +80,14 @@ def test_image_within_budget(which: str, image: Path, usb_image: Path) -> None:
     flash = s[".isr_vector"] + s[".text"] + s.get(".ARM.exidx", 0) + s.get(".data", 0)
     ram = s.get(".data", 0) + s[".bss"]
     print(f"{which}: flash {flash} B of {FLASH_BUDGET}, static RAM {ram} B of {RAM_BUDGET}")
-    assert flash <= FLASH_BUDGET
+    assert flash <= HEADROOM * FLASH_BUDGET
     assert ram <= RAM_BUDGET
+
+
+def test_flash_budget_is_what_the_linker_script_gives_the_program() -> None:
+    ld = (REPO / "firmware" / "ports" / "stm32f411" / "stm32f411ce.ld").read_text()
+    m = re.search(r"FLASH \(rx\)\s*: ORIGIN = 0x08000000, LENGTH = (\d+)K", ld)
+    assert m and int(m.group(1)) * 1024 == FLASH_BUDGET
 
 
 def test_native_env_runs_c_tests() -> None:

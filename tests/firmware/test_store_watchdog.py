@@ -7,7 +7,7 @@ refreshes). This bounds, for a full 448 KiB store, the longest stretch without a
 the whole pass, with the decode bench's cycle model (tools/bench/ondevice.py: Cortex-M4 TRM
 cycles of the compiled loop, branch refill P = 2, three flash wait states per 16-byte line),
 against the shortest watchdog period the port allows: its IWDG prescaler and reload
-(ports/stm32f411/main.c) at the LSI's fastest (hardware/datasheet_facts.toml).
+(ports/stm32f411/watchdog.h) at the LSI's fastest (hardware/datasheet_facts.toml).
 
 The interpreter's checks are measured, not modelled: the QEMU timeline image boots with the
 paper's float32 model installed and reports the boot's instructions; less the CRC loop's
@@ -49,7 +49,7 @@ def define(path: Path, name: str) -> int:
 def watchdog_period_s() -> float:
     """The running IWDG period at the LSI's maximum frequency (RM0383 17.3: the counter runs
     at LSI / (4 << PR) and resets after RLR + 1 counts)."""
-    main = REPO / "firmware" / "ports" / "stm32f411" / "main.c"
+    main = REPO / "firmware" / "ports" / "stm32f411" / "watchdog.h"
     pr, rlr = define(main, "IWDG_RUN_PR"), define(main, "IWDG_RUN_RLR")
     facts = tomllib.loads((REPO / "hardware" / "datasheet_facts.toml").read_text("utf-8"))
     lsi_max = facts["stm32f411"]["lsi_hz"]["value"]["max"]

@@ -61,6 +61,7 @@ BASES: dict[str, list[str] | None] = {
     "decode": ["missing.stac", DEV],
     "demo": ["-o", "full", "--no-progress"],
     "evaluate": ["missing.stac", "missing.npz", "-o", "report"],
+    "flash": ["missing.bin"],
     "export rosbag": ["missing.mcap", "-o", "bag"],
     "ft info": ["bota://" + DEV],
     "ft stream": ["bota://" + DEV],

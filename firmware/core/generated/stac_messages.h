@@ -91,7 +91,7 @@ typedef enum stac_fault_kind {
 /* STATUS.reset_cause bits: why the device last reset, from RCC_CSR read at boot (protocol 1.4). Several may be set (a watchdog reset also pulls NRST, so PIN accompanies it). */
 #define STAC_RESET_PIN (1u << 0) /* NRST pin (PINRSTF). */
 #define STAC_RESET_POWER (1u << 1) /* Power-on or power-down reset (PORRSTF). */
-#define STAC_RESET_BROWNOUT (1u << 2) /* Brown-out reset (BORRSTF). */
+#define STAC_RESET_BROWNOUT (1u << 2) /* Brown-out reset (BORRSTF without PORRSTF: the STM32F411 sets BORRSTF on every power-on too). */
 #define STAC_RESET_SOFTWARE (1u << 3) /* Software reset: SYSRESETREQ, e.g. after a fault or ENTER_BOOTLOADER (SFTRSTF). */
 #define STAC_RESET_IWDG (1u << 4) /* Independent watchdog (IWDGRSTF): the firmware hung. */
 #define STAC_RESET_WWDG (1u << 5) /* Window watchdog (WWDGRSTF). */

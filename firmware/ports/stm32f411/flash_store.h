@@ -44,6 +44,8 @@ typedef struct {
 #define FLASH_CR_PSIZE_MASK (3u << 8)
 #define FLASH_CR_STRT (1u << 16)
 #define FLASH_CR_LOCK (1u << 31)
+#define FLASH_OPTCR_BOR_LEV_SHIFT 2u /* brown-out level: 00 level 3 ... 11 off (RM0383 3.8.6) */
+#define FLASH_OPTCR_BOR_LEV_MASK (3u << 2)
 #define FLASH_ACR_ICRST (1u << 11)
 #define FLASH_ACR_DCRST (1u << 12)
 #define FLASH_ACR_ICEN_BIT (1u << 9)

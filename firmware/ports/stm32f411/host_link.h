@@ -14,5 +14,9 @@ uint32_t host_link_write(const uint8_t *data, uint32_t len);
 uint32_t host_link_read(uint8_t *buf, uint32_t cap);
 /* Move queued bytes on; never waits (superloop and inside bounded I2C waits). */
 void host_link_service(void);
+/* Send what is queued, waiting at most timeout_us (before a reset: the ACK must leave first). */
+void host_link_flush(uint32_t timeout_us);
+/* 1 while the host has suspended the bus (USB); the UART link is never suspended. */
+int host_link_suspended(void);
 
 #endif /* HOST_LINK_H */

@@ -1,6 +1,7 @@
 /* Host link over USART1 (env blackpill_uart): the board's original 921600 8N1 serial link. */
 #include "generated/board.h"
 #include "host_link.h"
+#include "timebase.h"
 #include "uart.h"
 
 void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
@@ -18,4 +19,15 @@ uint32_t host_link_read(uint8_t *buf, uint32_t cap) {
 
 void host_link_service(void) {
     uart_service();
+}
+
+void host_link_flush(uint32_t timeout_us) {
+    const uint32_t t0 = timebase_now_us();
+    while (uart_tx_queued() != 0u && timebase_now_us() - t0 < timeout_us) {
+        uart_service();
+    }
+}
+
+int host_link_suspended(void) {
+    return 0;
 }

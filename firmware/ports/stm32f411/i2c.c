@@ -5,7 +5,7 @@
 #include "host_link.h"
 #include "regs.h"
 #include "stac_hal.h"
-#include "systick.h"
+#include "timebase.h"
 
 #define I2C_HZ 400000u
 
@@ -46,19 +46,19 @@ static void bus_clear(uint8_t bus) {
     gpio_od_out(scl_port, scl->pin, 1);
     gpio_od_out(sda_port, sda->pin, 1);
     for (uint32_t i = 0; i < 9u && !gpio_read(sda_port, sda->pin); i++) {
-        uint32_t t = systick_now_us();
+        uint32_t t = timebase_now_us();
         gpio_write(scl_port, scl->pin, 0);
-        while (systick_now_us() - t < 5u) {
+        while (timebase_now_us() - t < 5u) {
         }
-        t = systick_now_us();
+        t = timebase_now_us();
         gpio_write(scl_port, scl->pin, 1);
-        while (systick_now_us() - t < 5u) {
+        while (timebase_now_us() - t < 5u) {
         }
     }
     /* STOP: SDA rises while SCL is high. */
     gpio_write(sda_port, sda->pin, 0);
-    const uint32_t t = systick_now_us();
-    while (systick_now_us() - t < 5u) {
+    const uint32_t t = timebase_now_us();
+    while (timebase_now_us() - t < 5u) {
     }
     gpio_write(sda_port, sda->pin, 1);
     gpio_af(scl_port, scl->pin, scl->af, 1, 1);
@@ -86,7 +86,7 @@ static int32_t wait_sr1(i2c_t *i2c, uint32_t mask, uint32_t t0, uint32_t timeout
         if ((sr1 & mask) != 0u) {
             return STAC_I2C_OK;
         }
-        if (systick_now_us() - t0 >= timeout_us) {
+        if (timebase_now_us() - t0 >= timeout_us) {
             return STAC_I2C_TIMEOUT;
         }
         host_link_service();
@@ -95,7 +95,7 @@ static int32_t wait_sr1(i2c_t *i2c, uint32_t mask, uint32_t t0, uint32_t timeout
 
 static int32_t wait_clear(volatile uint32_t *reg, uint32_t mask, uint32_t t0, uint32_t timeout_us) {
     while ((*reg & mask) != 0u) {
-        if (systick_now_us() - t0 >= timeout_us) {
+        if (timebase_now_us() - t0 >= timeout_us) {
             return STAC_I2C_TIMEOUT;
         }
         host_link_service();
@@ -210,7 +210,7 @@ int32_t i2c_transfer(uint8_t bus, uint8_t addr7, const uint8_t *wr, uint32_t wr_
         return STAC_I2C_BUS_ERROR;
     }
     i2c_t *i2c = k_i2c[bus];
-    const uint32_t t0 = systick_now_us();
+    const uint32_t t0 = timebase_now_us();
     const int32_t rc = do_transfer(i2c, addr7, wr, wr_len, rd, rd_len, t0, timeout_us);
     if (rc == STAC_I2C_NACK) {
         /* Release the bus and clear the flag; the peripheral itself is fine. */

@@ -1,9 +1,14 @@
-/* Black Pill port: bring up clocks, pins, peripherals; run the core's superloop for ever.
- * The independent watchdog resets the board if a pass ever takes longer than ~0.5 s, which
- * the bounded waits make impossible in normal operation. */
+/* Black Pill port: read how the board came up (reset flags, the fault record, the brown-out
+ * level), bring up clocks, pins, peripherals; run the core's superloop for ever. The
+ * independent watchdog resets the board if a pass ever takes longer than ~0.5 s, which the
+ * bounded waits make impossible in normal operation; it stops while a debugger halts the core.
+ *
+ * Test images (build flag STAC_TEST_COMMANDS, env blackpill_uart_test) also serve DEBUG_FAULT:
+ * a HardFault or a hang, for the post-mortem tests and bring-up. */
 #include <string.h>
 
 #include "generated/board.h"
+#include "boot_record.h"
 #include "clock.h"
 #include "core_debug.h"
 #include "flash_store.h"
@@ -13,8 +18,9 @@
 #include "pwm.h"
 #include "regs.h"
 #include "stac_app.h"
-#include "systick.h"
+#include "timebase.h"
 #include "uid.h"
+#include "watchdog.h"
 
 #ifndef STAC_BUILD_ID
 #define STAC_BUILD_ID "dev"
@@ -45,7 +51,7 @@ static uint32_t hal_read(void *ctx, uint8_t *buf, uint32_t cap) {
 
 static uint32_t hal_clock(void *ctx) {
     (void)ctx;
-    return systick_now_us();
+    return timebase_now_us();
 }
 
 static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
@@ -53,41 +59,12 @@ static void hal_uid(void *ctx, uint8_t uid[STAC_UID_SIZE]) {
     uid_read(uid);
 }
 
-#define IWDG_SR_BUSY (IWDG_SR_PVU | IWDG_SR_RVU) /* a prescaler or reload update in progress */
-/* Watchdog periods, prescaler code (LSI / (4 << PR)) and reload (RLR + 1 counts): running,
- * 32 kHz / 16 x 1001 = ~0.5 s (0.34 s at the LSI's 47 kHz maximum); around a flash erase,
- * 32 kHz / 64 x 4096 = ~8.2 s (5.6 s at 47 kHz). tests/firmware/test_store_watchdog.py reads
- * these to bound the model store's longest stretch without a refresh. */
-#define IWDG_RUN_PR 2u
-#define IWDG_RUN_RLR 1000u
-#define IWDG_ERASE_PR 4u
-#define IWDG_ERASE_RLR 4095u
-#define IWDG_UPDATE_WAIT 100000u
-
-/* Set the watchdog period: prescaler code (32 kHz / 4 << pr) and reload (RM0383 17.3). */
-static void watchdog_period(uint32_t pr, uint32_t rlr) {
-    IWDG->KR = IWDG_KR_RELOAD; /* refresh with the old period before changing it */
-    for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
-    }
-    IWDG->KR = IWDG_KR_UNLOCK; /* unlock PR/RLR */
-    IWDG->PR = pr;
-    IWDG->RLR = rlr;
-    for (uint32_t i = 0u; i < IWDG_UPDATE_WAIT && (IWDG->SR & IWDG_SR_BUSY) != 0u; i++) {
-    }
-    IWDG->KR = IWDG_KR_RELOAD;
-}
-
-static void watchdog_start(void) {
-    watchdog_period(IWDG_RUN_PR, IWDG_RUN_RLR);
-    IWDG->KR = IWDG_KR_START;
-}
-
 static uint32_t store_now(void) {
-    return systick_now_us();
+    return timebase_now_us();
 }
 
 static void store_kick_watchdog(void) {
-    IWDG->KR = IWDG_KR_RELOAD;
+    watchdog_refresh();
 }
 
 static const flash_store_t k_store = {
@@ -130,7 +107,7 @@ static int32_t hal_store_program(void *ctx, uint32_t offset, const uint8_t *data
 /* The model store's CRC pass refreshes the watchdog between blocks (stac_model_store.c). */
 static void hal_watchdog_refresh(void *ctx) {
     (void)ctx;
-    IWDG->KR = IWDG_KR_RELOAD;
+    watchdog_refresh();
 }
 
 static uint32_t hal_cycles(void *ctx) {
@@ -138,20 +115,70 @@ static uint32_t hal_cycles(void *ctx) {
     return cycle_counter_read();
 }
 
+/* The ACK of a command that resets the board must leave first (~0.3 ms at 921600 baud). */
+#define ACK_FLUSH_US 20000u
+
+static __attribute__((noreturn)) void reset_now(void) {
+    __asm volatile("dsb" ::: "memory");
+    SCB_AIRCR = SCB_AIRCR_RESET;
+    for (;;) {
+    }
+}
+
+/* ENTER_BOOTLOADER: the reset handler starts the ROM bootloader when it finds the magic. */
+static void hal_enter_bootloader(void *ctx) {
+    (void)ctx;
+    host_link_flush(ACK_FLUSH_US);
+    g_boot_record.dfu_magic = BOOT_DFU_MAGIC;
+    reset_now();
+}
+
+#ifdef STAC_TEST_COMMANDS
+/* DEBUG_FAULT (test images): an undefined instruction (UsageFault, escalated to HardFault:
+ * CFSR UNDEFINSTR, HFSR FORCED), or a hang with interrupts masked that only the watchdog
+ * ends. */
+static void hal_debug_fault(void *ctx, uint8_t kind) {
+    (void)ctx;
+    host_link_flush(ACK_FLUSH_US);
+    if (kind == STAC_FAULT_HARD) {
+        __asm volatile("udf #0" ::: "memory");
+    }
+    __asm volatile("cpsid i" ::: "memory");
+    for (;;) {
+    }
+}
+#endif
+
+/* Why the board reset and what the last run left behind, read before anything else (the
+ * flags stay until RMVF clears them, so each boot reports its own). */
+static void read_boot(stac_boot_t *boot) {
+    const uint32_t csr = RCC->CSR;
+    boot_record_take(&g_boot_record, csr, FLASH_REGS->OPTCR, boot);
+    RCC->CSR = csr | RCC_CSR_RMVF;
+}
+
 int main(void) {
+    DBG_DBGMCU_APB1_FZ |= DBG_DBGMCU_APB1_FZ_DBG_IWDEG_STOP; /* a halted core is not a hang */
+    stac_identity_t id;
+    memset(&id, 0, sizeof id);
+    read_boot(&id.boot);
     clocks_t clk;
     clock_init(&clk);
-    systick_init(clk.sys_hz);
+    timebase_init(clk.tim_hz);
     gpio_init_board();
     pwm_init(clk.tim_hz);
     i2c_init_all(clk.apb1_hz);
     uint8_t uid[STAC_UID_SIZE];
     uid_read(uid);
     host_link_init(&clk, uid); /* USB: before the watchdog, core set-up waits 25 ms */
-    watchdog_start();
+    (void)watchdog_start();
+    if (clk.on_pll == 0u) {
+        /* The crystal or PLL did not start: 16 MHz HSI. USB needs the crystal's 48 MHz and
+         * stays off; 921600 baud is 16 MHz / 17.4, so the UART runs 2.1 % fast (most
+         * USB-serial adapters still read it; the boot LOG says so). */
+        id.boot.note = "HSI 16MHz: no USB, UART 2.1% fast";
+    }
 
-    stac_identity_t id;
-    memset(&id, 0, sizeof id);
     memcpy(id.board, BOARD_NAME, sizeof BOARD_NAME);
     strncpy(id.build_id, STAC_BUILD_ID, sizeof id.build_id - 1u);
     id.capabilities = STAC_CAPS_CORE | STAC_CAPS_MODEL;
@@ -172,11 +199,25 @@ int main(void) {
         /* DWT CYCCNT counts core clocks; without one (QEMU) the device reports 0 Hz. */
         .cycles = cycle_counter_start() ? hal_cycles : 0,
         .cycle_hz = clk.sys_hz,
+        .enter_bootloader = hal_enter_bootloader,
+#ifdef STAC_TEST_COMMANDS
+        .debug_fault = hal_debug_fault,
+#endif
     };
-    stac_app_init(&g_app, &hal, &id, systick_now_us());
+    stac_app_init(&g_app, &hal, &id, timebase_now_us());
+    bool suspended = false;
     for (;;) {
-        IWDG->KR = IWDG_KR_RELOAD;
+        watchdog_refresh();
         host_link_service();
-        stac_app_step(&g_app, systick_now_us());
+        /* A suspended USB host reads nothing: pause acquisition with the LEDs dark (the core
+         * keeps its clock; the pass after the resume carries on). */
+        const bool now_suspended = host_link_suspended() != 0;
+        if (now_suspended && !suspended) {
+            stac_leds_off(&g_app.leds, &g_app.hal);
+        }
+        suspended = now_suspended;
+        if (!suspended) {
+            stac_app_step(&g_app, timebase_now_us());
+        }
     }
 }

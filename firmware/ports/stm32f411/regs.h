@@ -15,7 +15,8 @@
 
 typedef struct {
     volatile uint32_t CR, PLLCFGR, CFGR, CIR, AHB1RSTR, AHB2RSTR, RES0[2], APB1RSTR, APB2RSTR,
-        RES1[2], AHB1ENR, AHB2ENR, RES2[2], APB1ENR, APB2ENR;
+        RES1[2], AHB1ENR, AHB2ENR, RES2[2], APB1ENR, APB2ENR, RES3[2], AHB1LPENR, AHB2LPENR,
+        RES4[2], APB1LPENR, APB2LPENR, RES5[2], BDCR, CSR;
 } rcc_t;
 #define RCC ((rcc_t *)0x40023800u)
 #define RCC_CR_HSEON (1u << 16)
@@ -36,11 +37,23 @@ typedef struct {
 #define RCC_APB1ENR_TIM2 (1u << 0)
 #define RCC_APB1ENR_TIM3 (1u << 1)
 #define RCC_APB1ENR_TIM4 (1u << 2)
+#define RCC_APB1ENR_TIM5 (1u << 3)
 #define RCC_APB1ENR_I2C1 (1u << 21)
 #define RCC_APB1ENR_I2C2 (1u << 22)
 #define RCC_APB1ENR_I2C3 (1u << 23)
 #define RCC_APB1ENR_PWR (1u << 28)
 #define RCC_APB2ENR_USART1 (1u << 4)
+#define RCC_APB2ENR_SYSCFG (1u << 14)
+/* Reset flags (RM0383 §6.3.21 RCC_CSR), kept until RMVF clears them. ST's SVD names the pin
+ * flag PADRSTF (the manual: PINRSTF) and the independent watchdog's WDGRSTF (IWDGRSTF). */
+#define RCC_CSR_RMVF (1u << 24)
+#define RCC_CSR_BORRSTF (1u << 25)
+#define RCC_CSR_PADRSTF (1u << 26)
+#define RCC_CSR_PORRSTF (1u << 27)
+#define RCC_CSR_SFTRSTF (1u << 28)
+#define RCC_CSR_WDGRSTF (1u << 29)
+#define RCC_CSR_WWDGRSTF (1u << 30)
+#define RCC_CSR_LPWRRSTF (1u << 31)
 #define RCC_AHB2ENR_OTGFS (1u << 7)
 #define RCC_AHB2RSTR_OTGFS (1u << 7)
 
@@ -111,6 +124,7 @@ typedef struct {
 #define TIM2 ((tim_t *)0x40000000u)
 #define TIM3 ((tim_t *)0x40000400u)
 #define TIM4 ((tim_t *)0x40000800u)
+#define TIM5 ((tim_t *)0x40000C00u) /* 32-bit: the port's microsecond clock (timebase.c) */
 #define TIM_CR1_CEN (1u << 0)
 #define TIM_CR1_ARPE (1u << 7)
 #define TIM_EGR_UG (1u << 0)
@@ -151,12 +165,15 @@ typedef struct {
 
 #define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
 #define NVIC_ISPR(n) REG32(0xE000E200u + 4u * (n))
+#define NVIC_IPR(n) REG32(0xE000E400u + 4u * (n)) /* four 8-bit priorities per word */
 #define SCB_CPACR REG32(0xE000ED88u)
 #define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)
 #define SCB_CCR REG32(0xE000ED14u)
 #define SCB_CCR_BFHFNMIGN (1u << 8)
 #define SCB_CFSR REG32(0xE000ED28u)
 #define SCB_HFSR REG32(0xE000ED2Cu)
+#define SCB_MMFAR REG32(0xE000ED34u)
+#define SCB_BFAR REG32(0xE000ED38u)
 #define SCB_AIRCR REG32(0xE000ED0Cu)
 #define SCB_AIRCR_RESET 0x05FA0004u
 
@@ -171,6 +188,18 @@ typedef struct {
 #define IWDG_SR_RVU (1u << 1)
 
 #define UID_BASE 0x1FFF7A10u
+/* The system memory: ST's ROM bootloader (USB DFU among others), its vector table first. */
+#define SYSTEM_MEMORY_BASE 0x1FFF0000u
+
+/* Debug support (RM0383 §23.16.4 DBGMCU_APB1_FZ): stop the independent watchdog while the core
+ * is halted by a debugger. ST's SVD spells the field DBG_IWDEG_STOP. */
+#define DBG_DBGMCU_APB1_FZ REG32(0xE0042008u)
+#define DBG_DBGMCU_APB1_FZ_DBG_IWDEG_STOP (1u << 12)
+
+/* System configuration (RM0383 §7.2.1 SYSCFG_MEMRMP): MEM_MODE 01 maps the system memory (the
+ * ROM bootloader) at 0. */
+#define SYSCFG_MEMRM REG32(0x40013800u)
+#define SYSCFG_MEMRM_MEM_MODE_SYSTEM 1u
 
 /* USB on-the-go full speed (RM0383 chapter 22, OTG_FS register map), device mode only; offsets
  * from the block's base 0x5000_0000. */
@@ -256,6 +285,7 @@ typedef struct {
 #define OTG_EPINT_EPDISD (1u << 1)
 #define OTG_DOEPINT_STUP (1u << 3)
 #define OTG_TSIZ_PKTCNT_SHIFT 19u
+#define OTG_PCGCCTL_STPPCLK (1u << 0) /* stop the PHY clock while the bus is suspended */
 #define OTG_DOEPTSIZ0_STUPCNT_SHIFT 29u
 
 #endif /* STM32F411_REGS_H */

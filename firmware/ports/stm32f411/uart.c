@@ -2,6 +2,7 @@
 
 #include <stdbool.h>
 
+#include "irq.h"
 #include "regs.h"
 
 #define TX_SIZE 2048u /* power of two; several full frames */
@@ -55,7 +56,7 @@ void uart_init(uint32_t apb2_hz, uint32_t baud) {
     USART1->CR1 = 0u;
     USART1->BRR = (apb2_hz + baud / 2u) / baud; /* 16x oversampling: mantissa.fraction/16 */
     USART1->CR1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE;
-    NVIC_ISER(USART1_IRQN / 32u) = 1u << (USART1_IRQN % 32u);
+    irq_enable(USART1_IRQN, IRQ_PRIORITY_LINK);
 }
 
 uint32_t uart_write(const uint8_t *data, uint32_t len) {
@@ -100,4 +101,8 @@ void uart_service(void) {
 
 uint32_t uart_rx_lost(void) {
     return g_rx_lost;
+}
+
+uint32_t uart_tx_queued(void) {
+    return g_tx_head - g_tx_tail;
 }

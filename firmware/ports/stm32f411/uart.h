@@ -13,6 +13,8 @@ uint32_t uart_write(const uint8_t *data, uint32_t len);
 uint32_t uart_read(uint8_t *buf, uint32_t cap);
 /* Move queued bytes into the transmitter while it has room; never waits. */
 void uart_service(void);
+/* Bytes queued and not yet handed to the transmitter. */
+uint32_t uart_tx_queued(void);
 /* Received bytes lost to a full ring or a hardware overrun. */
 uint32_t uart_rx_lost(void);
 

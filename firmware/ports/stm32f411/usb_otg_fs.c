@@ -13,8 +13,9 @@
 #include "clock.h"
 #include "gpio.h"
 #include "host_link.h"
+#include "irq.h"
 #include "regs.h"
-#include "systick.h"
+#include "timebase.h"
 #include "usb_cdc_io.h"
 #include "usb_dev.h"
 
@@ -52,6 +53,7 @@ static usb_cdc_io_t g_io;
 static volatile uint8_t g_tx_busy;  /* a bulk IN packet is in the FIFO */
 static volatile uint8_t g_rx_armed; /* EP1 OUT accepts a packet */
 static uint8_t g_running;           /* the controller was brought up */
+static uint32_t g_closes_seen;      /* g_dev.port_closes already acted on (interrupt only) */
 
 static int wait_reg(volatile uint32_t *reg, uint32_t mask, uint32_t value) {
     for (uint32_t i = 0; i < FLAG_SPINS; i++) {
@@ -313,6 +315,10 @@ void OTG_FS_IRQHandler(void) {
     }
     if ((st & OTG_GINT_OEPINT) != 0u) {
         on_out_endpoints();
+        if (g_dev.port_closes != g_closes_seen) { /* DTR dropped: the reader went away */
+            g_closes_seen = g_dev.port_closes;
+            usb_cdc_io_drop_tx(&g_io);
+        }
     }
     if ((st & OTG_GINT_IEPINT) != 0u) {
         on_in_endpoints();
@@ -320,9 +326,11 @@ void OTG_FS_IRQHandler(void) {
     if ((st & OTG_GINT_USBSUSP) != 0u) {
         OTG_GINTSTS = OTG_GINT_USBSUSP;
         usb_dev_suspend(&g_dev);
+        OTG_PCGCCTL |= OTG_PCGCCTL_STPPCLK; /* the PHY idles until the host resumes the bus */
     }
     if ((st & OTG_GINT_WKUPINT) != 0u) {
         OTG_GINTSTS = OTG_GINT_WKUPINT;
+        OTG_PCGCCTL &= ~OTG_PCGCCTL_STPPCLK;
         usb_dev_resume(&g_dev);
     }
     if (g_rx_armed == 0u && g_dev.state == USB_STATE_CONFIGURED && (g_dev.halted & 1u) == 0u) {
@@ -362,8 +370,8 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     /* TRDT 6: the turnaround for an AHB clock of 32 MHz and above (RM0383, GUSBCFG TRDT
      * table); HCLK is 96 MHz here. */
     OTG_GUSBCFG = OTG_GUSBCFG_FDMOD | OTG_GUSBCFG_PHYSEL | (6u << OTG_GUSBCFG_TRDT_SHIFT);
-    const uint32_t t0 = systick_now_us();
-    while (systick_now_us() - t0 < MODE_SWITCH_US) {
+    const uint32_t t0 = timebase_now_us();
+    while (timebase_now_us() - t0 < MODE_SWITCH_US) {
     }
     /* No VBUS sensing: the Black Pill does not wire VBUS to PA9 (USART1 TX in the other
      * build), and a bus-powered board only runs while VBUS is there (RM0383 GCCFG). */
@@ -386,7 +394,7 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     OTG_GINTMSK = OTG_GINT_USBRST | OTG_GINT_ENUMDNE | OTG_GINT_RXFLVL | OTG_GINT_IEPINT |
                   OTG_GINT_OEPINT | OTG_GINT_USBSUSP | OTG_GINT_WKUPINT;
     OTG_GAHBCFG = OTG_GAHBCFG_GINTMSK;
-    NVIC_ISER(OTG_FS_IRQN / 32u) = 1u << (OTG_FS_IRQN % 32u);
+    irq_enable(OTG_FS_IRQN, IRQ_PRIORITY_LINK);
     g_running = 1u;
     OTG_DCTL &= ~OTG_DCTL_SDIS; /* connect: the host sees the DP pull-up and resets us */
 }
@@ -416,4 +424,16 @@ void host_link_service(void) {
     if (g_running != 0u && g_tx_busy == 0u && usb_cdc_io_tx_queued(&g_io) != 0u) {
         pend_irq();
     }
+}
+
+void host_link_flush(uint32_t timeout_us) {
+    const uint32_t t0 = timebase_now_us();
+    while (g_running != 0u && (usb_cdc_io_tx_queued(&g_io) != 0u || g_tx_busy != 0u) &&
+           usb_cdc_port_open(&g_dev) && timebase_now_us() - t0 < timeout_us) {
+        host_link_service();
+    }
+}
+
+int host_link_suspended(void) {
+    return g_dev.state == USB_STATE_SUSPENDED;
 }

@@ -24,6 +24,7 @@ from spectratac.errors import SpectraTacError
 # Verb modules under spectratac.cli, in the order they appear in --help.
 VERB_MODULES: tuple[str, ...] = (
     "device_cmd",
+    "flash_cmd",
     "model_cmd",
     "sim_cmd",
     "conformance_cmd",

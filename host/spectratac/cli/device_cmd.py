@@ -117,9 +117,7 @@ def _stream(args: argparse.Namespace) -> int:
     else:
         columns = [*SAMPLE_COLUMNS, "status", *(ESTIMATE_COLUMNS if mode == "beside" else [])]
     printed = 0
-    with Sensor.open(
-        args.url, timeout=args.timeout, stall_timeout=args.stall_timeout
-    ) as sensor:
+    with Sensor.open(args.url, timeout=args.timeout, stall_timeout=args.stall_timeout) as sensor:
         sensor.configure(
             integration_ms=args.integration_ms, leds=[[[args.duty] * 3] * 3], estimates=mode
         )

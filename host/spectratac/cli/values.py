@@ -132,6 +132,7 @@ def _clip(value: str) -> str:
 RANGES: dict[str, Number] = {
     "--timeout": seconds(0.0, 3600.0, above=True),
     "--stall-timeout": seconds(0.0, 86400.0, above=True),
+    "--dfu-wait": seconds(0.0, 600.0, above=True),
     "--duration": seconds(),
     "--soak": seconds(0.0, 3600.0),
     "live --duration": seconds(inf_ok=True),  # inf: until Ctrl-C, as 0 and leaving it out

@@ -26,13 +26,13 @@ SINCE_MINOR = 4
 BOR_LEVEL_FOR_FLASH = 3
 #: the reset thresholds of each brown-out level (RM0383, FLASH_OPTCR BOR_LEV)
 BOR_VOLTS = {0: "off (~1.7 V POR/PDR only)", 1: "2.1 V", 2: "2.4 V", 3: "2.7 V"}
-#: CFSR bits worth naming (ARMv7-M B3.2.15): what the core faulted on
-CFSR_NAMES = {
-    0: "IACCVIOL", 1: "DACCVIOL", 3: "MUNSTKERR", 4: "MSTKERR", 5: "MLSPERR", 7: "MMARVALID",
-    8: "IBUSERR", 9: "PRECISERR", 10: "IMPRECISERR", 11: "UNSTKERR", 12: "STKERR",
-    13: "LSPERR", 15: "BFARVALID", 16: "UNDEFINSTR", 17: "INVSTATE", 18: "INVPC", 19: "NOCP",
-    24: "UNALIGNED", 25: "DIVBYZERO",
-}  # fmt: skip
+#: CFSR bits worth naming (ARMv7-M B3.2.15), (bit, name): what the core faulted on
+CFSR_BITS: tuple[tuple[int, str], ...] = (
+    (0, "IACCVIOL"), (1, "DACCVIOL"), (3, "MUNSTKERR"), (4, "MSTKERR"), (5, "MLSPERR"),
+    (7, "MMARVALID"), (8, "IBUSERR"), (9, "PRECISERR"), (10, "IMPRECISERR"), (11, "UNSTKERR"),
+    (12, "STKERR"), (13, "LSPERR"), (15, "BFARVALID"), (16, "UNDEFINSTR"), (17, "INVSTATE"),
+    (18, "INVPC"), (19, "NOCP"), (24, "UNALIGNED"), (25, "DIVBYZERO"),
+)  # fmt: skip
 _ABNORMAL = (
     m.ResetCause.RESET_FAULT
     | m.ResetCause.RESET_IWDG
@@ -78,7 +78,7 @@ class BootReport:
     @property
     def causes(self) -> list[str]:
         return [
-            f.name.removeprefix("RESET_").lower().replace("_", "-")
+            (f.name or "").removeprefix("RESET_").lower().replace("_", "-")
             for f in m.ResetCause
             if self.reset_cause & f
         ]
@@ -98,7 +98,7 @@ class BootReport:
 
     def fault_flags(self) -> list[str]:
         cfsr = self.fault["cfsr"]
-        names = [n for bit, n in CFSR_NAMES.items() if cfsr >> bit & 1]
+        names = [n for bit, n in CFSR_BITS if cfsr >> bit & 1]
         hfsr = self.fault["hfsr"]
         names += ["FORCED"] * bool(hfsr >> 30 & 1) + ["VECTTBL"] * bool(hfsr >> 1 & 1)
         return names

@@ -49,5 +49,7 @@ extern const test_case_t g_fuzz_tests[];
 extern const test_case_t g_store_tests[];
 extern const test_case_t g_flash_store_tests[];
 extern const test_case_t g_boot_tests[];
+extern const test_case_t g_boot_record_tests[];
+extern const test_case_t g_watchdog_tests[];
 
 #endif /* CHECK_H */

@@ -126,6 +126,18 @@ TEST(boot_log_silent_after_a_clean_power_on) {
     CHECK_EQ(n, 1);
 }
 
+TEST(boot_log_carries_the_ports_note) {
+    stac_boot_t b = {.reset_cause = STAC_RESET_POWER, .bor_level = 3u, .note = "HSI 16MHz"};
+    boot_with(&b);
+    const int n = command(STAC_MSG_GET_INFO, NULL, 0u);
+    CHECK_EQ(fake_count(g_frames, n, STAC_MSG_LOG), 1);
+    stac_log_t log;
+    const fake_frame_t *f = fake_last(g_frames, n, STAC_MSG_LOG);
+    stac_log_unpack(&log, f->payload, f->len);
+    CHECK_EQ(log.level, STAC_LOG_WARN);
+    CHECK(strcmp(log.text, "HSI 16MHz") == 0);
+}
+
 TEST(boot_safe_mode_skips_the_model_store) {
     /* A stored model first, on a board that boots normally. */
     boot_with(NULL);
@@ -254,6 +266,7 @@ const test_case_t g_boot_tests[] = {
     {"boot_status_reports_the_fault_record", boot_status_reports_the_fault_record},
     {"boot_log_goes_out_once_with_the_first_answer", boot_log_goes_out_once_with_the_first_answer},
     {"boot_log_silent_after_a_clean_power_on", boot_log_silent_after_a_clean_power_on},
+    {"boot_log_carries_the_ports_note", boot_log_carries_the_ports_note},
     {"boot_safe_mode_skips_the_model_store", boot_safe_mode_skips_the_model_store},
     {"boot_model_begin_refused_below_bor_level_3", boot_model_begin_refused_below_bor_level_3},
     {"boot_erase_time_is_measured", boot_erase_time_is_measured},

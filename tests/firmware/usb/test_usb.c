@@ -716,7 +716,24 @@ TEST(usb_random_events_keep_invariants) {
     }
 }
 
+/* Dropping DTR closes the port once: the driver then drops the transmit ring (up to 2 KB of
+ * frames that would otherwise reach the next program to open the port). */
+TEST(usb_dtr_drop_counts_a_close) {
+    usb_dev_t dev;
+    fake_udc_t f;
+    to_state(&dev, &f, 2);
+    CHECK(!control(&dev, &f, H2D_CLASS_IF, 0x22, 0, 0, 0, NULL).stalled);
+    CHECK_EQ(dev.port_closes, 0u); /* was not open: nothing to drop */
+    CHECK(!control(&dev, &f, H2D_CLASS_IF, 0x22, 3, 0, 0, NULL).stalled);
+    CHECK_EQ(dev.port_closes, 0u);
+    CHECK(!control(&dev, &f, H2D_CLASS_IF, 0x22, 2, 0, 0, NULL).stalled); /* DTR off */
+    CHECK_EQ(dev.port_closes, 1u);
+    CHECK(!control(&dev, &f, H2D_CLASS_IF, 0x22, 0, 0, 0, NULL).stalled);
+    CHECK_EQ(dev.port_closes, 1u);
+}
+
 static const test_case_t k_tests[] = {
+    {"usb_dtr_drop_counts_a_close", usb_dtr_drop_counts_a_close},
     {"usb_request_table", usb_request_table},
     {"usb_stall_ends_at_next_setup", usb_stall_ends_at_next_setup},
     {"usb_device_descriptor_bytes", usb_device_descriptor_bytes},

@@ -104,7 +104,9 @@ class ResetCause(IntFlag):
 
     RESET_PIN = 1 << 0  # NRST pin (PINRSTF).
     RESET_POWER = 1 << 1  # Power-on or power-down reset (PORRSTF).
-    RESET_BROWNOUT = 1 << 2  # Brown-out reset (BORRSTF).
+    RESET_BROWNOUT = (
+        1 << 2
+    )  # Brown-out reset (BORRSTF without PORRSTF: the STM32F411 sets BORRSTF on every power-on too).
     RESET_SOFTWARE = (
         1 << 3
     )  # Software reset: SYSRESETREQ, e.g. after a fault or ENTER_BOOTLOADER (SFTRSTF).
