@@ -11,7 +11,8 @@ cause, the sample rate at every integration time, a soak with nothing lost) must
 
 from __future__ import annotations
 
-from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, run_bringup
+from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, postmortem, run_bringup
+from spectratac.conformance.bringup.bench import Bench
 
 QEMU_LIMITED = {"clock drift", "brown-out level"}
 EXPECTED = {
@@ -44,3 +45,24 @@ def test_bringup_against_qemu_image(qemu_port: int) -> None:
     assert [r["integration_ms"] for r in rates] == [50, 100, 200, 400]
     soak = rows["soak"].values
     assert soak["samples"] == soak["expected"] and soak["crc_errors"] == soak["sequence_gaps"] == 0
+
+
+def test_the_fault_record_checks_against_qemu_test_image(qemu_test_port: int) -> None:
+    """The test image takes DEBUG_FAULT: the fault-record check passes (QEMU models the fault
+    registers, SYSRESETREQ and SRAM kept across the reset), and the next bring-up's reset-cause
+    check fails on the record, as it would on a board that faulted. FAULT_HANG is not run:
+    QEMU has no independent watchdog, so the hang would never end (a board test)."""
+    url = f"socket://127.0.0.1:{qemu_test_port}"
+    bench = Bench.open(url, 5.0)
+    try:
+        row = postmortem.fault_record(bench)
+    finally:
+        bench.sensor.close()
+    assert row.verdict == PASS, row.detail
+    assert "UNDEFINSTR" in row.values["fault_flags"] and "FORCED" in row.values["fault_flags"]
+    again = Bench.open(url, 5.0)
+    try:
+        row = postmortem.reset_cause(again)
+    finally:
+        again.sensor.close()
+    assert row.verdict == FAIL and "a fault record: PC 0x08" in row.detail, row.detail

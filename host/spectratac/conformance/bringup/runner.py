@@ -1,6 +1,7 @@
 """The bring-up plan, in order: each check gets the Bench and gives a Row; a check that raises
 is a failed row naming the error, so one broken part of a board never hides the others. The
-watchdog and fault-record checks reset the board, so they come last."""
+fault-record and watchdog checks reset the board, so they come last, the watchdog's at the
+very end: a board whose watchdog never bites stays hung."""
 
 from __future__ import annotations
 
@@ -32,8 +33,8 @@ def plan(soak_s: float = SOAK_S) -> list[tuple[str, Check]]:
         ("model store", store.model_store),
         ("soak", functools.partial(soak.soak, seconds=soak_s)),
         ("clock drift", soak.clock_drift),
-        ("watchdog", postmortem.watchdog),
         ("fault record", postmortem.fault_record),
+        ("watchdog", postmortem.watchdog),
     ]
 
 
