@@ -87,7 +87,10 @@ class Report:
         matrix = next((r.values for r in self.rows if "matrix" in r.values), None)
         if matrix:
             lines += ["", *matrix_lines(matrix)]
-        trig = next((r.values for r in self.rows if "histogram" in r.values), None)
+        trig = next(
+            (r.values for r in self.rows if "histogram" in r.values and r.verdict != SKIPPED),
+            None,
+        )
         if trig:
             lines += ["", *histogram_lines(trig)]
         c = self.counts()
