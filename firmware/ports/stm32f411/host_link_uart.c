@@ -23,8 +23,8 @@ void host_link_service(void) {
 
 void host_link_flush(uint32_t timeout_us) {
     const uint32_t t0 = timebase_now_us();
-    while (uart_tx_queued() != 0u && timebase_now_us() - t0 < timeout_us) {
-        uart_service();
+    while ((uart_tx_queued() != 0u || !uart_tx_done()) && timebase_now_us() - t0 < timeout_us) {
+        uart_service(); /* until the frame's last byte (its delimiter) has left the pin */
     }
 }
 

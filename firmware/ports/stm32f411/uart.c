@@ -106,3 +106,7 @@ uint32_t uart_rx_lost(void) {
 uint32_t uart_tx_queued(void) {
     return g_tx_head - g_tx_tail;
 }
+
+int uart_tx_done(void) {
+    return (USART1->SR & USART_SR_TC) != 0u;
+}

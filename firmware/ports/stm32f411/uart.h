@@ -15,6 +15,8 @@ uint32_t uart_read(uint8_t *buf, uint32_t cap);
 void uart_service(void);
 /* Bytes queued and not yet handed to the transmitter. */
 uint32_t uart_tx_queued(void);
+/* 1 once the last byte handed over has left the pin (TC), e.g. before a reset. */
+int uart_tx_done(void);
 /* Received bytes lost to a full ring or a hardware overrun. */
 uint32_t uart_rx_lost(void);
 
