@@ -51,6 +51,7 @@ WRITING_VERBS = {
     ),
     "demo": (["demo", "-o", "{out}", "--no-progress"], "folder"),
     "export rosbag": (["export", "rosbag", "missing.mcap", "-o", "{out}"], "folder"),
+    "bringup": (["bringup", "/dev/ttyNOPE", "-o", "{out}"], "x.json"),
 }
 # Verb modules whose returns are checked for literal exit codes.
 EXIT_CODE_MODULES = sorted(CLI.glob("*_cmd.py"))

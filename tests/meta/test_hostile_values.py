@@ -57,6 +57,7 @@ CASE_GUARD_S = 30  # per case: a hang fails it instead of the whole run
 # Verb -> argv that ends fast with exit code 3 (nothing to open or an output that exists);
 # None: the verb has no such input (it serves, or generates data): walked by the parser only.
 BASES: dict[str, list[str] | None] = {
+    "bringup": [DEV],
     "conformance": [DEV],
     "dataset build": ["missing.mcap", "-o", "out.npz"],
     "dataset info": ["missing.npz"],

@@ -28,6 +28,7 @@ VERB_MODULES: tuple[str, ...] = (
     "model_cmd",
     "sim_cmd",
     "conformance_cmd",
+    "bringup_cmd",
     "demo_cmd",
     "protocol_cmd",
     "twin_cmd",

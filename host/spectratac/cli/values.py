@@ -143,6 +143,7 @@ RANGES: dict[str, Number] = {
     "--stall-timeout": seconds(0.0, 86400.0, above=True, off_ok=True),  # off: no stall watch
     "--dfu-wait": seconds(0.0, 600.0, above=True),
     "--duration": seconds(),
+    "--soak": seconds(0.0, 3600.0),
     "live --duration": seconds(inf_ok=True),  # inf: until Ctrl-C, as 0 and leaving it out
     "--count": integer(0, 10**9),
     "--port": port,

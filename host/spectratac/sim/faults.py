@@ -62,6 +62,18 @@ CONFORMANCE_FAULTS = {
     "begin_erases": "every MODEL_BEGIN erases the installed model first, even one it refuses "
     "(refused MODEL_BEGIN changes nothing)",
 }
+#: bring-up faults: a board built wrongly, which `spectratac bringup` must catch
+BRINGUP_FAULTS = {
+    "swapped_led": "LED 0's red and blue PWM pins are crossed: its red duty drives blue and its "
+    "blue duty red (bring-up's LED channels)",
+    "hsi_clock": "STATUS reports a 16 MHz core clock, the HSI fallback (bring-up's clock)",
+    "bor_off": "STATUS reports brown-out level 0, the option byte's default (bring-up's "
+    "brown-out level)",
+    "lost_fault_record": "STATUS never reports a fault record, as if .noinit RAM were cleared "
+    "at boot (bring-up's fault record)",
+}
+#: the bring-up faults that rewrite STATUS
+STATUS_FAULTS = frozenset({"hsi_clock", "bor_off", "lost_fault_record"})
 #: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
 ACCEPTS = {
     "accept_large_model": m.Error.MODEL_TOO_LARGE,
@@ -72,7 +84,14 @@ ACCEPTS = {
 MODEL_INFO_FAULTS = frozenset({"bad_model_info", "wrong_model_crc", "volatile_model"})
 #: faults that change what the host sends before the device sees it
 HOST_SIDE = frozenset(
-    {"late_stop", "ignore_estimate_only", "volatile_model", "sticky_model", "begin_erases"}
+    {
+        "late_stop",
+        "ignore_estimate_only",
+        "volatile_model",
+        "sticky_model",
+        "begin_erases",
+        "swapped_led",
+    }
 )
 #: header seq of the MODEL_CLEAR a begin_erases device runs on its own (its ACK is not sent)
 HIDDEN_CLEAR_SEQ = 0xFFFF
@@ -85,7 +104,7 @@ LINK_FAULTS = {
     "unplug": "unplug the device after a random time (mean fault_unplug s, 20, of device "
     "time); the next open boots a fresh one",
 }
-FAULTS = CONFORMANCE_FAULTS | LINK_FAULTS
+FAULTS = CONFORMANCE_FAULTS | BRINGUP_FAULTS | LINK_FAULTS
 SYNC_JITTER_US = 50_000  # how far a sync_jitter device's odd replies are off
 #: how long a late_stop device streams on after acknowledging STOP, on its own clock (host
 #: time would make the fault, and so the check that catches it, depend on the host's load)
@@ -168,7 +187,7 @@ class FaultLayer:
         # it, so that one is lost too however intact its own bytes
         self._merges_next = False
         self._pending = b""  # device bytes of a frame not yet complete
-        self._rewrites = bool(self.faults & CONFORMANCE_FAULTS.keys())
+        self._rewrites = bool(self.faults & (CONFORMANCE_FAULTS.keys() | STATUS_FAULTS))
         self._next_stall: float | None = None  # set by the first sample
         self._closed = threading.Event()
         # late_stop: the STOP and every host byte after it, held until device time _stop_due_us
@@ -289,6 +308,8 @@ class FaultLayer:
             )
         elif isinstance(msg, m.Status) and "no_rx_errors" in f:
             msg = dataclasses.replace(msg, rx_errors=0)
+        elif isinstance(msg, m.Status) and f & STATUS_FAULTS:
+            msg = _status_fault(msg, f)
         elif isinstance(msg, m.Ack) and "begin_erases" in f and msg.acked_seq == HIDDEN_CLEAR_SEQ:
             return None
         elif isinstance(msg, m.Nack) and any(ACCEPTS[a] == msg.error for a in f & ACCEPTS.keys()):
@@ -337,6 +358,8 @@ class FaultLayer:
         if isinstance(msg, m.ModelClear) and "sticky_model" in self.faults:
             self._ack(msg.TYPE_ID, frame.seq)
             return b""
+        if isinstance(msg, m.Configure) and "swapped_led" in self.faults:
+            return _crossed(msg, frame.seq, frame.version)
         only = m.ConfigureFlags.CONFIG_ESTIMATE_ONLY
         if (
             isinstance(msg, m.Configure)
@@ -398,6 +421,25 @@ class FaultLayer:
         self._closed.set()  # a stall in progress ends: the device is being closed
         with self._stop_lock:
             self._held_stop = None
+
+
+def _status_fault(msg: m.Status, faults: frozenset[str]) -> m.Status:
+    if "hsi_clock" in faults:
+        msg = dataclasses.replace(msg, cycle_hz=16_000_000)
+    if "bor_off" in faults:
+        msg = dataclasses.replace(msg, bor_level=0)
+    if "lost_fault_record" in faults:
+        cleared = {f"fault_{k}": 0 for k in ("pc", "lr", "xpsr", "cfsr", "hfsr", "mmfar", "bfar")}
+        cause = msg.reset_cause & ~m.ResetCause.RESET_FAULT
+        msg = dataclasses.replace(msg, reset_cause=cause, **cleared)
+    return msg
+
+
+def _crossed(msg: m.Configure, seq: int, version: tuple[int, int]) -> bytes:
+    """CONFIGURE as a board with LED 0's red and blue pins crossed carries it out."""
+    duty = tuple((step[0][::-1], *step[1:]) for step in msg.led_duty)
+    crossed = dataclasses.replace(msg, led_duty=duty)
+    return encode_raw(crossed.TYPE_ID, crossed.pack(), seq, version)
 
 
 def _model_info_fault(msg: m.ModelInfo, faults: frozenset[str], uploading: bool) -> m.ModelInfo:
