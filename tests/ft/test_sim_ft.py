@@ -185,7 +185,9 @@ def test_speed_max_netft_waits_for_a_host_that_lags(monkeypatch: pytest.MonkeyPa
     def descheduled_once(self: netft.NetFTSensor, timeout: float) -> np.ndarray:
         if not stalled and self.stats.received > 200:
             stalled.append(True)
-            time.sleep(1.0)  # the reader thread does not run: packets pile up in the socket
+            # the reader thread does not run: packets pile up in the socket, longer than the
+            # optical device waits for a lagging F/T (world.FT_WAIT_S: then its scene moves on)
+            time.sleep(3.0)
         return poll(self, timeout)
 
     monkeypatch.setattr(netft.NetFTSensor, "_poll", descheduled_once)

@@ -216,8 +216,8 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     ),
 )
 
-#: Modules of this folder that are not benchmarks.
-HELPERS = ("__init__", "__main__", "benchlib", "registry", "results")
+#: Modules of this folder that are not benchmarks (live_limits: live_guard's newer probes).
+HELPERS = ("__init__", "__main__", "benchlib", "live_limits", "registry", "results")
 
 
 def by_name() -> dict[str, Benchmark]:

@@ -290,6 +290,7 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
     held-out presses)."""
     from spectratac.apps.estimates import auto_estimate, training_estimate
     from spectratac.errors import SpectraTacError
+    from spectratac.train.check import check_rows_for_options
 
     if auto:
         return auto_estimate(args.budget, ds, args.workers)
@@ -297,29 +298,13 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
         return None
     try:
         return training_estimate(
-            ds, spec, check_rows=check_rows(ds, spec, args.holdout, args.holdout_sessions)
+            ds,
+            spec,
+            check_rows=check_rows_for_options(ds, spec, args.holdout, args.holdout_sessions),
         )
     except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
         print(f"note: no time estimate ({exc})", file=sys.stderr)
         return None
-
-
-def check_rows(ds: Any, spec: Any, holdout: str | None, holdout_sessions: str | None) -> list[int]:
-    """Rows of each model the held-out check will train (train/check.py): a check model
-    unless a split, held-out sessions or validation groups give the held-out rows, and the
-    forward folds; the rows they may use are those the real model trains on."""
-    import numpy as np
-
-    from spectratac.train.check import check_plan
-    from spectratac.train.holdout import parse_sessions, session_rows
-
-    rows = None
-    if holdout_sessions:
-        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
-    if holdout:  # a split's training rows: about the same sessions, fewer rows
-        return [round(0.8 * r) for r in check_plan(ds, rows, check_model=False)]
-    own = not holdout_sessions and spec.val_fraction <= 0
-    return check_plan(ds, rows, check_model=own)
 
 
 def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:

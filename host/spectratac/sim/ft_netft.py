@@ -39,6 +39,7 @@ BUFFERED_RECORDS = 40  # records per packet in buffered mode (the device's comrd
 #: times faster, so a host thread descheduled for 10 ms on a busy machine would lose hundreds
 #: (a README recording lost 13 % at load 15). The host's receive buffer is at least 208 KB.
 UNPACED_BACKLOG_BYTES = 64 * 1024
+UNPACED_CHECK_EVERY = 64  # records between looks: 64 packets stay well inside the margin
 UNPACED_PATIENCE_S = 5.0  # a host that stopped reading loses what follows, as behind a real link
 
 
@@ -61,6 +62,7 @@ class NetFTServer:
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4 << 20)
         self._sock.bind((host, port))
         self._sock.setblocking(False)
+        self._reader_gone = False  # speed=max: the host let a wait for it run out
         self.host, self.port = self._sock.getsockname()
         self._http = http.server.ThreadingHTTPServer((host, http_port), _page_handler(self))
         self.http_port = self._http.server_address[1]
@@ -165,8 +167,6 @@ class NetFTServer:
         if self._remaining > 0:
             n = min(n, self._remaining)
             self._remaining -= n
-        if not self.source.world.paced:
-            self._wait_for_reader(self._client[1])
         wrench = batch.wrench[:n] - self._bias
         self._last = wrench[-1]
         counts = np.clip(np.rint(wrench * self._scale), -(2**31), 2**31 - 1).astype(np.int64)
@@ -177,7 +177,12 @@ class NetFTServer:
         lost = batch.lost[:n]
         size, step = rdt.RECORD_SIZE, self._per_packet
         send = self._sock.sendto
+        unpaced = not self.source.world.paced
         for i in range(0, n, step):
+            if unpaced and i % UNPACED_CHECK_EVERY < step:  # a batch can be seconds of scene
+                self._wait_for_reader(self._client[1])
+                if self._stop.is_set():
+                    return  # stopped: the socket is about to close
             j = min(i + step, n)
             if step == 1 and lost[i]:
                 self.dropped += 1
@@ -191,11 +196,14 @@ class NetFTServer:
                 self.sent += j - i
 
     def _wait_for_reader(self, port: int) -> None:
-        """Unpaced: wait (bounded) until the host has read most of what was sent."""
+        """Unpaced: wait (bounded) until the host has read most of what was sent; a host
+        that let the wait run out is not waited for again until it reads."""
         deadline = time.monotonic() + UNPACED_PATIENCE_S
         while (backlog := udp_backlog(port)) is not None and backlog > UNPACED_BACKLOG_BYTES:
-            if time.monotonic() > deadline or self._stop.wait(0.001):
+            if self._reader_gone or time.monotonic() > deadline or self._stop.wait(0.001):
+                self._reader_gone = True
                 return
+        self._reader_gone = False
 
 
 def udp_backlog(port: int, table: str = "/proc/net/udp") -> int | None:

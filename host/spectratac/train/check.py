@@ -47,6 +47,7 @@ from spectratac.decode.assemble import session_order
 from spectratac.decode.decoder import Decoder
 from spectratac.hardware.generated.vocabulary import AXIS_UNITS
 from spectratac.train.groups import Split, press_units, row_groups, val_split
+from spectratac.train.holdout import parse_sessions, session_rows
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import rows_of
 
@@ -246,13 +247,27 @@ def check_stride(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> i
     return max(1, -(-total // max(n, 1)))
 
 
-def check_plan(
-    dataset: Dataset, rows: Rows | None, *, check_model: bool
-) -> list[int]:
+def check_plan(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> list[int]:
     """Rows each model of the check trains on, thinned as `held_out_check` thins them:
     what a time estimate of the check counts."""
     stride = check_stride(dataset, rows, check_model=check_model)
     return [-(-r // stride) for r in check_fit_rows(dataset, rows, check_model=check_model)]
+
+
+def check_rows_for_options(
+    ds: Dataset, spec: Any, holdout: str | None, holdout_sessions: str | None
+) -> list[int]:
+    """Rows of each model the held-out check will train (`check_plan`), for `spectratac
+    train`'s options: a check model unless a split, held-out sessions or validation groups
+    give the held-out rows, and the forward folds; the rows they may use are those the real
+    model trains on."""
+    rows = None
+    if holdout_sessions:
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    if holdout:  # a split's training rows: about the same sessions, fewer rows
+        return [round(0.8 * r) for r in check_plan(ds, rows, check_model=False)]
+    own = not holdout_sessions and spec.val_fraction <= 0
+    return check_plan(ds, rows, check_model=own)
 
 
 def thinned(trainer: Callable[[Rows], Decoder], stride: int) -> Callable[[Rows], Decoder]:
