@@ -10,7 +10,6 @@ import json
 import numpy as np
 import pytest
 from spectratac.cli import main
-from spectratac.cli.train_cmd import check_rows
 from spectratac.dataset import Dataset
 from spectratac.decode import Decoder
 from spectratac.sim.ageing_skin import ageing_skin
@@ -18,7 +17,7 @@ from spectratac.train import FinetuneOptions, TrainSpec, fit, train
 from spectratac.train.auto_recipe import search
 from spectratac.train.auto_recipe.search import _forward_folds
 from spectratac.train.auto_recipe.space import Candidate
-from spectratac.train.check import held_out_check
+from spectratac.train.check import check_rows_for_options, held_out_check
 from spectratac.train.metrics import decoder_mae
 
 RIDGE = TrainSpec(model="ridge", degree=2, features="generic", targets=("Fz",))
@@ -128,7 +127,7 @@ def test_trains_estimate_counts_the_check(tmp_path, capsys) -> None:
     assert parts["held-out and forward check"] > 0 and rep["forward"] is not None
     # thinned, the check's models together train on no more rows than the model (each
     # model's fixed cost aside): at most one more fit's work, not five
-    plan = check_rows(Dataset.load(data), TrainSpec.paper(features="generic"), None, None)
+    plan = check_rows_for_options(Dataset.load(data), TrainSpec.paper(features="generic"), None, None)
     assert len(plan) == 5 and sum(plan) <= rep["n_train"] + len(plan)
 
 
