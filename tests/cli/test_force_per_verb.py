@@ -315,9 +315,9 @@ def test_train_export_force_replaces_only_its_own_exports(
 def test_the_kinds_of_the_exports(tmp_path: Path) -> None:
     import zipfile
 
+    import onnx  # pinned (requirements/lock.txt): the export's own dependency
     from spectratac.cli.outputs import is_c_header, is_onnx, is_torchscript
 
-    onnx = pytest.importorskip("onnx")
     graph = onnx.helper.make_graph([], "g", [], [])
     model = onnx.helper.make_model(graph, producer_name="pytorch")
     (tmp_path / "m.onnx").write_bytes(model.SerializeToString())
