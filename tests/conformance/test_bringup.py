@@ -16,12 +16,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from spectratac.cli import main
 from spectratac.cli.exit_codes import ExitCode
-from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, postmortem, runner
+from spectratac.conformance.bringup import FAIL, PASS, SKIPPED, plan, postmortem, runner, soak
 from spectratac.conformance.bringup.bench import Bench
 from spectratac.conformance.bringup.leds import CHANNELS, FULL_SCALE, LIT_MIN, colour_columns, judge
 from spectratac.conformance.bringup.report import KIND, Report, Row, is_report
 from spectratac.conformance.model_checks import TestModel
-from spectratac.device import Sensor
+from spectratac.device import DeviceTimeoutError, Sensor
 from spectratac.hardware.generated import vocabulary as vocab
 
 pytestmark = pytest.mark.slow  # each run streams the whole plan (seconds at speed=max)
@@ -122,6 +122,33 @@ def test_a_lossy_link_fails_the_soak_with_its_counts(
     assert code == ExitCode.FAILURE and soak["verdict"] == FAIL
     assert soak["values"]["crc_errors"] + soak["values"]["cobs_errors"] > 0
     assert "crc errors" in soak["detail"] or "cobs errors" in soak["detail"]
+
+
+@pytest.mark.parametrize("lost", ["status", "configure", "stop"])
+def test_a_lost_reply_in_the_soak_still_gives_its_counts(
+    lost: str, sim: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the lossy link a soak is for, a command's reply can be lost as well (CI on ce4cb77:
+    a corrupted GET_STATUS reply took the counts with it, and the row said only the timeout)."""
+    bench = Bench.open(sim, timeout=2.0)
+    try:
+
+        def lose(*_: object, **__: object) -> None:
+            raise DeviceTimeoutError(f"no reply to {lost.upper()} (injected)")
+
+        monkeypatch.setattr(bench.sensor, lost, lose)
+        row = soak.soak(bench, 1.0)
+    finally:
+        monkeypatch.undo()
+        bench.sensor.close()
+    assert (
+        row.verdict == FAIL
+        and f"{lost.upper()}" in row.detail
+        and "DeviceTimeoutError" in row.detail
+    )
+    assert row.values is not None and row.values["crc_errors"] == row.values["cobs_errors"] == 0
+    want = 0 if lost == "configure" else row.values["expected"]
+    assert row.values["samples"] == want
 
 
 def test_a_users_model_is_never_erased(sim: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -5,13 +5,14 @@ clock drifts from the host's (the crystal's accuracy)."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
 from spectratac.conformance.bringup.bench import WAIT_S, Bench
 from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
-from spectratac.device import SAMPLE_RECORD, ClockSync
+from spectratac.device import SAMPLE_RECORD, ClockSync, DeviceError
 from spectratac.protocol.generated import messages as m
 
 INTEGRATION_MS = 50
@@ -20,6 +21,7 @@ WHITE = [[[500, 500, 500]] * 3]
 #: ±0.25 %: a board off by more cannot keep its USB link)
 DRIFT_MAX_PPM = 2500.0
 HOST_COUNTERS = ("crc_errors", "cobs_errors", "other_frame_errors", "frame_gaps", "sample_gaps")
+T = TypeVar("T")
 
 
 def soak(bench: Bench, seconds: float) -> Row:
@@ -27,28 +29,40 @@ def soak(bench: Bench, seconds: float) -> Row:
         return Row("soak", SKIPPED, "--soak 0: no soak asked for")
     s = bench.sensor
     wanted = max(1, round(seconds * 1000 / INTEGRATION_MS))
+    problems: list[str] = []
+
+    def ask(what: str, command: Callable[[], T]) -> T | None:
+        # On the lossy link a soak is meant to find, a command's reply can be lost too: that
+        # is one more problem to report, and the counts are still what the user needs.
+        try:
+            return command()
+        except DeviceError as exc:
+            problems.append(f"{what} failed ({type(exc).__name__})")
+            return None
+
     host_before = {k: getattr(s.stats, k) for k in HOST_COUNTERS}
     has_status = bool(s.info.capabilities & m.Capabilities.CAP_STATUS)
-    dev_before = s.status() if has_status else None
+    dev_before = ask("STATUS before", s.status) if has_status else None
     scale = s.link_info.clock_scale
-    sync_before = s.sync_clock() if scale else None
-    config_id = s.configure(integration_ms=INTEGRATION_MS, leds=WHITE)
-    s.read(1_000_000, timeout=0)
+    sync_before = ask("TIME_SYNC before", s.sync_clock) if scale else None
+    config_id = ask("CONFIGURE", lambda: s.configure(integration_ms=INTEGRATION_MS, leds=WHITE))
     got: list[np.ndarray] = []
     have = 0
-    s.start()
-    try:
-        while have < wanted:
-            batch = s.read(min(wanted - have, 200), timeout=WAIT_S)
-            if not len(batch):
-                break  # nothing for WAIT_S: the device stopped sending
-            batch = batch[batch["config_id"] == config_id]
-            got.append(batch)
-            have += len(batch)
-    finally:
-        s.stop()
-    sync_after = s.sync_clock() if scale else None
-    dev_after = s.status() if has_status else None
+    if config_id is not None:
+        s.read(1_000_000, timeout=0)
+        started = ask("START", lambda: s.start() or True)
+        try:
+            while started and have < wanted:
+                batch = s.read(min(wanted - have, 200), timeout=WAIT_S)
+                if not len(batch):
+                    break  # nothing for WAIT_S: the device stopped sending
+                batch = batch[batch["config_id"] == config_id]
+                got.append(batch)
+                have += len(batch)
+        finally:
+            ask("STOP", s.stop)
+    sync_after = ask("TIME_SYNC after", s.sync_clock) if scale else None
+    dev_after = ask("STATUS after", s.status) if has_status else None
     samples = np.concatenate(got) if got else np.zeros(0, SAMPLE_RECORD)
     host = {k: getattr(s.stats, k) - v for k, v in host_before.items()}
     values: dict[str, Any] = {"seconds": seconds, "samples": len(samples), "expected": wanted}
@@ -58,7 +72,7 @@ def soak(bench: Bench, seconds: float) -> Row:
         values["device_rx_errors"] = dev_after.rx_errors - dev_before.rx_errors
     seq = samples["sequence"].astype(np.int64) if len(samples) else np.zeros(0, np.int64)
     values["sequence_gaps"] = int(np.sum(np.diff(seq) - 1)) if len(seq) else 0
-    problems = [f"{k.replace('_', ' ')} {v}" for k, v in values.items() if _bad(k, v)]
+    problems[:0] = [f"{k.replace('_', ' ')} {v}" for k, v in values.items() if _bad(k, v)]
     if len(samples) < wanted:
         problems.append(f"only {len(samples)} of {wanted} samples arrived")
     if sync_before and sync_after and scale:
