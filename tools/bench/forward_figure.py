@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 from spectratac.apps.estimates import auto_estimate, training_estimate
-from spectratac.cli.train_cmd import check_rows
+from spectratac.cli.train_cmd import check_predictions, check_rows
 from spectratac.dataset import Dataset
 from spectratac.sim.ageing_skin import ageing_skin
 from spectratac.train import FinetuneOptions, TrainSpec, fit
@@ -73,7 +73,10 @@ def run_recipe(
         estimate = auto_estimate(args.budget, train_ds, workers=args.workers).total_s
     else:
         estimate = training_estimate(
-            train_ds, spec, check_rows=check_rows(train_ds, spec, None, None)
+            train_ds,
+            spec,
+            check_rows=check_rows(train_ds, spec, None, None),
+            predictions=check_predictions(train_ds, None, None),
         ).total_s
     t0 = time.perf_counter()
     trained = fit(

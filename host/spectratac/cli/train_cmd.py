@@ -297,7 +297,10 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
         return None
     try:
         return training_estimate(
-            ds, spec, check_rows=check_rows(ds, spec, args.holdout, args.holdout_sessions)
+            ds,
+            spec,
+            check_rows=check_rows(ds, spec, args.holdout, args.holdout_sessions),
+            predictions=check_predictions(ds, args.holdout, args.holdout_sessions),
         )
     except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
         print(f"note: no time estimate ({exc})", file=sys.stderr)
@@ -320,6 +323,21 @@ def check_rows(ds: Any, spec: Any, holdout: str | None, holdout_sessions: str | 
         return [round(0.8 * r) for r in check_plan(ds, rows, check_model=False)]
     own = not holdout_sessions and spec.val_fraction <= 0
     return check_plan(ds, rows, check_model=own)
+
+
+def check_predictions(ds: Any, holdout: str | None, holdout_sessions: str | None) -> list[int]:
+    """Rows of each prediction pass of the check and the summary (train/check.py
+    `check_predictions`) on the rows the real model trains on."""
+    import numpy as np
+
+    from spectratac.train import check
+    from spectratac.train.holdout import parse_sessions, session_rows
+
+    rows = None
+    if holdout_sessions:
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    out = check.check_predictions(ds, rows)
+    return [round(0.8 * r) for r in out] if holdout else out
 
 
 def _changes(args: argparse.Namespace, features: str, targets: tuple[str, ...]) -> dict[str, Any]:
