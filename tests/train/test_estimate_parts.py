@@ -54,8 +54,8 @@ def test_the_training_estimate_has_a_part_for_the_prediction_passes(
         return estimates.PredictCost(0.2, 1e-3)
 
     monkeypatch.setattr(estimates.PredictCost, "measure", classmethod(fake))
-    monkeypatch.setattr(estimates.TrainingCost, "measure",
-                        classmethod(lambda cls, d, s: estimates.TrainingCost(0.0, 0.0)))  # fmt: skip
+    free = classmethod(lambda cls, d, s: estimates.TrainingCost(0.0, 0.0))
+    monkeypatch.setattr(estimates.TrainingCost, "measure", free)
     e = estimates.training_estimate(ds, spec, predictions=[100, 300])
     assert e.parts_s["scoring (check and summary)"] == pytest.approx(0.4 + 0.4)
     assert seen == [spec]  # the recipe's own architecture, context and drift baseline
@@ -77,11 +77,13 @@ def test_auto_estimate_is_the_planned_work_at_the_rate_plus_counted_fixed_parts(
     plus each fit's and pass's fixed cost shared among the workers, plus the workers'
     start."""
     ds = small()
-    fixed = estimates.FixedCosts(0.05, 0.01)
+    fixed = estimates.FixedCosts(0.05, 0.01, 0.3)
     monkeypatch.setattr(estimates, "machine_factor", lambda d, w=None: (2.0, fixed))
     monkeypatch.setattr(estimates, "worker_start_s", lambda: 3.0)
     plan = planned_work(ds, 4.0, workers=2)
     e = estimates.auto_estimate(4.0, ds, workers=2)
-    want = 2.0 * plan["work_s"] + (plan["fits"] * 0.05 + plan["passes"] * 0.01) / 2 + 3.0
-    assert e.total_s == pytest.approx(want)
+    drift = (plan["fits_drift"] + plan["passes_drift"]) * 0.3
+    want = 2.0 * plan["work_s"] + (plan["fits"] * 0.05 + plan["passes"] * 0.01 + drift) / 2
+    assert e.total_s == pytest.approx(want + 3.0)
+    assert plan["fits_drift"] > 0  # the drift and context candidates' assembly is counted
     assert plan["work_s"] < 4.0  # the budget is not all spent: trials that do not fit skip

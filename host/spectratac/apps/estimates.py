@@ -156,6 +156,8 @@ class PredictCost:
         dec = train(dataset, one, rows=np.arange(min(64, dataset.n)), progress=False)
         small, large = np.arange(min(64, dataset.n)), np.arange(min(rows, dataset.n))
         t_small = median_s(repeats, dec.predict, dataset, small)
+        if large.size <= small.size:  # a pass's cost only
+            return cls(t_small, 0.0)
         t_large = median_s(repeats, dec.predict, dataset, large)
         per_row = max((t_large - t_small) / max(large.size - small.size, 1), 0.0)
         return cls(max(t_small - per_row * small.size, 0.0), per_row)
@@ -193,8 +195,8 @@ def auto_estimate(budget_s: float, dataset: Dataset, workers: int | None = None)
     train/auto_recipe/budget.py) at this machine's rate now, plus the fixed cost of each of
     its fits and prediction passes, shared among the workers. A probe trains and runs a
     small network on the dataset's first rows (`machine_factor`)."""
-    from spectratac.train.auto_recipe.search import planned_work
     from spectratac import threads
+    from spectratac.train.auto_recipe.search import planned_work
 
     t0 = time.perf_counter()
     n_workers = max(1, workers or threads.usable_cpus())
@@ -204,9 +206,11 @@ def auto_estimate(budget_s: float, dataset: Dataset, workers: int | None = None)
         "search, forward folds and final refit (planned work at this machine's rate)":
         plan["work_s"] * factor,
         "fixed cost of each fit and prediction pass":
-        (plan["fits"] * fixed.fit_s + plan["passes"] * fixed.pass_s) / n_workers,
+        (plan["fits"] * fixed.fit_s + plan["passes"] * fixed.pass_s
+         + (plan["fits_drift"] + plan["passes_drift"]) * fixed.drift_pass_s) / n_workers,
     }  # fmt: skip
-    rates = {"wall / nominal": factor, "fixed s/fit": fixed.fit_s, "s/pass": fixed.pass_s}
+    rates = {"wall / nominal": factor, "fixed s/fit": fixed.fit_s, "s/pass": fixed.pass_s,
+             "s/pass with drift baseline": fixed.drift_pass_s}  # fmt: skip
     if n_workers > 1:  # spawned side by side, each importing torch and the trainer
         parts["starting the worker processes"] = rates["s/worker start"] = worker_start_s()
     return Estimate(parts, rates, time.perf_counter() - t0)
@@ -231,6 +235,9 @@ class FixedCosts:
 
     fit_s: float
     pass_s: float
+    # a pass of a network with the drift baseline and temporal context (the search's
+    # "+drift" and "+context" candidates): its assembly, also part of each such fit
+    drift_pass_s: float = 0.0
 
 
 def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float, FixedCosts]:
@@ -251,8 +258,11 @@ def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float,
     per_row = 3 * flops(spec.arch, p.features.n_features, p.heads.n_out)
     cost = TrainingCost.measure(dataset, spec)
     passes = PredictCost.measure(dataset, spec)
+    ctx = dataclasses.replace(spec, context=8, context_ema=(10.0, 40.0, 160.0), drift="baseline")
+    drift = PredictCost.measure(dataset, ctx, rows=64)
     factor = cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"])
-    return float(np.clip(factor, 0.2, 50)), FixedCosts(cost.fixed_s, passes.pass_s)
+    fixed = FixedCosts(cost.fixed_s, passes.pass_s, drift.pass_s)
+    return float(np.clip(factor, 0.2, 50)), fixed
 
 
 # ------------------------------------------------------------------ evaluate
