@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 from spectratac.cli import main
-from spectratac.cli.train_cmd import check_rows
+from spectratac.train.check import check_rows_for_options
 from spectratac.dataset import Dataset
 from spectratac.decode import Decoder
 from spectratac.sim.ageing_skin import ageing_skin
@@ -128,7 +128,8 @@ def test_trains_estimate_counts_the_check(tmp_path, capsys) -> None:
     assert parts["held-out and forward check"] > 0 and rep["forward"] is not None
     # thinned, the check's models together train on no more rows than the model (each
     # model's fixed cost aside): at most one more fit's work, not five
-    plan = check_rows(Dataset.load(data), TrainSpec.paper(features="generic"), None, None)
+    spec = TrainSpec.paper(features="generic")
+    plan = check_rows_for_options(Dataset.load(data), spec, None, None)
     assert len(plan) == 5 and sum(plan) <= rep["n_train"] + len(plan)
 
 
