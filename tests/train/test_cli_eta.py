@@ -42,8 +42,10 @@ def test_the_auto_recipe_says_its_budget_then_runs_it_down(data: Path, tmp_path:
             "--budget", "10s", "--workers", "1"]  # fmt: skip
     run = spectratac(*args)
     line = assert_estimate_first(run.stderr, "train")
-    # the budget is nominal work: scaled by the rate this machine gives now
-    assert "search, forward folds and final refit (--budget at this machine's rate)" in line
+    # the work the search plans within the budget, at the rate this machine gives now, and
+    # the fixed costs the work leaves out
+    assert "search, forward folds and final refit (planned work at this machine's rate)" in line
+    assert "fixed cost of each fit and prediction pass" in line
     assert "searching:" in run.stderr
 
 

@@ -129,45 +129,122 @@ class TrainingCost:
         return cls(fixed, max(per_row, t1 / rows.size / 10))  # a noisy probe: never ~0
 
 
+@dataclass(frozen=True)
+class PredictCost:
+    """Time of one prediction pass of a decoder over a dataset: pass_s (assembling every
+    row of the dataset, which temporal context and the drift baseline make the larger
+    part) plus row_s per row predicted."""
+
+    pass_s: float
+    row_s: float
+
+    def seconds(self, rows: Sequence[int]) -> float:
+        return sum(self.pass_s + self.row_s * int(r) for r in rows)
+
+    @classmethod
+    def measure(
+        cls, dataset: Dataset, spec: Any, rows: int = PROBE_ROWS, repeats: int = PROBE_REPEATS
+    ) -> PredictCost:
+        """A decoder of `spec` (the recipe's own architecture, features and context, trained
+        for one epoch on 64 rows) predicts 64 rows and then `rows` rows of `dataset`, each
+        `repeats` times, keeping the medians."""
+        from spectratac.train import train
+
+        one = dataclasses.replace(
+            spec, epochs=1, val_fraction=0.0, best_val=False, uncertainty=False
+        )
+        dec = train(dataset, one, rows=np.arange(min(64, dataset.n)), progress=False)
+        small, large = np.arange(min(64, dataset.n)), np.arange(min(rows, dataset.n))
+        t_small = median_s(repeats, dec.predict, dataset, small)
+        if large.size <= small.size:  # a pass's cost only
+            return cls(t_small, 0.0)
+        t_large = median_s(repeats, dec.predict, dataset, large)
+        per_row = max((t_large - t_small) / max(large.size - small.size, 1), 0.0)
+        return cls(max(t_small - per_row * small.size, 0.0), per_row)
+
+
 def training_estimate(
-    dataset: Dataset, spec: Any, fits: int = 1, check_rows: Sequence[int] = ()
+    dataset: Dataset,
+    spec: Any,
+    fits: int = 1,
+    check_rows: Sequence[int] = (),
+    predictions: Sequence[int] = (),
 ) -> Estimate:
-    """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, and the
-    held-out check's models on `check_rows` rows each (train/check.py `check_plan`), probed
-    on the dataset's own first rows."""
+    """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, the held-out
+    check's models on `check_rows` rows each (train/check.py `check_plan`), and the
+    prediction passes of the check and the summary on `predictions` rows each
+    (`check_predictions`), probed on the dataset's own first rows."""
     t0 = time.perf_counter()
     cost = TrainingCost.measure(dataset, spec)
     parts = {"train": fits * cost.seconds(dataset.n, spec.epochs)}
+    rates = {"s/row-epoch": cost.row_epoch_s, "fixed s": cost.fixed_s}
     if check_rows:
         parts["held-out and forward check"] = sum(
             cost.seconds(int(r), spec.epochs) for r in check_rows
         )
-    return Estimate(
-        parts,
-        {"s/row-epoch": cost.row_epoch_s, "fixed s": cost.fixed_s},
-        time.perf_counter() - t0,
-    )
+    if predictions:
+        scoring = PredictCost.measure(dataset, spec)
+        parts["scoring (check and summary)"] = scoring.seconds(predictions)
+        rates.update({"s/pass": scoring.pass_s, "predict s/row": scoring.row_s})
+    return Estimate(parts, rates, time.perf_counter() - t0)
 
 
 def auto_estimate(budget_s: float, dataset: Dataset, workers: int | None = None) -> Estimate:
-    """`spectratac train --recipe auto`: its budget is nominal seconds of work per worker
-    (train/auto_recipe/budget.py), which a loaded machine does more slowly. A probe trains
-    a small network on the dataset's first rows on as many processes as the search will
-    run, and the budget is scaled by the probe's wall time over its nominal time."""
+    """`spectratac train --recipe auto`: the work its search will launch within the budget
+    (`planned_work`: the trials that fit and the final refit, in nominal seconds per worker,
+    train/auto_recipe/budget.py) at this machine's rate now, plus the fixed cost of each of
+    its fits and prediction passes, shared among the workers. A probe trains and runs a
+    small network on the dataset's first rows (`machine_factor`)."""
+    from spectratac import threads
+    from spectratac.train.auto_recipe.search import planned_work
+
     t0 = time.perf_counter()
-    factor = machine_factor(dataset, workers)
-    return Estimate(
-        {"search, forward folds and final refit (--budget at this machine's rate)": budget_s
-         * factor},
-        {"wall / nominal": factor},
-        time.perf_counter() - t0,
-    )  # fmt: skip
+    n_workers = max(1, workers or threads.usable_cpus())
+    plan = planned_work(dataset, budget_s, workers=n_workers)
+    factor, fixed = machine_factor(dataset, workers)
+    parts = {
+        "search, forward folds and final refit (planned work at this machine's rate)":
+        plan["work_s"] * factor,
+        "fixed cost of each fit and prediction pass":
+        (plan["fits"] * fixed.fit_s + plan["passes"] * fixed.pass_s
+         + (plan["fits_drift"] + plan["passes_drift"]) * fixed.drift_pass_s) / n_workers,
+    }  # fmt: skip
+    rates = {"wall / nominal": factor, "fixed s/fit": fixed.fit_s, "s/pass": fixed.pass_s,
+             "s/pass with drift baseline": fixed.drift_pass_s}  # fmt: skip
+    if n_workers > 1:  # spawned side by side, each importing torch and the trainer
+        parts["starting the worker processes"] = rates["s/worker start"] = worker_start_s()
+    return Estimate(parts, rates, time.perf_counter() - t0)
 
 
-def machine_factor(dataset: Dataset, workers: int | None = None) -> float:
+def worker_start_s() -> float:
+    """Seconds a new Python process takes to import what a search worker imports (torch
+    and the trainer), as the search's spawned workers do before their first trial."""
+    import subprocess
+    import sys
+
+    code = "import torch, spectratac.train.auto_recipe.trial"
+    _, seconds = timed(subprocess.run, [sys.executable, "-c", code], check=False,
+                       capture_output=True, timeout=300)  # fmt: skip
+    return seconds
+
+
+@dataclass(frozen=True)
+class FixedCosts:
+    """Seconds of a fit's fixed part (planning, features, runtime, assembly) and of one
+    prediction pass over the dataset, for a small network."""
+
+    fit_s: float
+    pass_s: float
+    # a pass of a network with the drift baseline and temporal context (the search's
+    # "+drift" and "+context" candidates): its assembly, also part of each such fit
+    drift_pass_s: float = 0.0
+
+
+def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float, FixedCosts]:
     """Wall seconds per nominal second of network work now: a small network's cost per row
     and epoch, probed on the dataset's first rows (`TrainingCost.measure`: the fixed cost
-    of a fit taken out), over the nominal rate the budget counts with."""
+    of a fit taken out), over the nominal rate the budget counts with; beside it, that
+    network's fixed costs of a fit and of a prediction pass (`PredictCost`)."""
     from spectratac.decode.networks import flops
     from spectratac.train import TrainSpec
     from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK
@@ -180,7 +257,12 @@ def machine_factor(dataset: Dataset, workers: int | None = None) -> float:
     p = plan(dataset, spec)
     per_row = 3 * flops(spec.arch, p.features.n_features, p.heads.n_out)
     cost = TrainingCost.measure(dataset, spec)
-    return float(np.clip(cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"]), 0.2, 50))
+    passes = PredictCost.measure(dataset, spec)
+    ctx = dataclasses.replace(spec, context=8, context_ema=(10.0, 40.0, 160.0), drift="baseline")
+    drift = PredictCost.measure(dataset, ctx, rows=64)
+    factor = cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"])
+    fixed = FixedCosts(cost.fixed_s, passes.pass_s, drift.pass_s)
+    return float(np.clip(factor, 0.2, 50)), fixed
 
 
 # ------------------------------------------------------------------ evaluate

@@ -270,6 +270,36 @@ def check_rows_for_options(
     return check_plan(ds, rows, check_model=own)
 
 
+def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
+    """Rows of each prediction pass the check and the training summary make (every pass
+    also assembles the whole dataset: with temporal context that is most of its cost): the
+    training and held-out rows, each held-out group apart (`worst_group`), each session a
+    forward fold scores, and every row for the summary. What a time estimate counts beside
+    the fits (`check_plan`)."""
+    sel = np.arange(dataset.n) if rows is None else np.asarray(rows)
+    fit, held, kind = heldout_groups(dataset, sel)
+    groups = np.unique(group_ids(dataset, held, kind)).size if held.size else 0
+    ses = np.asarray(dataset.session, np.int64)[sel]
+    ids, _ = time_order(dataset, np.unique(ses))
+    ks, horizon = forward_plan(len(ids))
+    sizes = [int(np.count_nonzero(ses == i)) for i in ids]
+    scored = [sizes[j] for k in ks for j in range(k, min(k + horizon, len(ids)))]
+    per_group = [held.size // groups] * groups if groups else []
+    return [int(fit.size), int(held.size), *per_group, *scored, int(dataset.n)]
+
+
+def check_predictions_for_options(
+    ds: Dataset, holdout: str | None, holdout_sessions: str | None
+) -> list[int]:
+    """`check_predictions` for `spectratac train`'s options, on the rows the real model
+    trains on."""
+    rows = None
+    if holdout_sessions:
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    out = check_predictions(ds, rows)
+    return [round(0.8 * r) for r in out] if holdout else out
+
+
 def thinned(trainer: Callable[[Rows], Decoder], stride: int) -> Callable[[Rows], Decoder]:
     """`trainer` on every `stride`-th of the rows it is given."""
     if stride <= 1:
@@ -284,15 +314,7 @@ def worst_group(
     held out: sessions, presses (a press and the idle rows after it), else time blocks."""
     if held.size == 0:
         return {}, None
-    ses = np.asarray(dataset.session, np.int64)
-    press = np.asarray(dataset.press, np.int64)
-    if kind == "session":  # whole sessions, even when the rows hold only one (then: its MAE)
-        ids = ses[held]
-    elif kind == "press" or (kind == "auto" and np.any(press[held] >= 0)):
-        ids = press_units(np.asarray(dataset.t_end), ses, press)[held]
-    else:
-        groups = row_groups(ses, press, dataset.t_end, held)
-        ids = np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
+    ids = group_ids(dataset, held, kind)
     best: tuple[float, dict[str, float], int | None] = (-1.0, {}, None)
     for g in np.unique(ids):
         mae = decoder_mae(model, dataset, held[ids == g])
@@ -301,6 +323,19 @@ def worst_group(
         if score > best[0]:
             best = (score, mae, int(g))
     return best[1], best[2]
+
+
+def group_ids(dataset: Dataset, held: Rows, kind: str) -> NDArray[np.int64]:
+    """The group of each of the `held` rows, of the `kind` held out: sessions, presses (a
+    press and the idle rows after it), else time blocks."""
+    ses = np.asarray(dataset.session, np.int64)
+    press = np.asarray(dataset.press, np.int64)
+    if kind == "session":  # whole sessions, even when the rows hold only one (then: its MAE)
+        return ses[held]
+    if kind == "press" or (kind == "auto" and np.any(press[held] >= 0)):
+        return np.asarray(press_units(np.asarray(dataset.t_end), ses, press)[held], np.int64)
+    groups = row_groups(ses, press, dataset.t_end, held)
+    return np.asarray(groups.ids)[held] if groups.ids.size == dataset.n else groups.ids
 
 
 def forward_plan(n_sessions: int) -> tuple[list[int], int]:

@@ -366,6 +366,69 @@ def search(
     return SearchResult(dec, report)
 
 
+def planned_work(
+    dataset: Dataset,
+    budget_s: float,
+    *,
+    rows: ArrayLike | None = None,
+    targets: tuple[str, ...] | None = None,
+    features: str | None = None,
+    workers: int = 1,
+    folds: int = DEFAULT_FOLDS,
+    max_fit_rows: int = MAX_FIT_ROWS,
+) -> dict[str, Any]:
+    """What `search` will launch within `budget_s` (the same folds, space, costs and order;
+    each candidate's own refit reserved, as the search reserves the best's): its nominal
+    seconds per worker, the refit included (`work_s`), and how many fits and prediction
+    passes (each assembling the whole dataset) the trials and the refit make. A time
+    estimate counts these: at a small size the fixed cost of each fit and pass is most of a
+    trial, which the work alone leaves out."""
+    sel = select_rows(dataset.n, rows)
+    tg = tuple(targets) if targets else default_targets(dataset)
+    feats = features or default_features(dataset)
+    g = row_groups(dataset.session, dataset.press, dataset.t_end, sel)
+    sel = sel[g.ids[sel] >= 0]
+    forward = _forward_folds(dataset, sel) if g.kind == "session" else None
+    if forward is not None:
+        fold_rows, horizon = forward[0], int(forward[1]["horizon"])
+    else:
+        k = max(2, min(folds, np.unique(g.ids[sel]).size))
+        fold_rows, horizon = _folds(dataset, sel, g, k), 0
+    k = len(fold_rows)
+    names = set(dataset.target_names)
+    space = candidates(feats, tg, tuple(t for t in tg if t in names))
+    n_fold = int(np.mean([f.size for f, _ in fold_rows]))
+    fit_n = min(n_fold, max_fit_rows) if max_fit_rows > 0 else n_fold
+    budget = WorkBudget(budget_s, workers)
+    trial_s = {c.name: nominal_s(c.family, trial_units(dataset, c, fit_n, k)) for c in space}
+    refit_s = {c.name: nominal_s(c.family, refit_units(dataset, c, fit_n, sel.size)) for c in space}
+    order = sorted(space, key=lambda c: trial_s[c.name])
+    by_name = {c.name: c for c in space}
+    launched: list[str] = []
+    for c in order:
+        if c.classical and _n_features(dataset, c) > MAX_RIDGE_FEATURES:
+            continue
+        always = c.classical and c.spec.degree == 1
+        if always or budget.fits(trial_s[c.name], refit_s[c.name] * max(1, workers)):
+            budget.spend(trial_s[c.name])
+            launched.append(c.name)
+    refit = max((refit_s[n] for n in launched), default=0.0)
+    # with the drift baseline or temporal context, assembling the dataset is most of a
+    # pass's and a fit's fixed cost: those are counted apart ("..._drift")
+    drift = [n for n in launched if by_name[n].spec.drift != "none" or by_name[n].spec.context]
+    out: dict[str, Any] = {
+        "trials": launched,
+        "work_s": (budget.spent + refit * max(1, workers)) / max(1, workers),
+    }
+    for key, names in (("", [n for n in launched if n not in drift]), ("_drift", drift)):
+        # per fold: a fit, its held-out pass, one per session ahead and the training rows'
+        # pass; and the learning curve's half fit and its pass
+        out["fits" + key] = len(names) * (k + 1)
+        out["passes" + key] = len(names) * (k * (2 + horizon) + 1)
+    out["fits"] += 1  # the refit
+    return out
+
+
 def _runner(ds: Dataset, ray_address: str | None, workers: int) -> Any:
     from spectratac.train.auto_recipe import runners
 

@@ -1,0 +1,89 @@
+"""What `train`'s time estimate counts is the work `train` then does (issue 35 item 4): the
+prediction passes of the check and the summary (each assembles the whole dataset: with the
+drift baseline most of a small fit's time, which the estimate left out), and for
+`--recipe auto` the trials its search launches within the budget, beside the fixed cost
+of each fit and pass. Asserted on counts of the real work, never on the clock."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from spectratac.apps import estimates
+from spectratac.decode import Decoder
+from spectratac.sim.ageing_skin import ageing_skin
+from spectratac.train import TrainSpec, fit
+from spectratac.train.auto_recipe.search import planned_work, search
+from spectratac.train.check import check_predictions
+
+pytestmark = pytest.mark.train
+
+
+def small() -> Any:
+    return ageing_skin(12, 2.0, 0)
+
+
+def test_the_estimate_counts_every_prediction_pass_the_check_and_summary_make(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    ds = small()
+    passes: list[int] = []
+    real = Decoder.predict
+
+    def counted(self: Decoder, dataset: Any, rows: Any = None) -> Any:
+        passes.append(dataset.n if rows is None else int(np.asarray(rows).size))
+        return real(self, dataset, rows)
+
+    monkeypatch.setattr(Decoder, "predict", counted)
+    fit(ds, TrainSpec.paper(features="generic", targets=("Fz",), epochs=1), progress=False)
+    assert sorted(check_predictions(ds, None)) == sorted(passes)
+
+
+def test_the_training_estimate_has_a_part_for_the_prediction_passes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A pass costs 0.2 s plus 1 ms a row (a fake PredictCost): the estimate's scoring part
+    is exactly that over the passes it is given, probed with the recipe's own spec."""
+    ds = small()
+    spec = TrainSpec.best(augment="none", features="generic", targets=("Fz",), epochs=1)
+    seen: list[Any] = []
+
+    def fake(cls: type, dataset: Any, s: Any, **_: Any) -> estimates.PredictCost:
+        seen.append(s)
+        return estimates.PredictCost(0.2, 1e-3)
+
+    monkeypatch.setattr(estimates.PredictCost, "measure", classmethod(fake))
+    free = classmethod(lambda cls, d, s: estimates.TrainingCost(0.0, 0.0))
+    monkeypatch.setattr(estimates.TrainingCost, "measure", free)
+    e = estimates.training_estimate(ds, spec, predictions=[100, 300])
+    assert e.parts_s["scoring (check and summary)"] == pytest.approx(0.4 + 0.4)
+    assert seen == [spec]  # the recipe's own architecture, context and drift baseline
+
+
+def test_auto_plans_the_trials_its_search_launches() -> None:
+    ds = small()
+    plan = planned_work(ds, 3.0, workers=1)
+    report = search(ds, 3.0, workers=1, targets=("Fz",)).report
+    launched = [c["name"] for c in report["candidates"] if c.get("status") == "done"]
+    assert sorted(plan["trials"]) == sorted(launched)
+    assert plan["work_s"] == pytest.approx(report["work_s"], rel=0.35)
+
+
+def test_auto_estimate_is_the_planned_work_at_the_rate_plus_counted_fixed_parts(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The budget is no longer the estimate: the work the search plans, at the probed rate,
+    plus each fit's and pass's fixed cost shared among the workers, plus the workers'
+    start."""
+    ds = small()
+    fixed = estimates.FixedCosts(0.05, 0.01, 0.3)
+    monkeypatch.setattr(estimates, "machine_factor", lambda d, w=None: (2.0, fixed))
+    monkeypatch.setattr(estimates, "worker_start_s", lambda: 3.0)
+    plan = planned_work(ds, 4.0, workers=2)
+    e = estimates.auto_estimate(4.0, ds, workers=2)
+    drift = (plan["fits_drift"] + plan["passes_drift"]) * 0.3
+    want = 2.0 * plan["work_s"] + (plan["fits"] * 0.05 + plan["passes"] * 0.01 + drift) / 2
+    assert e.total_s == pytest.approx(want + 3.0)
+    assert plan["fits_drift"] > 0  # the drift and context candidates' assembly is counted
+    assert plan["work_s"] < 4.0  # the budget is not all spent: trials that do not fit skip
