@@ -76,20 +76,26 @@ class Bench:
         s = self.sensor
         config_id = s.configure(integration_ms=integration_ms, leds=leds)
         s.read(1_000_000, timeout=0)  # an earlier stream's leftovers
-        kept: list[np.ndarray] = []
-        have = 0
         s.start()
         try:
-            while have < n + skip:
-                batch = s.read(n + skip - have, timeout=WAIT_S)
-                if not len(batch):
-                    break  # nothing for WAIT_S: the device stopped sending
-                batch = batch[batch["config_id"] == config_id]
-                kept.append(batch)
-                have += len(batch)
+            kept = self.read_config(config_id, n + skip)
         finally:
             s.stop()
-        return np.concatenate(kept)[skip : skip + n] if kept else np.zeros(0, SAMPLE_RECORD)
+        return kept[skip : skip + n]
+
+    def read_config(self, config_id: int, n: int) -> np.ndarray:
+        """Up to `n` samples of the running configuration `config_id` (fewer if the device
+        stops sending for WAIT_S); samples of an earlier configuration are dropped."""
+        kept: list[np.ndarray] = []
+        have = 0
+        while have < n:
+            batch = self.sensor.read(n - have, timeout=WAIT_S)
+            if not len(batch):
+                break  # nothing for WAIT_S: the device stopped sending
+            batch = batch[batch["config_id"] == config_id]
+            kept.append(batch)
+            have += len(batch)
+        return np.concatenate(kept) if kept else np.zeros(0, SAMPLE_RECORD)
 
 
 def _open(url: str, timeout: float) -> Sensor:

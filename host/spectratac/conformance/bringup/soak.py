@@ -10,7 +10,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from spectratac.conformance.bringup.bench import WAIT_S, Bench
+from spectratac.conformance.bringup.bench import Bench
 from spectratac.conformance.bringup.report import FAIL, PASS, SKIPPED, Row
 from spectratac.device import SAMPLE_RECORD, ClockSync, DeviceError
 from spectratac.protocol.generated import messages as m
@@ -46,24 +46,16 @@ def soak(bench: Bench, seconds: float) -> Row:
     scale = s.link_info.clock_scale
     sync_before = ask("TIME_SYNC before", s.sync_clock) if scale else None
     config_id = ask("CONFIGURE", lambda: s.configure(integration_ms=INTEGRATION_MS, leds=WHITE))
-    got: list[np.ndarray] = []
-    have = 0
+    samples = np.zeros(0, SAMPLE_RECORD)
     if config_id is not None:
         s.read(1_000_000, timeout=0)
-        started = ask("START", lambda: s.start() or True)
-        try:
-            while started and have < wanted:
-                batch = s.read(min(wanted - have, 200), timeout=WAIT_S)
-                if not len(batch):
-                    break  # nothing for WAIT_S: the device stopped sending
-                batch = batch[batch["config_id"] == config_id]
-                got.append(batch)
-                have += len(batch)
-        finally:
-            ask("STOP", s.stop)
+        if ask("START", lambda: s.start() or True):
+            try:
+                samples = bench.read_config(config_id, wanted)
+            finally:
+                ask("STOP", s.stop)
     sync_after = ask("TIME_SYNC after", s.sync_clock) if scale else None
     dev_after = ask("STATUS after", s.status) if has_status else None
-    samples = np.concatenate(got) if got else np.zeros(0, SAMPLE_RECORD)
     host = {k: getattr(s.stats, k) - v for k, v in host_before.items()}
     values: dict[str, Any] = {"seconds": seconds, "samples": len(samples), "expected": wanted}
     values |= host
