@@ -98,8 +98,9 @@ def compressed_frame(port: int, server_pid: int | None = None) -> dict[str, Any]
             "rss_after_mb": round(after, 1)}  # fmt: skip
 
 
-def _closed_by_server(sock: socket.socket, trickle: bytes = b"") -> bool:
-    """Send `trickle` a byte at a time; True once the server closed the socket."""
+def closed_by_server(sock: socket.socket, trickle: bytes = b"") -> bool:
+    """Send `trickle` a byte at a time (slowloris); True once the server closed the socket,
+    False if it still holds it after the hang guard (the live server's tests use it too)."""
     deadline = time.monotonic() + GUARD_S
     sock.settimeout(0.2)
     i = 0
@@ -123,7 +124,7 @@ def slow_headers(port: int, n: int = 3) -> dict[str, int]:
     refused = 0
     for _ in range(n):
         with socket.create_connection(("127.0.0.1", port), timeout=GUARD_S) as s:
-            refused += _closed_by_server(s, slow)
+            refused += closed_by_server(s, slow)
     return {"tried": n, "refused": refused}
 
 
@@ -135,7 +136,7 @@ def over_cap(port: int, cap: int, n: int = 10) -> dict[str, int]:
         refused = 0
         for _ in range(n):
             with socket.create_connection(("127.0.0.1", port), timeout=GUARD_S) as s:
-                refused += _closed_by_server(s)
+                refused += closed_by_server(s)
     finally:
         for s in held:
             s.close()

@@ -25,6 +25,7 @@ from wsproto.extensions import PerMessageDeflate
 
 from tests.apps.live.clients import WsClient
 from tests.apps.live.fake_session import FakeSession
+from tools.bench.live_limits import closed_by_server
 
 pytestmark = pytest.mark.subprocess  # one test runs `spectratac live`
 
@@ -107,26 +108,6 @@ def test_every_answer_forbids_framing_and_outside_content(served, path, host, st
     assert csp["frame-ancestors"] == "'none'" and csp["default-src"] == "'none'"
     assert csp["script-src"] == "'self'" and "http" not in csp["script-src"]
     assert f"ws://127.0.0.1:{port_of(server)}" in csp["connect-src"]
-
-
-def closed_by_server(sock: socket.socket, trickle: bytes = b"") -> bool:
-    """Send `trickle` a byte at a time (slowloris); True once the server closed the socket,
-    False if it still holds it after the hang guard."""
-    deadline = time.monotonic() + HANG_GUARD_S
-    sock.settimeout(0.2)
-    i = 0
-    while time.monotonic() < deadline:
-        try:
-            if i < len(trickle):
-                sock.sendall(trickle[i : i + 1])
-                i += 1
-            if sock.recv(1024) == b"":
-                return True
-        except TimeoutError:
-            continue
-        except OSError:  # reset, broken pipe: closed too
-            return True
-    return False
 
 
 @pytest.mark.parametrize("served", [Limits(header_timeout_s=1.0)], indirect=True)
