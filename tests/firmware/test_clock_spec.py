@@ -184,4 +184,4 @@ def test_regulator_timeout_stays_on_the_slow_clock() -> None:
     assert "return 0;" in m.group(1), "a regulator that never gets ready fails the switch"
     # ... and clock_init falls back to HSI whenever a switch fails (test_clock_model.py runs it)
     body = function_body("void clock_init(clocks_t *out)")
-    assert body.count("switch_to_pll(") == 2 and body.count("fall_back();") == 2
+    assert body.count("switch_to_pll(") == 2 and body.count("fall_back()") == 2

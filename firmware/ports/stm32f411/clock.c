@@ -68,13 +68,17 @@ static int wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t value) {
 }
 
 /* Back to the reset clocking: the core on HSI, zero wait states (only once the core is slow
- * again, RM0383 §3.4.1), PLL and HSE off. With the PLL off the regulator runs in scale 3
- * whatever VOS says (RM0383 §5.4.1). */
-static void fall_back(void) {
+ * again, RM0383 §3.4.1), PLL and HSE off, and the PLL stopped (PLLRDY clear) before anyone
+ * writes PLLCFGR again (RM0383 §6.3.2: only while the PLL is disabled). With the PLL off the
+ * regulator runs in scale 3 whatever VOS says (RM0383 §5.4.1). 1 once the PLL has stopped. */
+static int fall_back(void) {
     RCC->CFGR = 0u;
-    (void)wait_set(&RCC->CFGR, RCC_CFGR_SWS_MASK, 0u);
+    if (!wait_set(&RCC->CFGR, RCC_CFGR_SWS_MASK, 0u)) {
+        return 0; /* still on the PLL: its wait states stay, and so does it */
+    }
     FLASH_ACR = 0u;
     RCC->CR &= ~(RCC_CR_PLLON | RCC_CR_HSEON);
+    return wait_set(&RCC->CR, RCC_CR_PLLRDY, 0u);
 }
 
 /* Start the PLL as `pllcfgr` says (its source already running) and switch the core to it:
@@ -120,11 +124,11 @@ void clock_init(clocks_t *out) {
         out->usb_ok = 1u;
     } else {
         /* No crystal, or one the PLL could not lock to: the PLL from HSI (the core runs on
-         * it, so HSIRDY is set on a chip; a model without RCC reads 0 and stays on HSI). */
-        fall_back();
-        if (!wait_set(&RCC->CR, RCC_CR_HSIRDY, RCC_CR_HSIRDY) ||
+         * it, so HSIRDY is set on a chip; a model without RCC reads 0 and stays on HSI). A
+         * PLL that does not stop is not reconfigured. */
+        if (!fall_back() || !wait_set(&RCC->CR, RCC_CR_HSIRDY, RCC_CR_HSIRDY) ||
             !switch_to_pll(PLLCFGR_FROM_HSI)) {
-            fall_back();
+            (void)fall_back();
             return;
         }
         out->source = CLOCK_SRC_HSI_PLL;

@@ -5,7 +5,8 @@
  * compile unchanged, and stops itself under ptrace. The parent single-steps it; after every
  * instruction it reads the registers, sees each write as a change, and answers as the chip
  * would: ready flags follow their enables, the PLL locks only to a running source (PLLSRC: HSE
- * or HSI), SWS follows SW, a PWR write without the PWR clock or a VOS change with the PLL
+ * or HSI) and keeps PLLRDY a while after it is switched off (PLLCFGR may be written only once
+ * it has stopped), SWS follows SW, a PWR write without the PWR clock or a VOS change with the PLL
  * running is ignored (RM0383 §5.4.1), VOSRDY comes once the PLL runs. Every rule the code
  * breaks is printed as "violation: ...", and on each switch to the PLL the clock tree (from the
  * source PLLSRC names) is held to the limits passed on the command line (from
@@ -40,6 +41,7 @@
 #define WINDOW_BASE 0x40000000ul
 #define WINDOW_SIZE 0x30000ul /* APB1 (PWR at 0x4000_7000) to AHB1 (RCC, FLASH at 0x4002_3x00) */
 #define DELAY_STEPS 40        /* instructions before a started oscillator or regulator is ready */
+#define STOP_STEPS 400        /* instructions before a PLL switched off reports PLLRDY clear */
 #define MAX_STEPS 20000000L
 
 #define A_RCC_CR 0x40023800ul
@@ -233,7 +235,7 @@ int main(int argc, char **argv) {
         return 2;
     }
     snapshot_t prev = read_all();
-    long step = 0, hse_at = -1, pll_at = -1, vos_at = -1;
+    long step = 0, hse_at = -1, pll_at = -1, vos_at = -1, pll_off_at = -1;
     for (; step < MAX_STEPS; step++) {
         if (ptrace(PTRACE_SINGLESTEP, pid, 0, 0) != 0) {
             perror("PTRACE_SINGLESTEP");
@@ -255,7 +257,7 @@ int main(int argc, char **argv) {
                 s.pwr_cr = prev.pwr_cr;
             }
         }
-        if (s.pllcfgr != prev.pllcfgr && (prev.cr & RCC_CR_PLLON) != 0u) {
+        if (s.pllcfgr != prev.pllcfgr && (prev.cr & (RCC_CR_PLLON | RCC_CR_PLLRDY)) != 0u) {
             violation("PLLCFGR written while the PLL runs", step);
         }
         /* Oscillators, PLL and regulator answer DELAY_STEPS instructions after they start;
@@ -271,10 +273,18 @@ int main(int argc, char **argv) {
         } else if (step - hse_at >= DELAY_STEPS && !fault("no-hse")) {
             s.cr |= RCC_CR_HSERDY;
         }
+        /* A PLL switched off stops STOP_STEPS later: PLLRDY stays set until then. */
         if ((s.cr & RCC_CR_PLLON) == 0u) {
             pll_at = vos_at = -1;
-            s.cr &= ~RCC_CR_PLLRDY;
             s.pwr_csr &= ~PWR_CSR_VOSRDY;
+            if ((s.cr & RCC_CR_PLLRDY) == 0u) {
+                pll_off_at = -1;
+            } else if (pll_off_at < 0) {
+                pll_off_at = step;
+            } else if (step - pll_off_at >= STOP_STEPS) {
+                s.cr &= ~RCC_CR_PLLRDY;
+                pll_off_at = -1;
+            }
         } else if (pll_at < 0) {
             pll_at = step;
         } else if (step - pll_at >= DELAY_STEPS && !fault("no-pll")) {
@@ -285,7 +295,8 @@ int main(int argc, char **argv) {
                 s.cr |= RCC_CR_PLLRDY;
             }
         }
-        if ((s.cr & RCC_CR_PLLRDY) != 0u && vos_at < 0) {
+        if ((s.cr & (RCC_CR_PLLON | RCC_CR_PLLRDY)) == (RCC_CR_PLLON | RCC_CR_PLLRDY) &&
+            vos_at < 0) {
             vos_at = step;
         }
         if (vos_at >= 0 && step - vos_at >= DELAY_STEPS && !fault("no-vosrdy")) {
