@@ -47,6 +47,7 @@ BREAKS = {
     "fault=sticky_model": ({"model store"}, "MODEL_CLEAR was acknowledged but the model"),
     "fault=wrong_model_crc": ({"model store"}, "the flash did not keep what was written"),
     "fault=hsi_clock": ({"clock"}, "16.0 MHz: the HSI fallback"),
+    "fault=hsi_pll_clock": ({"clock"}, "96.0 MHz from the PLL, but on the internal RC (HSI)"),
     "fault=bor_off": ({"brown-out level"}, "level 0, not 3"),
     "fault=lost_fault_record": ({"fault record"}, "no fault record: the record in .noinit"),
 }

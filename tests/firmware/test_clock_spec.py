@@ -5,8 +5,9 @@ flash wait states as macros; these tests evaluate them (with the board's crystal
 generated/board.h and the register values from regs.h, themselves checked against ST's SVD by
 test_regs_svd.py) and hold them to [stm32f411.clock]: the core frequency within the selected
 voltage scale, enough flash wait states, the PLL inside its ranges with 48 MHz for USB, and
-the register sequence the reference manual asks for. QEMU models no RCC, so the image's boot
-there (test_stm32.py) only shows the HSI fallback still runs.
+the register sequence the reference manual asks for, and the PLL from HSI (the dead crystal's
+fallback) inside the same ranges at the same core clock. QEMU models no RCC, so the image's boot
+there (test_stm32.py) only shows the raw HSI fallback still runs.
 """
 
 from __future__ import annotations
@@ -92,6 +93,23 @@ def test_pll_factors_and_frequencies_are_in_range() -> None:
     assert vco_in * n / q == limit("usb_clock_hz"), "USB OTG FS needs exactly 48 MHz"
 
 
+def test_the_pll_from_hsi_gives_the_crystal_paths_clocks_within_range() -> None:
+    # The dead crystal's fallback shares N, P, Q, the buses and wait states, so its M alone
+    # must bring HSI to the same VCO input (and the UART keeps its divider).
+    hsi, m = const("HSI_HZ"), const("HSI_PLL_M")
+    lo, hi = limit("pll_m")
+    assert lo <= m <= hi
+    assert hsi % m == 0 and hsi // m == const("BOARD_HSE_HZ") // const("PLL_M")
+    lo, hi = limit("pll_vco_in_mhz")
+    assert lo * 1e6 <= hsi / m <= hi * 1e6
+    assert hsi // m * const("PLL_N") // const("PLL_P") == sysclk_hz()
+    lo, hi = limit("pll_q")
+    assert lo <= const("PLL_Q") <= hi, "PLLQ must be a legal divider even with USB off"
+    body = pll_body()
+    assert "RCC->PLLCFGR = pllcfgr;" in body
+    assert "RCC_PLLCFGR_PLLSRC_HSE" not in MACROS["PLLCFGR_FROM_HSI"].body
+
+
 @pytest.mark.parametrize(
     ("divider", "key", "cfgr"),
     [
@@ -125,14 +143,19 @@ def test_register_codes_mean_what_clock_c_intends() -> None:
     assert limit("pll_p").index(p) == p // 2 - 1, "PLLP is encoded as P / 2 - 1"
 
 
-def clock_init_body() -> str:
-    m = re.search(r"void clock_init\(clocks_t \*out\) \{(.*)\n\}", CLOCK_C, re.S)
-    assert m, "clock.c defines clock_init"
+def function_body(signature: str) -> str:
+    m = re.search(re.escape(signature) + r" \{(.*?)\n\}", CLOCK_C, re.S)
+    assert m, f"clock.c defines {signature}"
     return m.group(1)
 
 
+def pll_body() -> str:
+    """The steps both PLL paths (crystal, HSI) take to switch the core to the PLL."""
+    return function_body("static int switch_to_pll(uint32_t pllcfgr)")
+
+
 def test_regulator_scale_sequence_follows_the_manual() -> None:
-    body = clock_init_body()
+    body = pll_body()
     steps = [
         ("enable the PWR clock", "RCC->APB1ENR |= RCC_APB1ENR_PWR;"),
         ("let the enable take effect", "(void)RCC->APB1ENR;"),
@@ -154,9 +177,11 @@ def test_regulator_scale_sequence_follows_the_manual() -> None:
 
 
 def test_regulator_timeout_stays_on_the_slow_clock() -> None:
-    body = clock_init_body()
     m = re.search(
-        r"if \(!wait_set\(&PWR->CSR, PWR_CSR_VOSRDY, PWR_CSR_VOSRDY\)\) \{([^}]*)\}", body
+        r"if \(!wait_set\(&PWR->CSR, PWR_CSR_VOSRDY, PWR_CSR_VOSRDY\)\) \{([^}]*)\}", pll_body()
     )
     assert m, "the VOSRDY wait is bounded and checked"
-    assert "fall_back();" in m.group(1) and "return;" in m.group(1)
+    assert "return 0;" in m.group(1), "a regulator that never gets ready fails the switch"
+    # ... and clock_init falls back to HSI whenever a switch fails (test_clock_model.py runs it)
+    body = function_body("void clock_init(clocks_t *out)")
+    assert body.count("switch_to_pll(") == 2 and body.count("fall_back()") == 2

@@ -172,12 +172,10 @@ int main(void) {
     uid_read(uid);
     host_link_init(&clk, uid); /* USB: before the watchdog, core set-up waits 25 ms */
     (void)watchdog_start();
-    if (clk.on_pll == 0u) {
-        /* The crystal or PLL did not start: 16 MHz HSI. USB needs the crystal's 48 MHz and
-         * stays off; 921600 baud is 16 MHz / 17.4, so the UART runs 2.1 % fast (most
-         * USB-serial adapters still read it; the boot LOG says so). */
-        id.boot.note = "HSI 16MHz: no USB, UART 2.1% fast";
-    }
+    /* The crystal's path says nothing; a fallback says which one ran, that USB is off (it
+     * needs the crystal's 48 MHz) and the UART's speed error: +0.16 % on the PLL from HSI
+     * (the crystal path's divider), +2.1 % on the raw 16 MHz HSI (16 MHz / 17). */
+    id.boot.note = clock_note(&clk, BOARD_BAUD);
 
     memcpy(id.board, BOARD_NAME, sizeof BOARD_NAME);
     strncpy(id.build_id, STAC_BUILD_ID, sizeof id.build_id - 1u);

@@ -19,6 +19,7 @@ typedef struct {
         RES4[2], APB1LPENR, APB2LPENR, RES5[2], BDCR, CSR;
 } rcc_t;
 #define RCC ((rcc_t *)0x40023800u)
+#define RCC_CR_HSIRDY (1u << 1)
 #define RCC_CR_HSEON (1u << 16)
 #define RCC_CR_HSERDY (1u << 17)
 #define RCC_CR_PLLON (1u << 24)

@@ -54,7 +54,7 @@ void uart_init(uint32_t apb2_hz, uint32_t baud) {
     RCC->APB2ENR |= RCC_APB2ENR_USART1;
     (void)RCC->APB2ENR;
     USART1->CR1 = 0u;
-    USART1->BRR = (apb2_hz + baud / 2u) / baud; /* 16x oversampling: mantissa.fraction/16 */
+    USART1->BRR = uart_brr(apb2_hz, baud);
     USART1->CR1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE;
     irq_enable(USART1_IRQN, IRQ_PRIORITY_LINK);
 }

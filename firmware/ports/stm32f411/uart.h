@@ -7,6 +7,12 @@
 
 #include <stdint.h>
 
+/* USART_BRR for `baud` from the kernel clock, 16x oversampling: BRR is the mantissa.fraction/16
+ * divider, so the rate is clk_hz / BRR, rounded to the nearest (clock_note reports the error). */
+static inline uint32_t uart_brr(uint32_t clk_hz, uint32_t baud) {
+    return (clk_hz + baud / 2u) / baud;
+}
+
 void uart_init(uint32_t apb2_hz, uint32_t baud);
 /* All or nothing: returns len if the frame fits the transmit ring, else 0. */
 uint32_t uart_write(const uint8_t *data, uint32_t len);

@@ -345,8 +345,9 @@ void host_link_init(const clocks_t *clk, const uint8_t uid[12]) {
     usb_dev_init(&g_dev, &k_driver, 0, uid);
     usb_cdc_io_init(&g_io);
     /* Full speed needs 48 MHz +-0.25 % on PLL48CLK: only the crystal-driven PLL gives that
-     * (clock.c); on the HSI fallback the board stays off the bus rather than misbehave on it. */
-    if (clk->on_pll == 0u) {
+     * (clock.c); on either HSI fallback the board stays off the bus rather than misbehave on
+     * it. */
+    if (clk->usb_ok == 0u) {
         return;
     }
     gpio_af(GPIOA, PA_DM, AF_OTG_FS, 0, 0);

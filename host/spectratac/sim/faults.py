@@ -67,13 +67,17 @@ BRINGUP_FAULTS = {
     "swapped_led": "LED 0's red and blue PWM pins are crossed: its red duty drives blue and its "
     "blue duty red (bring-up's LED channels)",
     "hsi_clock": "STATUS reports a 16 MHz core clock, the HSI fallback (bring-up's clock)",
+    "hsi_pll_clock": "the crystal failed and the PLL runs from the internal RC: STATUS reports "
+    "96 MHz and the boot LOG names the fallback (bring-up's clock)",
     "bor_off": "STATUS reports brown-out level 0, the option byte's default (bring-up's "
     "brown-out level)",
     "lost_fault_record": "STATUS never reports a fault record, as if .noinit RAM were cleared "
     "at boot (bring-up's fault record)",
 }
 #: the bring-up faults that rewrite STATUS
-STATUS_FAULTS = frozenset({"hsi_clock", "bor_off", "lost_fault_record"})
+STATUS_FAULTS = frozenset({"hsi_clock", "hsi_pll_clock", "bor_off", "lost_fault_record"})
+#: the boot LOG line of firmware whose crystal failed (clock_note in ports/stm32f411/clock.c)
+HSI_PLL_NOTE = "clock HSI+PLL 96MHz (crystal failed): no USB, UART +0.16%"
 #: the 1.1 faults that turn a NACK of the device into an ACK: fault -> the error it hides
 ACCEPTS = {
     "accept_large_model": m.Error.MODEL_TOO_LARGE,
@@ -196,6 +200,7 @@ class FaultLayer:
         self._stop_lock = threading.Lock()
         self._streaming = False  # late_stop: a START reached the device after the last STOP
         self._uploading = False  # volatile_model: the host began an upload in this boot
+        self._boot_logged = False  # hsi_pll_clock: the boot LOG went out before the first reply
 
     # --- device -> host ----------------------------------------------------------------------
     def from_device(self, data: bytes, t: int) -> bool:
@@ -266,7 +271,22 @@ class FaultLayer:
         return bytes(out)
 
     def _rewrite(self, encoded: bytes) -> bytes | None:
-        """The frame as the faulty device sends it, or None if it sends nothing."""
+        """The frame as the faulty device sends it, or None if it sends nothing; the boot
+        LOG of an hsi_pll_clock device goes before its first frame, as the firmware's does."""
+        wire = self._rewrite_one(encoded)
+        if "hsi_pll_clock" not in self.faults or self._boot_logged:
+            return wire
+        self._boot_logged = True
+        try:
+            frame = decode_frame(encoded)
+        except FrameError:
+            return wire
+        log = m.Log(level=m.LogLevel.LOG_WARN, text=HSI_PLL_NOTE)
+        # the seq before the first frame's: the host counts no frame missing
+        first = encode_raw(log.TYPE_ID, log.pack(), (frame.seq - 1) & 0xFFFF, frame.version)
+        return first + (wire or b"")
+
+    def _rewrite_one(self, encoded: bytes) -> bytes | None:
         try:
             frame = decode_frame(encoded)
         except FrameError:
@@ -426,6 +446,8 @@ class FaultLayer:
 def _status_fault(msg: m.Status, faults: frozenset[str]) -> m.Status:
     if "hsi_clock" in faults:
         msg = dataclasses.replace(msg, cycle_hz=16_000_000)
+    if "hsi_pll_clock" in faults:
+        msg = dataclasses.replace(msg, cycle_hz=96_000_000)
     if "bor_off" in faults:
         msg = dataclasses.replace(msg, bor_level=0)
     if "lost_fault_record" in faults:

@@ -28,6 +28,9 @@ class Bench:
     timeout: float
     #: STATUS as the device gave it before the first check (its boot's reset cause)
     first_status: m.Status | None = None
+    #: LOG lines that came with the first replies: a boot LOG (reset cause, clock fallback)
+    #: if this run is the first host the device answered since its reset
+    boot_logs: list[str] = field(default_factory=list)
     notes: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -36,6 +39,8 @@ class Bench:
         bench = cls(url, sensor, timeout)
         if sensor.info.capabilities & m.Capabilities.CAP_STATUS:
             bench.first_status = sensor.status()
+        # the boot LOG precedes the device's first reply, so it has arrived by now
+        bench.boot_logs = [log.text for log in sensor.logs]
         return bench
 
     @property

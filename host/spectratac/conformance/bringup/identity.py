@@ -1,5 +1,6 @@
 """The board's identity and clock: INFO's versions and unit id, STATUS's `cycle_hz` (the
-96 MHz PLL from the 25 MHz crystal, or the 16 MHz internal fallback)."""
+96 MHz PLL from the 25 MHz crystal, or one of the internal RC's fallbacks: the PLL from it at
+the same 96 MHz, which only the boot LOG tells apart, or the raw 16 MHz)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,16 @@ from spectratac.protocol.versions import expected_definition_hash
 
 #: the core clock the firmware sets up: 25 MHz crystal x PLL (firmware/docs/stm32f411.md)
 PLL_HZ = 96_000_000
-#: the internal RC oscillator the firmware falls back to when the crystal or PLL fails
+#: the internal RC oscillator the firmware falls back to when the PLL fails from both sources
 HSI_HZ = 16_000_000
+#: how the boot LOG (ports/stm32f411/clock.c, clock_note) begins when the crystal failed and
+#: the PLL runs from the internal RC: the same 96 MHz, so STATUS alone cannot tell
+HSI_PLL_LOG = "clock HSI+PLL"
+#: what to look at when the crystal did not start
+CRYSTAL_ADVICE = (
+    "Check the crystal and its two load capacitors (reflow them), that the board is a 25 MHz "
+    "WeAct Black Pill, and power it from a supply that holds 3.3 V"
+)
 #: cycle_hz is a constant of the firmware's clock set-up, so any difference is a different clock
 CLOCK_TOLERANCE = 0.001
 
@@ -59,7 +68,8 @@ def clock(bench: Bench) -> Row:
             "clock", SKIPPED, f"STATUS cycle_hz is protocol 1.2; the device speaks {bench.version}"
         )
     hz = int(status.cycle_hz)
-    values = {"cycle_hz": hz, "expected_hz": PLL_HZ}
+    fallback = next((t for t in bench.boot_logs if t.startswith(HSI_PLL_LOG)), None)
+    values = {"cycle_hz": hz, "expected_hz": PLL_HZ, "boot_log": fallback}
     if hz == 0:
         return Row(
             "clock",
@@ -68,16 +78,30 @@ def clock(bench: Bench) -> Row:
             "cycle counter does not run (QEMU)",
             values,
         )
+    if abs(hz - PLL_HZ) <= PLL_HZ * CLOCK_TOLERANCE and fallback is not None:
+        return Row(
+            "clock",
+            FAIL,
+            f"{hz / 1e6:.1f} MHz from the PLL, but on the internal RC (HSI): the 25 MHz crystal "
+            f"(HSE) did not start (boot LOG: {fallback!r}). USB is off on this clock; the UART "
+            f"keeps its speed. {CRYSTAL_ADVICE}",
+            values,
+        )
     if abs(hz - PLL_HZ) <= PLL_HZ * CLOCK_TOLERANCE:
-        return Row("clock", PASS, f"{hz / 1e6:.1f} MHz: the PLL runs from the crystal", values)
+        return Row(
+            "clock",
+            PASS,
+            f"{hz / 1e6:.1f} MHz: the PLL runs from the crystal (the boot LOG names the HSI "
+            "fallback to the first host after a reset: run bring-up first after one)",
+            values,
+        )
     if abs(hz - HSI_HZ) <= HSI_HZ * CLOCK_TOLERANCE:
         return Row(
             "clock",
             FAIL,
             f"{hz / 1e6:.1f} MHz: the HSI fallback, so the 25 MHz crystal (HSE) did not start "
-            "or the PLL did not lock. USB is off on this clock and the UART is 2.1 % off "
-            "speed. Check the crystal and its two load capacitors (reflow them), that the board "
-            "is a 25 MHz WeAct Black Pill, and power it from a supply that holds 3.3 V",
+            "and the PLL did not lock from the internal RC either. USB is off on this clock and "
+            f"the UART is 2.1 % off speed. {CRYSTAL_ADVICE}",
             values,
         )
     return Row(
