@@ -122,7 +122,7 @@ def _check_coverage(rec: Recording, parts: list[Dataset]) -> None:
     scale = rec.link.clock_scale or 1.0
     figures = check_coverage(
         str(rec.path), rec.ft, arrays["t_start"], arrays["t_end"], arrays["target_valid"],
-        arrays["ft_count"], scale,
+        arrays["ft_count"], scale, truncated=rec.truncated,
     )  # fmt: skip
     for p in parts:
         p.meta["sessions"][0]["ft_coverage"] = figures

@@ -7,6 +7,10 @@ Below COVERAGE_MIN of the rows with a target, or a mean count per window beyond
 COUNT_RATIO_MAX times what the F/T's rate and the window's length imply: a CoverageWarning
 (`dataset build` prints it and exits 1, the dataset written). No row at all: DatasetError
 (exit 3), since the reference does not belong to the recording.
+
+In a truncated recording (a killed `record`) the two streams were flushed at different
+moments, so the optical windows after the reference's last sample are the cut, not a gap in
+the reference: they are counted apart (`cut_windows`) and left out of the coverage.
 """
 
 from __future__ import annotations
@@ -33,12 +37,20 @@ def check_coverage(
     valid: np.ndarray,
     count: np.ndarray,
     scale: float,
+    truncated: bool = False,
 ) -> dict[str, float]:
     """The coverage figures of one session (rows with a target, F/T samples per window,
     expected); warns or raises as the module says. No reference F/T: nothing to check."""
-    n = len(valid)
-    if ft is None or not len(ft) or not n:
+    if ft is None or not len(ft) or not len(valid):
         return {}
+    cut = 0
+    if truncated:
+        inside = t_end <= float(ft["host_time"][-1])
+        cut = int(np.count_nonzero(~inside))
+        t_start, t_end, valid, count = t_start[inside], t_end[inside], valid[inside], count[inside]
+    n = len(valid)
+    if not n:
+        return {"coverage": 0.0, "cut_windows": float(cut)}
     fraction = float(np.count_nonzero(valid)) / n
     steps = np.diff(ft["sensor_time"])
     steps = steps[steps > 0]
@@ -47,6 +59,8 @@ def check_coverage(
     expected = rate * window
     mean = float(np.mean(count[valid])) if fraction else 0.0
     figures = {"coverage": fraction, "ft_per_window": mean, "ft_per_window_expected": expected}
+    if truncated:
+        figures["cut_windows"] = float(cut)
     if fraction == 0:
         span = f"{float(ft['host_time'][0]):.3f}..{float(ft['host_time'][-1]):.3f} s"
         raise DatasetError(
