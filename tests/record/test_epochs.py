@@ -49,6 +49,11 @@ def test_a_reconnect_is_an_epoch_in_the_recording_and_the_dataset(tmp_path: Path
     recorded = recorded_samples(rec.frames, rec.frame_host_times)  # arrival of every sample
     assert np.array_equal(recorded["sequence"], arrays["sequence"])
     lag = recorded["host_time"] - arrays["t_end"]  # a window ends shortly before it arrives
-    assert np.all(lag > -0.01) and np.all(lag < 0.5), (lag.min(), lag.max())
+    assert np.all(lag > -0.01), lag.min()  # no window ends after it arrived
     restart = np.flatnonzero(np.diff(arrays["device_time_us"].astype(np.int64)) < 0)
     assert len(restart) == 1  # the device clock restarted once, and is not stitched
+    # each epoch on its own clock fit: mapped with the other's, the new epoch's windows would
+    # sit seconds from their arrivals. Medians, since a loaded host delays some arrivals by
+    # a second (CI at load 10: the largest lag 0.98 s, the median under 1 ms)
+    for part in np.split(lag, restart + 1):
+        assert float(np.median(part)) < 0.25, (np.median(part), part.max())
