@@ -298,7 +298,8 @@ def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
     """Rows of each prediction pass the check and the training summary make (every pass
     also assembles the whole dataset: with temporal context that is most of its cost): the
     training and held-out rows, each held-out group apart (`worst_group`), each session a
-    forward fold scores, and every row for the summary. What a time estimate counts beside
+    forward fold scores, over weeks each fold's and the model's training error, and every
+    row for the summary. What a time estimate counts beside
     the fits (`check_plan`)."""
     sel = np.arange(dataset.n) if rows is None else np.asarray(rows)
     fit, held, kind = heldout_groups(dataset, sel)
@@ -309,7 +310,10 @@ def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
     sizes = [int(np.count_nonzero(ses == i)) for i in ids]
     scored = [sizes[j] for k in ks for j in range(k, min(k + horizon, len(ids)))]
     per_group = [held.size // groups] * groups if groups else []
-    return [int(fit.size), int(held.size), *per_group, *scored, int(dataset.n)]
+    # over weeks, each fold's and the model's training error (`spread` rows of theirs)
+    trained = [sum(sizes[:k]) for k in ks] + [sel.size] if horizon > 1 else []
+    spread_n = [-(-r // -(-r // TRAIN_ERROR_ROWS)) for r in trained if r > 0]
+    return [int(fit.size), int(held.size), *per_group, *scored, *spread_n, int(dataset.n)]
 
 
 def check_predictions_for_options(
@@ -432,9 +436,11 @@ def forward_check(
         targets = list(next(iter(scored.values())))
         mean = {t: float(np.nanmean([m[t] for m in scored.values()])) for t in targets}
         folds.append({"trained_on": k, "sessions": [int(s) for s in scored], "mae": mean,
-                      "session_mae": list(scored.values()),
-                      "train_mae": decoder_mae(model, dataset, spread(fit_rows))})  # fmt: skip
-    own = decoder_mae(final, dataset, spread(rows)) if final is not None else None
+                      "session_mae": list(scored.values())})  # fmt: skip
+        if horizon > 1:  # the figure sets each fold's training error beside the model's
+            folds[-1]["train_mae"] = decoder_mae(model, dataset, spread(fit_rows))
+    weeks = horizon > 1 and final is not None
+    own = decoder_mae(final, dataset, spread(rows)) if weeks and final is not None else None
     mean, span = forward_figure(folds, len(ids), horizon, own)
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
     return ForwardCheck(

@@ -340,7 +340,7 @@ def search(
     refit_seconds = clock() - t_refit
     # the refit's error on rows it trained on, as each fold's was measured: the forward
     # figure sets it beside the folds' (train/check.py `trend_figure`)
-    refit_train_mae = decoder_mae(dec, dataset, thin(sel, TIMING_ROWS))
+    refit_train_mae = decoder_mae(dec, dataset, thin(sel, TIMING_ROWS)) if fwd_plan else None
     budget.spend(refit_s[chosen_name] * runner.workers)
     report = {
         "budget_s": float(budget_s),
@@ -432,6 +432,8 @@ def planned_work(
         out["fits" + key] = len(names) * (k + 1)
         out["passes" + key] = len(names) * (k * (2 + horizon) + 1)
     out["fits"] += 1  # the refit
+    if horizon:  # forward folds: the refit's training error, beside the folds'
+        out["passes"] += 1
     return out
 
 
