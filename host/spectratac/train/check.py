@@ -116,8 +116,8 @@ class HeldOutCheck:
             ks = ", ".join(str(f["trained_on"]) for f in fwd.folds)
             return dict(fwd.mean_mae), (
                 f"forward check: models trained on the first {ks} sessions in "
-                f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them, the "
-                "trend carried on to a model trained on all of them"
+                f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them; what "
+                "they erred beyond their training error, added to this model's"
             )
         if self.forward is not None:
             fwd = self.forward
