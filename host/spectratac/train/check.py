@@ -299,8 +299,7 @@ def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
     also assembles the whole dataset: with temporal context that is most of its cost): the
     training and held-out rows, each held-out group apart (`worst_group`), each session a
     forward fold scores, over weeks each fold's and the model's training error, and every
-    row for the summary. What a time estimate counts beside
-    the fits (`check_plan`)."""
+    row for the summary. What a time estimate counts beside the fits (`check_plan`)."""
     sel = np.arange(dataset.n) if rows is None else np.asarray(rows)
     fit, held, kind = heldout_groups(dataset, sel)
     groups = np.unique(group_ids(dataset, held, kind)).size if held.size else 0
@@ -439,8 +438,7 @@ def forward_check(
                       "session_mae": list(scored.values())})  # fmt: skip
         if horizon > 1:  # the figure sets each fold's training error beside the model's
             folds[-1]["train_mae"] = decoder_mae(model, dataset, spread(fit_rows))
-    weeks = horizon > 1 and final is not None
-    own = decoder_mae(final, dataset, spread(rows)) if weeks and final is not None else None
+    own = decoder_mae(final, dataset, spread(rows)) if horizon > 1 and final is not None else None
     mean, span = forward_figure(folds, len(ids), horizon, own)
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
     return ForwardCheck(
