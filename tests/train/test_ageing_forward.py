@@ -20,6 +20,7 @@ from spectratac.train.auto_recipe.space import Candidate
 from spectratac.train.check import check_rows_for_options, held_out_check
 from spectratac.train.metrics import decoder_mae
 
+SESSION_S, SEED = 10.0, 0  # the network test's ageing skin
 RIDGE = TrainSpec(model="ridge", degree=2, features="generic", targets=("Fz",))
 
 
@@ -51,22 +52,22 @@ def test_auto_folds_train_only_on_earlier_sessions_in_recording_order(skin: Data
     ds.meta["sessions"] = [dict(m, started_unix=float(order[i]))
                            for i, m in enumerate(skin.meta["sessions"])]  # fmt: skip
     folds, plan = _forward_folds(ds, np.arange(ds.n))  # type: ignore[misc]
-    assert plan["ordered_by"] == "recording" and plan["horizon"] == 3
+    assert plan["ordered_by"] == "recording" and plan["horizon"] == 4
     when = order[np.asarray(ds.session, np.int64)]  # each row's place in time
     for (fit_rows, held), k in zip(folds, plan["trained_on"], strict=True):
         assert set(when[fit_rows].tolist()) == set(range(k))
-        assert set(when[held].tolist()) == set(range(k, k + 3))
+        assert set(when[held].tolist()) == set(range(k, k + 4))
 
 
 def test_auto_ranks_on_forward_folds_and_prints_the_next_sessions(skin: Dataset) -> None:
     space = [Candidate("linear", "classical", TrainSpec(
         model="ridge", degree=1, features="generic", targets=("Fz",)))]  # fmt: skip
     res = search(skin, 60.0, space=space, workers=1)
-    assert res.report["fold_kind"] == "forward" and res.report["forward"]["horizon"] == 3
+    assert res.report["fold_kind"] == "forward" and res.report["forward"]["horizon"] == 4
     trained = fit(skin, TrainSpec(features="generic", targets=("Fz",)), budget=60.0, workers=1,
                   progress=False)  # fmt: skip
     assert trained.check.forward is not None
-    assert trained.check.expected_text().startswith("expect on your next session and the 2")
+    assert trained.check.expected_text().startswith("expect on your next session and the 3")
 
 
 def test_the_printed_figure_is_not_beaten_twice_by_the_next_sessions() -> None:
@@ -78,6 +79,23 @@ def test_the_printed_figure_is_not_beaten_twice_by_the_next_sessions() -> None:
     printed = trained.check.expected()[0]["Fz"]
     truth = decoder_mae(trained.decoder, ds, np.flatnonzero(ses >= 28))["Fz"]
     assert truth / 2 <= printed <= 2 * truth, (printed, truth, trained.check.forward)
+
+
+@pytest.mark.train
+def test_a_networks_figure_holds_within_1_5x_on_the_next_sessions() -> None:
+    """The paper's network on weeks of sessions, trained on the first 28 and scored on the
+    8 after them: the figure within 1.5x of what those sessions measure. The check's
+    models trained on a third of the rows at the real model's batch took a third of its
+    steps, erred far more than it and printed a figure the next sessions beat by 2x."""
+    ds = ageing_skin(sessions=36, session_s=SESSION_S, seed=SEED)
+    ses = np.asarray(ds.session, np.int64)
+    spec = TrainSpec.paper(features="generic", targets=("Fz",))
+    trained = fit(ds.subset(np.flatnonzero(ses < 28)), spec, progress=False)
+    printed = trained.check.expected()[0]["Fz"]
+    truth = decoder_mae(trained.decoder, ds, np.flatnonzero(ses >= 28))["Fz"]
+    assert truth / 1.5 <= printed <= 1.5 * truth, (printed, truth, trained.check.forward)
+    low, high = trained.check.expected_range()["Fz"]
+    assert low < printed < high
 
 
 def test_the_check_trains_on_no_more_rows_than_the_model(skin: Dataset) -> None:

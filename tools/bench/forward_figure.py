@@ -88,6 +88,7 @@ def run_recipe(
     )
     wall = time.perf_counter() - t0
     printed = trained.check.expected()[0]["Fz"]
+    fwd = trained.check.forward
     truth = decoder_mae(trained.decoder, ds, later)["Fz"]
     per = {
         int(k): decoder_mae(trained.decoder, ds, np.flatnonzero(ses == k))["Fz"]
@@ -99,7 +100,9 @@ def run_recipe(
         "recipe": recipe,
         "expected_text": trained.check.expected_text(),
         "next_sessions_mae": per,
-        "forward_folds": trained.check.forward.folds if trained.check.forward else None,
+        "forward_folds": fwd.folds if fwd else None,
+        "model_train_mae": fwd.model_train_mae if fwd else None,
+        "range": trained.check.expected_range(),
         "chosen": trained.search.report["chosen"] if trained.search else None,
     }
     figs = [

@@ -411,8 +411,9 @@ def _human(s: dict[str, Any]) -> str:
     if fwd:
         lines.append(
             f"  forward in time (trained on earlier sessions, scored on sessions "
-            f"{', '.join(map(str, fwd['sessions']))}): recent-weighted mean / worst (session "
-            f"{fwd['worst_session']})"
+            f"{', '.join(map(str, fwd['sessions']))}): "
+            f"{'figure' if fwd.get('horizon', 1) > 1 else 'recent-weighted mean'} / worst "
+            f"(session {fwd['worst_session']})"
         )
         for t, v in fwd["mean_mae"].items():
             lines.append(f"    {t:<8} {v:.4g} / {fwd['worst_mae'].get(t, float('nan')):.4g}")

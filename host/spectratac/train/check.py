@@ -15,8 +15,13 @@ scores each of the last FORWARD_SESSIONS; their mean, each session weighing half
 after it (`recent_weighted`: drift grows with time), is the figure to expect on the next
 session (`HeldOutCheck.expected`, printed by `expected_text`), the worst beside it.
 
+With weeks of sessions (WEEKS_SESSIONS or more) each fold scores the horizon the figure
+promises (a third of the sessions, at most MAX_HORIZON), and the figure is the real model's
+training error plus the folds' mean excess over theirs, with a range (`trend_figure`).
+
 How well the printed figure predicts the next sessions' error is measured by
-`tools/bench/heldout_forward.py`; its figures are in tools/bench/MEASUREMENTS.md.
+`tools/bench/heldout_forward.py` (one session ahead) and `tools/bench/forward_figure.py`
+(weeks); their figures are in tools/bench/MEASUREMENTS.md.
 
 A decoder whose error on whole held-out groups (sessions, presses, time blocks) is many times
 its error on its training rows has learnt what is particular to the training groups: session
@@ -50,12 +55,16 @@ from spectratac.train.groups import Split, press_units, row_groups, val_split
 from spectratac.train.holdout import parse_sessions, session_rows
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import rows_of
+from spectratac.train.spec import TrainSpec
 
 GAP_WARN = 2.0
 HELDOUT_FRACTION = 0.2  # groups held out by the check model
 MIN_FORWARD_SESSIONS = 3  # forward chaining needs sessions before the ones it scores
 FORWARD_SESSIONS = 4  # forward folds (one model each)
-MAX_HORIZON = 8  # sessions ahead a forward fold scores
+MAX_HORIZON = 8  # sessions ahead a forward fold scores, and the figure promises
+WEEKS_SESSIONS = 8  # from this many sessions on, folds score a horizon, not one ahead
+TRAIN_ERROR_ROWS = 2000  # rows a training error is measured on (as auto's trials do)
+MIN_CHECK_BATCH = 64  # below this a step costs its fixed overhead more than its rows
 Rows = NDArray[np.intp]
 
 
@@ -93,6 +102,7 @@ class HeldOutCheck:
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["expected_mae"], d["expected_source"] = self.expected()
+        d["expected_range"] = self.expected_range()
         d["expected_text"] = self.expected_text()
         return d
 
@@ -106,8 +116,8 @@ class HeldOutCheck:
             ks = ", ".join(str(f["trained_on"]) for f in fwd.folds)
             return dict(fwd.mean_mae), (
                 f"forward check: models trained on the first {ks} sessions in "
-                f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them, the "
-                "trend carried on to a model trained on all of them"
+                f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them; what "
+                "they erred beyond their training error, added to this model's"
             )
         if self.forward is not None:
             fwd = self.forward
@@ -117,6 +127,11 @@ class HeldOutCheck:
                 "weighted more"
             )
         return dict(self.heldout_mae), f"mean over held-out {plural(self.heldout_groups)}"
+
+    def expected_range(self) -> dict[str, list[float]]:
+        """{target: [low, high]} about the figure when the forward folds give one (weeks of
+        sessions: `trend_figure`), else empty."""
+        return dict(self.forward.range_mae) if self.forward is not None else {}
 
     def expected_text(self) -> str:
         """The sentence `spectratac train` prints: the error to expect on the next session,
@@ -133,7 +148,12 @@ class HeldOutCheck:
           weighted more; worst, session 4: Fz 0.6 N)
         """
         mae, source = self.expected()
-        cells = "  ".join(f"{t} ~{v:.3g}{_unit(t)}" for t, v in mae.items())
+        span = self.expected_range()
+        cells = "  ".join(
+            f"{t} ~{v:.3g}{_unit(t)}"
+            + (f" (range {span[t][0]:.3g}-{span[t][1]:.3g}{_unit(t)})" if t in span else "")
+            for t, v in mae.items()
+        )
         if self.forward is None:
             return f"expect on a new session: {cells} ({source})"
         worst = "  ".join(f"{t} {v:.3g}{_unit(t)}" for t, v in self.forward.worst_mae.items())
@@ -168,6 +188,10 @@ class ForwardCheck:
     # sessions ahead each fold scores, and the folds: {"trained_on": k, "sessions", "mae"}
     horizon: int = 1
     folds: list[dict[str, Any]] = field(default_factory=list)
+    # {target: [low, high]} about the figure (horizon > 1: `trend_figure`), and the real
+    # model's error on rows it trained on, which the figure sets beside the folds'
+    range_mae: dict[str, list[float]] = field(default_factory=dict)
+    model_train_mae: dict[str, float] = field(default_factory=dict)
 
 
 def held_out_check(
@@ -185,7 +209,7 @@ def held_out_check(
     about HELDOUT_FRACTION of the groups of `rows` scoring a check model `trainer(fit rows)`;
     beside it the worst held-out group, and (`forward`) forward chaining over sessions."""
     model = dec
-    stride = check_stride(dataset, rows, check_model=_needs_check_model(dec, split, held_sessions))
+    stride = check_stride(dataset, rows, check_model=needs_check_model(dec, split, held_sessions))
     trainer = thinned(trainer, stride)
     if split is not None:
         fit, held, kind, source = split.train, split.test, split.spec.by, "holdout split"
@@ -209,11 +233,11 @@ def held_out_check(
     )
     worst, worst_id = worst_group(model, dataset, np.asarray(held), kind)
     pool = np.arange(dataset.n) if rows is None else np.asarray(rows)
-    fwd = forward_check(dataset, pool, trainer) if forward else None
+    fwd = forward_check(dataset, pool, trainer, final=dec) if forward else None
     return replace(check, heldout_worst=worst, heldout_worst_group=worst_id, forward=fwd)
 
 
-def _needs_check_model(dec: Decoder, split: Split | None, held_sessions: bool) -> bool:
+def needs_check_model(dec: Decoder, split: Split | None, held_sessions: bool) -> bool:
     """Whether the held-out check trains a model of its own (no split, no held-out
     sessions, no validation groups in the model)."""
     return split is None and not held_sessions and not dec.meta.get("n_val", 0) > 0
@@ -240,7 +264,7 @@ def check_stride(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> i
     >>> ds = Dataset.generic(np.zeros((280, 1)), np.zeros((280, 1)), ["a"], ["Fz"])
     >>> ds.arrays["session"] = np.repeat(np.arange(28), 10)
     >>> check_fit_rows(ds, None, check_model=True), check_stride(ds, None, check_model=True)
-    ([224, 90, 130, 170, 210], 3)
+    ([224, 90, 130, 160, 200], 3)
     """
     n = dataset.n if rows is None else np.asarray(rows).size
     total = sum(check_fit_rows(dataset, rows, check_model=check_model))
@@ -274,8 +298,8 @@ def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
     """Rows of each prediction pass the check and the training summary make (every pass
     also assembles the whole dataset: with temporal context that is most of its cost): the
     training and held-out rows, each held-out group apart (`worst_group`), each session a
-    forward fold scores, and every row for the summary. What a time estimate counts beside
-    the fits (`check_plan`)."""
+    forward fold scores, over weeks each fold's and the model's training error, and every
+    row for the summary. What a time estimate counts beside the fits (`check_plan`)."""
     sel = np.arange(dataset.n) if rows is None else np.asarray(rows)
     fit, held, kind = heldout_groups(dataset, sel)
     groups = np.unique(group_ids(dataset, held, kind)).size if held.size else 0
@@ -285,7 +309,10 @@ def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
     sizes = [int(np.count_nonzero(ses == i)) for i in ids]
     scored = [sizes[j] for k in ks for j in range(k, min(k + horizon, len(ids)))]
     per_group = [held.size // groups] * groups if groups else []
-    return [int(fit.size), int(held.size), *per_group, *scored, int(dataset.n)]
+    # over weeks, each fold's and the model's training error (`spread` rows of theirs)
+    trained = [sum(sizes[:k]) for k in ks] + [sel.size] if horizon > 1 else []
+    spread_n = [-(-r // -(-r // TRAIN_ERROR_ROWS)) for r in trained if r > 0]
+    return [int(fit.size), int(held.size), *per_group, *scored, *spread_n, int(dataset.n)]
 
 
 def check_predictions_for_options(
@@ -298,6 +325,23 @@ def check_predictions_for_options(
         rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
     out = check_predictions(ds, rows)
     return [round(0.8 * r) for r in out] if holdout else out
+
+
+def check_recipe(spec: TrainSpec, stride: int) -> TrainSpec:
+    """The recipe of the check's models, which train on every `stride`-th row: the real
+    model's, with the batch divided by `stride` (at least MIN_CHECK_BATCH) so that each
+    epoch takes as many optimiser steps as on every row. With the batch kept, a network
+    on a third of the rows took a third of the steps, erred more than the model it checks
+    and made the figure pessimistic; the rows it skips are near-duplicates at 100 Hz, the
+    steps are what it learns by. Ridge has no batches.
+
+    >>> check_recipe(TrainSpec.paper(), 3).batch_size, check_recipe(TrainSpec.best(), 8).batch_size
+    (341, 64)
+    """
+    if spec.model == "ridge" or stride <= 1:
+        return spec
+    return replace(spec, batch_size=max(min(MIN_CHECK_BATCH, spec.batch_size),
+                                        spec.batch_size // stride))  # fmt: skip
 
 
 def thinned(trainer: Callable[[Rows], Decoder], stride: int) -> Callable[[Rows], Decoder]:
@@ -341,18 +385,18 @@ def group_ids(dataset: Dataset, held: Rows, kind: str) -> NDArray[np.int64]:
 def forward_plan(n_sessions: int) -> tuple[list[int], int]:
     """(fold points, horizon): fold k trains on the first k sessions in time order and is
     scored on the `horizon` sessions after them. Up to 7 sessions: the last four sessions one
-    at a time (horizon 1); with more, a horizon of a quarter of them (at most
-    MAX_HORIZON), so that the folds see drift as far ahead as the next weeks will, at
-    FORWARD_SESSIONS points spread over the later two thirds.
+    at a time (horizon 1); with more, a horizon of a third of them (at most MAX_HORIZON,
+    the sessions the printed figure is for), so that the folds see drift as far ahead as
+    the next weeks will, at FORWARD_SESSIONS points spread over the later two thirds.
 
     >>> forward_plan(6), forward_plan(28), forward_plan(2)
-    (([2, 3, 4, 5], 1), ([9, 13, 17, 21], 7), ([], 1))
+    (([2, 3, 4, 5], 1), ([9, 13, 16, 20], 8), ([], 1))
     """
     if n_sessions < MIN_FORWARD_SESSIONS:
         return [], 1
-    horizon = int(np.clip(n_sessions // 4, 1, MAX_HORIZON))
-    if horizon == 1:
+    if n_sessions < WEEKS_SESSIONS:
         return list(range(n_sessions - min(FORWARD_SESSIONS, n_sessions - 1), n_sessions)), 1
+    horizon = int(np.clip(n_sessions // 3, 2, MAX_HORIZON))
     last = n_sessions - horizon
     first = max(2, n_sessions // 3)
     ks = np.unique(np.rint(np.linspace(min(first, last), last, FORWARD_SESSIONS)).astype(int))
@@ -360,7 +404,11 @@ def forward_plan(n_sessions: int) -> tuple[list[int], int]:
 
 
 def forward_check(
-    dataset: Dataset, rows: Rows, trainer: Callable[[Rows], Decoder]
+    dataset: Dataset,
+    rows: Rows,
+    trainer: Callable[[Rows], Decoder],
+    *,
+    final: Decoder | None = None,
 ) -> ForwardCheck | None:
     """Forward chaining over the sessions of `rows` in time order (`time_order`,
     `forward_plan`): for each fold point k, a model trained on the rows of the first k
@@ -377,7 +425,8 @@ def forward_check(
     per: dict[str, dict[str, float]] = {}
     folds: list[dict[str, Any]] = []
     for k in ks:
-        model = trainer(rows[when < k])
+        fit_rows = rows[when < k]
+        model = trainer(fit_rows)
         scored = {
             str(ids[j]): decoder_mae(model, dataset, rows[when == j])
             for j in range(k, min(k + horizon, len(ids)))
@@ -387,56 +436,92 @@ def forward_check(
         mean = {t: float(np.nanmean([m[t] for m in scored.values()])) for t in targets}
         folds.append({"trained_on": k, "sessions": [int(s) for s in scored], "mae": mean,
                       "session_mae": list(scored.values())})  # fmt: skip
-    mean = forward_figure(folds, len(ids), horizon)
+        if horizon > 1:  # the figure sets each fold's training error beside the model's
+            folds[-1]["train_mae"] = decoder_mae(model, dataset, spread(fit_rows))
+    own = decoder_mae(final, dataset, spread(rows)) if horizon > 1 and final is not None else None
+    mean, span = forward_figure(folds, len(ids), horizon, own)
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
     return ForwardCheck(
         [int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s), ordered_by,
-        horizon, folds,
+        horizon, folds, span, own or {},
     )  # fmt: skip
 
 
-def forward_figure(folds: list[dict[str, Any]], n: int, horizon: int) -> dict[str, float]:
-    """{target: MAE to expect} from forward folds over `n` sessions: one session ahead
-    (horizon 1), the recent-weighted mean of the folds' errors; further, `trend_figure`."""
+def spread(rows: Rows) -> Rows:
+    """At most TRAIN_ERROR_ROWS of `rows`, spread evenly over them: where a model's error on
+    the rows it trained on is measured (the folds' and the real model's alike)."""
+    rows = np.asarray(rows)
+    return rows[:: -(-rows.size // TRAIN_ERROR_ROWS)] if rows.size else rows
+
+
+def forward_figure(
+    folds: list[dict[str, Any]], n: int, horizon: int, own: dict[str, float] | None = None
+) -> tuple[dict[str, float], dict[str, list[float]]]:
+    """({target: MAE to expect}, {target: [low, high]}) from forward folds over `n`
+    sessions: one session ahead (horizon 1), the recent-weighted mean of the folds' errors
+    and no range; further, `trend_figure`, `own` being the real model's training error."""
     targets = list(folds[0]["mae"])
     if horizon == 1:
-        return {t: recent_weighted([f["mae"][t] for f in folds]) for t in targets}
-    return {t: trend_figure(folds, t, n, horizon) for t in targets}
+        return {t: recent_weighted([f["mae"][t] for f in folds]) for t in targets}, {}
+    mean, span = {}, {}
+    for t in targets:
+        mean[t], lo, hi = trend_figure(folds, t, n, horizon, (own or {}).get(t))
+        if math.isfinite(lo) and math.isfinite(hi):
+            span[t] = [lo, hi]
+    return mean, span
 
 
-def trend_figure(folds: list[dict[str, Any]], target: str, n: int, horizon: int) -> float:
-    """The error to expect over the `horizon` sessions after all `n`: every forward fold's
-    per-session errors (fold k trained on the first k sessions, its i-th session i sessions
-    ahead) fitted as a + b k + c ahead, read at k = n over 1 ... `horizon` sessions ahead;
-    never below the folds' mean (a falling trend is not promised, and a re-mounting strikes
-    any fold alike: weighting the recent ones chased which folds had one) nor above twice
-    their largest (few folds: a steep line is noise as much as drift).
+def trend_figure(
+    folds: list[dict[str, Any]], target: str, n: int, horizon: int, own: float | None = None
+) -> tuple[float, float, float]:
+    """(figure, low, high): the error to expect over the `horizon` sessions after all `n`.
 
-    >>> folds = [{"trained_on": k, "session_mae": [{"Fz": 0.01 * k + 0.1 * i} for i in (1, 2)]}
-    ...          for k in (4, 6, 8)]
-    >>> round(trend_figure(folds, "Fz", 10, 2), 6)
-    0.25
+    Each forward fold's error over its `horizon` sessions exceeds its error on the rows it
+    trained on (its "train_mae") by what time does to a model: drift, re-mountings, the
+    sessions it never saw. The figure is the real model's own training error (`own`) plus
+    the folds' mean excess: a check model that fits worse or better than the real one
+    (fewer rows, fewer steps) no longer moves the figure. Without training errors, the
+    folds' mean error.
+
+    The range says how far that mean can be from the next sessions: by the spread of the
+    folds' excesses (a re-mounting strikes some windows and not others), and by the trend
+    across folds (per-session errors fitted as a + b k + c ahead, read at k = n): the
+    next sessions follow a model trained on more sessions than any fold, which drifts
+    further from its older ones. The range is centred on the figure, the larger of the two
+    either side, its low end never below `own`.
+
+    >>> folds = [{"trained_on": k, "train_mae": {"Fz": 0.1},
+    ...           "session_mae": [{"Fz": 0.01 * k + 0.1 * i} for i in (1, 2)]} for k in (4, 6, 8)]
+    >>> [round(v, 3) for v in trend_figure(folds, "Fz", 10, 2, own=0.05)]
+    [0.16, 0.07, 0.25]
     """
-    ks, ahead, err, means = [], [], [], []
+    ks, ahead, err, means, trained = [], [], [], [], []
     for f in folds:
-        vals = [m[target] for m in f["session_mae"]]
-        means.append(float(np.nanmean(vals)) if np.isfinite(vals).any() else float("nan"))
+        vals = [float(m[target]) for m in f["session_mae"]]
+        if not np.isfinite(vals).any():
+            continue
+        means.append(float(np.nanmean(vals)))
+        trained.append(float((f.get("train_mae") or {}).get(target, float("nan"))))
         for i, v in enumerate(vals, start=1):
             ks.append(f["trained_on"])
             ahead.append(i)
             err.append(v)
+    if not means:
+        return float("nan"), float("nan"), float("nan")
+    ex = np.asarray(means) - np.asarray(trained)
+    if own is None or not math.isfinite(own) or not np.isfinite(ex).all():
+        own, ex = 0.0, np.asarray(means)  # no training errors to set beside each other
+    point = own + float(np.mean(ex))
     e = np.asarray(err, np.float64)
     ok = np.isfinite(e)
-    m = np.asarray(means, np.float64)
-    floor = float(np.mean(m[np.isfinite(m)])) if np.isfinite(m).any() else float("nan")
     if np.unique(np.asarray(ks)[ok]).size < 2:
-        return floor
-    cols = [np.ones(ok.sum()), np.asarray(ks, np.float64)[ok]]
-    if horizon > 1:
-        cols.append(np.asarray(ahead, np.float64)[ok])
-    coef = np.linalg.lstsq(np.stack(cols, axis=1), e[ok], rcond=None)[0]
-    at = coef[0] + coef[1] * n + (coef[2] * (horizon + 1) / 2 if horizon > 1 else 0.0)
-    return float(min(max(at, floor), 2.0 * e[ok].max()))
+        return point, float("nan"), float("nan")
+    x = np.stack([np.ones(ok.sum()), np.asarray(ks, np.float64)[ok],
+                  np.asarray(ahead, np.float64)[ok]], axis=1)  # fmt: skip
+    coef = np.linalg.lstsq(x, e[ok], rcond=None)[0]
+    trend = float(coef[0] + coef[1] * n + coef[2] * (horizon + 1) / 2)
+    width = max(float(np.std(ex, ddof=1)), abs(min(trend, 2.0 * e[ok].max()) - point))
+    return point, max(point - width, own), point + width
 
 
 def recent_weighted(errors: list[float]) -> float:
@@ -520,23 +605,27 @@ def cv_check(report: dict[str, Any]) -> HeldOutCheck:
     )
     if not plan or not chosen.get("fold_session_mae"):
         return check
-    return replace(check, forward=_forward_of_folds(plan, chosen))
+    return replace(check, forward=_forward_of_folds(plan, chosen, report.get("refit_train_mae")))
 
 
-def _forward_of_folds(plan: dict[str, Any], chosen: dict[str, Any]) -> ForwardCheck:
+def _forward_of_folds(
+    plan: dict[str, Any], chosen: dict[str, Any], own: dict[str, float] | None
+) -> ForwardCheck:
     """The forward check of the auto recipe's choice, from its forward folds' scores."""
     ks = [int(k) for k in plan["trained_on"]]
     per: dict[str, dict[str, float]] = {}
     folds = []
-    for k, mae, by_s in zip(ks, chosen["cv_fold_mae"], chosen["fold_session_mae"], strict=True):
+    trained = chosen.get("fold_train_mae") or [{}] * len(ks)
+    for k, mae, by_s, tr in zip(ks, chosen["cv_fold_mae"], chosen["fold_session_mae"], trained,
+                                strict=True):  # fmt: skip
         per.update(by_s)
         folds.append({"trained_on": k, "sessions": [int(s) for s in by_s], "mae": mae,
-                      "session_mae": list(by_s.values())})  # fmt: skip
-    mean = forward_figure(folds, plan["sessions"], plan["horizon"])
+                      "session_mae": list(by_s.values()), "train_mae": tr})  # fmt: skip
+    mean, span = forward_figure(folds, plan["sessions"], plan["horizon"], own)
     worst = max(per, key=lambda s: float(np.nanmean(list(per[s].values()))))
     return ForwardCheck(
         [int(s) for s in per], per, mean, dict(per[worst]), int(worst), plan["ordered_by"],
-        plan["horizon"], folds,
+        plan["horizon"], folds, span, own or {},
     )  # fmt: skip
 
 

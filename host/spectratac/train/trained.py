@@ -38,7 +38,14 @@ from spectratac.dataset.schema import Dataset
 from spectratac.decode.decoder import Decoder
 from spectratac.decode.errors import DecoderConfigError, DecoderError
 from spectratac.train.auto_recipe import SearchResult, search
-from spectratac.train.check import HeldOutCheck, cv_check, held_out_check
+from spectratac.train.check import (
+    HeldOutCheck,
+    check_recipe,
+    check_stride,
+    cv_check,
+    held_out_check,
+    needs_check_model,
+)
 from spectratac.train.finetune import FinetuneOptions, finetune
 from spectratac.train.fitting import train
 from spectratac.train.groups import Split, SplitSpec, split_dataset
@@ -161,9 +168,12 @@ def fit(
     else:
         recipe = spec or default_spec(dataset)
         dec = train(dataset, recipe, rows=rows, progress=progress)
+        # the check's models train on every stride-th row, with as many steps as the real one
+        own = needs_check_model(dec, split, held is not None)
+        checking = check_recipe(recipe, check_stride(dataset, rows, check_model=own))
 
         def again(fit_rows: Rows) -> Decoder:  # the check model, trained like the real one
-            return train(dataset, recipe, rows=fit_rows, progress=progress)
+            return train(dataset, checking, rows=fit_rows, progress=progress)
 
     if found is not None:
         check = cv_check(found.report)

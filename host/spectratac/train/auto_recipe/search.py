@@ -43,10 +43,11 @@ from spectratac.decode.networks import flops
 from spectratac.train.auto_recipe.budget import Stopwatch, WorkBudget, nominal_s, work
 from spectratac.train.auto_recipe.report import render
 from spectratac.train.auto_recipe.space import Candidate, candidates
-from spectratac.train.auto_recipe.trial import Fold, TrialJob
+from spectratac.train.auto_recipe.trial import TIMING_ROWS, Fold, TrialJob, thin
 from spectratac.train.check import forward_plan, time_order
 from spectratac.train.fitting import train
 from spectratac.train.groups import Groups, group_folds, purge, row_groups
+from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import default_features, default_targets, plan, select_rows
 from spectratac.train.spec import TrainSpec
 
@@ -152,6 +153,7 @@ def _summarise(c: Candidate, res: dict[str, Any], k: int) -> dict[str, Any]:
         "fold_score": [float(x) for x in s],
         "cv_mae": mae,
         "cv_fold_mae": [dict(f) for f in res["fold_mae"]],
+        "fold_train_mae": [dict(f) for f in res["train_mae"]],
         "train_score": tr,
         "train_mae": train_mae,
         "gap": float(s.mean() / tr) if tr > 0 else float("inf"),
@@ -336,6 +338,9 @@ def search(
     spec = _refit_spec(chosen, fit_n, sel.size, 0)
     dec = train(dataset, spec, rows=sel, progress=False)
     refit_seconds = clock() - t_refit
+    # the refit's error on rows it trained on, as each fold's was measured: the forward
+    # figure sets it beside the folds' (train/check.py `trend_figure`)
+    refit_train_mae = decoder_mae(dec, dataset, thin(sel, TIMING_ROWS)) if fwd_plan else None
     budget.spend(refit_s[chosen_name] * runner.workers)
     report = {
         "budget_s": float(budget_s),
@@ -359,6 +364,7 @@ def search(
         "rule": "fewest inference FLOPs within one standard error (paired over folds) of the "
         "best; a network only if no classical baseline scores better",
         "chosen": chosen_name,
+        "refit_train_mae": refit_train_mae,
         "best": best_name,
         "candidates": rows_out,
     }
@@ -426,6 +432,8 @@ def planned_work(
         out["fits" + key] = len(names) * (k + 1)
         out["passes" + key] = len(names) * (k * (2 + horizon) + 1)
     out["fits"] += 1  # the refit
+    if horizon:  # forward folds: the refit's training error, beside the folds'
+        out["passes"] += 1
     return out
 
 
