@@ -105,14 +105,15 @@ def test_evaluate_is_estimated_from_the_users_model_on_the_users_rows(
 def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
     monkeypatch: pytest.MonkeyPatch, clock: list[float]
 ) -> None:
-    """Fault injection on a fake clock: every probe fit costs 10 ms + 10 us per row, and the
-    scheduler stalls one of them for 0.3 s (a busy machine). The per-row rate is multiplied
-    by rows x epochs (~400k in the demo), so the stalled probe alone made a 3-minute demo
-    an estimate of over an hour; the median of the repeats leaves the stall out."""
+    """Fault injection on a fake clock: every probe fit costs 10 ms + 10 us per row and
+    epoch, and the scheduler stalls one of them for 0.3 s (a busy machine). The per-row rate
+    is multiplied by rows x epochs (~400k in the demo), so the stalled probe alone made a
+    3-minute demo an estimate of over an hour; the median of the repeats leaves the stall
+    out."""
     import spectratac.train as train_pkg
 
     @dataclasses.dataclass(frozen=True)
-    class Spec:  # the fields the probe sets; the fake trainer below reads none of them
+    class Spec:  # the fields the probe sets; the fake trainer below reads the epochs
         epochs: int = 30
         val_fraction: float = 0.1
         best_val: bool = True
@@ -126,7 +127,7 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
         trained.append(dataset)
         stall = len(rows) > 64 and not stalled[0]  # the first probe of many rows
         stalled[0] |= stall
-        clock[0] += 0.01 + 1e-5 * len(rows) + (0.3 if stall else 0.0)
+        clock[0] += 0.01 + 1e-5 * len(rows) * spec.epochs + (0.3 if stall else 0.0)
 
     monkeypatch.setattr(train_pkg, "train", fake_train)
     ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
@@ -138,3 +139,37 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
     assert all(d is ds for d in trained)  # every probe fit the user's own dataset
     e = estimates.training_estimate(ds, Spec(), fits=2)
     assert e.parts_s["train"] == pytest.approx(2 * (0.01064 + 1e-5 * 5000 * 30), rel=1e-3)
+
+
+def test_a_fits_once_per_row_work_is_counted_once_not_once_per_epoch(
+    monkeypatch: pytest.MonkeyPatch, clock: list[float]
+) -> None:
+    """A fit assembles its rows' inputs (temporal context, the drift baseline), solves the
+    skip's least squares and builds the gain view once, then runs its epochs. A fake
+    trainer on the fake clock costs 0.1 s + 100 us per row once + 20 us per row and epoch:
+    a one-epoch probe read 120 us per row-epoch, which the demo's 40 epochs multiplied (a
+    best fit of 9,600 rows estimated at 46 s for 8.6 s of work). The probe parts the two."""
+    import spectratac.train as train_pkg
+
+    @dataclasses.dataclass(frozen=True)
+    class Spec:
+        epochs: int = 40
+        val_fraction: float = 0.0
+        best_val: bool = False
+        uncertainty: bool = False
+        batch_size: int = 256
+
+    epochs_probed: list[int] = []
+
+    def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
+        epochs_probed.append(spec.epochs)
+        clock[0] += 0.1 + 1e-4 * len(rows) + 2e-5 * len(rows) * spec.epochs
+
+    monkeypatch.setattr(train_pkg, "train", fake_train)
+    ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
+    cost = estimates.TrainingCost.measure(ds, Spec())
+    assert max(epochs_probed) < Spec.epochs  # probes, not the run
+    assert cost.row_epoch_s == pytest.approx(2e-5, rel=1e-6)
+    assert cost.row_s == pytest.approx(1e-4, rel=1e-6)
+    # the demo's best fit: 9,600 rows x 40 epochs, its inputs assembled once
+    assert cost.seconds(9600, 40) == pytest.approx(0.1 + 0.96 + 7.68, rel=1e-2)

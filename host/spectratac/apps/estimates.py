@@ -90,25 +90,30 @@ def median_s(repeats: int, fn: Callable[..., Any], *args: Any, **kwargs: Any) ->
 # ------------------------------------------------------------------ train
 @dataclass(frozen=True)
 class TrainingCost:
-    """Training time of one TrainSpec: fixed_s (planning, features, runtime) plus
-    row_epoch_s per training row and epoch."""
+    """Training time of one TrainSpec: fixed_s (planning, features, runtime), row_s per
+    training row once per fit (assembling its inputs, the skip's least squares, the gain
+    view), and row_epoch_s per training row and epoch."""
 
     fixed_s: float
     row_epoch_s: float
+    row_s: float = 0.0
 
     def seconds(self, rows: int, epochs: int) -> float:
-        return self.fixed_s + self.row_epoch_s * rows * epochs
+        return self.fixed_s + self.row_s * rows + self.row_epoch_s * rows * epochs
 
     @classmethod
     def measure(
         cls, dataset: Dataset, spec: Any, batches: int = 4, repeats: int = PROBE_REPEATS
     ) -> TrainingCost:
         """Train `spec` for one epoch on 64 rows (the fixed cost: planning, features, the
-        runtime, an almost empty epoch), then for one epoch on the first `batches` batches of
-        rows (contiguous, so temporal context works as in the real run); each `repeats`
-        times, keeping the median. Why: the per-row cost is multiplied by rows x epochs
-        (~400k in the demo), so one scheduler stall of 0.1 s in a single 20-ms probe on a
-        busy machine became an estimate of an hour and more for work of three minutes."""
+        runtime, an almost empty epoch), then for one and for two epochs on the first
+        `batches` batches of rows (contiguous, so temporal context works as in the real
+        run); each `repeats` times, keeping the median. The two epoch counts part the work
+        done once per row of a fit from the work of each epoch: a one-epoch probe counted
+        both as per-epoch work, which the run's 40 epochs then multiplied. The median: the
+        per-row cost is multiplied by rows x epochs (~400k in the demo), so one scheduler
+        stall of 0.1 s in a single 20-ms probe on a busy machine became an estimate of an
+        hour and more for work of three minutes."""
         from spectratac.train import train
 
         # no validation split: 64 probe rows hold too few groups to hold one out, and an
@@ -116,6 +121,7 @@ class TrainingCost:
         one = dataclasses.replace(
             spec, epochs=1, val_fraction=0.0, best_val=False, uncertainty=False
         )
+        two = dataclasses.replace(one, epochs=2)
         train(dataset, one, rows=np.arange(16), progress=False)  # torch's once-per-process set-up
         small = np.arange(min(64, dataset.n))
         # at least PROBE_ROWS: at batch 256 four batches were a few ms of work, and the
@@ -125,8 +131,12 @@ class TrainingCost:
         )
         fixed = median_s(repeats, train, dataset, one, rows=small, progress=False)
         t1 = median_s(repeats, train, dataset, one, rows=rows, progress=False)
-        per_row = (t1 - fixed) / max(rows.size - small.size, 1)
-        return cls(fixed, max(per_row, t1 / rows.size / 10))  # a noisy probe: never ~0
+        t2 = median_s(repeats, train, dataset, two, rows=rows, progress=False)
+        extra = max(rows.size - small.size, 1)
+        per_epoch = max((t2 - t1) / rows.size, t1 / rows.size / 10)  # a noisy probe: never ~0
+        # what the first epoch cost beyond an epoch's work: once per row of the fit
+        per_row = max((t1 - fixed) / extra - per_epoch, 0.0)
+        return cls(fixed, per_epoch, per_row)
 
 
 @dataclass(frozen=True)
@@ -177,7 +187,7 @@ def training_estimate(
     t0 = time.perf_counter()
     cost = TrainingCost.measure(dataset, spec)
     parts = {"train": fits * cost.seconds(dataset.n, spec.epochs)}
-    rates = {"s/row-epoch": cost.row_epoch_s, "fixed s": cost.fixed_s}
+    rates = {"s/row-epoch": cost.row_epoch_s, "s/row per fit": cost.row_s, "fixed s": cost.fixed_s}
     if check_rows:
         parts["held-out and forward check"] = sum(
             cost.seconds(int(r), spec.epochs) for r in check_rows
@@ -261,7 +271,9 @@ def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float,
     ctx = dataclasses.replace(spec, context=8, context_ema=(10.0, 40.0, 160.0), drift="baseline")
     drift = PredictCost.measure(dataset, ctx, rows=64)
     factor = cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"])
-    fixed = FixedCosts(cost.fixed_s, passes.pass_s, drift.pass_s)
+    # a fit's once-per-row work (its rows' inputs assembled) on at most the dataset's rows
+    fit_s = cost.fixed_s + cost.row_s * dataset.n
+    fixed = FixedCosts(fit_s, passes.pass_s, drift.pass_s)
     return float(np.clip(factor, 0.2, 50)), fixed
 
 

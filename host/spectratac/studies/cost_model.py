@@ -111,6 +111,7 @@ def demo_estimate(
             "dataset s/sample": per_build,
             "paper recipe s/row-epoch": paper.row_epoch_s,
             "best decoder s/row-epoch": best.row_epoch_s,
+            "best decoder s/row per fit": best.row_s,
             "twin inverse s/row": per_oracle,
         },
         time.perf_counter() - t0,
