@@ -79,12 +79,13 @@ class FoxgloveClient:
             subs.append({"id": sub_id, "channelId": channel["id"]})
         self._ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
-    def receive(self, seconds: float) -> list[Received]:
+    def receive(self, seconds: float, until: int | None = None) -> list[Received]:
         """Every message of the subscriptions in the next `seconds`, each validated against
-        its channel's advertised schema."""
-        out = []
+        its channel's advertised schema; with `until`, as soon as that many have arrived
+        (`seconds` is then a hang guard)."""
+        out: list[Received] = []
         end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
+        while (left := end - time.monotonic()) > 0 and (until is None or len(out) < until):
             self._ws.settimeout(left)
             try:
                 frame = self._ws.recv()

@@ -30,6 +30,16 @@ TOPICS = ("/spectratac/counts", "/spectratac/estimates", "/ft/wrench")
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def subscribed(client: FoxgloveClient, bridge: FoxgloveBridge, *topics: str) -> None:
+    """Subscribe and wait until the bridge has taken the subscription: messages published
+    before it arrives are not for anyone (a loaded CI lost the first batch so)."""
+    client.subscribe(*topics)
+    deadline = time.monotonic() + 30.0  # a hang guard
+    while not set(topics) <= bridge.subscribed_topics:
+        assert time.monotonic() < deadline, f"the bridge never took the subscription {topics}"
+        time.sleep(0.01)
+
+
 def port_is_free(port: int) -> bool:
     """Whether a server could listen on `port` again (as servers bind: SO_REUSEADDR)."""
     with socket.socket() as s:
@@ -96,7 +106,7 @@ def test_a_taken_port_is_a_typed_error_saying_what_to_do() -> None:
 def test_an_unsubscribed_channel_costs_nothing_and_close_is_idempotent() -> None:
     bridge = FoxgloveBridge(port=0).start()
     client = FoxgloveClient(bridge.url).connect(TOPICS)
-    client.subscribe("/ft/wrench")
+    subscribed(client, bridge, "/ft/wrench")
     from spectratac.ft import FT_RECORD
 
     rows = np.zeros(3, FT_RECORD)
@@ -104,7 +114,7 @@ def test_an_unsubscribed_channel_costs_nothing_and_close_is_idempotent() -> None
     rows["wrench"][:, 2] = -2.0
     bridge.ft(rows)
     bridge.frame(b"\x01\x00\x84\x00\x00", time.monotonic())  # not subscribed: not decoded
-    got = client.receive(1.0)
+    got = client.receive(30.0, until=3)
     assert [r.message["force"]["z"] for r in got] == [-2.0] * 3
     assert bridge.sent["/ft/wrench"] == 3 and bridge.sent["/spectratac/counts"] == 0
     bridge.close()
@@ -186,9 +196,9 @@ def test_both_subprotocols_connect_and_every_channel_opens_in_lichtblick(
                 channel["schema"].encode(),
             )
             assert parsed.datatypes, topic
-        client.subscribe("/ft/wrench")
+        subscribed(client, bridge, "/ft/wrench")
         bridge.ft(_wrench_rows(4, -2.0))
-        assert [r.message["force"]["z"] for r in client.receive(1.0)] == [-2.0] * 4
+        assert [r.message["force"]["z"] for r in client.receive(30.0, until=4)] == [-2.0] * 4
         client.close()
 
 
@@ -297,11 +307,11 @@ def test_an_exception_while_encoding_is_logged_once_and_later_messages_arrive(
     monkeypatch.setattr(fb, "wrench_messages", flaky)
     with FoxgloveBridge(port=0) as bridge:
         client = FoxgloveClient(bridge.url).connect(TOPICS)
-        client.subscribe("/ft/wrench")
+        subscribed(client, bridge, "/ft/wrench")
         for _ in range(3):  # three batches, each failing
             bridge.ft(_wrench_rows(2, -1.0))
         bridge.ft(_wrench_rows(5, -3.0))
-        got = client.receive(1.5)
+        got = client.receive(30.0, until=5)
         assert [r.message["force"]["z"] for r in got] == [-3.0] * 5
         assert bridge.stats["errors"] == 3
         client.close()

@@ -233,6 +233,11 @@ class FoxgloveBridge:
         return f"ws://{HOST}:{self.port}"
 
     @property
+    def subscribed_topics(self) -> frozenset[str]:
+        """The topics some client subscribes to now: messages of any other are not encoded."""
+        return self._live
+
+    @property
     def stats(self) -> dict[str, Any]:
         """Messages sent by topic, dropped (tap queues and slow clients: oldest first),
         encoding errors, clients connected."""

@@ -39,6 +39,7 @@ def commands_per_press(decoder: Decoder, seed: int) -> tuple[list[list[int]], li
                 break
     return per_press, [int(r) for r in press_regions(scene)]
 
+
 pytestmark = [pytest.mark.train, pytest.mark.slow]
 
 
