@@ -183,6 +183,7 @@ def _train(args: argparse.Namespace) -> int:
     from spectratac.decode import DecoderError
     from spectratac.decode.export import FORMATS
     from spectratac.train import FinetuneOptions, SplitSpec, TrainSpec, fit
+    from spectratac.train.finetune import DEFAULT_MODE
     from spectratac.train.plan import default_features, default_targets
     from spectratac.train.unlabelled import has_force_targets
 
@@ -218,7 +219,7 @@ def _train(args: argparse.Namespace) -> int:
     spec, tune = None, None
     if args.finetune:
         tune = FinetuneOptions(
-            **({"mode": "gain"} if args.gain_only else {}),
+            mode="gain" if args.gain_only else DEFAULT_MODE,
             epochs=args.epochs,
             lr=args.lr,
             seed=args.seed or 0,

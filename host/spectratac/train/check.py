@@ -553,16 +553,17 @@ def time_order(dataset: Dataset, ids: NDArray[np.int64]) -> tuple[list[int], str
     >>> time_order(ds, np.array([0, 1, 2]))
     ([0, 1, 2], 'session number')
     """
-    ids = sorted(int(i) for i in ids)
+    numbers = sorted(int(i) for i in ids)
     meta = dataset.meta.get("sessions") or []
-    starts = [
+    raw = [
         meta[i].get("started_unix") if 0 <= i < len(meta) and isinstance(meta[i], dict) else None
-        for i in ids
+        for i in numbers
     ]
-    if ids and all(isinstance(v, (int, float)) and math.isfinite(v) for v in starts):
-        order = sorted(range(len(ids)), key=lambda j: (float(starts[j]), ids[j]))
-        return [ids[j] for j in order], "recording"
-    return ids, "session number"
+    starts = [float(v) for v in raw if isinstance(v, (int, float)) and math.isfinite(v)]
+    if numbers and len(starts) == len(numbers):
+        order = sorted(range(len(numbers)), key=lambda j: (starts[j], numbers[j]))
+        return [numbers[j] for j in order], "recording"
+    return numbers, "session number"
 
 
 def heldout_groups(dataset: Dataset, rows: Rows | None) -> tuple[Rows, Rows, str]:
