@@ -151,3 +151,40 @@ def test_log_time_never_steps_back_within_a_channel_when_a_refit_moves_the_fit_b
     for topic, (log, _) in per_channel.items():
         assert (np.diff(log) >= 0).all(), f"{topic}: log_time steps back"
     assert check_mcap(path)["/ft/wrench"] > 0
+
+
+def test_a_frame_arriving_inside_a_samples_lag_does_not_part_it_from_its_row(
+    tmp_path: Path,
+) -> None:
+    """A LOG that arrives after the next sample's window has ended, but before that sample
+    does, is written at its arrival: later than the sample's window end. FRAMES only advances,
+    so it moves that SAMPLE frame forward; the decoded COUNTS row must move with it (CI at
+    load 10: one row 8 ms from its frame, which Foxglove shows as two moments)."""
+    from spectratac.protocol.framing import crc32c
+    from spectratac.protocol.generated import messages as m
+    from spectratac.record.writer import RecordingWriter
+
+    def frame(type_id: int, payload: bytes) -> bytes:
+        body = bytes([m.PROTOCOL_MAJOR, m.PROTOCOL_MINOR, type_id, 0, 0]) + payload
+        return body + crc32c(body).to_bytes(4, "little")
+
+    path = tmp_path / "lag.mcap"
+    frames: list[tuple[bytes, float]] = []
+    for k in range(40):  # a window every 50 ms, arriving 1 or 5 ms after it ends
+        end_s = 0.05 * (k + 1)
+        sample = m.Sample(sample_seq=k, t_start_us=round(end_s * 1e6) - 50_000,
+                          t_end_us=round(end_s * 1e6)).pack()  # fmt: skip
+        lag = 0.001 if k % 5 == 2 else 0.005  # the fastest arrivals set the clock fit
+        frames.append((frame(m.Sample.TYPE_ID, sample), 100.0 + end_s + lag))
+        if k % 5 == 4:  # a LOG 2 ms after the next window ends, 3 ms before it arrives
+            log = m.Log(text="hello").pack()
+            frames.append((frame(m.Log.TYPE_ID, log), 100.0 + end_s + 0.052))
+    with RecordingWriter(path, {"link": {"clock_scale": 1.0}}, unix_minus_monotonic_ns=0) as w:
+        for i in range(0, len(frames), 7):
+            w.frames(frames[i : i + 7])
+    t = times(path)
+    counts = t["/spectratac/counts"][0]
+    assert len(counts) == 40
+    assert set(counts.tolist()) <= set(t["/spectratac/frames"][0].tolist())
+    for log, _ in t.values():
+        assert (np.diff(log) >= 0).all()

@@ -194,25 +194,32 @@ class RecordingWriter:
         offset = self.clock.unix_minus_monotonic_ns
         on_clock = self._frame_times(frames)
         logs = self.timeline.ns_array(on_clock).tolist()
-        for (raw, t), log in zip(frames, logs, strict=True):
+        written = np.zeros(len(frames), np.int64)
+        for i, ((raw, t), log) in enumerate(zip(frames, logs, strict=True)):
             ns = round(t * 1e9) + offset
             # sequence = the frame's own 16-bit sequence number (header bytes 3-4)
-            add(channel, log, wrap(raw), ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0)
+            written[i] = add(
+                channel, log, wrap(raw), ns, raw[3] | raw[4] << 8 if len(raw) > 4 else 0
+            )
         self.frames_written += len(frames)
         if self.decoded and frames:
             samples, sample_t, estimates, estimate_t = split_frames(frames)
             kinds = np.array([raw[2] if len(raw) > 2 else -1 for raw, _ in frames])
-            sample_h = on_clock[kinds == _SAMPLE]
-            estimate_h = on_clock[kinds == _ESTIMATE]
+            # a decoded row at its frame's log_time as written: a frame that arrived before
+            # it, inside its window's lag, may have moved it forward (never back) on FRAMES
+            sample_ns = written[kinds == _SAMPLE]
+            estimate_ns = written[kinds == _ESTIMATE]
             first, last = frames[0][1], frames[-1][1]
             keep = self._caps[COUNTS].take(len(samples), last, first)
-            self._decoded(COUNTS, counts_messages(samples[keep]), sample_t[keep], sample_h[keep])
+            self._decoded(
+                COUNTS, counts_messages(samples[keep]), sample_t[keep], log_ns=sample_ns[keep]
+            )
             keep = self._caps[ESTIMATES].take(len(estimates), last, first)
             self._decoded(
                 ESTIMATES,
                 device_estimate_messages(estimates[keep]),
                 estimate_t[keep],
-                estimate_h[keep],
+                log_ns=estimate_ns[keep],
             )
 
     def _frame_times(self, frames: Sequence[tuple[bytes, float]]) -> np.ndarray:
@@ -231,11 +238,13 @@ class RecordingWriter:
 
     def _add(
         self, channel: int, log_time: int, data: bytes, publish_time: int, sequence: int = 0
-    ) -> None:
-        """One message; its log_time never before the channel's last (clamped forward)."""
+    ) -> int:
+        """One message; its log_time never before the channel's last (clamped forward), and
+        returned as written."""
         log_time = max(log_time, self._last_log.get(channel, 0))
         self._last_log[channel] = log_time
         self._mcap.add_message(channel, log_time, data, publish_time, sequence)
+        return log_time
 
     def _decoded(
         self,
@@ -243,13 +252,18 @@ class RecordingWriter:
         messages: list[bytes],
         host_times: Sequence[float],
         on_clock: Sequence[float] | np.ndarray | None = None,
+        log_ns: np.ndarray | None = None,
     ) -> None:
-        """One message per row: publish_time its host time, log_time `on_clock` (host
-        seconds on the sensor's clock; default the host time) on the timeline."""
+        """One message per row: publish_time its host time, log_time `log_ns` if given, else
+        `on_clock` (host seconds on the sensor's clock; default the host time) on the
+        timeline."""
         add = self._add
         channel = self._channels[topic]
         offset = self.clock.unix_minus_monotonic_ns
-        logs = self.timeline.ns_array(host_times if on_clock is None else on_clock).tolist()
+        if log_ns is not None:
+            logs = [int(v) for v in log_ns]
+        else:
+            logs = self.timeline.ns_array(host_times if on_clock is None else on_clock).tolist()
         for data, t, log in zip(messages, host_times, logs, strict=True):
             add(channel, log, data, round(t * 1e9) + offset)
 
@@ -284,9 +298,7 @@ class RecordingWriter:
             times = rows["host_time"]
             keep = self._caps[WRENCH].take(len(rows), float(times[-1]), float(times[0]))
             kept = rows[keep]
-            self._decoded(
-                WRENCH, wrench_messages(kept), kept["host_time"].tolist(), on_clock[keep]
-            )
+            self._decoded(WRENCH, wrench_messages(kept), kept["host_time"].tolist(), on_clock[keep])
 
     def ground_truth(self, rows: np.ndarray, host_time: float) -> None:
         """A batch of GROUND_TRUTH_RECORD rows as one message stamped `host_time`. Written
