@@ -173,3 +173,40 @@ def test_a_fits_once_per_row_work_is_counted_once_not_once_per_epoch(
     assert cost.row_s == pytest.approx(1e-4, rel=1e-6)
     # the demo's best fit: 9,600 rows x 40 epochs, its inputs assembled once
     assert cost.seconds(9600, 40) == pytest.approx(0.1 + 0.96 + 7.68, rel=1e-2)
+
+
+def test_the_check_models_smaller_batch_is_probed_at_its_own_rate(
+    monkeypatch: pytest.MonkeyPatch, clock: list[float]
+) -> None:
+    """The check's models train on every third row at a third of the batch
+    (`check_recipe`), so they take as many optimiser steps per epoch as the real fit on
+    three times the rows. A fake trainer costs 2 ms per step plus 1 us per row and epoch:
+    priced at the real fit's per-row rate, the paper recipe's check was counted at a third
+    of its steps (estimate 0.59x the wall time on the ageing skin). The check's own recipe
+    is probed and its rows priced at that rate."""
+    import spectratac.train as train_pkg
+
+    @dataclasses.dataclass(frozen=True)
+    class Spec:
+        epochs: int = 30
+        val_fraction: float = 0.0
+        best_val: bool = False
+        uncertainty: bool = False
+        batch_size: int = 1024
+
+    def cost(rows: int, spec: Any) -> float:
+        return (2e-3 * -(-rows // spec.batch_size) + 1e-6 * rows) * spec.epochs
+
+    def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
+        clock[0] += cost(len(rows), spec)
+
+    monkeypatch.setattr(train_pkg, "train", fake_train)
+    monkeypatch.setattr(estimates.PredictCost, "measure", classmethod(lambda c, d, s: None))
+    ds = Dataset.generic(np.zeros((30_000, 1)), np.ones(30_000), ["a"], ["Fz"])
+    spec, checking, check_rows = Spec(), Spec(batch_size=341), [8_000, 4_000, 6_000]
+    e = estimates.training_estimate(ds, spec, check_rows=check_rows, check_spec=checking)
+    wall = sum(cost(r, checking) for r in check_rows)
+    assert e.parts_s["held-out and forward check"] == pytest.approx(wall, rel=0.1)
+    assert e.parts_s["train"] == pytest.approx(cost(ds.n, spec), rel=0.1)
+    alike = estimates.training_estimate(ds, spec, check_rows=check_rows)  # the old pricing
+    assert alike.parts_s["held-out and forward check"] < 0.5 * wall

@@ -87,3 +87,30 @@ def test_auto_estimate_is_the_planned_work_at_the_rate_plus_counted_fixed_parts(
     assert e.total_s == pytest.approx(want + 3.0)
     assert plan["fits_drift"] > 0  # the drift and context candidates' assembly is counted
     assert plan["work_s"] < 4.0  # the budget is not all spent: trials that do not fit skip
+
+
+def test_the_estimate_probes_the_recipe_the_checks_models_train_with(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`spectratac train` prices the check's models with `check_recipe_for_options`: it is
+    the recipe `fit` then trains every check model with (a smaller batch than the real
+    model's, which costs more per row)."""
+    import spectratac.train.trained as trained_mod
+    from spectratac.train.check import check_recipe_for_options
+
+    ds = ageing_skin(12, 4.0, 0)
+    spec = TrainSpec.paper(features="generic", targets=("Fz",), epochs=1)
+    specs: list[TrainSpec] = []
+    real = trained_mod.train
+
+    def recorded(dataset: Any, s: TrainSpec, **kw: Any) -> Decoder:
+        specs.append(s)
+        return real(dataset, s, **kw)
+
+    monkeypatch.setattr(trained_mod, "train", recorded)
+    fit(ds, spec, progress=False)
+    final, *checks = specs
+    assert final == spec and checks
+    want = check_recipe_for_options(ds, spec, None, None)
+    assert want.batch_size < spec.batch_size
+    assert all(c == want for c in checks)

@@ -37,7 +37,11 @@ from spectratac.apps.estimates import auto_estimate, training_estimate
 from spectratac.dataset import Dataset
 from spectratac.sim.ageing_skin import ageing_skin
 from spectratac.train import FinetuneOptions, TrainSpec, fit
-from spectratac.train.check import check_predictions_for_options, check_rows_for_options
+from spectratac.train.check import (
+    check_predictions_for_options,
+    check_recipe_for_options,
+    check_rows_for_options,
+)
 from spectratac.train.metrics import decoder_mae
 
 from tools.bench.benchlib import Figure, busy_loops, load_label, loadavg, parser, report
@@ -77,6 +81,7 @@ def run_recipe(
             spec,
             check_rows=check_rows_for_options(train_ds, spec, None, None),
             predictions=check_predictions_for_options(train_ds, None, None),
+            check_spec=check_recipe_for_options(train_ds, spec, None, None),
         ).total_s
     t0 = time.perf_counter()
     trained = fit(

@@ -179,18 +179,24 @@ def training_estimate(
     fits: int = 1,
     check_rows: Sequence[int] = (),
     predictions: Sequence[int] = (),
+    check_spec: Any = None,
 ) -> Estimate:
     """`spectratac train`: `fits` trainings of `spec` on every row of `dataset`, the held-out
-    check's models on `check_rows` rows each (train/check.py `check_plan`), and the
-    prediction passes of the check and the summary on `predictions` rows each
-    (`check_predictions`), probed on the dataset's own first rows."""
+    check's models on `check_rows` rows each (train/check.py `check_plan`) with their own
+    recipe `check_spec` (`check_recipe`: a smaller batch, so more steps per row, probed
+    apart; None: `spec`), and the prediction passes of the check and the summary on
+    `predictions` rows each (`check_predictions`), probed on the dataset's own first rows."""
     t0 = time.perf_counter()
     cost = TrainingCost.measure(dataset, spec)
     parts = {"train": fits * cost.seconds(dataset.n, spec.epochs)}
     rates = {"s/row-epoch": cost.row_epoch_s, "s/row per fit": cost.row_s, "fixed s": cost.fixed_s}
     if check_rows:
+        checking = cost
+        if check_spec is not None and check_spec != spec:
+            checking = TrainingCost.measure(dataset, check_spec)
+            rates["check s/row-epoch"] = checking.row_epoch_s
         parts["held-out and forward check"] = sum(
-            cost.seconds(int(r), spec.epochs) for r in check_rows
+            checking.seconds(int(r), spec.epochs) for r in check_rows
         )
     if predictions:
         scoring = PredictCost.measure(dataset, spec)

@@ -291,7 +291,11 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
     held-out presses)."""
     from spectratac.apps.estimates import auto_estimate, training_estimate
     from spectratac.errors import SpectraTacError
-    from spectratac.train.check import check_predictions_for_options, check_rows_for_options
+    from spectratac.train.check import (
+        check_predictions_for_options,
+        check_recipe_for_options,
+        check_rows_for_options,
+    )
 
     if auto:
         return auto_estimate(args.budget, ds, args.workers)
@@ -303,6 +307,7 @@ def _estimate(ds: Any, spec: Any, auto: bool, args: argparse.Namespace) -> Any:
             spec,
             check_rows=check_rows_for_options(ds, spec, args.holdout, args.holdout_sessions),
             predictions=check_predictions_for_options(ds, args.holdout, args.holdout_sessions),
+            check_spec=check_recipe_for_options(ds, spec, args.holdout, args.holdout_sessions),
         )
     except SpectraTacError as exc:  # the probe's few rows did not suit the recipe: train anyway
         print(f"note: no time estimate ({exc})", file=sys.stderr)

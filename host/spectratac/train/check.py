@@ -278,20 +278,37 @@ def check_plan(dataset: Dataset, rows: Rows | None, *, check_model: bool) -> lis
     return [-(-r // stride) for r in check_fit_rows(dataset, rows, check_model=check_model)]
 
 
+def _options_scope(
+    ds: Dataset, spec: Any, holdout: str | None, holdout_sessions: str | None
+) -> tuple[Rows | None, bool]:
+    """(rows the real model trains on, None: all; whether the check trains a model of its
+    own) for `spectratac train`'s options: a check model unless a split, held-out sessions
+    or validation groups give the held-out rows."""
+    rows = None
+    if holdout_sessions:
+        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    return rows, not holdout and not holdout_sessions and spec.val_fraction <= 0
+
+
 def check_rows_for_options(
     ds: Dataset, spec: Any, holdout: str | None, holdout_sessions: str | None
 ) -> list[int]:
     """Rows of each model the held-out check will train (`check_plan`), for `spectratac
-    train`'s options: a check model unless a split, held-out sessions or validation groups
-    give the held-out rows, and the forward folds; the rows they may use are those the real
-    model trains on."""
-    rows = None
-    if holdout_sessions:
-        rows = np.setdiff1d(np.arange(ds.n), session_rows(ds, parse_sessions(holdout_sessions)))
+    train`'s options (`_options_scope`): the check model if any, and the forward folds."""
+    rows, own = _options_scope(ds, spec, holdout, holdout_sessions)
     if holdout:  # a split's training rows: about the same sessions, fewer rows
         return [round(0.8 * r) for r in check_plan(ds, rows, check_model=False)]
-    own = not holdout_sessions and spec.val_fraction <= 0
     return check_plan(ds, rows, check_model=own)
+
+
+def check_recipe_for_options(
+    ds: Dataset, spec: TrainSpec, holdout: str | None, holdout_sessions: str | None
+) -> TrainSpec:
+    """The recipe the check's models will train with (`check_recipe`) for `spectratac
+    train`'s options: a smaller batch than the real model's, so a different cost per row
+    that a time estimate probes apart."""
+    rows, own = _options_scope(ds, spec, holdout, holdout_sessions)
+    return check_recipe(spec, check_stride(ds, rows, check_model=own))
 
 
 def check_predictions(dataset: Dataset, rows: Rows | None) -> list[int]:
