@@ -98,6 +98,25 @@ def test_a_networks_figure_holds_within_1_5x_on_the_next_sessions() -> None:
     assert low < printed < high
 
 
+@pytest.mark.train
+def test_re_mountings_ahead_are_inside_the_printed_range() -> None:
+    """Seed 1 re-mounts three times in the 8 sessions after the 28 trained on (twice in the
+    27 before): no figure from the past foresees that, and the paper network's printed
+    figure was half the error those sessions measured, its range far below it. The range
+    now runs to the re-mountings the history makes likely, priced by the folds that met one
+    their model had not seen, and says so."""
+    ds = ageing_skin(sessions=36, session_s=SESSION_S, seed=1)
+    ses = np.asarray(ds.session, np.int64)
+    spec = TrainSpec.paper(features="generic", targets=("Fz",))
+    trained = fit(ds.subset(np.flatnonzero(ses < 28)), spec, progress=False)
+    truth = decoder_mae(trained.decoder, ds, np.flatnonzero(ses >= 28))["Fz"]
+    low, high = trained.check.expected_range()["Fz"]
+    assert low <= truth <= high, (low, truth, high, trained.check.forward)
+    fwd = trained.check.forward
+    assert fwd is not None and fwd.remounted == [5, 15] and fwd.remounts_ahead >= 1
+    assert "re-mounted before session(s) 5, 15" in " ".join(trained.check.expected_text().split())
+
+
 def test_the_check_trains_on_no_more_rows_than_the_model(skin: Dataset) -> None:
     seen: list[int] = []
     dec = train(skin, RIDGE, progress=False)

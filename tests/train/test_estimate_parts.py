@@ -73,17 +73,23 @@ def test_auto_plans_the_trials_its_search_launches() -> None:
 def test_auto_estimate_is_the_planned_work_at_the_rate_plus_counted_fixed_parts(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """The budget is no longer the estimate: the work the search plans, at the probed rate,
-    plus each fit's and pass's fixed cost shared among the workers, plus the workers'
-    start."""
+    """The budget is no longer the estimate: the work the search plans, each family's at
+    its own probed rate (nominal ridge work bought a fortieth of its seconds on the ageing
+    skin, and the estimate was 2x the wall), plus each fit's and pass's fixed cost shared
+    among the workers, plus the workers' start."""
     ds = small()
     fixed = estimates.FixedCosts(0.05, 0.01, 0.3)
-    monkeypatch.setattr(estimates, "machine_factor", lambda d, w=None: (2.0, fixed))
+    factors = {"network": 2.0, "classical": 0.1}
+    monkeypatch.setattr(estimates, "machine_factors", lambda d, w=None: (factors, fixed))
     monkeypatch.setattr(estimates, "worker_start_s", lambda: 3.0)
     plan = planned_work(ds, 4.0, workers=2)
     e = estimates.auto_estimate(4.0, ds, workers=2)
     drift = (plan["fits_drift"] + plan["passes_drift"]) * 0.3
-    want = 2.0 * plan["work_s"] + (plan["fits"] * 0.05 + plan["passes"] * 0.01 + drift) / 2
+    by = plan["work_by_family"]
+    assert by["network"] + by["classical"] == pytest.approx(plan["work_s"])
+    assert min(by.values()) > 0  # both families are launched: each at its own rate
+    want = 2.0 * by["network"] + 0.1 * by["classical"]
+    want += (plan["fits"] * 0.05 + plan["passes"] * 0.01 + drift) / 2
     assert e.total_s == pytest.approx(want + 3.0)
     assert plan["fits_drift"] > 0  # the drift and context candidates' assembly is counted
     assert plan["work_s"] < 4.0  # the budget is not all spent: trials that do not fit skip
@@ -114,3 +120,38 @@ def test_the_estimate_probes_the_recipe_the_checks_models_train_with(
     want = check_recipe_for_options(ds, spec, None, None)
     assert want.batch_size < spec.batch_size
     assert all(c == want for c in checks)
+
+
+def test_ridges_rate_is_probed_on_the_users_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ridge fit costs what its rows cost on this dataset: the probe fits the dataset's
+    first rows and half of them, and the difference over their nominal work is the rate
+    (here a fake trainer whose fits cost 0.5 s plus 1 us per row: the fixed part drops out)."""
+    from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK, work
+
+    ds = small()
+    now = [0.0]
+    monkeypatch.setattr(estimates.time, "perf_counter", lambda: now[0])
+    seen: list[Any] = []
+
+    def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
+        seen.append(spec.model)
+        now[0] += 0.5 + 1e-6 * len(rows)
+
+    import spectratac.train as train_pkg
+
+    monkeypatch.setattr(train_pkg, "train", fake_train)
+    like = TrainSpec(features="generic", targets=("Fz",))
+    f = estimates.ridge_factor(ds, like, fallback=7.0)
+    rows = min(estimates.PROBE_ROWS, ds.n)
+    nf = estimates_n_features(ds, like)
+    units = work("classical", rows, nf, 1, 0) - work("classical", rows // 2, nf, 1, 0)
+    want = 1e-6 * (rows - rows // 2) / (units * NOMINAL_S_PER_WORK["classical"])
+    assert set(seen) == {"ridge"} and f == pytest.approx(max(want, 0.005), rel=1e-6)
+
+
+def estimates_n_features(ds: Any, like: TrainSpec) -> int:
+    import dataclasses
+
+    from spectratac.train.plan import plan
+
+    return plan(ds, dataclasses.replace(like, model="ridge", degree=2)).features.n_features

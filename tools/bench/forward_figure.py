@@ -108,6 +108,8 @@ def run_recipe(
         "forward_folds": fwd.folds if fwd else None,
         "model_train_mae": fwd.model_train_mae if fwd else None,
         "range": trained.check.expected_range(),
+        "range_holds": holds(trained.check.expected_range().get("Fz"), truth),
+        "remounted_seen": fwd.remounted if fwd else None,
         "chosen": trained.search.report["chosen"] if trained.search else None,
     }
     figs = [
@@ -119,6 +121,11 @@ def run_recipe(
     if recipe != "auto" and args.recal:
         figs += recalibration(ds, trained.decoder, args, recipe, load)
     return figs
+
+
+def holds(span: list[float] | None, truth: float) -> bool:
+    """Whether the printed range holds the next sessions' error."""
+    return span is not None and span[0] <= truth <= span[1]
 
 
 def recalibration(
@@ -178,6 +185,10 @@ def main() -> None:
     ok = sum(1 / TARGET <= f.ratio <= TARGET for f in within)
     figs.append(Figure(f"share within {TARGET}x: forward figure and estimate", ok / len(within),
                        "share", "figures", float(len(within)), ok / len(within)))  # fmt: skip
+    fwd = [f for f in figs if f.name.startswith("forward figure")]
+    held = sum(bool(f.extra.get("range_holds")) for f in fwd)
+    figs.append(Figure("share of printed ranges holding the next sessions' error", held / len(fwd),
+                       "share", "forward figures", float(len(fwd)), held / len(fwd)))  # fmt: skip
     report(figs, args.json)
 
 

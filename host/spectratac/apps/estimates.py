@@ -208,25 +208,27 @@ def training_estimate(
 def auto_estimate(budget_s: float, dataset: Dataset, workers: int | None = None) -> Estimate:
     """`spectratac train --recipe auto`: the work its search will launch within the budget
     (`planned_work`: the trials that fit and the final refit, in nominal seconds per worker,
-    train/auto_recipe/budget.py) at this machine's rate now, plus the fixed cost of each of
-    its fits and prediction passes, shared among the workers. A probe trains and runs a
-    small network on the dataset's first rows (`machine_factor`)."""
+    train/auto_recipe/budget.py), each family's (networks, ridge) at this machine's rate
+    for it now, plus the fixed cost of each of its fits and prediction passes, shared among
+    the workers. Probes train a small network and a ridge on the dataset's first rows
+    (`machine_factors`)."""
     from spectratac import threads
     from spectratac.train.auto_recipe.search import planned_work
 
     t0 = time.perf_counter()
     n_workers = max(1, workers or threads.usable_cpus())
     plan = planned_work(dataset, budget_s, workers=n_workers)
-    factor, fixed = machine_factor(dataset, workers)
+    factors, fixed = machine_factors(dataset, workers)
     parts = {
         "search, forward folds and final refit (planned work at this machine's rate)":
-        plan["work_s"] * factor,
+        sum(w * factors[fam] for fam, w in plan["work_by_family"].items()),
         "fixed cost of each fit and prediction pass":
         (plan["fits"] * fixed.fit_s + plan["passes"] * fixed.pass_s
          + (plan["fits_drift"] + plan["passes_drift"]) * fixed.drift_pass_s) / n_workers,
     }  # fmt: skip
-    rates = {"wall / nominal": factor, "fixed s/fit": fixed.fit_s, "s/pass": fixed.pass_s,
-             "s/pass with drift baseline": fixed.drift_pass_s}  # fmt: skip
+    rates = {"wall / nominal (networks)": factors["network"],
+             "wall / nominal (ridge)": factors["classical"], "fixed s/fit": fixed.fit_s,
+             "s/pass": fixed.pass_s, "s/pass with drift baseline": fixed.drift_pass_s}  # fmt: skip
     if n_workers > 1:  # spawned side by side, each importing torch and the trainer
         parts["starting the worker processes"] = rates["s/worker start"] = worker_start_s()
     return Estimate(parts, rates, time.perf_counter() - t0)
@@ -256,11 +258,17 @@ class FixedCosts:
     drift_pass_s: float = 0.0
 
 
-def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float, FixedCosts]:
-    """Wall seconds per nominal second of network work now: a small network's cost per row
-    and epoch, probed on the dataset's first rows (`TrainingCost.measure`: the fixed cost
-    of a fit taken out), over the nominal rate the budget counts with; beside it, that
-    network's fixed costs of a fit and of a prediction pass (`PredictCost`)."""
+def machine_factors(
+    dataset: Dataset, workers: int | None = None
+) -> tuple[dict[str, float], FixedCosts]:
+    """Wall seconds per nominal second of work now, per family: for networks, a small
+    network's cost per row and epoch probed on the dataset's first rows
+    (`TrainingCost.measure`: the fixed cost of a fit taken out), for ridge a quadratic
+    ridge fitted on those rows and on half of them (the difference: the fixed cost taken
+    out), each over the nominal rate the budget counts with (the nominal ridge work is
+    a machine's, not a dataset's: on four channels it bought a fortieth of its seconds);
+    beside them, the network's fixed costs of a fit and of a prediction pass
+    (`PredictCost`)."""
     from spectratac.decode.networks import flops
     from spectratac.train import TrainSpec
     from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK
@@ -276,11 +284,37 @@ def machine_factor(dataset: Dataset, workers: int | None = None) -> tuple[float,
     passes = PredictCost.measure(dataset, spec)
     ctx = dataclasses.replace(spec, context=8, context_ema=(10.0, 40.0, 160.0), drift="baseline")
     drift = PredictCost.measure(dataset, ctx, rows=64)
-    factor = cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"])
+    factor = float(np.clip(cost.row_epoch_s / (per_row * NOMINAL_S_PER_WORK["network"]), 0.2, 50))
     # a fit's once-per-row work (its rows' inputs assembled) on at most the dataset's rows
     fit_s = cost.fixed_s + cost.row_s * dataset.n
     fixed = FixedCosts(fit_s, passes.pass_s, drift.pass_s)
-    return float(np.clip(factor, 0.2, 50)), fixed
+    return {"network": factor, "classical": ridge_factor(dataset, spec, factor)}, fixed
+
+
+def ridge_factor(dataset: Dataset, like: Any, fallback: float) -> float:
+    """Wall seconds per nominal second of ridge work now (`machine_factors`); `fallback`
+    when the dataset's first rows are too few to fit a ridge on."""
+    from spectratac.errors import SpectraTacError
+    from spectratac.train import train
+    from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK, work
+    from spectratac.train.plan import plan
+
+    ridge = dataclasses.replace(like, model="ridge", degree=2)
+    n_features = plan(dataset, ridge).features.n_features
+    full = np.arange(min(PROBE_ROWS, dataset.n))
+    half = full[: full.size // 2]
+    try:
+        t_full = median_s(PROBE_REPEATS, train, dataset, ridge, rows=full, progress=False)
+        t_half = median_s(PROBE_REPEATS, train, dataset, ridge, rows=half, progress=False)
+    except SpectraTacError:
+        return fallback
+    units = work("classical", full.size, n_features, 1, 0) - work(
+        "classical", half.size, n_features, 1, 0
+    )
+    # the fixed part (planning, features) is counted with each fit's fixed cost; a noisy
+    # probe that finds no per-row cost leaves the ridge work at the floor
+    seconds = max(t_full - t_half, 0.0)
+    return float(np.clip(seconds / (units * NOMINAL_S_PER_WORK["classical"]), 0.005, 50))
 
 
 # ------------------------------------------------------------------ evaluate

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -55,6 +55,7 @@ from spectratac.train.groups import Split, press_units, row_groups, val_split
 from spectratac.train.holdout import parse_sessions, session_rows
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import rows_of
+from spectratac.train.remounts import remounted_sessions
 from spectratac.train.spec import TrainSpec
 
 GAP_WARN = 2.0
@@ -114,10 +115,17 @@ class HeldOutCheck:
         if self.forward is not None and self.forward.horizon > 1:
             fwd = self.forward
             ks = ", ".join(str(f["trained_on"]) for f in fwd.folds)
+            mounts = ""
+            if fwd.remounts_ahead:
+                seen = ", ".join(str(s) for s in fwd.remounted)
+                mounts = (
+                    f"; the skin was re-mounted before session(s) {seen}: the range runs from "
+                    f"no re-mounting ahead to {fwd.remounts_ahead} before your next session"
+                )
             return dict(fwd.mean_mae), (
                 f"forward check: models trained on the first {ks} sessions in "
                 f"{fwd.ordered_by} order, each scored on the {fwd.horizon} after them; what "
-                "they erred beyond their training error, added to this model's"
+                f"they erred beyond their training error, added to this model's{mounts}"
             )
         if self.forward is not None:
             fwd = self.forward
@@ -192,6 +200,10 @@ class ForwardCheck:
     # model's error on rows it trained on, which the figure sets beside the folds'
     range_mae: dict[str, list[float]] = field(default_factory=dict)
     model_train_mae: dict[str, float] = field(default_factory=dict)
+    # sessions that began on a re-mounted skin (train/remounts.py), and the re-mountings
+    # the range's high end allows for ahead (`remount_figure`; 0: the range is the trend's)
+    remounted: list[int] = field(default_factory=list)
+    remounts_ahead: int = 0
 
 
 def held_out_check(
@@ -456,11 +468,12 @@ def forward_check(
         if horizon > 1:  # the figure sets each fold's training error beside the model's
             folds[-1]["train_mae"] = decoder_mae(model, dataset, spread(fit_rows))
     own = decoder_mae(final, dataset, spread(rows)) if horizon > 1 and final is not None else None
-    mean, span = forward_figure(folds, len(ids), horizon, own)
+    remounted = remounted_sessions(dataset, ids) if horizon > 1 else []
+    mean, span, ahead = forward_figure(folds, len(ids), horizon, own, ids, remounted)
     worst_s = max(per, key=lambda k: float(np.nanmean(list(per[k].values()))))
     return ForwardCheck(
         [int(k) for k in per], per, mean, dict(per[worst_s]), int(worst_s), ordered_by,
-        horizon, folds, span, own or {},
+        horizon, folds, span, own or {}, remounted, ahead,
     )  # fmt: skip
 
 
@@ -472,20 +485,108 @@ def spread(rows: Rows) -> Rows:
 
 
 def forward_figure(
-    folds: list[dict[str, Any]], n: int, horizon: int, own: dict[str, float] | None = None
-) -> tuple[dict[str, float], dict[str, list[float]]]:
-    """({target: MAE to expect}, {target: [low, high]}) from forward folds over `n`
-    sessions: one session ahead (horizon 1), the recent-weighted mean of the folds' errors
-    and no range; further, `trend_figure`, `own` being the real model's training error."""
+    folds: list[dict[str, Any]],
+    n: int,
+    horizon: int,
+    own: dict[str, float] | None = None,
+    order: Sequence[int] = (),
+    remounted: Sequence[int] = (),
+) -> tuple[dict[str, float], dict[str, list[float]], int]:
+    """({target: MAE to expect}, {target: [low, high]}, re-mountings the high end allows
+    for) from forward folds over `n` sessions: one session ahead (horizon 1), the
+    recent-weighted mean of the folds' errors and no range; further, `remount_figure` when
+    the history (`order`: session ids in time order) holds re-mountings both inside and
+    outside the folds' windows (its range widened to hold `trend_figure`'s), else
+    `trend_figure`; `own` is the real model's training error."""
     targets = list(folds[0]["mae"])
     if horizon == 1:
-        return {t: recent_weighted([f["mae"][t] for f in folds]) for t in targets}, {}
-    mean, span = {}, {}
+        return {t: recent_weighted([f["mae"][t] for f in folds]) for t in targets}, {}, 0
+    mean, span, ahead = {}, {}, 0
     for t in targets:
         mean[t], lo, hi = trend_figure(folds, t, n, horizon, (own or {}).get(t))
+        by_mount = remount_figure(folds, t, order, remounted, horizon, (own or {}).get(t))
+        if by_mount is not None:  # the range holds the trend's and the re-mountings' spans
+            mean[t], low, high, ahead = by_mount
+            lo = min(low, lo) if math.isfinite(lo) else low
+            hi = max(high, hi) if math.isfinite(hi) else high
         if math.isfinite(lo) and math.isfinite(hi):
             span[t] = [lo, hi]
-    return mean, span
+    return mean, span, ahead
+
+
+def remount_figure(
+    folds: list[dict[str, Any]],
+    target: str,
+    order: Sequence[int],
+    remounted: Sequence[int],
+    horizon: int,
+    own: float | None,
+) -> tuple[float, float, float, int] | None:
+    """(figure, low, high, re-mountings at the high end) over the `horizon` sessions after
+    the last of `order` (session ids in time order), when the skin was re-mounted now and
+    then (`remounted`: train/remounts.py).
+
+    A re-mounting moves the light a model learnt, so each fold's error on a session beyond
+    its training error (its excess) is fitted as a + g i + b r: i sessions ahead, r
+    re-mountings between the fold's last training session and that one (g, b >= 0). How
+    often the history re-mounts (`rate` per session) gives r's expectation i rate: the
+    figure is `own` (the real model's training error) + a + g i + b i rate, averaged over
+    the horizon. The range runs from no re-mounting ahead to `q` re-mountings before the
+    next session, q the 90th percentile of a Poisson count at the horizon's rate (at least
+    one): a re-mounting cannot be foreseen, what it costs can. None when every fold
+    session, or none, follows a re-mounting its model did not see (nothing to part the two
+    by), or without training errors.
+
+    >>> folds = [{"trained_on": k, "train_mae": {"Fz": 0.1}, "sessions": list(range(k, k + 4)),
+    ...           "session_mae": [{"Fz": 0.1 + 0.02 * i + 0.3 * (k + i - 1 >= 8)}
+    ...                           for i in (1, 2, 3, 4)]} for k in (3, 5, 7)]
+    >>> [round(v, 3) for v in remount_figure(folds, "Fz", list(range(11)), [8], 4, 0.05)]
+    [0.175, 0.1, 0.4, 1]
+    """
+    if own is None or not math.isfinite(own) or not remounted:
+        return None
+    place = {int(s): i for i, s in enumerate(order)}
+    marks = np.array(sorted(place[int(s)] for s in remounted if int(s) in place))
+    ahead, unseen, excess = [], [], []
+    for f in folds:
+        k, trained = int(f["trained_on"]), (f.get("train_mae") or {}).get(target)
+        if trained is None or not math.isfinite(trained):
+            return None
+        for s, m in zip(f["sessions"], f["session_mae"], strict=True):
+            v, j = float(m[target]), place.get(int(s))
+            if j is None or not math.isfinite(v):
+                continue
+            ahead.append(j - k + 1)
+            unseen.append(int(np.count_nonzero((marks >= k) & (marks <= j))))
+            excess.append(v - trained)
+    r = np.asarray(unseen, np.float64)
+    if not (r > 0).any() or not (r == 0).any():
+        return None
+    i, e = np.asarray(ahead, np.float64), np.asarray(excess, np.float64)
+    g, b = np.linalg.lstsq(np.stack([np.ones_like(i), i, r], axis=1), e, rcond=None)[0][1:]
+    g, b = max(float(g), 0.0), max(float(b), 0.0)
+    a = float(np.mean(e - g * i - b * r))
+    mid = (horizon + 1) / 2
+    rate = marks.size / max(len(order) - 1, 1)
+    q = max(1, poisson_quantile(0.9, rate * horizon))
+    calm = own + a + g * mid
+    point = calm + b * rate * mid
+    return point, max(min(calm, point), own), calm + b * q, q
+
+
+def poisson_quantile(p: float, lam: float) -> int:
+    """The smallest count whose Poisson(`lam`) cumulative probability reaches `p`.
+
+    >>> poisson_quantile(0.9, 0.59), poisson_quantile(0.9, 0.0), poisson_quantile(0.5, 3.0)
+    (2, 0, 3)
+    """
+    k, term = 0, math.exp(-lam)
+    total = term
+    while total < p and k < 1000:
+        k += 1
+        term *= lam / k
+        total += term
+    return k
 
 
 def trend_figure(
@@ -639,11 +740,14 @@ def _forward_of_folds(
         per.update(by_s)
         folds.append({"trained_on": k, "sessions": [int(s) for s in by_s], "mae": mae,
                       "session_mae": list(by_s.values()), "train_mae": tr})  # fmt: skip
-    mean, span = forward_figure(folds, plan["sessions"], plan["horizon"], own)
+    order, remounted = plan.get("order") or [], plan.get("remounted") or []
+    mean, span, ahead = forward_figure(
+        folds, plan["sessions"], plan["horizon"], own, order, remounted
+    )
     worst = max(per, key=lambda s: float(np.nanmean(list(per[s].values()))))
     return ForwardCheck(
         [int(s) for s in per], per, mean, dict(per[worst]), int(worst), plan["ordered_by"],
-        plan["horizon"], folds, span, own or {},
+        plan["horizon"], folds, span, own or {}, list(remounted), ahead,
     )  # fmt: skip
 
 

@@ -49,6 +49,7 @@ from spectratac.train.fitting import train
 from spectratac.train.groups import Groups, group_folds, purge, row_groups
 from spectratac.train.metrics import decoder_mae
 from spectratac.train.plan import default_features, default_targets, plan, select_rows
+from spectratac.train.remounts import remounted_sessions
 from spectratac.train.spec import TrainSpec
 
 DEFAULT_FOLDS = 5
@@ -84,9 +85,7 @@ def _folds(ds: Dataset, rows: NDArray[np.intp], g: Groups, k: int) -> list[Fold]
     return out
 
 
-def _forward_folds(
-    ds: Dataset, rows: NDArray[np.intp]
-) -> tuple[list[Fold], dict[str, Any]] | None:
+def _forward_folds(ds: Dataset, rows: NDArray[np.intp]) -> tuple[list[Fold], dict[str, Any]] | None:
     """Forward-in-time folds over the sessions of `rows` (train/check.py `forward_plan`:
     fold k trains on the first k sessions in time order, is scored on the horizon after
     them), or None with fewer than FORWARD_MIN_SESSIONS sessions."""
@@ -99,7 +98,8 @@ def _forward_folds(
     when = place[np.searchsorted(np.sort(ids), ses)]
     folds = [(rows[when < k], rows[(when >= k) & (when < k + horizon)]) for k in ks]
     return folds, {"trained_on": ks, "horizon": horizon, "sessions": len(ids),
-                   "ordered_by": ordered_by}  # fmt: skip
+                   "ordered_by": ordered_by, "order": [int(i) for i in ids],
+                   "remounted": remounted_sessions(ds, ids)}  # fmt: skip
 
 
 def _n_features(ds: Dataset, c: Candidate) -> int:
@@ -419,13 +419,21 @@ def planned_work(
             budget.spend(trial_s[c.name])
             launched.append(c.name)
     refit = max((refit_s[n] for n in launched), default=0.0)
+    refit_family = max(launched, key=lambda n: refit_s[n], default=None)
     # with the drift baseline or temporal context, assembling the dataset is most of a
     # pass's and a fit's fixed cost: those are counted apart ("..._drift")
     drift = [n for n in launched if by_name[n].spec.drift != "none" or by_name[n].spec.context]
     out: dict[str, Any] = {
         "trials": launched,
         "work_s": (budget.spent + refit * max(1, workers)) / max(1, workers),
-    }
+        # the same per family: a family's nominal seconds buy different wall seconds
+        "work_by_family": {
+            fam: (sum(trial_s[n] for n in launched if by_name[n].family == fam)
+                  + (refit * max(1, workers) if refit_family and
+                     by_name[refit_family].family == fam else 0.0)) / max(1, workers)
+            for fam in ("classical", "network")
+        },
+    }  # fmt: skip
     for key, names in (("", [n for n in launched if n not in drift]), ("_drift", drift)):
         # per fold: a fit, its held-out pass, one per session ahead and the training rows'
         # pass; and the learning curve's half fit and its pass
