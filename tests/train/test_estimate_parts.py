@@ -155,3 +155,16 @@ def estimates_n_features(ds: Any, like: TrainSpec) -> int:
     from spectratac.train.plan import plan
 
     return plan(ds, dataclasses.replace(like, model="ridge", degree=2)).features.n_features
+
+
+def test_the_ridge_probe_leaves_the_region_out_on_spectratacs_own_data() -> None:
+    """A SpectraTac dataset's targets hold the contact region, which ridge does not decode:
+    the probe fits the forces (`train --recipe auto` failed with exit 3 before any search)."""
+    from spectratac.sim.twin_dataset import from_twin_session
+    from spectratac.twin import builtin_scenes as scenes
+    from spectratac.twin import generate_session
+
+    sc = scenes.calibration_session(seed=7, duration_s=60.0)
+    ds = from_twin_session(generate_session(sc, seed=7), sc)
+    like = TrainSpec(targets=("Fz", "region"))
+    assert estimates.ridge_factor(ds, like, fallback=-1.0) > 0

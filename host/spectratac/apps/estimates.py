@@ -295,15 +295,16 @@ def ridge_factor(dataset: Dataset, like: Any, fallback: float) -> float:
     """Wall seconds per nominal second of ridge work now (`machine_factors`); `fallback`
     when the dataset's first rows are too few to fit a ridge on."""
     from spectratac.errors import SpectraTacError
-    from spectratac.train import train
+    from spectratac.train import TrainSpec, train
     from spectratac.train.auto_recipe.budget import NOMINAL_S_PER_WORK, work
     from spectratac.train.plan import plan
 
-    ridge = dataclasses.replace(like, model="ridge", degree=2)
-    n_features = plan(dataset, ridge).features.n_features
     full = np.arange(min(PROBE_ROWS, dataset.n))
     half = full[: full.size // 2]
-    try:
+    try:  # ridge decodes the regression targets only (the search's ridge candidates too)
+        regression = tuple(t for t in like.targets if t in dataset.target_names)
+        ridge = TrainSpec(features=like.features, targets=regression, model="ridge", degree=2)
+        n_features = plan(dataset, ridge).features.n_features
         t_full = median_s(PROBE_REPEATS, train, dataset, ridge, rows=full, progress=False)
         t_half = median_s(PROBE_REPEATS, train, dataset, ridge, rows=half, progress=False)
     except SpectraTacError:
