@@ -18,6 +18,17 @@ from spectratac.dataset import Dataset, DatasetError
 FIXED_S, BYTE_S = 0.01, 1e-7
 
 
+@dataclasses.dataclass(frozen=True)
+class ProbeSpec:
+    """The TrainSpec fields the training probe sets or reads; fake trainers read the rest."""
+
+    epochs: int = 30
+    val_fraction: float = 0.0
+    best_val: bool = False
+    uncertainty: bool = False
+    batch_size: int = 256
+
+
 @pytest.fixture
 def clock(monkeypatch: pytest.MonkeyPatch) -> list[float]:
     """A fake perf_counter the probes read; the fakes below advance it."""
@@ -112,14 +123,7 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
     out."""
     import spectratac.train as train_pkg
 
-    @dataclasses.dataclass(frozen=True)
-    class Spec:  # the fields the probe sets; the fake trainer below reads the epochs
-        epochs: int = 30
-        val_fraction: float = 0.1
-        best_val: bool = True
-        uncertainty: bool = True
-        batch_size: int = 256
-
+    spec = ProbeSpec(val_fraction=0.1, best_val=True, uncertainty=True)  # the probe resets them
     stalled = [False]
     trained: list[Any] = []
 
@@ -131,13 +135,13 @@ def test_a_stall_in_one_training_probe_does_not_become_the_estimate(
 
     monkeypatch.setattr(train_pkg, "train", fake_train)
     ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
-    cost = estimates.TrainingCost.measure(ds, Spec())
+    cost = estimates.TrainingCost.measure(ds, spec)
     assert cost.row_epoch_s == pytest.approx(1e-5, rel=1e-6)
     assert cost.fixed_s == pytest.approx(0.01 + 64e-5, rel=1e-6)
     # the demo's best fit: 9,600 rows x 40 epochs
     assert cost.seconds(9600, 40) == pytest.approx(0.01064 + 3.84, rel=1e-3)
     assert all(d is ds for d in trained)  # every probe fit the user's own dataset
-    e = estimates.training_estimate(ds, Spec(), fits=2)
+    e = estimates.training_estimate(ds, spec, fits=2)
     assert e.parts_s["train"] == pytest.approx(2 * (0.01064 + 1e-5 * 5000 * 30), rel=1e-3)
 
 
@@ -151,14 +155,7 @@ def test_a_fits_once_per_row_work_is_counted_once_not_once_per_epoch(
     best fit of 9,600 rows estimated at 46 s for 8.6 s of work). The probe parts the two."""
     import spectratac.train as train_pkg
 
-    @dataclasses.dataclass(frozen=True)
-    class Spec:
-        epochs: int = 40
-        val_fraction: float = 0.0
-        best_val: bool = False
-        uncertainty: bool = False
-        batch_size: int = 256
-
+    spec = ProbeSpec(epochs=40)
     epochs_probed: list[int] = []
 
     def fake_train(dataset: Any, spec: Any, rows: Any, progress: bool = False) -> None:
@@ -167,8 +164,8 @@ def test_a_fits_once_per_row_work_is_counted_once_not_once_per_epoch(
 
     monkeypatch.setattr(train_pkg, "train", fake_train)
     ds = Dataset.generic(np.zeros((5000, 1)), np.ones(5000), ["a"], ["Fz"])
-    cost = estimates.TrainingCost.measure(ds, Spec())
-    assert max(epochs_probed) < Spec.epochs  # probes, not the run
+    cost = estimates.TrainingCost.measure(ds, spec)
+    assert max(epochs_probed) < spec.epochs  # probes, not the run
     assert cost.row_epoch_s == pytest.approx(2e-5, rel=1e-6)
     assert cost.row_s == pytest.approx(1e-4, rel=1e-6)
     # the demo's best fit: 9,600 rows x 40 epochs, its inputs assembled once
@@ -186,14 +183,6 @@ def test_the_check_models_smaller_batch_is_probed_at_its_own_rate(
     is probed and its rows priced at that rate."""
     import spectratac.train as train_pkg
 
-    @dataclasses.dataclass(frozen=True)
-    class Spec:
-        epochs: int = 30
-        val_fraction: float = 0.0
-        best_val: bool = False
-        uncertainty: bool = False
-        batch_size: int = 1024
-
     def cost(rows: int, spec: Any) -> float:
         return (2e-3 * -(-rows // spec.batch_size) + 1e-6 * rows) * spec.epochs
 
@@ -203,7 +192,8 @@ def test_the_check_models_smaller_batch_is_probed_at_its_own_rate(
     monkeypatch.setattr(train_pkg, "train", fake_train)
     monkeypatch.setattr(estimates.PredictCost, "measure", classmethod(lambda c, d, s: None))
     ds = Dataset.generic(np.zeros((30_000, 1)), np.ones(30_000), ["a"], ["Fz"])
-    spec, checking, check_rows = Spec(), Spec(batch_size=341), [8_000, 4_000, 6_000]
+    spec, checking = ProbeSpec(batch_size=1024), ProbeSpec(batch_size=341)
+    check_rows = [8_000, 4_000, 6_000]
     e = estimates.training_estimate(ds, spec, check_rows=check_rows, check_spec=checking)
     wall = sum(cost(r, checking) for r in check_rows)
     assert e.parts_s["held-out and forward check"] == pytest.approx(wall, rel=0.1)
