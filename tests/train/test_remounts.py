@@ -136,3 +136,22 @@ def test_the_poisson_quantile_is_the_smallest_count_reaching_p(lam: float, p: fl
 
     assert cdf(q) >= p - 1e-12
     assert q == 0 or cdf(q - 1) < p + 1e-12
+
+
+def test_the_range_prices_re_mountings_ahead_at_the_dearer_ones_met() -> None:
+    """Two re-mountings met by the folds, one costing 0.1 N and one 0.8 N: the mean cost
+    would price the next one at well under the dear one; the high end allows for a dear
+    one (a re-mounting's gain steps are drawn afresh each time)."""
+    horizon, order, cost = 8, list(range(28)), {12: 0.1, 22: 0.8}
+    folds = []
+    for k in (9, 13, 16, 20):
+        ses = list(range(k, k + horizon))
+        err = [0.2 + 0.02 * i + sum(c for m, c in cost.items() if k <= m <= s)
+               for i, s in enumerate(ses, start=1)]  # fmt: skip
+        folds.append({"trained_on": k, "train_mae": {"Fz": 0.2}, "sessions": ses,
+                      "session_mae": [{"Fz": e} for e in err]})  # fmt: skip
+    got = remount_figure(folds, "Fz", order, sorted(cost), horizon, 0.2)
+    assert got is not None
+    figure, low, high, q = got
+    assert high - low >= 0.7 * q
+    assert figure - low < 0.7  # the figure prices them at the history's rate, not the dearest

@@ -533,7 +533,9 @@ def remount_figure(
     figure is `own` (the real model's training error) + a + g i + b i rate, averaged over
     the horizon. The range runs from no re-mounting ahead to `q` re-mountings before the
     next session, q the 90th percentile of a Poisson count at the horizon's rate (at least
-    one): a re-mounting cannot be foreseen, what it costs can. None when every fold
+    one), each costing what the dearer re-mountings the folds met cost (the 90th percentile
+    per re-mounting, at least b: one re-mounting's gain steps cost more than another's): a
+    re-mounting cannot be foreseen, what it may cost can. None when every fold
     session, or none, follows a re-mounting its model did not see (nothing to part the two
     by), or without training errors.
 
@@ -566,12 +568,16 @@ def remount_figure(
     g, b = np.linalg.lstsq(np.stack([np.ones_like(i), i, r], axis=1), e, rcond=None)[0][1:]
     g, b = max(float(g), 0.0), max(float(b), 0.0)
     a = float(np.mean(e - g * i - b * r))
+    # what one re-mounting cost the sessions that met one: their excess beyond drift, per
+    # re-mounting; the range prices re-mountings ahead at its 90th percentile
+    met = r > 0
+    dear = max(b, float(np.percentile((e - a - g * i)[met] / r[met], 90)))
     mid = (horizon + 1) / 2
     rate = marks.size / max(len(order) - 1, 1)
     q = max(1, poisson_quantile(0.9, rate * horizon))
     calm = own + a + g * mid
     point = calm + b * rate * mid
-    return point, max(min(calm, point), own), calm + b * q, q
+    return point, max(min(calm, point), own), calm + dear * q, q
 
 
 def poisson_quantile(p: float, lam: float) -> int:
