@@ -20,7 +20,7 @@ FIXED_S, BYTE_S = 0.01, 1e-7
 
 @dataclasses.dataclass(frozen=True)
 class ProbeSpec:
-    """The TrainSpec fields the training probe sets or reads; fake trainers read the rest."""
+    """The recipe fields the training probe sets or reads; the fake trainers read the rest."""
 
     epochs: int = 30
     val_fraction: float = 0.0
