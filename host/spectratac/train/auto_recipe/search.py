@@ -419,21 +419,21 @@ def planned_work(
             budget.spend(trial_s[c.name])
             launched.append(c.name)
     refit = max((refit_s[n] for n in launched), default=0.0)
-    refit_family = max(launched, key=lambda n: refit_s[n], default=None)
+    # the same per family: a family's nominal seconds buy different wall seconds
+    by_family = {"classical": 0.0, "network": 0.0}
+    for n in launched:
+        by_family[by_name[n].family] += trial_s[n]
+    if launched:  # the refit reserved is the dearest candidate's
+        dearest = by_name[max(launched, key=lambda n: refit_s[n])]
+        by_family[dearest.family] += refit * max(1, workers)
     # with the drift baseline or temporal context, assembling the dataset is most of a
     # pass's and a fit's fixed cost: those are counted apart ("..._drift")
     drift = [n for n in launched if by_name[n].spec.drift != "none" or by_name[n].spec.context]
     out: dict[str, Any] = {
         "trials": launched,
         "work_s": (budget.spent + refit * max(1, workers)) / max(1, workers),
-        # the same per family: a family's nominal seconds buy different wall seconds
-        "work_by_family": {
-            fam: (sum(trial_s[n] for n in launched if by_name[n].family == fam)
-                  + (refit * max(1, workers) if refit_family and
-                     by_name[refit_family].family == fam else 0.0)) / max(1, workers)
-            for fam in ("classical", "network")
-        },
-    }  # fmt: skip
+        "work_by_family": {f: w / max(1, workers) for f, w in by_family.items()},
+    }
     for key, names in (("", [n for n in launched if n not in drift]), ("_drift", drift)):
         # per fold: a fit, its held-out pass, one per session ahead and the training rows'
         # pass; and the learning curve's half fit and its pass
